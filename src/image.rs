@@ -1,0 +1,124 @@
+//! Floating-point RGB images, PNG output, and the image-error metric used for
+//! every accuracy claim: max-abs and RMSE per channel, in 1/255 units.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// A linear RGBA image, row-major, row 0 at the top. RGB is the final colour
+/// (already composited over the background); A is the volume's opacity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` pixels.
+    pub pixels: Vec<[f32; 4]>,
+}
+
+/// Difference between two images, in 1/255 units, over the RGB channels.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ImageError {
+    /// Largest absolute difference of any channel of any pixel.
+    pub max_abs: f64,
+    /// Root-mean-square difference over all pixels and the three channels.
+    pub rmse: f64,
+    /// Pixels whose largest channel difference exceeds 1/255.
+    pub pixels_over_1: usize,
+    /// Where `max_abs` occurs, `(i, j)`.
+    pub worst_pixel: (u32, u32),
+}
+
+impl std::fmt::Display for ImageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "max-abs {:.3}/255 at {:?}, RMSE {:.3}/255, {} pixels over 1/255",
+            self.max_abs, self.worst_pixel, self.rmse, self.pixels_over_1
+        )
+    }
+}
+
+impl Image {
+    /// A blank (all zero) image.
+    pub fn new(width: u32, height: u32) -> Image {
+        Image { width, height, pixels: vec![[0.0; 4]; width as usize * height as usize] }
+    }
+
+    /// Pixel `(i, j)`.
+    pub fn get(&self, i: u32, j: u32) -> [f32; 4] {
+        self.pixels[j as usize * self.width as usize + i as usize]
+    }
+
+    /// 8-bit RGB bytes, rounded, clamped to [0, 1].
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        self.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+    }
+
+    /// Writes an 8-bit RGB PNG.
+    pub fn save_png(&self, path: &Path) -> Result<()> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        image::save_buffer(path, &self.to_rgb8(), self.width, self.height, image::ExtendedColorType::Rgb8)
+            .map_err(|e| Error::io(path, std::io::Error::other(e)))
+    }
+
+    /// Whether any channel of any pixel is NaN or infinite.
+    pub fn has_non_finite(&self) -> bool {
+        self.pixels.iter().any(|p| p.iter().any(|v| !v.is_finite()))
+    }
+
+    /// Error of `self` against `reference` (same size), RGB channels, 1/255 units.
+    pub fn error_against(&self, reference: &Image) -> ImageError {
+        assert_eq!((self.width, self.height), (reference.width, reference.height), "images differ in size");
+        let mut max_abs = 0.0f64;
+        let mut worst = 0usize;
+        let mut sum2 = 0.0f64;
+        let mut over = 0usize;
+        for (k, (a, b)) in self.pixels.iter().zip(&reference.pixels).enumerate() {
+            let mut pmax = 0.0f64;
+            for c in 0..3 {
+                let d = (a[c] as f64 - b[c] as f64).abs() * 255.0;
+                sum2 += d * d;
+                pmax = pmax.max(d);
+            }
+            if pmax > 1.0 {
+                over += 1;
+            }
+            if pmax > max_abs || pmax.is_nan() {
+                max_abs = pmax;
+                worst = k;
+            }
+        }
+        let n = (self.pixels.len() * 3).max(1) as f64;
+        ImageError {
+            max_abs,
+            rmse: (sum2 / n).sqrt(),
+            pixels_over_1: over,
+            worst_pixel: ((worst % self.width as usize) as u32, (worst / self.width as usize) as u32),
+        }
+    }
+
+    /// Puts `images` side by side (same height) with a gap, for looking at
+    /// two renderers next to each other.
+    pub fn side_by_side(images: &[&Image], gap: u32) -> Image {
+        let h = images.iter().map(|i| i.height).max().unwrap_or(0);
+        let w = images.iter().map(|i| i.width).sum::<u32>() + gap * images.len().saturating_sub(1) as u32;
+        let mut out = Image::new(w, h);
+        for p in &mut out.pixels {
+            *p = [1.0, 1.0, 1.0, 1.0];
+        }
+        let mut x0 = 0;
+        for im in images {
+            for j in 0..im.height {
+                for i in 0..im.width {
+                    out.pixels[(j * w + x0 + i) as usize] = im.get(i, j);
+                }
+            }
+            x0 += im.width + gap;
+        }
+        out
+    }
+}

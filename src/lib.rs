@@ -1,0 +1,15 @@
+//! # pvrsim
+//!
+//! Cell-projection parallel volume rendering of tetrahedral meshes with early
+//! ray termination, and a simulator of the PC cluster that runs it.
+//!
+//! Module dependencies flow one way: `cli -> render -> {scene, data, image}`.
+#![warn(missing_docs)]
+
+pub mod data;
+pub mod error;
+pub mod image;
+pub mod render;
+pub mod scene;
+
+pub use error::{Error, Result};

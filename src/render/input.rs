@@ -1,0 +1,40 @@
+//! What every renderer of a tetrahedral scene is given.
+
+use std::sync::Arc;
+
+use crate::data::TetMesh;
+use crate::error::Result;
+use crate::scene::Scene;
+
+/// A scene with its mesh loaded and the field normalised to the transfer
+/// function's `[0, 1]` scale: `s_norm = (s - range.0) / (range.1 - range.0)`.
+#[derive(Debug, Clone)]
+pub struct RenderInput {
+    /// The scene.
+    pub scene: Scene,
+    /// The mesh.
+    pub mesh: Arc<TetMesh>,
+    /// Normalised scalar per vertex (not clamped: the TF clamps).
+    pub s_norm: Vec<f64>,
+    /// The range actually used (the scene's, or the field's min..max).
+    pub range: [f64; 2],
+}
+
+impl RenderInput {
+    /// Normalises `scene.data.field` of `mesh`. A constant field with no
+    /// explicit range maps every vertex to `s_norm = 0`.
+    pub fn new(scene: Scene, mesh: Arc<TetMesh>) -> Result<RenderInput> {
+        let raw = mesh.scalar(&scene.data.field)?;
+        let range = match scene.data.range {
+            Some(r) => r,
+            None => {
+                let lo = raw.iter().cloned().fold(f64::INFINITY, f64::min);
+                let hi = raw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                if raw.is_empty() { [0.0, 1.0] } else { [lo, hi] }
+            }
+        };
+        let span = range[1] - range[0];
+        let s_norm = if span > 0.0 { raw.iter().map(|s| (s - range[0]) / span).collect() } else { vec![0.0; raw.len()] };
+        Ok(RenderInput { scene, mesh, s_norm, range })
+    }
+}
