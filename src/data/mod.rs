@@ -1,5 +1,8 @@
 //! Data: the tetrahedral mesh, its readers, and the built-in demo dataset.
 
+pub mod demo;
+pub mod io;
 pub mod mesh;
+pub mod quality;
 
 pub use mesh::{Adjacency, Field, TetMesh, NO_NEIGHBOR};

@@ -7,5 +7,6 @@
 //!   (the oracle; shares nothing with `cell` but the scene and TF types).
 
 pub mod input;
+pub mod reference;
 
 pub use input::RenderInput;

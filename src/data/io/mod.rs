@@ -1,0 +1,1 @@
+//! Mesh readers, one file per format. (Being written.)

@@ -1,0 +1,1 @@
+//! Mesh quality report for `pvrsim info`. (Being written.)

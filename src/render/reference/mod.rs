@@ -1,0 +1,1 @@
+//! The reference renderer. (Being written.)
