@@ -6,6 +6,7 @@
 //! - [`reference`]: f64 ray walking through the mesh with adaptive quadrature
 //!   (the oracle; shares nothing with `cell` but the scene and TF types).
 
+pub mod cell;
 pub mod input;
 pub mod reference;
 

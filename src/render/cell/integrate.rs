@@ -1,0 +1,495 @@
+//! Integrating one ray segment through one tetrahedron.
+//!
+//! Inside a tetrahedron the scalar is linear along the ray, so a segment is
+//! described by its scalar at entry `s_a`, at exit `s_b`, and its length
+//! `l` (world units). With `k = l / unit_distance` and `x in [0, 1]` the
+//! position along the segment:
+//!
+//! - `o(x)`, `c(x)`: the transfer function at `s(x)`, linear in `x` between the
+//!   control points the segment crosses;
+//! - optical depth `D(x) = k * ∫_0^x -ln(1 - o(x')) dx'`, alpha `A(x) = 1 - e^{-D(x)}`;
+//! - colour `C = ∫_0^1 c(x) dA(x)`.
+//!
+//! **Exact integrator.** The segment is split at the control points; on each
+//! piece `u = 1 - o` is linear, so the optical depth has a closed form
+//! (`∫ -ln u dx = (u_1 λ_1 - u_0 λ_0) / (u_1 - u_0) + 1` with `λ = -ln u`, and
+//! a series when `u_1 ≈ u_0`). Integrating the colour by parts, with `c` linear
+//! on the piece, leaves a single smooth scalar integral:
+//!
+//! `C = c_1 A(1) - (c_1 - c_0) ∫_0^1 A(x) dx`,
+//!
+//! which Simpson's rule evaluates from `A(1/2)` and `A(1)`. Pieces whose optical
+//! depth or opacity change is large are cut into equal sub-steps first, which
+//! keeps the error under 1e-4 (tested against an f64 adaptive quadrature).
+//!
+//! **Midpoint integrator.** One transfer-function lookup at the segment's
+//! middle: `A = 1 - (1 - o_m)^k`, `C = c_m A`. The classic projected-tetrahedra
+//! approximation; its image error against the reference is reported, not hidden.
+
+use super::fastmath::{exp_neg, fclamp, fmax, fmin, ln};
+use super::segment::Rgba;
+use crate::scene::transfer::{TransferFunction, OPACITY_MAX};
+
+/// Which integrator turns a segment's `(s_a, s_b, length)` into colour and alpha.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Integrator {
+    /// Piecewise closed-form optical depth + Simpson on the colour; within 1e-4.
+    Exact,
+    /// Scalar at the middle, one transfer-function lookup.
+    Midpoint,
+}
+
+impl std::fmt::Display for Integrator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Integrator::Exact => "exact",
+            Integrator::Midpoint => "midpoint",
+        })
+    }
+}
+
+/// One linear stretch of the transfer function, `[s0, s1]`, in f32.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    s0: f32,
+    /// `1 / (s1 - s0)`, 0 for the constant pieces outside the control points.
+    inv_w: f32,
+    o0: f32,
+    o1: f32,
+    c0: [f32; 3],
+    c1: [f32; 3],
+}
+
+/// The transfer function prepared for fast evaluation in f32.
+#[derive(Debug, Clone)]
+pub struct PreparedTf {
+    /// Control-point scalars, ascending (the kinks).
+    breaks: Vec<f32>,
+    /// `breaks.len() + 1` pieces: below the first point, between each pair, above the last.
+    pieces: Vec<Piece>,
+    inv_unit_distance: f32,
+}
+
+impl PreparedTf {
+    /// Prepares `tf` for the integrators.
+    pub fn new(tf: &TransferFunction) -> PreparedTf {
+        let p = &tf.points;
+        let f = |v: f64| v as f32;
+        let c = |i: usize| p[i].rgb.map(f);
+        let mut pieces = Vec::with_capacity(p.len() + 1);
+        pieces.push(Piece { s0: f(p[0].s), inv_w: 0.0, o0: f(p[0].opacity), o1: f(p[0].opacity), c0: c(0), c1: c(0) });
+        for i in 0..p.len() - 1 {
+            let w = p[i + 1].s - p[i].s;
+            pieces.push(Piece {
+                s0: f(p[i].s),
+                inv_w: if w > 0.0 { (1.0 / w) as f32 } else { 0.0 },
+                o0: f(p[i].opacity),
+                o1: f(p[i + 1].opacity),
+                c0: c(i),
+                c1: c(i + 1),
+            });
+        }
+        let l = p.len() - 1;
+        pieces.push(Piece { s0: f(p[l].s), inv_w: 0.0, o0: f(p[l].opacity), o1: f(p[l].opacity), c0: c(l), c1: c(l) });
+        PreparedTf { breaks: p.iter().map(|c| f(c.s)).collect(), pieces, inv_unit_distance: (1.0 / tf.unit_distance) as f32 }
+    }
+
+    /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).
+    #[inline(always)]
+    fn piece_index(&self, s: f32) -> usize {
+        // Few control points in practice: a linear scan beats a binary search.
+        self.breaks.iter().take_while(|&&b| b <= s).count()
+    }
+
+    /// Opacity and colour at `s`.
+    #[inline(always)]
+    fn eval(&self, s: f32) -> (f32, [f32; 3]) {
+        let p = &self.pieces[self.piece_index(s)];
+        let w = ((s - p.s0) * p.inv_w).clamp(0.0, 1.0);
+        let lerp = |a: f32, b: f32| a + (b - a) * w;
+        (lerp(p.o0, p.o1), [lerp(p.c0[0], p.c1[0]), lerp(p.c0[1], p.c1[1]), lerp(p.c0[2], p.c1[2])])
+    }
+
+    /// Whether the opacity is zero everywhere on `[lo, hi]` (cells whose
+    /// scalar interval maps to zero opacity are skipped before projection).
+    pub fn is_transparent(&self, lo: f32, hi: f32) -> bool {
+        let (i0, i1) = (self.piece_index(lo), self.piece_index(hi));
+        if self.eval(lo).0 > 0.0 || self.eval(hi).0 > 0.0 {
+            return false;
+        }
+        // Interior control points between lo and hi.
+        (i0..i1).all(|b| self.pieces[b + 1].o0 <= 0.0)
+    }
+
+    /// Colour and alpha of a segment through a tet, `s_a` at the front, `s_b`
+    /// at the back, `length` world units long.
+    #[inline(always)]
+    pub fn integrate(&self, integrator: Integrator, s_a: f32, s_b: f32, length: f32) -> Rgba {
+        match integrator {
+            Integrator::Exact => self.exact(s_a, s_b, length),
+            Integrator::Midpoint => self.midpoint(s_a, s_b, length),
+        }
+    }
+
+    /// The midpoint rule: one lookup at `(s_a + s_b) / 2`.
+    #[inline(always)]
+    pub fn midpoint(&self, s_a: f32, s_b: f32, length: f32) -> Rgba {
+        let (o, c) = self.eval(0.5 * (s_a + s_b));
+        let k = length * self.inv_unit_distance;
+        let a = 1.0 - exp_neg(k * ln(1.0 - o.min(OPACITY_MAX as f32)));
+        Rgba { rgb: [c[0] * a, c[1] * a, c[2] * a], a }
+    }
+
+    /// The exact integrator (see the module doc).
+    #[inline]
+    pub fn exact(&self, s_a: f32, s_b: f32, length: f32) -> Rgba {
+        let k = length * self.inv_unit_distance;
+        let (i_a, i_b) = (self.piece_index(s_a), self.piece_index(s_b));
+        if i_a == i_b {
+            return self.piece(i_a, s_a, s_b, k);
+        }
+        // Split at the control points crossed, in the direction of travel.
+        let inv_ds = 1.0 / (s_b - s_a);
+        let mut acc = Rgba::CLEAR;
+        let (mut s_prev, mut x_prev) = (s_a, 0.0f32);
+        let mut cut = |acc: &mut Rgba, i: usize, s_next: f32, x_next: f32| {
+            *acc = acc.over(self.piece(i, s_prev, s_next, k * (x_next - x_prev)));
+            s_prev = s_next;
+            x_prev = x_next;
+        };
+        if i_b > i_a {
+            for i in i_a..i_b {
+                let s = self.breaks[i];
+                cut(&mut acc, i, s, (s - s_a) * inv_ds);
+            }
+            cut(&mut acc, i_b, s_b, 1.0);
+        } else {
+            for i in (i_b + 1..=i_a).rev() {
+                let s = self.breaks[i - 1];
+                cut(&mut acc, i, s, (s - s_a) * inv_ds);
+            }
+            cut(&mut acc, i_b, s_b, 1.0);
+        }
+        acc
+    }
+
+    /// One piece: `s` from `s0` to `s1`, both inside piece `i`, `k` unit distances long.
+    #[inline(always)]
+    fn piece(&self, i: usize, s0: f32, s1: f32, k: f32) -> Rgba {
+        let p = &self.pieces[i];
+        let at = |s: f32| {
+            let w = ((s - p.s0) * p.inv_w).clamp(0.0, 1.0);
+            let o = (p.o0 + (p.o1 - p.o0) * w).min(OPACITY_MAX as f32);
+            (1.0 - o, [p.c0[0] + (p.c1[0] - p.c0[0]) * w, p.c0[1] + (p.c1[1] - p.c0[1]) * w, p.c0[2] + (p.c1[2] - p.c0[2]) * w])
+        };
+        let (u0, c0) = at(s0);
+        let (u1, c1) = at(s1);
+        if u0 >= 1.0 && u1 >= 1.0 {
+            return Rgba::CLEAR; // transparent piece
+        }
+        let (l0, l1) = (-ln(u0), -ln(u1));
+        // Sub-steps: keep each one's optical depth and relative change of
+        // transmittance-per-unit small enough for Simpson's rule (see tests).
+        let d_est = k * l0.max(l1);
+        let rel = (u1 - u0).abs() / u0.min(u1);
+        let n = (d_est * 2.5).max(rel * 3.0).ceil().clamp(1.0, 64.0) as usize;
+        if n == 1 {
+            return sub_step(u0, u1, l0, l1, c0, c1, k);
+        }
+        let inv_n = 1.0 / n as f32;
+        let mut acc = Rgba::CLEAR;
+        let (mut ua, mut la, mut ca) = (u0, l0, c0);
+        for j in 1..=n {
+            let x = j as f32 * inv_n;
+            let ub = u0 + (u1 - u0) * x;
+            let cb = [c0[0] + (c1[0] - c0[0]) * x, c0[1] + (c1[1] - c0[1]) * x, c0[2] + (c1[2] - c0[2]) * x];
+            let lb = if j == n { l1 } else { -ln(ub) };
+            acc = acc.over(sub_step(ua, ub, la, lb, ca, cb, k * inv_n));
+            (ua, la, ca) = (ub, lb, cb);
+        }
+        acc
+    }
+}
+
+/// Lanes in an integration batch.
+pub const BATCH: usize = 32;
+
+/// Segments to integrate together, structure of arrays, so the common case
+/// (every segment of a tet within one transfer-function piece) runs as one
+/// vectorised loop.
+#[derive(Debug, Clone)]
+pub struct Batch {
+    /// Lanes in use.
+    pub n: usize,
+    /// Scalar at entry.
+    pub s_in: [f32; BATCH],
+    /// Scalar at exit.
+    pub s_out: [f32; BATCH],
+    /// Length in world units.
+    pub len: [f32; BATCH],
+    /// Results: premultiplied red, green, blue and alpha.
+    pub rgba: [[f32; BATCH]; 4],
+}
+
+impl Default for Batch {
+    fn default() -> Self {
+        Batch { n: 0, s_in: [0.0; BATCH], s_out: [0.0; BATCH], len: [0.0; BATCH], rgba: [[0.0; BATCH]; 4] }
+    }
+}
+
+impl Batch {
+    /// The result of lane `i`.
+    #[inline(always)]
+    pub fn result(&self, i: usize) -> Rgba {
+        Rgba { rgb: [self.rgba[0][i], self.rgba[1][i], self.rgba[2][i]], a: self.rgba[3][i] }
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: Rgba) {
+        self.rgba[0][i] = v.rgb[0];
+        self.rgba[1][i] = v.rgb[1];
+        self.rgba[2][i] = v.rgb[2];
+        self.rgba[3][i] = v.a;
+    }
+}
+
+/// Transfer-function piece parameters gathered per lane (structure of arrays).
+struct Lanes {
+    s0: [f32; BATCH],
+    inv_w: [f32; BATCH],
+    o0: [f32; BATCH],
+    d_o: [f32; BATCH],
+    c0: [[f32; BATCH]; 3],
+    d_c: [[f32; BATCH]; 3],
+}
+
+impl PreparedTf {
+    /// Integrates the first `b.n` lanes of `b` into `b.rgba`. Same results as
+    /// [`PreparedTf::integrate`] lane by lane, up to f32 rounding.
+    ///
+    /// Three passes, each a simple loop over lanes so that the compiler can
+    /// vectorise the first and the last: find each lane's piece (a branch-free
+    /// count of control points at or below the scalar), gather that piece's
+    /// parameters, then do the math. Lanes that cross a control point or need
+    /// sub-steps are redone one by one by the scalar code.
+    pub fn integrate_batch(&self, integrator: Integrator, b: &mut Batch) {
+        let lanes = ((b.n + 7) & !7).min(BATCH);
+        let mut piece = [0u32; BATCH];
+        let mut split = [false; BATCH];
+        match integrator {
+            Integrator::Exact => {
+                let mut piece_out = [0u32; BATCH];
+                for &br in &self.breaks {
+                    for l in 0..lanes {
+                        piece[l] += (br <= b.s_in[l]) as u32;
+                        piece_out[l] += (br <= b.s_out[l]) as u32;
+                    }
+                }
+                for l in 0..lanes {
+                    split[l] = piece[l] != piece_out[l];
+                }
+            }
+            Integrator::Midpoint => {
+                for &br in &self.breaks {
+                    for l in 0..lanes {
+                        piece[l] += (br <= 0.5 * (b.s_in[l] + b.s_out[l])) as u32;
+                    }
+                }
+            }
+        }
+        let g = self.gather(&piece, lanes);
+        let inv_ud = self.inv_unit_distance;
+        let omax = OPACITY_MAX as f32;
+        match integrator {
+            Integrator::Exact => {
+                for l in 0..lanes {
+                    let k = b.len[l] * inv_ud;
+                    let w0 = fclamp((b.s_in[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+                    let w1 = fclamp((b.s_out[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+                    let u0 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w0, omax);
+                    let u1 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w1, omax);
+                    let (l0, l1) = (-ln(u0), -ln(u1));
+                    let d_est = k * fmax(l0, l1);
+                    let rel = (u1 - u0).abs() / fmin(u0, u1);
+                    split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
+                    let c0 = [g.c0[0][l] + g.d_c[0][l] * w0, g.c0[1][l] + g.d_c[1][l] * w0, g.c0[2][l] + g.d_c[2][l] * w0];
+                    let c1 = [g.c0[0][l] + g.d_c[0][l] * w1, g.c0[1][l] + g.d_c[1][l] * w1, g.c0[2][l] + g.d_c[2][l] * w1];
+                    let v = sub_step(u0, u1, l0, l1, c0, c1, k);
+                    b.rgba[0][l] = v.rgb[0];
+                    b.rgba[1][l] = v.rgb[1];
+                    b.rgba[2][l] = v.rgb[2];
+                    b.rgba[3][l] = v.a;
+                }
+                for l in 0..b.n {
+                    if split[l] {
+                        let v = self.exact(b.s_in[l], b.s_out[l], b.len[l]);
+                        b.set(l, v);
+                    }
+                }
+            }
+            Integrator::Midpoint => {
+                for l in 0..lanes {
+                    let k = b.len[l] * inv_ud;
+                    let w = fclamp((0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+                    let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
+                    let a = 1.0 - exp_neg(k * ln(1.0 - o));
+                    for c in 0..3 {
+                        b.rgba[c][l] = (g.c0[c][l] + g.d_c[c][l] * w) * a;
+                    }
+                    b.rgba[3][l] = a;
+                }
+            }
+        }
+    }
+
+    fn gather(&self, piece: &[u32; BATCH], lanes: usize) -> Lanes {
+        let mut g = Lanes {
+            s0: [0.0; BATCH],
+            inv_w: [0.0; BATCH],
+            o0: [0.0; BATCH],
+            d_o: [0.0; BATCH],
+            c0: [[0.0; BATCH]; 3],
+            d_c: [[0.0; BATCH]; 3],
+        };
+        for l in 0..lanes {
+            let p = &self.pieces[piece[l] as usize];
+            g.s0[l] = p.s0;
+            g.inv_w[l] = p.inv_w;
+            g.o0[l] = p.o0;
+            g.d_o[l] = p.o1 - p.o0;
+            for c in 0..3 {
+                g.c0[c][l] = p.c0[c];
+                g.d_c[c][l] = p.c1[c] - p.c0[c];
+            }
+        }
+        g
+    }
+}
+
+/// `∫_0^1 -ln(u(x)) dx` for `u` linear from `u0` to `u1`, given `λ = -ln u` at
+/// both ends. Exact form `(u1 λ1 - u0 λ0) / (u1 - u0) + 1`; when the ends are
+/// close, the series `(λ0 + λ1)/2 - Σ_{n≥1} e^{2n} / (2n + 1)` with
+/// `e = (u1 - u0) / (u1 + u0)` (from `artanh(e)/e`), which avoids the cancellation.
+#[inline(always)]
+fn mean_neg_log(u0: f32, u1: f32, l0: f32, l1: f32) -> f32 {
+    let e = (u1 - u0) / (u1 + u0);
+    let e2 = e * e;
+    let series = 0.5 * (l0 + l1) - e2 * (1.0 / 3.0 + e2 * (1.0 / 5.0 + e2 * (1.0 / 7.0)));
+    // Both forms are computed and one selected (no branch: batches vectorise);
+    // the unused one may be 0/0 when u0 == u1.
+    let closed = (u1 * l1 - u0 * l0) / (u1 - u0) + 1.0;
+    if e2 < 0.01 {
+        series
+    } else {
+        closed
+    }
+}
+
+/// One Simpson step: `u`, `λ`, `c` linear from end 0 to end 1, `k` unit distances.
+#[inline(always)]
+fn sub_step(u0: f32, u1: f32, l0: f32, l1: f32, c0: [f32; 3], c1: [f32; 3], k: f32) -> Rgba {
+    let um = 0.5 * (u0 + u1);
+    let lm = -ln(um);
+    let d_half = 0.5 * k * mean_neg_log(u0, um, l0, lm);
+    let d = d_half + 0.5 * k * mean_neg_log(um, u1, lm, l1);
+    let a_half = 1.0 - exp_neg(-d_half);
+    let a = 1.0 - exp_neg(-d);
+    // ∫ A dx by Simpson (A(0) = 0).
+    let int_a = (4.0 * a_half + a) * (1.0 / 6.0);
+    Rgba {
+        rgb: [
+            c1[0] * a - (c1[0] - c0[0]) * int_a,
+            c1[1] * a - (c1[1] - c0[1]) * int_a,
+            c1[2] * a - (c1[2] - c0[2]) * int_a,
+        ],
+        a,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::transfer::ControlPoint;
+
+    fn aorta_tf() -> TransferFunction {
+        let pts = [
+            [0.0000, 0.2300, 0.2990, 0.7540, 0.0000],
+            [0.0400, 0.2815, 0.3616, 0.7927, 0.2094],
+            [0.1000, 0.3588, 0.4554, 0.8508, 0.6979],
+            [0.2400, 0.5391, 0.6744, 0.9863, 0.6979],
+            [0.2500, 0.5520, 0.6900, 0.9960, 0.6595],
+            [0.3400, 0.6647, 0.7530, 0.9488, 0.3141],
+            [0.5000, 0.8650, 0.8650, 0.8650, 0.0838],
+            [0.7500, 0.9580, 0.6040, 0.4820, 0.1256],
+            [1.0000, 0.7060, 0.0160, 0.1500, 0.2443],
+        ];
+        TransferFunction {
+            points: pts.iter().map(|p| ControlPoint { s: p[0], rgb: [p[1], p[2], p[3]], opacity: p[4] }).collect(),
+            unit_distance: 5.0,
+        }
+    }
+
+    /// Brute-force f64 integral: many small steps, each with the exact
+    /// constant-extinction formula at its midpoint, composited.
+    fn brute(tf: &TransferFunction, sa: f64, sb: f64, len: f64) -> (f64, [f64; 3]) {
+        let n = 20_000;
+        let (mut t, mut c) = (1.0f64, [0.0f64; 3]);
+        for i in 0..n {
+            let x = (i as f64 + 0.5) / n as f64;
+            let s = sa + (sb - sa) * x;
+            let (rgb, _) = tf.eval(s);
+            let a = 1.0 - (-tf.extinction(s) * len / n as f64).exp();
+            for k in 0..3 {
+                c[k] += t * a * rgb[k];
+            }
+            t *= 1.0 - a;
+        }
+        (1.0 - t, c)
+    }
+
+    #[test]
+    fn exact_is_within_1e4_of_the_true_integral() {
+        let tf = aorta_tf();
+        let p = PreparedTf::new(&tf);
+        let mut worst = 0.0f64;
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..3000 {
+            let sa = rnd() * 1.1 - 0.05;
+            let sb = if rnd() < 0.5 { sa + (rnd() - 0.5) * 0.1 } else { rnd() * 1.1 - 0.05 };
+            let len = [0.01, 0.5, 2.0, 10.0, 40.0][(rnd() * 5.0) as usize % 5] * rnd();
+            let got = p.exact(sa as f32, sb as f32, len as f32);
+            let (a, c) = brute(&tf, sa, sb, len);
+            let err = (got.a as f64 - a).abs().max((0..3).map(|k| (got.rgb[k] as f64 - c[k]).abs()).fold(0.0, f64::max));
+            worst = worst.max(err);
+            assert!(err < 1e-4, "sa={sa} sb={sb} len={len}: got {got:?}, want a={a} c={c:?}, err {err}");
+        }
+        eprintln!("worst exact error {worst:e}");
+    }
+
+    #[test]
+    fn opacity_one_and_zero_length_are_finite() {
+        let tf = TransferFunction {
+            points: vec![ControlPoint { s: 0.0, rgb: [1.0, 0.5, 0.0], opacity: 1.0 }, ControlPoint { s: 1.0, rgb: [1.0, 0.5, 0.0], opacity: 1.0 }],
+            unit_distance: 1.0,
+        };
+        let p = PreparedTf::new(&tf);
+        for integ in [Integrator::Exact, Integrator::Midpoint] {
+            let r = p.integrate(integ, 0.2, 0.8, 3.0);
+            assert!(r.a > 0.999_999 && r.a <= 1.0 && r.rgb.iter().all(|v| v.is_finite()), "{r:?}");
+            let z = p.integrate(integ, 0.2, 0.8, 0.0);
+            assert_eq!(z.a, 0.0);
+        }
+    }
+
+    #[test]
+    fn transparent_intervals() {
+        let p = PreparedTf::new(&aorta_tf());
+        assert!(p.is_transparent(-1.0, 0.0));
+        assert!(!p.is_transparent(-1.0, 0.01));
+        assert!(!p.is_transparent(0.3, 0.31));
+    }
+}

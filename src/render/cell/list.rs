@@ -1,0 +1,120 @@
+//! Per-pixel ray-segment lists with partial composition (paper §2.1).
+//!
+//! A list holds the segments of one pixel sorted by `z_front`. Inserting a
+//! segment that touches its predecessor (`pred.z_back == new.z_front`) or
+//! successor (`new.z_back == succ.z_front`) merges them with the "over"
+//! operator instead of storing it: *partial composition*. Merging never loses
+//! light (over is associative), keeps lists short, and a merged segment's alpha
+//! only grows — which is what early ray termination feeds on.
+
+use super::segment::{touches, Rgba, Segment};
+
+/// The ray-segment lists of a rectangle of pixels (a screen tile).
+#[derive(Debug, Clone, Default)]
+pub struct SegmentLists {
+    /// Width of the rectangle in pixels.
+    pub width: u32,
+    /// Height of the rectangle in pixels.
+    pub height: u32,
+    lists: Vec<Vec<Segment>>,
+}
+
+/// What one insertion did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Inserted {
+    /// Stored as a new list entry.
+    New,
+    /// Merged with one neighbour.
+    Merged,
+    /// Merged with both neighbours (the list got one entry shorter).
+    MergedBoth,
+}
+
+impl SegmentLists {
+    /// Empty lists for a `width x height` rectangle.
+    pub fn new(width: u32, height: u32) -> SegmentLists {
+        SegmentLists { width, height, lists: vec![Vec::new(); width as usize * height as usize] }
+    }
+
+    /// The list of local pixel `idx` (row-major in the rectangle).
+    #[inline]
+    pub fn list(&self, idx: usize) -> &[Segment] {
+        &self.lists[idx]
+    }
+
+    /// All lists, row-major.
+    pub fn lists(&self) -> &[Vec<Segment>] {
+        &self.lists
+    }
+
+    /// Inserts `seg` into the list of local pixel `idx`, merging with touching
+    /// neighbours when `partial` is on.
+    #[inline]
+    pub fn insert(&mut self, idx: usize, seg: Segment, partial: bool) -> Inserted {
+        insert_sorted(&mut self.lists[idx], seg, partial)
+    }
+}
+
+/// Inserts `seg` into `list` (sorted by `z_front`), with partial composition if `partial`.
+#[inline]
+pub fn insert_sorted(list: &mut Vec<Segment>, seg: Segment, partial: bool) -> Inserted {
+    // Front-to-back cell order makes "after the last one" the common case.
+    let pos = match list.last() {
+        Some(last) if last.z_front <= seg.z_front => list.len(),
+        _ => list.partition_point(|s| s.z_front <= seg.z_front),
+    };
+    if partial {
+        if pos > 0 && touches(list[pos - 1].z_back, seg.z_front) {
+            let merged = list[pos - 1].merged_with(seg);
+            if pos < list.len() && touches(merged.z_back, list[pos].z_front) {
+                list[pos - 1] = merged.merged_with(list[pos]);
+                list.remove(pos);
+                return Inserted::MergedBoth;
+            }
+            list[pos - 1] = merged;
+            return Inserted::Merged;
+        }
+        if pos < list.len() && touches(seg.z_back, list[pos].z_front) {
+            list[pos] = seg.merged_with(list[pos]);
+            return Inserted::Merged;
+        }
+    }
+    list.insert(pos, seg);
+    Inserted::New
+}
+
+/// Composites a sorted list front to back: the pixel's premultiplied colour and alpha.
+#[inline]
+pub fn composite(list: &[Segment]) -> Rgba {
+    list.iter().fold(Rgba::CLEAR, |acc, s| acc.over(s.rgba))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(zf: f32, zb: f32, a: f32) -> Segment {
+        Segment { z_front: zf, z_back: zb, rgba: Rgba { rgb: [a * 0.5, a * 0.25, a], a } }
+    }
+
+    #[test]
+    fn merges_touching_neighbours() {
+        let mut l = Vec::new();
+        assert_eq!(insert_sorted(&mut l, seg(0.0, 1.0, 0.2), true), Inserted::New);
+        assert_eq!(insert_sorted(&mut l, seg(2.0, 3.0, 0.3), true), Inserted::New);
+        assert_eq!(insert_sorted(&mut l, seg(1.0, 2.0, 0.4), true), Inserted::MergedBoth);
+        assert_eq!(l.len(), 1);
+        assert_eq!((l[0].z_front, l[0].z_back), (0.0, 3.0));
+        let want = 1.0 - 0.8 * 0.6 * 0.7;
+        assert!((l[0].rgba.a - want).abs() < 1e-6);
+    }
+
+    #[test]
+    fn keeps_gaps_and_order_without_partial() {
+        let mut l = Vec::new();
+        for s in [seg(2.0, 3.0, 0.3), seg(0.0, 1.0, 0.2), seg(1.0, 2.0, 0.4)] {
+            insert_sorted(&mut l, s, false);
+        }
+        assert_eq!(l.iter().map(|s| s.z_front).collect::<Vec<_>>(), vec![0.0, 1.0, 2.0]);
+    }
+}

@@ -1,0 +1,248 @@
+//! Cell projection with ray-segment lists and partial composition — the
+//! renderer of the paper's section 2.1, on one machine.
+//!
+//! A frame has three phases:
+//!
+//! 1. **Projection** ([`project`], [`bin`]): every vertex is transformed once;
+//!    cells whose scalar range is fully transparent, or that miss the image,
+//!    are culled; the rest are binned into fixed screen tiles.
+//! 2. **Scan conversion** ([`setup`], [`scan`], [`integrate`], [`list`]): per
+//!    tile, in stored cell order, each cell's covered pixel centres get one ray
+//!    segment each (entry/exit depth, scalar at both, integrated colour and
+//!    alpha), inserted into the pixel's depth-sorted list with partial
+//!    composition.
+//! 3. **Composition**: each list is composited front to back over the background.
+//!
+//! Tiles are independent, so rayon renders them in parallel; each pixel sees
+//! the same segments in the same order whatever the thread count or tile
+//! size, so the image is bit-for-bit the same with `--threads 1`.
+
+pub mod bin;
+pub mod fastmath;
+pub mod integrate;
+pub mod list;
+pub mod order;
+pub mod project;
+pub mod scan;
+pub mod segment;
+pub mod setup;
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+pub use integrate::{Integrator, PreparedTf};
+pub use list::SegmentLists;
+pub use order::CellOrder;
+pub use segment::{Rgba, Segment};
+
+use crate::image::Image;
+use crate::render::RenderInput;
+use scan::{covered_pixels, ScanCounts, ScanTarget};
+
+/// Options of the cell-projection renderer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellOptions {
+    /// Segment integrator.
+    pub integrator: Integrator,
+    /// Merge touching segments on insertion (the paper's partial composition).
+    pub partial_composition: bool,
+    /// Edge of the square screen tiles, pixels. Does not change the image.
+    pub tile_size: u32,
+    /// Order of scan conversion.
+    pub cell_order: CellOrder,
+}
+
+impl Default for CellOptions {
+    fn default() -> Self {
+        CellOptions { integrator: Integrator::Exact, partial_composition: true, tile_size: 32, cell_order: CellOrder::FrontToBack }
+    }
+}
+
+/// What a cell-projection render did, and how long each phase took.
+/// Key names are a contract for scripts (see the README).
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct CellStats {
+    /// Cells in the mesh.
+    pub cells_total: u64,
+    /// Cells skipped: their scalar interval has zero opacity.
+    pub cells_culled_empty: u64,
+    /// Cells skipped: outside the image or behind the eye.
+    pub cells_culled_offscreen: u64,
+    /// Cells projected (total minus both culls).
+    pub cells_projected: u64,
+    /// Projected cells whose bounding box holds no pixel centre.
+    pub cells_no_pixel_centre: u64,
+    /// Cells that cover no ray stretch of positive length (zero volume in f32).
+    pub cells_degenerate: u64,
+    /// (cell, tile) pairs scanned; over `cells_projected`, the tiling overhead.
+    pub cell_tile_pairs: u64,
+    /// Pixel centres tested against a cell.
+    pub pixels_tested: u64,
+    /// Ray segments produced by scan conversion.
+    pub segments_generated: u64,
+    /// Merge operations done by partial composition.
+    pub segments_merged: u64,
+    /// Segments left in the lists at the end.
+    pub segments_stored: u64,
+    /// Pixels with a non-empty list.
+    pub pixels_covered: u64,
+    /// Mean list length over pixels with a non-empty list.
+    pub list_len_mean: f64,
+    /// Longest list.
+    pub list_len_max: u64,
+    /// Loading the data (set by the caller).
+    pub time_load_s: f64,
+    /// Vertex transform, culling and binning.
+    pub time_project_s: f64,
+    /// Scan conversion, integration and list insertion.
+    pub time_scan_s: f64,
+    /// Final composition.
+    pub time_composite_s: f64,
+    /// Everything from projection to the finished image (plus load if set).
+    pub time_total_s: f64,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Integrator name.
+    pub integrator: String,
+    /// Whether partial composition was on.
+    pub partial_composition: bool,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+    /// Cell order.
+    pub cell_order: String,
+}
+
+/// The per-tile result of scan conversion.
+pub struct TileResult {
+    /// Its segment lists.
+    pub lists: SegmentLists,
+    /// Its counters.
+    pub counts: ScanCounts,
+    /// Cells that turned out degenerate in this tile.
+    pub degenerate: u64,
+}
+
+/// Renders `input` by cell projection. Uses the current rayon pool.
+pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
+    let t0 = Instant::now();
+    let scene = &input.scene;
+    let view = scene.view();
+    let tf = PreparedTf::new(&scene.transfer);
+    let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
+    let order = match opts.cell_order {
+        CellOrder::Stored => None,
+        CellOrder::FrontToBack => Some(order::front_to_back(&input.mesh.tets, &pv)),
+    };
+    let binning = bin::bin_cells(&input.mesh.tets, order.as_deref(), &pv, &tf, opts.tile_size.max(1));
+    let t1 = Instant::now();
+
+    let tiles: Vec<TileResult> = binning
+        .tiles
+        .par_iter()
+        .zip(&binning.bins)
+        .map(|(rect, cells)| scan_tile(input, &pv, &tf, opts, *rect, cells))
+        .collect();
+    let t2 = Instant::now();
+
+    let mut image = Image::new(view.width, view.height);
+    let bg = scene.image.background.map(|c| c as f32);
+    let rows: Vec<(usize, Vec<(usize, [f32; 4])>)> = binning
+        .tiles
+        .par_iter()
+        .zip(&tiles)
+        .enumerate()
+        .map(|(k, (rect, t))| {
+            let mut px = Vec::with_capacity((rect.width() * rect.height()) as usize);
+            for (idx, l) in t.lists.lists().iter().enumerate() {
+                let (i, j) = (rect.x0 + idx as u32 % rect.width(), rect.y0 + idx as u32 / rect.width());
+                let c = list::composite(l);
+                let keep = 1.0 - c.a;
+                px.push((
+                    (j * view.width + i) as usize,
+                    [c.rgb[0] + keep * bg[0], c.rgb[1] + keep * bg[1], c.rgb[2] + keep * bg[2], c.a],
+                ));
+            }
+            (k, px)
+        })
+        .collect();
+    for (_, px) in rows {
+        for (at, p) in px {
+            image.pixels[at] = p;
+        }
+    }
+    let t3 = Instant::now();
+
+    let mut counts = ScanCounts::default();
+    let mut stats = CellStats {
+        cells_total: input.mesh.tets.len() as u64,
+        cells_culled_empty: binning.culled_empty,
+        cells_culled_offscreen: binning.culled_offscreen,
+        cells_no_pixel_centre: binning.no_pixel_centre,
+        cell_tile_pairs: binning.bins.iter().map(|b| b.len() as u64).sum(),
+        threads: rayon::current_num_threads(),
+        integrator: opts.integrator.to_string(),
+        partial_composition: opts.partial_composition,
+        tile_size: opts.tile_size,
+        cell_order: opts.cell_order.to_string(),
+        ..Default::default()
+    };
+    stats.cells_projected = stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
+    for t in &tiles {
+        counts.add(&t.counts);
+        stats.cells_degenerate += t.degenerate;
+        for l in t.lists.lists() {
+            if !l.is_empty() {
+                stats.pixels_covered += 1;
+                stats.segments_stored += l.len() as u64;
+                stats.list_len_max = stats.list_len_max.max(l.len() as u64);
+            }
+        }
+    }
+    stats.pixels_tested = counts.pixels_tested;
+    stats.segments_generated = counts.segments_generated;
+    stats.segments_merged = counts.segments_merged;
+    stats.list_len_mean = if stats.pixels_covered > 0 { stats.segments_stored as f64 / stats.pixels_covered as f64 } else { 0.0 };
+    stats.time_project_s = (t1 - t0).as_secs_f64();
+    stats.time_scan_s = (t2 - t1).as_secs_f64();
+    stats.time_composite_s = (t3 - t2).as_secs_f64();
+    stats.time_total_s = (t3 - t0).as_secs_f64();
+    (image, stats)
+}
+
+/// Scan-converts the cells of one tile into fresh lists.
+pub fn scan_tile(
+    input: &RenderInput,
+    pv: &project::ProjectedVertices,
+    tf: &PreparedTf,
+    opts: &CellOptions,
+    rect: scan::Rect,
+    cells: &[u32],
+) -> TileResult {
+    let mut lists = SegmentLists::new(rect.width(), rect.height());
+    let mut counts = ScanCounts::default();
+    let mut degenerate = 0;
+    let tets = &input.mesh.tets;
+    {
+        let mut target = ScanTarget::new(&mut lists, rect, tf, opts.integrator, opts.partial_composition, &mut counts);
+        for &c in cells {
+            let ids = tets[c as usize];
+            let range = if pv.perspective && ids.iter().any(|&v| pv.pixel[v as usize][0].is_nan()) {
+                Some((rect.x0, rect.x1 - 1, rect.y0, rect.y1 - 1))
+            } else {
+                covered_pixels(&ids.map(|v| pv.pixel[v as usize]), rect)
+            };
+            let Some(range) = range else { continue };
+            let Some(setup) = setup::setup_tet(ids, &pv.pos, &pv.s) else {
+                degenerate += 1;
+                continue;
+            };
+            if pv.perspective {
+                scan::scan_persp(&setup, pv, range, &mut target);
+            } else {
+                scan::scan_ortho(&setup, range, &mut target);
+            }
+        }
+    }
+    TileResult { lists, counts, degenerate }
+}

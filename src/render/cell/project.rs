@@ -1,0 +1,62 @@
+//! Phase 1 of cell projection: every vertex is transformed once per frame.
+//!
+//! The transform runs in f64 on camera-relative coordinates (`p - eye`) and
+//! only then rounds to f32, so a mesh far from the origin loses no precision.
+//!
+//! - Orthographic: *screen space* `(X, Y, Z)`, `X`, `Y` in pixels (pixel
+//!   centres at half-integers, `Y` down) and `Z` the depth along the view
+//!   direction in world units. Rays are the lines `X, Y = const`.
+//! - Perspective: the camera frame `(x right, y up, z forward)` relative to the
+//!   eye, in world units; the ray of pixel `(X, Y)` is `τ d` with
+//!   `d = ((X - W/2) p, (H/2 - Y) p, 1)`, `p` the pixel size at unit depth.
+
+use rayon::prelude::*;
+
+use crate::scene::{Projection, View};
+
+/// Vertices of the mesh in the space the scan converter works in.
+#[derive(Debug, Clone)]
+pub struct ProjectedVertices {
+    /// Orthographic or perspective.
+    pub perspective: bool,
+    /// Screen space (orthographic) or camera frame (perspective), f32.
+    pub pos: Vec<[f32; 3]>,
+    /// Continuous pixel coordinates; `[NaN, NaN]` for vertices at or behind the eye.
+    pub pixel: Vec<[f32; 2]>,
+    /// Normalised scalar per vertex.
+    pub s: Vec<f32>,
+    /// Image width and height.
+    pub size: (u32, u32),
+    /// Perspective: pixel size at unit depth.
+    pub pixel_size: f32,
+}
+
+impl ProjectedVertices {
+    /// Transforms `points` (world) for `view` and rounds the scalars to f32.
+    pub fn new(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
+        let perspective = matches!(view.projection, Projection::Perspective { .. });
+        let (pos, pixel): (Vec<[f32; 3]>, Vec<[f32; 2]>) = points
+            .par_iter()
+            .map(|&p| {
+                let c = view.to_camera(p);
+                let px = view.camera_to_pixel(c).map(|q| [q[0] as f32, q[1] as f32]).unwrap_or([f32::NAN; 2]);
+                let pos = if perspective { c.map(|v| v as f32) } else { [px[0], px[1], c[2] as f32] };
+                (pos, px)
+            })
+            .unzip();
+        ProjectedVertices {
+            perspective,
+            pos,
+            pixel,
+            s: s_norm.iter().map(|&s| s as f32).collect(),
+            size: (view.width, view.height),
+            pixel_size: view.pixel_size as f32,
+        }
+    }
+
+    /// Ray direction (not normalised, `z = 1`) of the pixel centre `(x, y)` (perspective).
+    #[inline(always)]
+    pub fn ray_dir(&self, x: f32, y: f32) -> [f32; 3] {
+        [(x - self.size.0 as f32 * 0.5) * self.pixel_size, (self.size.1 as f32 * 0.5 - y) * self.pixel_size, 1.0]
+    }
+}

@@ -1,0 +1,274 @@
+//! Scan conversion: for each pixel centre a tet covers, the ray's entry and
+//! exit depth, the scalar at both, and one integrated ray segment.
+//!
+//! A ray is inside a tet exactly where it is inside all four face
+//! half-spaces `sigma n · p <= sigma h`. Along the ray `o + τ d`, a face with
+//! `sigma n · d > 0` bounds `τ` from above (the ray leaves through it), one
+//! with `sigma n · d < 0` from below (the ray enters through it), and one with
+//! `n · d = 0` (seen exactly edge-on) either contains the whole ray or none of
+//! it. So `τ_in = max` over entering faces, `τ_out = min` over leaving faces,
+//! and the pixel is covered iff `τ_in < τ_out`: no special cases for the
+//! silhouette's shape, and no division by zero.
+
+use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
+use super::integrate::{Batch, Integrator, PreparedTf, BATCH};
+use super::list::{Inserted, SegmentLists};
+use super::project::ProjectedVertices;
+use super::segment::Segment;
+use super::setup::TetSetup;
+
+/// A rectangle of pixels `[x0, x1) x [y0, y1)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rect {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Rect {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+}
+
+/// Counters of one scan.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ScanCounts {
+    /// Pixel centres tested against a tet.
+    pub pixels_tested: u64,
+    /// Ray segments produced.
+    pub segments_generated: u64,
+    /// Merge operations by partial composition.
+    pub segments_merged: u64,
+}
+
+impl ScanCounts {
+    /// Adds another scan's counts.
+    pub fn add(&mut self, o: &ScanCounts) {
+        self.pixels_tested += o.pixels_tested;
+        self.segments_generated += o.segments_generated;
+        self.segments_merged += o.segments_merged;
+    }
+}
+
+/// Everything a scan needs besides the tet.
+pub struct ScanTarget<'a> {
+    /// The tile's lists.
+    pub lists: &'a mut SegmentLists,
+    /// The tile.
+    pub tile: Rect,
+    /// Transfer function.
+    pub tf: &'a PreparedTf,
+    /// Integrator.
+    pub integrator: Integrator,
+    /// Partial composition on insertion.
+    pub partial: bool,
+    /// Counters.
+    pub counts: &'a mut ScanCounts,
+    /// Segments waiting to be integrated.
+    pub batch: Batch,
+    /// Their local pixel index, `z_front` and `z_back`.
+    pub pending: [(u32, f32, f32); BATCH],
+}
+
+impl<'a> ScanTarget<'a> {
+    /// A target writing into `lists` (the lists of `tile`).
+    pub fn new(lists: &'a mut SegmentLists, tile: Rect, tf: &'a PreparedTf, integrator: Integrator, partial: bool, counts: &'a mut ScanCounts) -> Self {
+        ScanTarget { lists, tile, tf, integrator, partial, counts, batch: Batch::default(), pending: [(0, 0.0, 0.0); BATCH] }
+    }
+
+    /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
+    #[inline(always)]
+    fn emit(&mut self, i: u32, j: u32, z_in: f32, z_out: f32, s_in: f32, s_out: f32, length: f32) {
+        let n = self.batch.n;
+        self.batch.s_in[n] = s_in;
+        self.batch.s_out[n] = s_out;
+        self.batch.len[n] = length;
+        self.pending[n] = ((j - self.tile.y0) * self.tile.width() + (i - self.tile.x0), z_in, z_out);
+        self.batch.n = n + 1;
+        if n + 1 == BATCH {
+            self.flush();
+        }
+    }
+
+    /// Integrates the queued segments and inserts them into their lists.
+    pub fn flush(&mut self) {
+        let n = self.batch.n;
+        if n == 0 {
+            return;
+        }
+        self.tf.integrate_batch(self.integrator, &mut self.batch);
+        self.counts.segments_generated += n as u64;
+        for l in 0..n {
+            let (idx, z_front, z_back) = self.pending[l];
+            let seg = Segment { z_front, z_back, rgba: self.batch.result(l) };
+            match self.lists.insert(idx as usize, seg, self.partial) {
+                Inserted::New => {}
+                Inserted::Merged => self.counts.segments_merged += 1,
+                Inserted::MergedBoth => self.counts.segments_merged += 2,
+            }
+        }
+        self.batch.n = 0;
+    }
+}
+
+/// Pixel range `[i0, i1] x [j0, j1]` (inclusive) whose centres lie in the
+/// bounding box of `pts` (continuous pixel coordinates), clipped to `clip`.
+/// `None` if no pixel centre is inside.
+#[inline(always)]
+pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32, u32)> {
+    let (mut xl, mut xh, mut yl, mut yh) = (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+    for p in pts {
+        xl = xl.min(p[0]);
+        xh = xh.max(p[0]);
+        yl = yl.min(p[1]);
+        yh = yh.max(p[1]);
+    }
+    // Centre i + 0.5 in [xl, xh]  <=>  i in [ceil(xl - 0.5), floor(xh - 0.5)].
+    let i0 = (xl - 0.5).ceil().max(clip.x0 as f32);
+    let i1 = (xh - 0.5).floor().min(clip.x1 as f32 - 1.0);
+    let j0 = (yl - 0.5).ceil().max(clip.y0 as f32);
+    let j1 = (yh - 0.5).floor().min(clip.y1 as f32 - 1.0);
+    if i0 > i1 || j0 > j1 || i0.is_nan() || i1.is_nan() || j0.is_nan() || j1.is_nan() {
+        return None;
+    }
+    Some((i0 as u32, i1 as u32, j0 as u32, j1 as u32))
+}
+
+/// Scans one tet in screen space (orthographic), over the pixels of
+/// `range = (i0, i1, j0, j1)`.
+#[inline]
+pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+    // Each non-edge-on face as a depth plane Z = a X + b Y + c. The
+    // coefficients are odd/odd ratios of (n, h), so both tets sharing a face get
+    // identical ones. Unused slots hold planes at -inf (entries) / +inf (exits).
+    let mut ent = [[0.0, 0.0, f32::NEG_INFINITY]; 3];
+    let mut ext = [[0.0, 0.0, f32::INFINITY]; 3];
+    let mut edge = [[0.0f32; 3]; 4];
+    let (mut ne, mut nx, mut nedge) = (0, 0, 0);
+    for f in &t.faces {
+        let [x, y, z] = f.n;
+        if z == 0.0 {
+            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h.
+            edge[nedge] = [f.sigma * x, f.sigma * y, f.sigma * f.h];
+            nedge += 1;
+            continue;
+        }
+        let plane = [-x / z, -y / z, f.h / z];
+        if f.sigma * z > 0.0 {
+            if nx == 3 {
+                return;
+            }
+            ext[nx] = plane;
+            nx += 1;
+        } else {
+            if ne == 3 {
+                return;
+            }
+            ent[ne] = plane;
+            ne += 1;
+        }
+    }
+    if ne == 0 || nx == 0 {
+        return;
+    }
+    let (i0, i1, j0, j1) = range;
+    for j in j0..=j1 {
+        let y = j as f32 + 0.5;
+        let re = [ent[0][1] * y + ent[0][2], ent[1][1] * y + ent[1][2], ent[2][1] * y + ent[2][2]];
+        let rx = [ext[0][1] * y + ext[0][2], ext[1][1] * y + ext[1][2], ext[2][1] * y + ext[2][2]];
+        // The row's covered span: z_in(X) < z_out(X) holds iff every entering
+        // plane lies in front of every leaving one, a linear inequality in X per
+        // pair. The span is widened by a pixel and every pixel is still tested
+        // exactly below, so rounding here can cost time but never coverage.
+        let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
+        for e in 0..ne {
+            for k in 0..nx {
+                let da = ent[e][0] - ext[k][0];
+                let rhs = rx[k] - re[e];
+                if da > 0.0 {
+                    hi = fmin(hi, rhs / da);
+                } else if da < 0.0 {
+                    lo = fmax(lo, rhs / da);
+                } else if !(rhs > 0.0) {
+                    hi = f32::NEG_INFINITY;
+                }
+            }
+        }
+        if !(lo <= hi) {
+            continue;
+        }
+        let first = floor_i(fmax(lo - 0.5, -1.0)).max(i0 as i64);
+        let last = ceil_i(fmin(hi - 0.5, 1e9)).min(i1 as i64);
+        if first > last {
+            continue;
+        }
+        let dy = y - t.v0[1];
+        let s_row = t.s0 + t.grad[1] * dy;
+        for i in first as u32..=last as u32 {
+            let x = i as f32 + 0.5;
+            out.counts.pixels_tested += 1;
+            // Depth is measured from the eye plane: nothing behind it is seen.
+            let z_in = fmax(fmax(fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]), ent[2][0] * x + re[2]), 0.0);
+            let z_out = fmin(fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]), ext[2][0] * x + rx[2]);
+            if !(z_in < z_out) {
+                continue;
+            }
+            if edge[..nedge].iter().any(|e| e[0] * x + e[1] * y > e[2]) {
+                continue;
+            }
+            let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
+            let s_in = fclamp(s_xy + t.grad[2] * (z_in - t.v0[2]), t.s_min, t.s_max);
+            let s_out = fclamp(s_xy + t.grad[2] * (z_out - t.v0[2]), t.s_min, t.s_max);
+            out.emit(i, j, z_in, z_out, s_in, s_out, z_out - z_in);
+        }
+    }
+    out.flush();
+}
+
+/// Scans one tet in the camera frame (perspective): the ray of pixel `(X, Y)`
+/// is `τ d`, `d = (dx, dy, 1)`; the face bound is `τ = h / (n · d)`; depth
+/// along the ray is `τ |d|`. `τ >= 0` clips everything behind the eye.
+#[inline]
+pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+    let (i0, i1, j0, j1) = range;
+    for j in j0..=j1 {
+        let y = j as f32 + 0.5;
+        for i in i0..=i1 {
+            let x = i as f32 + 0.5;
+            out.counts.pixels_tested += 1;
+            let d = pv.ray_dir(x, y);
+            let (mut t_in, mut t_out) = (0.0f32, f32::INFINITY);
+            let mut inside = true;
+            for f in &t.faces {
+                let den = f.n[0] * d[0] + f.n[1] * d[1] + f.n[2];
+                let out_den = f.sigma * den;
+                if out_den > 0.0 {
+                    t_out = t_out.min(f.h / den);
+                } else if out_den < 0.0 {
+                    t_in = t_in.max(f.h / den);
+                } else if f.sigma * f.h < 0.0 {
+                    inside = false;
+                }
+            }
+            if !inside || !(t_in < t_out) {
+                continue;
+            }
+            let len_d = (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt();
+            let s_in = t.scalar_at([d[0] * t_in, d[1] * t_in, t_in]);
+            let s_out = t.scalar_at([d[0] * t_out, d[1] * t_out, t_out]);
+            out.emit(i, j, t_in * len_d, t_out * len_d, s_in, s_out, (t_out - t_in) * len_d);
+        }
+    }
+    out.flush();
+}

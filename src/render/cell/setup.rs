@@ -1,0 +1,107 @@
+//! Per-tetrahedron set-up for scan conversion: its four face planes and the
+//! gradient of its linear scalar.
+//!
+//! **Watertightness by construction.** Two tetrahedra that share a face must
+//! agree exactly on where a ray crosses it, or the ray would see a crack (or
+//! a sliver of double coverage) between them and partial composition could not
+//! merge their segments. So each face's plane `n · p = h` is computed from its
+//! three vertices *sorted by global vertex index*, never from the tet's own
+//! vertex order: both neighbours get bit-identical `n` and `h`, and only the
+//! orientation sign `sigma` (which side is inside) differs. Every later
+//! formula is odd in `(n, h)` so the crossing depth is bit-identical too.
+
+use crate::data::mesh::FACE_VERTICES;
+
+/// One face plane of a tet: `n · p = h`, outward normal `sigma * n`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FacePlane {
+    /// Normal from the sorted vertex triple (not unit length).
+    pub n: [f32; 3],
+    /// Plane offset, `n · a` for the lowest-index vertex `a`.
+    pub h: f32,
+    /// `+1` if `n` points out of the tet, `-1` if in.
+    pub sigma: f32,
+}
+
+/// A tet ready for scan conversion (in whichever space its vertices are given).
+#[derive(Debug, Clone, Copy)]
+pub struct TetSetup {
+    /// Face `f` is opposite vertex slot `f`.
+    pub faces: [FacePlane; 4],
+    /// Gradient of the scalar.
+    pub grad: [f32; 3],
+    /// Position of vertex slot 0 (the gradient's origin).
+    pub v0: [f32; 3],
+    /// Scalar at vertex slot 0.
+    pub s0: f32,
+    /// Smallest vertex scalar (interpolated scalars are clamped to `[s_min, s_max]`
+    /// so a sliver's ill-conditioned gradient cannot leave the tet's range).
+    pub s_min: f32,
+    /// Largest vertex scalar.
+    pub s_max: f32,
+}
+
+#[inline(always)]
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline(always)]
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Sets up tet `ids` with vertex positions `pos` and scalars `s`. `None` for a
+/// tet with no volume (in f32): it covers no ray stretch of positive length.
+#[inline]
+pub fn setup_tet(ids: [u32; 4], pos: &[[f32; 3]], s: &[f32]) -> Option<TetSetup> {
+    let p = ids.map(|v| pos[v as usize]);
+    let sv = ids.map(|v| s[v as usize]);
+    let mut faces = [FacePlane::default(); 4];
+    for (f, slots) in FACE_VERTICES.iter().enumerate() {
+        let mut tri = [(ids[slots[0]], slots[0]), (ids[slots[1]], slots[1]), (ids[slots[2]], slots[2])];
+        tri.sort_unstable_by_key(|t| t.0);
+        let (a, b, c) = (p[tri[0].1], p[tri[1].1], p[tri[2].1]);
+        let n = cross(sub(b, a), sub(c, a));
+        let h = dot(n, a);
+        let side = dot(n, p[f]) - h;
+        if side == 0.0 || !side.is_finite() {
+            return None;
+        }
+        faces[f] = FacePlane { n, h, sigma: if side > 0.0 { -1.0 } else { 1.0 } };
+    }
+    let (e1, e2, e3) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0]));
+    let (c23, c31, c12) = (cross(e2, e3), cross(e3, e1), cross(e1, e2));
+    let det = dot(e1, c23);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let (d1, d2, d3) = (sv[1] - sv[0], sv[2] - sv[0], sv[3] - sv[0]);
+    let inv = 1.0 / det;
+    let grad = [
+        (d1 * c23[0] + d2 * c31[0] + d3 * c12[0]) * inv,
+        (d1 * c23[1] + d2 * c31[1] + d3 * c12[1]) * inv,
+        (d1 * c23[2] + d2 * c31[2] + d3 * c12[2]) * inv,
+    ];
+    let grad = if grad.iter().all(|g| g.is_finite()) { grad } else { [0.0; 3] };
+    Some(TetSetup {
+        faces,
+        grad,
+        v0: p[0],
+        s0: sv[0],
+        s_min: sv.iter().cloned().fold(f32::INFINITY, f32::min),
+        s_max: sv.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+    })
+}
+
+impl TetSetup {
+    /// The scalar at point `q` (same space as the vertices), clamped to the tet's range.
+    #[inline(always)]
+    pub fn scalar_at(&self, q: [f32; 3]) -> f32 {
+        let d = sub(q, self.v0);
+        (self.s0 + dot(self.grad, d)).clamp(self.s_min, self.s_max)
+    }
+}
