@@ -66,8 +66,11 @@
 //!   flow, daughter A 50 %, daughter B 40 %.
 //! - `speed` [m/s]: `2 |velocity| (1 - (ρ/R)²)`, the Poiseuille profile, with
 //!   `d` the distance to the wall (minus the signed distance), `ρ` the
-//!   distance to the (blended) centreline and `R = d + ρ`. It is exactly 0 on
-//!   the boundary vertices and positive inside.
+//!   distance to the (blended) centreline and `R = d + ρ`; `d` ignores the
+//!   inlet and outlet caps, and the speed is instead faded to 0 over the
+//!   last 3 mm before each cap (smoothstep), so that it is 0 on every boundary
+//!   vertex (unphysical at the caps, but smooth). It is exactly 0 on the
+//!   boundary vertices and positive inside.
 //! - `pressure` [Pa]: Poiseuille pressure drop `dp/ds = -8 μ Q / (π r⁴)` with
 //!   blood viscosity `μ = 3.5 mPa s`, integrated along each tube from the
 //!   inlet, continuous at the junctions, shifted so that the lowest outlet is
@@ -76,7 +79,7 @@
 use rayon::prelude::*;
 
 use crate::data::mesh::{Adjacency, Field, TetMesh, FACE_VERTICES, NO_NEIGHBOR};
-use crate::scene::{Scene, TransferFunction};
+use crate::scene::TransferFunction;
 
 /// Parameters of the demo dataset.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,7 +95,11 @@ pub struct DemoParams {
 
 impl Default for DemoParams {
     fn default() -> Self {
-        DemoParams { cells_target: 150_000, quality_floor_deg: 15.0, relax_passes: 4 }
+        DemoParams {
+            cells_target: 150_000,
+            quality_floor_deg: 15.0,
+            relax_passes: 4,
+        }
     }
 }
 
@@ -113,7 +120,11 @@ fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: V3, b: V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
@@ -122,7 +133,11 @@ fn normalize(a: V3) -> V3 {
     scale(a, 1.0 / norm(a))
 }
 fn lerp3(a: V3, b: V3, t: f64) -> V3 {
-    [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t]
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
 }
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t
@@ -149,6 +164,8 @@ const U_INLET: f64 = 0.4;
 const CENTRELINE_POINTS: usize = 48;
 /// Segments per culling chunk.
 const CHUNK: usize = 6;
+/// Length over which speed fades to 0 at the inlet and outlet caps (mm).
+const CAP_FADE: f64 = 3.0;
 /// Field-blending width (mm of signed-distance difference).
 const BLEND: f64 = 4.0;
 const K_JUNCTION: f64 = 4.0;
@@ -172,7 +189,10 @@ fn bezier(c: &[V3; 4], t: f64) -> V3 {
 fn bezier_tangent(c: &[V3; 4], t: f64) -> V3 {
     let s = 1.0 - t;
     let d = add(
-        add(scale(sub(c[1], c[0]), 3.0 * s * s), scale(sub(c[2], c[1]), 6.0 * s * t)),
+        add(
+            scale(sub(c[1], c[0]), 3.0 * s * s),
+            scale(sub(c[2], c[1]), 6.0 * s * t),
+        ),
         scale(sub(c[3], c[2]), 3.0 * t * t),
     );
     normalize(d)
@@ -205,6 +225,10 @@ struct Tube {
 struct Hit {
     /// Signed distance to this tube's surface (`BIG` when culled).
     sdf: f64,
+    /// Signed distance to the tube's wall (ignoring the end caps).
+    wall: f64,
+    /// Distance inside the open-end cap planes (`BIG` without open ends).
+    cap: f64,
     /// Distance to the centreline.
     dist: f64,
     tangent: V3,
@@ -213,7 +237,16 @@ struct Hit {
     pressure: f64,
 }
 
-const MISS: Hit = Hit { sdf: BIG, dist: BIG, tangent: [0.0; 3], radius: 1.0, flow: 0.0, pressure: 0.0 };
+const MISS: Hit = Hit {
+    sdf: BIG,
+    wall: BIG,
+    cap: BIG,
+    dist: BIG,
+    tangent: [0.0; 3],
+    radius: 1.0,
+    flow: 0.0,
+    pressure: 0.0,
+};
 
 impl Tube {
     fn new(ctrl: [V3; 4], r0: f64, r1: f64, open_start: bool, open_end: bool, cull: f64) -> Tube {
@@ -241,14 +274,25 @@ impl Tube {
                 rmax = rmax.max(rad[i]);
             }
             let m = rmax + cull;
-            chunks.push(Chunk { first_seg: first, end_seg: end, lo: sub(lo, [m; 3]), hi: add(hi, [m; 3]) });
+            chunks.push(Chunk {
+                first_seg: first,
+                end_seg: end,
+                lo: sub(lo, [m; 3]),
+                hi: add(hi, [m; 3]),
+            });
             first = end;
         }
-        Tube { pts, tan, rad, arc, flow: vec![0.0; n], pres: vec![0.0; n], chunks, open_start, open_end }
-    }
-
-    fn len(&self) -> f64 {
-        self.arc[self.arc.len() - 1]
+        Tube {
+            pts,
+            tan,
+            rad,
+            arc,
+            flow: vec![0.0; n],
+            pres: vec![0.0; n],
+            chunks,
+            open_start,
+            open_end,
+        }
     }
 
     /// Closest centreline point among the chunks whose box holds `p`.
@@ -277,16 +321,19 @@ impl Tube {
         let (d2, s, u) = best;
         let dist = d2.sqrt();
         let radius = lerp(self.rad[s], self.rad[s + 1], u);
-        let mut sdf = dist - radius;
+        let wall = dist - radius;
         let n = self.pts.len();
+        let mut cap = BIG;
         if self.open_start {
-            sdf = sdf.max(dot(sub(self.pts[0], p), self.tan[0]));
+            cap = cap.min(dot(sub(p, self.pts[0]), self.tan[0]));
         }
         if self.open_end {
-            sdf = sdf.max(dot(sub(p, self.pts[n - 1]), self.tan[n - 1]));
+            cap = cap.min(dot(sub(self.pts[n - 1], p), self.tan[n - 1]));
         }
         Hit {
-            sdf,
+            sdf: wall.max(-cap),
+            wall,
+            cap,
             dist,
             tangent: normalize(lerp3(self.tan[s], self.tan[s + 1], u)),
             radius,
@@ -297,7 +344,9 @@ impl Tube {
 
     /// Integrates the Poiseuille pressure drop from `p0` at the start.
     fn integrate_pressure(&mut self, p0: f64) {
-        let g = |i: usize| 8.0 * MU * self.flow[i] / (std::f64::consts::PI * (self.rad[i] * 1e-3).powi(4));
+        let g = |i: usize| {
+            8.0 * MU * self.flow[i] / (std::f64::consts::PI * (self.rad[i] * 1e-3).powi(4))
+        };
         let mut p = vec![p0; self.pts.len()];
         for i in 1..p.len() {
             let ds = (self.arc[i] - self.arc[i - 1]) * 1e-3;
@@ -308,7 +357,10 @@ impl Tube {
 
     /// Pressure at arc length `s` (linear in between points).
     fn pressure_at_arc(&self, s: f64) -> f64 {
-        let i = self.arc.partition_point(|&a| a <= s).clamp(1, self.arc.len() - 1);
+        let i = self
+            .arc
+            .partition_point(|&a| a <= s)
+            .clamp(1, self.arc.len() - 1);
         let u = ((s - self.arc[i - 1]) / (self.arc[i] - self.arc[i - 1])).clamp(0.0, 1.0);
         lerp(self.pres[i - 1], self.pres[i], u)
     }
@@ -328,13 +380,47 @@ impl Geometry {
     /// not evaluated there; the signed distance is then only known to be
     /// larger than `cull - K_JUNCTION / 4`-ish, which is all the mesher needs.
     fn new(cull: f64) -> Geometry {
-        let parent_ctrl = [[8.0, 0.0, -100.0], [-12.0, -6.0, -70.0], [0.0, 4.0, -35.0], [0.0, 0.0, 0.0]];
+        let parent_ctrl = [
+            [8.0, 0.0, -100.0],
+            [-12.0, -6.0, -70.0],
+            [0.0, 4.0, -35.0],
+            [0.0, 0.0, 0.0],
+        ];
         let o = bezier(&parent_ctrl, SIDE_T);
-        let side_ctrl = [o, add(o, [10.0, -2.0, 3.0]), add(o, [22.0, -8.0, 12.0]), add(o, [30.0, -14.0, 26.0])];
+        let side_ctrl = [
+            o,
+            add(o, [10.0, -2.0, 3.0]),
+            add(o, [22.0, -8.0, 12.0]),
+            add(o, [30.0, -14.0, 26.0]),
+        ];
         let mut parent = Tube::new(parent_ctrl, 10.0, 9.0, true, false, cull);
         let mut side = Tube::new(side_ctrl, 4.0, 3.5, false, true, cull);
-        let mut da = Tube::new([[0.0; 3], [8.0, 0.0, 18.0], [30.0, 6.0, 35.0], [42.0, 10.0, 72.0]], 7.0, 6.0, false, true, cull);
-        let mut db = Tube::new([[0.0; 3], [-8.0, 0.0, 18.0], [-28.0, -8.0, 38.0], [-34.0, -14.0, 75.0]], 6.0, 5.0, false, true, cull);
+        let mut da = Tube::new(
+            [
+                [0.0; 3],
+                [8.0, 0.0, 18.0],
+                [30.0, 6.0, 35.0],
+                [42.0, 10.0, 72.0],
+            ],
+            7.0,
+            6.0,
+            false,
+            true,
+            cull,
+        );
+        let mut db = Tube::new(
+            [
+                [0.0; 3],
+                [-8.0, 0.0, 18.0],
+                [-28.0, -8.0, 38.0],
+                [-34.0, -14.0, 75.0],
+            ],
+            6.0,
+            5.0,
+            false,
+            true,
+            cull,
+        );
 
         // Flow rates (m³/s): the side branch takes 10 %, daughters 50 % and 40 %.
         let q_in = U_INLET * std::f64::consts::PI * (parent.rad[0] * 1e-3).powi(2);
@@ -344,7 +430,11 @@ impl Geometry {
             parent.arc[i]
         };
         let w = 2.0 * side.rad[0];
-        parent.flow = parent.arc.iter().map(|&s| q_in * (1.0 - f_side * smoothstep((s - side_arc) / w + 0.5))).collect();
+        parent.flow = parent
+            .arc
+            .iter()
+            .map(|&s| q_in * (1.0 - f_side * smoothstep((s - side_arc) / w + 0.5)))
+            .collect();
         side.flow = vec![f_side * q_in; CENTRELINE_POINTS];
         da.flow = vec![f_a * q_in; CENTRELINE_POINTS];
         db.flow = vec![f_b * q_in; CENTRELINE_POINTS];
@@ -355,7 +445,10 @@ impl Geometry {
         da.integrate_pressure(pj);
         db.integrate_pressure(pj);
         let mut tubes = [parent, side, da, db];
-        let low = tubes.iter().map(|t| t.pres[CENTRELINE_POINTS - 1]).fold(f64::INFINITY, f64::min);
+        let low = tubes
+            .iter()
+            .map(|t| t.pres[CENTRELINE_POINTS - 1])
+            .fold(f64::INFINITY, f64::min);
         for t in &mut tubes {
             for p in &mut t.pres {
                 *p -= low;
@@ -365,12 +458,22 @@ impl Geometry {
     }
 
     fn hits(&self, p: V3) -> [Hit; 4] {
-        [self.tubes[0].hit(p), self.tubes[1].hit(p), self.tubes[2].hit(p), self.tubes[3].hit(p)]
+        [
+            self.tubes[0].hit(p),
+            self.tubes[1].hit(p),
+            self.tubes[2].hit(p),
+            self.tubes[3].hit(p),
+        ]
     }
 
     fn phi_of(h: &[Hit; 4]) -> f64 {
-        let trunk = smin(h[PARENT].sdf, h[SIDE].sdf, K_SIDE);
-        let crown = smin(h[DAUGHTER_A].sdf, h[DAUGHTER_B].sdf, K_CARINA);
+        Self::merge([h[0].sdf, h[1].sdf, h[2].sdf, h[3].sdf])
+    }
+
+    /// The smooth union of the four tubes' signed distances.
+    fn merge(d: [f64; 4]) -> f64 {
+        let trunk = smin(d[PARENT], d[SIDE], K_SIDE);
+        let crown = smin(d[DAUGHTER_A], d[DAUGHTER_B], K_CARINA);
         smin(trunk, crown, K_JUNCTION)
     }
 
@@ -399,16 +502,17 @@ impl Geometry {
         p
     }
 
-    /// `(velocity, speed, pressure)` at `p`; `d_min` is the smallest wall
-    /// distance used for the no-slip profile (keeps interior vertices > 0).
+    /// `(velocity, speed, pressure)` at `p`; `d_min` is the smallest wall and
+    /// cap distance used for the no-slip profile (keeps interior vertices > 0).
     fn flow_at(&self, p: V3, d_min: f64) -> (V3, f64, f64) {
         let h = self.hits(p);
-        let phi = Self::phi_of(&h);
+        let wall = Self::merge([h[0].wall, h[1].wall, h[2].wall, h[3].wall]);
         let smin_sdf = h.iter().map(|x| x.sdf).fold(f64::INFINITY, f64::min);
         let mut wsum = 0.0;
         let mut vel = [0.0; 3];
         let mut pres = 0.0;
         let mut rho = 0.0;
+        let mut fade = 0.0;
         for x in &h {
             if x.sdf >= BIG {
                 continue;
@@ -421,6 +525,7 @@ impl Geometry {
             vel = add(vel, scale(x.tangent, w * u));
             pres += w * x.pressure;
             rho += w * x.dist;
+            fade += w * smoothstep(x.cap.max(d_min) / CAP_FADE);
             wsum += w;
         }
         if wsum == 0.0 {
@@ -428,8 +533,8 @@ impl Geometry {
         }
         let vel = scale(vel, 1.0 / wsum);
         let rho = rho / wsum;
-        let d = (-phi).max(d_min);
-        let profile = 1.0 - (rho / (d + rho)).powi(2);
+        let d = (-wall).max(d_min);
+        let profile = (1.0 - (rho / (d + rho)).powi(2)) * fade / wsum;
         (vel, 2.0 * norm(vel) * profile, pres / wsum)
     }
 
@@ -460,7 +565,11 @@ impl Geometry {
                 let mut c = 0;
                 for j in 0..ny {
                     for i in 0..nx {
-                        let p = [lo[0] + (i as f64 + 0.5) * step, lo[1] + (j as f64 + 0.5) * step, lo[2] + (k as f64 + 0.5) * step];
+                        let p = [
+                            lo[0] + (i as f64 + 0.5) * step,
+                            lo[1] + (j as f64 + 0.5) * step,
+                            lo[2] + (k as f64 + 0.5) * step,
+                        ];
                         if self.phi(p) < 0.0 {
                             c += 1;
                         }
@@ -479,7 +588,14 @@ impl Geometry {
 /// oriented: for axis order `(a, b, c)`: 0, e_a, e_a + e_b, 1 (odd orders
 /// have their middle two corners swapped).
 fn kuhn_templates() -> [[[usize; 3]; 4]; 6] {
-    const PERMS: [[usize; 3]; 6] = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    const PERMS: [[usize; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
     let mut out = [[[0usize; 3]; 4]; 6];
     for (m, p) in PERMS.iter().enumerate() {
         let mut c1 = [0usize; 3];
@@ -487,7 +603,11 @@ fn kuhn_templates() -> [[[usize; 3]; 4]; 6] {
         let mut c2 = c1;
         c2[p[1]] = 1;
         let odd = matches!(m, 1 | 2 | 5);
-        out[m] = if odd { [[0; 3], c2, c1, [1; 3]] } else { [[0; 3], c1, c2, [1; 3]] };
+        out[m] = if odd {
+            [[0; 3], c2, c1, [1; 3]]
+        } else {
+            [[0; 3], c1, c2, [1; 3]]
+        };
     }
     out
 }
@@ -504,11 +624,19 @@ impl Lattice {
         i + self.n[0] * (j + self.n[1] * k)
     }
     fn vijk(&self, v: usize) -> [usize; 3] {
-        [v % self.n[0], (v / self.n[0]) % self.n[1], v / (self.n[0] * self.n[1])]
+        [
+            v % self.n[0],
+            (v / self.n[0]) % self.n[1],
+            v / (self.n[0] * self.n[1]),
+        ]
     }
     fn pos(&self, v: usize) -> V3 {
         let [i, j, k] = self.vijk(v);
-        [self.origin[0] + i as f64 * self.h, self.origin[1] + j as f64 * self.h, self.origin[2] + k as f64 * self.h]
+        [
+            self.origin[0] + i as f64 * self.h,
+            self.origin[1] + j as f64 * self.h,
+            self.origin[2] + k as f64 * self.h,
+        ]
     }
     fn cubes(&self) -> [usize; 3] {
         [self.n[0] - 1, self.n[1] - 1, self.n[2] - 1]
@@ -528,7 +656,13 @@ impl Lattice {
         for dk in 0..2 {
             for dj in 0..2 {
                 for di in 0..2 {
-                    if i < di || j < dj || k < dk || i - di >= c[0] || j - dj >= c[1] || k - dk >= c[2] {
+                    if i < di
+                        || j < dj
+                        || k < dk
+                        || i - di >= c[0]
+                        || j - dj >= c[1]
+                        || k - dk >= c[2]
+                    {
                         continue;
                     }
                     let cube = (i - di) + c[0] * ((j - dj) + c[1] * (k - dk));
@@ -568,9 +702,20 @@ fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
             lattice_vertex.push(v);
         }
     }
-    let tets = lattice_tet.iter().map(|&t| lat.tet(t).map(|v| map[v as usize])).collect();
+    let tets = lattice_tet
+        .iter()
+        .map(|&t| lat.tet(t).map(|v| map[v as usize]))
+        .collect();
     let points = lattice_vertex.iter().map(|&v| lat.pos(v)).collect();
-    Extracted { mesh: TetMesh { points, tets, fields: Vec::new() }, lattice_vertex, lattice_tet }
+    Extracted {
+        mesh: TetMesh {
+            points,
+            tets,
+            fields: Vec::new(),
+        },
+        lattice_vertex,
+        lattice_tet,
+    }
 }
 
 // ---------------------------------------------------------------- topology checks
@@ -688,16 +833,14 @@ fn components(adj: &Adjacency) -> (Vec<u32>, usize) {
 
 // ---------------------------------------------------------------- quality
 
-/// Smallest dihedral angle of a tetrahedron in degrees, or -1 when its signed
-/// volume (VTK orientation) is not positive.
-fn min_dihedral_deg(p: [V3; 4]) -> f64 {
+/// Quality of a tetrahedron: `-cos` of its smallest dihedral angle (so it
+/// grows with the angle, from -1 to 1), or -2 when its signed volume (VTK
+/// orientation) is not positive.
+fn tet_quality(p: [V3; 4]) -> f64 {
     let vol6 = dot(sub(p[1], p[0]), cross(sub(p[2], p[0]), sub(p[3], p[0])));
-    let scale_ref = {
-        let l = norm(sub(p[1], p[0])).max(norm(sub(p[3], p[2])));
-        l * l * l
-    };
-    if !(vol6 > 1e-9 * scale_ref) {
-        return -1.0;
+    let l = norm(sub(p[1], p[0])).max(norm(sub(p[3], p[2])));
+    if vol6.is_nan() || vol6 <= 1e-9 * l * l * l {
+        return -2.0;
     }
     let mut n = [[0.0; 3]; 4];
     for (f, slots) in FACE_VERTICES.iter().enumerate() {
@@ -714,7 +857,19 @@ fn min_dihedral_deg(p: [V3; 4]) -> f64 {
             max_cos = max_cos.max(-dot(n[i], n[j]));
         }
     }
-    max_cos.clamp(-1.0, 1.0).acos().to_degrees()
+    -max_cos.clamp(-1.0, 1.0)
+}
+
+/// Smallest dihedral angle of a tetrahedron in degrees, or -1 when its signed
+/// volume is not positive.
+#[cfg(test)]
+fn min_dihedral_deg(p: [V3; 4]) -> f64 {
+    let q = tet_quality(p);
+    if q < -1.5 {
+        -1.0
+    } else {
+        (-q).acos().to_degrees()
+    }
 }
 
 /// Vertex → incident tetrahedra, compressed.
@@ -749,13 +904,19 @@ impl Incidence {
     }
 }
 
-/// Worst smallest-dihedral angle of the tetrahedra around `v` if `v` were at `q`.
+/// Worst quality of the tetrahedra around `v` if `v` were at `q`.
 fn worst_around(mesh: &TetMesh, inc: &Incidence, v: usize, q: V3) -> f64 {
-    let mut worst = 180.0f64;
+    let mut worst = 1.0f64;
     for &t in inc.of(v) {
         let tet = mesh.tets[t as usize];
-        let p = tet.map(|w| if w as usize == v { q } else { mesh.points[w as usize] });
-        worst = worst.min(min_dihedral_deg(p));
+        let p = tet.map(|w| {
+            if w as usize == v {
+                q
+            } else {
+                mesh.points[w as usize]
+            }
+        });
+        worst = worst.min(tet_quality(p));
     }
     worst
 }
@@ -777,7 +938,9 @@ fn spacing_for(geo: &Geometry, cells: usize) -> f64 {
 
 /// Generates the demo mesh (see the module documentation).
 pub fn generate(p: &DemoParams) -> TetMesh {
-    let h = spacing_for(&Geometry::new(BIG), p.cells_target);
+    // The volume estimate only needs the sign, which culling at a margin of
+    // K_JUNCTION (> every smooth-min bulge, k / 4) preserves.
+    let h = spacing_for(&Geometry::new(K_JUNCTION), p.cells_target);
     // Tubes farther than 3 h + the smooth-min radius are irrelevant to which
     // tetrahedra are kept and to the field blending.
     let geo = Geometry::new((3.0 * h + K_JUNCTION).max(BLEND + K_JUNCTION));
@@ -786,7 +949,12 @@ pub fn generate(p: &DemoParams) -> TetMesh {
     let (lo, hi) = geo.bounds();
     let origin = sub(lo, [1.5 * h; 3]);
     let n = [0, 1, 2].map(|k| ((hi[k] - lo[k] + 3.0 * h) / h).ceil() as usize + 1);
-    let lat = Lattice { origin, h, n, templates: kuhn_templates() };
+    let lat = Lattice {
+        origin,
+        h,
+        n,
+        templates: kuhn_templates(),
+    };
     let phi: Vec<f64> = (0..n[2])
         .into_par_iter()
         .flat_map_iter(|k| {
@@ -807,9 +975,8 @@ pub fn generate(p: &DemoParams) -> TetMesh {
     // Repair pinches and keep the largest component; then peel off the
     // tetrahedra whose four vertices all lie on the boundary (they would be
     // flattened by snapping), and repair again.
-    let mut ex = clean(&lat, &mut keep);
+    let (mut ex, mut adj) = clean(&lat, &mut keep);
     for _ in 0..3 {
-        let adj = ex.mesh.adjacency();
         let mut on_boundary = vec![false; ex.mesh.points.len()];
         for tri in boundary_triangles(&ex.mesh, &adj) {
             for v in tri {
@@ -818,7 +985,9 @@ pub fn generate(p: &DemoParams) -> TetMesh {
         }
         let mut peeled = 0;
         for (i, tet) in ex.mesh.tets.iter().enumerate() {
-            if tet.iter().all(|&v| on_boundary[v as usize]) && adj.neighbors[i].contains(&NO_NEIGHBOR) {
+            if tet.iter().all(|&v| on_boundary[v as usize])
+                && adj.neighbors[i].contains(&NO_NEIGHBOR)
+            {
                 keep[ex.lattice_tet[i]] = false;
                 peeled += 1;
             }
@@ -826,18 +995,30 @@ pub fn generate(p: &DemoParams) -> TetMesh {
         if peeled == 0 {
             break;
         }
-        ex = clean(&lat, &mut keep);
+        (ex, adj) = clean(&lat, &mut keep);
     }
-    let Extracted { mut mesh, lattice_vertex, .. } = ex;
-    let adj = mesh.adjacency();
+    let Extracted {
+        mut mesh,
+        lattice_vertex,
+        ..
+    } = ex;
     let nv = mesh.points.len();
+    let tris = boundary_triangles(&mesh, &adj);
     let mut on_boundary = vec![false; nv];
-    for tri in boundary_triangles(&mesh, &adj) {
-        for v in tri {
+    for tri in &tris {
+        for &v in tri {
             on_boundary[v as usize] = true;
         }
     }
-    relax(&mut mesh, &geo, &lattice_vertex, &lat, &on_boundary, p);
+    relax(
+        &mut mesh,
+        &geo,
+        &lattice_vertex,
+        &lat,
+        &on_boundary,
+        &tris,
+        p,
+    );
     mesh.fields = flow_fields(&mesh, &geo, &on_boundary, h);
     mesh
 }
@@ -845,10 +1026,10 @@ pub fn generate(p: &DemoParams) -> TetMesh {
 /// Repairs boundary pinches of the kept set (all lattice tetrahedra around a
 /// bad edge or vertex are added or removed, by majority) and drops all but the
 /// largest face-connected component; returns the extracted mesh.
-fn clean(lat: &Lattice, keep: &mut [bool]) -> Extracted {
+fn clean(lat: &Lattice, keep: &mut [bool]) -> (Extracted, Adjacency) {
     let mut ex = extract(lat, keep);
+    let mut adj = ex.mesh.adjacency();
     for _ in 0..50 {
-        let adj = ex.mesh.adjacency();
         let (bad_e, bad_v) = boundary_defects(&ex.mesh, &adj);
         if bad_e.is_empty() && bad_v.is_empty() {
             break;
@@ -870,73 +1051,129 @@ fn clean(lat: &Lattice, keep: &mut [bool]) -> Extracted {
             }
         }
         ex = extract(lat, keep);
+        adj = ex.mesh.adjacency();
     }
-    let adj = ex.mesh.adjacency();
     let (comp, ncomp) = components(&adj);
     if ncomp > 1 {
         let mut size = vec![0usize; ncomp];
         for &c in &comp {
             size[c as usize] += 1;
         }
-        let largest = (0..ncomp).max_by_key(|&c| (size[c], std::cmp::Reverse(c))).unwrap_or(0) as u32;
+        let largest = (0..ncomp)
+            .max_by_key(|&c| (size[c], std::cmp::Reverse(c)))
+            .unwrap_or(0) as u32;
         for (i, &t) in ex.lattice_tet.iter().enumerate() {
             if comp[i] != largest {
                 keep[t] = false;
             }
         }
         ex = extract(lat, keep);
+        adj = ex.mesh.adjacency();
     }
-    ex
+    (ex, adj)
 }
 
 /// Moves boundary vertices onto the surface and smooths the interior layer
 /// next to it, colour class by colour class (see the module documentation).
-fn relax(mesh: &mut TetMesh, geo: &Geometry, lattice_vertex: &[usize], lat: &Lattice, on_boundary: &[bool], p: &DemoParams) {
+fn relax(
+    mesh: &mut TetMesh,
+    geo: &Geometry,
+    lattice_vertex: &[usize],
+    lat: &Lattice,
+    on_boundary: &[bool],
+    tris: &[[u32; 3]],
+    p: &DemoParams,
+) {
     let nv = mesh.points.len();
     let inc = Incidence::new(mesh);
+    // Interior vertices that share a tetrahedron with a boundary vertex.
+    let mut band = vec![false; nv];
+    for t in &mesh.tets {
+        if t.iter().any(|&v| on_boundary[v as usize]) {
+            for &v in t {
+                band[v as usize] = !on_boundary[v as usize];
+            }
+        }
+    }
     let colour = |v: usize| {
         let [i, j, k] = lat.vijk(lattice_vertex[v]);
         (i & 1) | (j & 1) << 1 | (k & 1) << 2
     };
     let mut boundary_by_colour: Vec<Vec<usize>> = vec![Vec::new(); 8];
-    let mut interior_by_colour: Vec<Vec<usize>> = vec![Vec::new(); 8];
+    let mut band_by_colour: Vec<Vec<usize>> = vec![Vec::new(); 8];
     for v in 0..nv {
         if on_boundary[v] {
             boundary_by_colour[colour(v)].push(v);
-        } else {
-            interior_by_colour[colour(v)].push(v);
+        } else if band[v] {
+            band_by_colour[colour(v)].push(v);
         }
     }
-    // Surface targets, from the lattice positions.
-    let mut target = vec![[0.0; 3]; nv];
-    let bverts: Vec<usize> = (0..nv).filter(|&v| on_boundary[v]).collect();
-    let projected: Vec<V3> = bverts.par_iter().map(|&v| geo.project(mesh.points[v], lat.h)).collect();
-    for (&v, q) in bverts.iter().zip(projected) {
-        target[v] = q;
-    }
-    let floor = p.quality_floor_deg;
-    let adj = mesh.adjacency();
+    // Boundary neighbours, from the boundary triangles.
     let mut bnb: Vec<Vec<u32>> = vec![Vec::new(); nv];
-    for t in boundary_triangles(mesh, &adj) {
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0]), (t[1], t[0]), (t[2], t[1]), (t[0], t[2])] {
+    for t in tris {
+        for (a, b) in [
+            (t[0], t[1]),
+            (t[1], t[2]),
+            (t[2], t[0]),
+            (t[1], t[0]),
+            (t[2], t[1]),
+            (t[0], t[2]),
+        ] {
             if !bnb[a as usize].contains(&b) {
                 bnb[a as usize].push(b);
             }
         }
     }
+    let bverts: Vec<usize> = (0..nv).filter(|&v| on_boundary[v]).collect();
+    let mut target = vec![[0.0; 3]; nv];
+    let mut quality: Vec<f64> = mesh
+        .tets
+        .par_iter()
+        .map(|t| tet_quality(t.map(|v| mesh.points[v as usize])))
+        .collect();
+    let floor = -p.quality_floor_deg.to_radians().cos();
+    let smooth_below = -35f64.to_radians().cos();
+
+    // Applies one colour class's moves and refreshes the cached qualities.
+    let apply = |mesh: &mut TetMesh, quality: &mut Vec<f64>, moves: Vec<(usize, V3)>| {
+        for &(v, q) in &moves {
+            mesh.points[v] = q;
+        }
+        for &(v, _) in &moves {
+            for &t in inc.of(v) {
+                quality[t as usize] =
+                    tet_quality(mesh.tets[t as usize].map(|w| mesh.points[w as usize]));
+            }
+        }
+    };
+    let worst_cached = |quality: &[f64], v: usize| {
+        inc.of(v)
+            .iter()
+            .map(|&t| quality[t as usize])
+            .fold(1.0, f64::min)
+    };
+
     for pass in 0..p.relax_passes {
-        // After the first pass, the target is the projection of the point
-        // halfway to the mean of the boundary neighbours: snapping plus
-        // tangential smoothing.
-        if pass > 0 {
-            let m: &TetMesh = mesh;
-            let t: Vec<V3> = bverts.par_iter().map(|&v| {
+        // Targets: the projection of the vertex itself (first pass), then of
+        // the point halfway to the mean of its boundary neighbours: snapping
+        // plus tangential smoothing.
+        let m: &TetMesh = mesh;
+        let targets: Vec<V3> = bverts
+            .par_iter()
+            .map(|&v| {
+                if pass == 0 {
+                    return geo.project(m.points[v], lat.h);
+                }
                 let mut c = [0.0; 3];
-                for &w in &bnb[v] { c = add(c, m.points[w as usize]); }
+                for &w in &bnb[v] {
+                    c = add(c, m.points[w as usize]);
+                }
                 let c = scale(c, 1.0 / bnb[v].len() as f64);
                 geo.project(lerp3(m.points[v], c, 0.5), lat.h)
-            }).collect();
-            for (&v, q) in bverts.iter().zip(t) { target[v] = q; }
+            })
+            .collect();
+        for (&v, q) in bverts.iter().zip(targets) {
+            target[v] = q;
         }
         for class in &boundary_by_colour {
             let m: &TetMesh = mesh;
@@ -948,26 +1185,23 @@ fn relax(mesh: &mut TetMesh, geo: &Geometry, lattice_vertex: &[usize], lat: &Lat
                     if dot(step, step) < 1e-20 {
                         return None;
                     }
-                    let old = worst_around(m, &inc, v, cur);
+                    let old = worst_cached(&quality, v);
                     [1.0, 0.5, 0.25, 0.125].iter().find_map(|&a| {
                         let q = add(cur, scale(step, a));
                         let new = worst_around(m, &inc, v, q);
-                        (new > 0.0 && new >= floor.min(old)).then_some((v, q))
+                        (new > -1.5 && new >= floor.min(old)).then_some((v, q))
                     })
                 })
                 .collect();
-            for (v, q) in moves {
-                mesh.points[v] = q;
-            }
+            apply(mesh, &mut quality, moves);
         }
-        for class in &interior_by_colour {
+        for class in &band_by_colour {
             let m: &TetMesh = mesh;
             let moves: Vec<(usize, V3)> = class
                 .par_iter()
                 .filter_map(|&v| {
-                    let cur = m.points[v];
-                    let old = worst_around(m, &inc, v, cur);
-                    if old >= 35.0 {
+                    let old = worst_cached(&quality, v);
+                    if old >= smooth_below {
                         return None;
                     }
                     let ts = inc.of(v);
@@ -978,20 +1212,21 @@ fn relax(mesh: &mut TetMesh, geo: &Geometry, lattice_vertex: &[usize], lat: &Lat
                         }
                     }
                     let q = scale(c, 1.0 / (4 * ts.len()) as f64);
-                    let new = worst_around(m, &inc, v, q);
-                    (new > old).then_some((v, q))
+                    (worst_around(m, &inc, v, q) > old).then_some((v, q))
                 })
                 .collect();
-            for (v, q) in moves {
-                mesh.points[v] = q;
-            }
+            apply(mesh, &mut quality, moves);
         }
     }
 }
 
 /// `velocity`, `speed` and `pressure` at the vertices.
 fn flow_fields(mesh: &TetMesh, geo: &Geometry, on_boundary: &[bool], h: f64) -> Vec<Field> {
-    let samples: Vec<(V3, f64, f64)> = mesh.points.par_iter().map(|&p| geo.flow_at(p, 0.1 * h)).collect();
+    let samples: Vec<(V3, f64, f64)> = mesh
+        .points
+        .par_iter()
+        .map(|&p| geo.flow_at(p, 0.1 * h))
+        .collect();
     let mut velocity = Vec::with_capacity(3 * samples.len());
     let mut speed = Vec::with_capacity(samples.len());
     let mut pressure = Vec::with_capacity(samples.len());
@@ -1001,46 +1236,546 @@ fn flow_fields(mesh: &TetMesh, geo: &Geometry, on_boundary: &[bool], h: f64) -> 
         pressure.push(pr);
     }
     vec![
-        Field { name: "velocity".into(), components: 3, values: velocity },
-        Field { name: "speed".into(), components: 1, values: speed },
-        Field { name: "pressure".into(), components: 1, values: pressure },
+        Field {
+            name: "velocity".into(),
+            components: 3,
+            values: velocity,
+        },
+        Field {
+            name: "speed".into(),
+            components: 1,
+            values: speed,
+        },
+        Field {
+            name: "pressure".into(),
+            components: 1,
+            values: pressure,
+        },
     ]
+}
+
+// ---------------------------------------------------------------- scene
+
+/// Image size of the demo scene.
+const IMAGE: (u32, u32) = (512, 384);
+
+/// ParaView's "Cool to Warm" map, piecewise linear through five of its colours.
+fn cool_to_warm(s: f64) -> V3 {
+    const C: [V3; 5] = [
+        [0.230, 0.299, 0.754],
+        [0.552, 0.690, 0.996],
+        [0.865, 0.865, 0.865],
+        [0.958, 0.604, 0.482],
+        [0.706, 0.016, 0.150],
+    ];
+    let x = s.clamp(0.0, 1.0) * 4.0;
+    let i = (x.floor() as usize).min(3);
+    lerp3(C[i], C[i + 1], x - i as f64)
+}
+
+/// Opacity control points `(s, opacity)`: 0 at rest, high over the slow
+/// near-wall shell, translucent in the middle, rising again for the fastest
+/// cores (the shape of the aorta scenes' function).
+const OPACITY: [(f64, f64); 8] = [
+    (0.0, 0.0),
+    (0.04, 0.2),
+    (0.10, 0.65),
+    (0.24, 0.65),
+    (0.34, 0.3),
+    (0.5, 0.08),
+    (0.75, 0.12),
+    (1.0, 0.24),
+];
+
+fn demo_transfer(unit_distance: f64) -> TransferFunction {
+    use crate::scene::ControlPoint;
+    let points = OPACITY
+        .iter()
+        .map(|&(s, opacity)| ControlPoint {
+            s,
+            rgb: cool_to_warm(s),
+            opacity,
+        })
+        .collect();
+    TransferFunction {
+        points,
+        unit_distance,
+    }
+}
+
+/// `sum of -ln(1 - opacity) dt` along a straight ray through `c` in direction
+/// `dir` (the optical depth times `unit_distance`), and the lumen length crossed.
+fn optical_depth(
+    geo: &Geometry,
+    tf: &TransferFunction,
+    range: [f64; 2],
+    c: V3,
+    dir: V3,
+    half: f64,
+) -> (f64, f64) {
+    let dt = 0.05;
+    let n = (2.0 * half / dt) as usize;
+    let (mut depth, mut len) = (0.0, 0.0);
+    for i in 0..n {
+        let p = add(c, scale(dir, -half + (i as f64 + 0.5) * dt));
+        if geo.phi(p) >= 0.0 {
+            continue;
+        }
+        let (_, speed, _) = geo.flow_at(p, 0.0);
+        let s = (speed - range[0]) / (range[1] - range[0]);
+        let o = tf.eval(s).1.min(crate::scene::transfer::OPACITY_MAX);
+        depth += -(1.0 - o).ln() * dt;
+        len += dt;
+    }
+    (depth, len)
+}
+
+/// Scene TOML (`shared/spec/scene.md`) for the demo mesh: field `speed`, an
+/// orthographic camera looking along +y at the bifurcation plane (image
+/// right = +z, the flow direction; image up = -x), fitted to the mesh bounds
+/// with a 5 % margin, 512 x 384, black background, a cool-to-warm transfer
+/// function, and `unit_distance` chosen so that a ray across the parent vessel
+/// reaches alpha 0.9. A comment block at the top explains the choices.
+pub fn demo_scene_toml(data_file_name: &str, mesh: &TetMesh) -> String {
+    let (lo, hi) = mesh.bounds();
+    let centre = [
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    ];
+    let ext = sub(hi, lo);
+    let (w, h) = IMAGE;
+    // right = +z, screen up = -x: the projected box is ext[2] wide, ext[0] high.
+    let (pw, ph) = (ext[2] * 1.1, ext[0] * 1.1);
+    let height = ((ph.max(pw * h as f64 / w as f64)) * 100.0).ceil() / 100.0;
+    let r3 = |x: f64| (x * 1000.0).round() / 1000.0;
+    let target = centre.map(r3);
+    let eye = [target[0], r3(lo[1] - ext[1] - 100.0), target[2]];
+
+    let speed = mesh.scalar("speed").unwrap_or_default();
+    let range = [
+        speed.iter().cloned().fold(f64::INFINITY, f64::min),
+        speed.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+    ];
+    let range = if range[0] < range[1] {
+        range
+    } else {
+        [0.0, 1.0]
+    };
+
+    // unit_distance: alpha 0.9 across the parent vessel (a quarter along it,
+    // upstream of the side branch), along the view direction.
+    let geo = Geometry::new(BIG);
+    let tf1 = demo_transfer(1.0);
+    let y = [0.0, 1.0, 0.0];
+    let probe = |tube: usize, t: f64| {
+        let tb = &geo.tubes[tube];
+        let i = ((tb.pts.len() - 1) as f64 * t).round() as usize;
+        optical_depth(&geo, &tf1, range, tb.pts[i], y, tb.rad[i] * 2.0 + 2.0)
+    };
+    let (parent_depth, _) = probe(PARENT, 0.25);
+    let ud_exact = parent_depth / 10f64.ln();
+    // Two significant digits, printed exactly as used.
+    let ud: f64 = {
+        let decimals = (1.0 - ud_exact.log10().floor()).max(0.0) as usize;
+        format!("{ud_exact:.decimals$}").parse().unwrap_or(ud_exact)
+    };
+    let tf = demo_transfer(ud);
+    let alpha = |(depth, len): (f64, f64)| (1.0 - (-depth / ud).exp(), len);
+    let probes = [
+        (
+            "parent (r = 10 -> 9 mm), a quarter along it",
+            probe(PARENT, 0.25),
+        ),
+        ("parent just before the junction", probe(PARENT, 0.9)),
+        (
+            "daughter A (r = 7 -> 6 mm), halfway",
+            probe(DAUGHTER_A, 0.5),
+        ),
+        (
+            "daughter B (r = 6 -> 5 mm), halfway",
+            probe(DAUGHTER_B, 0.5),
+        ),
+        ("side branch (r = 4 -> 3.5 mm), halfway", probe(SIDE, 0.5)),
+    ];
+    let mean_opacity = speed
+        .iter()
+        .map(|&v| tf.eval((v - range[0]) / (range[1] - range[0])).1)
+        .sum::<f64>()
+        / speed.len().max(1) as f64;
+    let wall = speed.iter().filter(|&&v| v == 0.0).count();
+
+    let mut s = String::new();
+    s += "# pvrsim demo: a synthetic arterial bifurcation (generated by pvrsim, not patient data), mm and m/s.\n";
+    s += &format!(
+        "# Data: {data_file_name}, {} tetrahedra, {} vertices; speed = 2 |velocity| (1 - (rho/R)^2) (Poiseuille-like,\n",
+        mesh.tets.len(),
+        mesh.points.len()
+    );
+    s += &format!(
+        "# 0 on the {wall} wall vertices); range = the field's min..max, [{:.4}, {:.4}] m/s.\n",
+        range[0], range[1]
+    );
+    s += "# Camera: orthographic, looking along +y at the bifurcation plane: image right = +z (the flow runs left to right,\n";
+    s += "# inlet at the left, outlets at the right), image up = -x (daughter B above, daughter A and the side branch below).\n";
+    s += &format!(
+        "# Fitted to the mesh bounding box with a 5% margin on each side (projected extent {:.1} x {:.1} mm).\n",
+        ext[2], ext[0]
+    );
+    s += "# Transfer function: colours blue -> red (ParaView 'Cool to Warm'); opacity rises fast from 0 at the wall,\n";
+    s += "# is high for slow flow (the near-wall shell, s 0.10-0.24), translucent around s = 0.5 and rises again to 0.24\n";
+    s += "# for the fastest cores, as in the aorta scenes.\n";
+    s += &format!(
+        "# Mean TF opacity over all {} vertices = {mean_opacity:.4}.\n",
+        speed.len()
+    );
+    s += &format!(
+        "# unit_distance = {ud} mm, so that a ray across the parent vessel along the view direction reaches alpha 0.9\n"
+    );
+    s += "# (exact value for that: ";
+    s += &format!(
+        "{ud_exact:.3} mm). Accumulated alpha along such rays (analytic field, 0.05 mm steps):\n"
+    );
+    for (name, d) in probes {
+        let (a, len) = alpha(d);
+        s += &format!("#   {name}: {a:.3} over {len:.1} mm of lumen\n");
+    }
+    s += "\n[data]\n";
+    s += &format!("path  = {data_file_name:?}\nfield = \"speed\"\n");
+    s += "\n[camera]\n";
+    let v = |p: V3| format!("[{}, {}, {}]", p[0], p[1], p[2]);
+    s += &format!(
+        "eye        = {}\ntarget     = {}\nup         = [-1, 0, 0]\n",
+        v(eye),
+        v(target)
+    );
+    s += &format!("projection = \"orthographic\"\nheight     = {height}\n");
+    s += &format!("\n[image]\nwidth      = {w}\nheight     = {h}\nbackground = [0, 0, 0]\n");
+    s += &format!("\n[transfer]\nunit_distance = {ud}\npoints = [\n");
+    for p in &tf.points {
+        s += &format!(
+            "  [{:.4}, {:.4}, {:.4}, {:.4}, {:.4}],\n",
+            p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.opacity
+        );
+    }
+    s += "]\n";
+    s
+}
+
+/// The demo mesh and its scene text (see [`generate`] and [`demo_scene_toml`]).
+pub fn demo_mesh_and_scene(p: &DemoParams, data_file_name: &str) -> (TetMesh, String) {
+    let mesh = generate(p);
+    let scene = demo_scene_toml(data_file_name, &mesh);
+    (mesh, scene)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Scene;
+    use std::sync::OnceLock;
+
+    /// The default mesh, generated once for all tests.
+    fn mesh() -> &'static TetMesh {
+        static MESH: OnceLock<TetMesh> = OnceLock::new();
+        MESH.get_or_init(|| generate(&DemoParams::default()))
+    }
+
+    fn boundary_flags(m: &TetMesh) -> Vec<bool> {
+        let mut b = vec![false; m.points.len()];
+        for t in boundary_triangles(m, &m.adjacency()) {
+            for v in t {
+                b[v as usize] = true;
+            }
+        }
+        b
+    }
+
+    fn field<'a>(m: &'a TetMesh, name: &str) -> &'a Field {
+        m.fields.iter().find(|f| f.name == name).unwrap()
+    }
+
+    /// Unique edges of the mesh.
+    fn edges(m: &TetMesh) -> Vec<[u32; 2]> {
+        let mut e: Vec<[u32; 2]> = m
+            .tets
+            .iter()
+            .flat_map(|t| {
+                [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+                    .map(|(a, b)| [t[a].min(t[b]), t[a].max(t[b])])
+            })
+            .collect();
+        e.sort_unstable();
+        e.dedup();
+        e
+    }
 
     #[test]
-    fn stats() {
+    fn deterministic_across_runs_and_thread_counts() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let again = pool.install(|| generate(&DemoParams::default()));
+        let a = mesh();
+        assert_eq!(a.tets, again.tets);
+        let bits = |m: &TetMesh| {
+            m.points
+                .iter()
+                .flatten()
+                .map(|x| x.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(a), bits(&again));
+        for (f, g) in a.fields.iter().zip(&again.fields) {
+            assert_eq!(f.name, g.name);
+            assert!(
+                f.values
+                    .iter()
+                    .zip(&g.values)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "field {}",
+                f.name
+            );
+        }
+    }
+
+    #[test]
+    fn valid_conforming_mesh() {
+        let m = mesh();
+        m.validate(std::path::Path::new("demo")).unwrap();
+        let adj = m.adjacency();
+        assert_eq!(adj.nonmanifold_faces, 0);
+        let (bad_edges, bad_vertices) = boundary_defects(m, &adj);
+        assert!(
+            bad_edges.is_empty() && bad_vertices.is_empty(),
+            "boundary not a closed manifold: {} edges, {} vertices",
+            bad_edges.len(),
+            bad_vertices.len()
+        );
+        assert_eq!(components(&adj).1, 1, "one connected component");
+        // Every point is used.
+        let mut used = vec![false; m.points.len()];
+        m.tets
+            .iter()
+            .flatten()
+            .for_each(|&v| used[v as usize] = true);
+        assert!(used.iter().all(|&u| u));
+        // Orientation and shape.
+        let h = spacing_for(
+            &Geometry::new(K_JUNCTION),
+            DemoParams::default().cells_target,
+        );
+        let vmin = (0..m.tets.len())
+            .map(|t| m.tet_volume(t))
+            .fold(f64::INFINITY, f64::min);
+        assert!(vmin > 0.01 * h * h * h, "min volume {vmin} (h = {h})");
+        let dmin = m
+            .tets
+            .iter()
+            .map(|t| min_dihedral_deg(t.map(|v| m.points[v as usize])))
+            .fold(180.0, f64::min);
+        assert!(
+            dmin >= DemoParams::default().quality_floor_deg - 1e-6,
+            "min dihedral {dmin}"
+        );
+    }
+
+    #[test]
+    fn cell_count_scales_with_the_target() {
+        let n = mesh().tets.len();
+        assert!((100_000..=300_000).contains(&n), "{n} tetrahedra");
+        assert!(
+            (n as f64 / 150_000.0 - 1.0).abs() < 0.1,
+            "{n} tetrahedra for a target of 150000"
+        );
+        let small = generate(&DemoParams {
+            cells_target: 20_000,
+            ..Default::default()
+        });
+        let r = small.tets.len() as f64 / 20_000.0;
+        assert!(
+            (0.75..1.25).contains(&r),
+            "{} tetrahedra for a target of 20000",
+            small.tets.len()
+        );
+        assert_eq!(small.adjacency().nonmanifold_faces, 0);
+        assert_eq!(components(&small.adjacency()).1, 1);
+    }
+
+    #[test]
+    fn boundary_lies_on_the_surface() {
+        let m = mesh();
+        let geo = Geometry::new(BIG);
+        let h = spacing_for(&geo, DemoParams::default().cells_target);
+        let b = boundary_flags(m);
+        let err: Vec<f64> = (0..m.points.len())
+            .filter(|&v| b[v])
+            .map(|v| geo.phi(m.points[v]).abs())
+            .collect();
+        let off = err.iter().filter(|&&e| e > 0.1 * h).count();
+        let max = err.iter().cloned().fold(0.0, f64::max);
+        assert!(
+            off * 100 < err.len(),
+            "{off} of {} boundary vertices more than 0.1 h off the surface",
+            err.len()
+        );
+        assert!(max < 0.6 * h, "max distance {max}");
+    }
+
+    #[test]
+    fn fields_are_flow_like() {
+        let m = mesh();
+        let b = boundary_flags(m);
+        let speed = &field(m, "speed").values;
+        let vel = &field(m, "velocity").values;
+        let pres = &field(m, "pressure").values;
+        assert_eq!(field(m, "velocity").components, 3);
+        for v in 0..m.points.len() {
+            if b[v] {
+                assert_eq!(speed[v], 0.0, "wall vertex {v}");
+            } else {
+                assert!(speed[v] > 0.0, "interior vertex {v}");
+            }
+        }
+        let smax = speed.iter().cloned().fold(0.0, f64::max);
+        assert!((0.5..3.0).contains(&smax), "max speed {smax}");
+        // Smooth: no jump between neighbours beyond the steepest analytic slope
+        // (the wall shear of the side branch, about 0.4 m/s per mm).
+        for [a, c] in edges(m) {
+            let (a, c) = (a as usize, c as usize);
+            let len = norm(sub(m.points[a], m.points[c]));
+            assert!(
+                (speed[a] - speed[c]).abs() <= 0.6 * len,
+                "speed jump on edge {a}-{c}"
+            );
+            let dv = norm(sub(
+                [vel[3 * a], vel[3 * a + 1], vel[3 * a + 2]],
+                [vel[3 * c], vel[3 * c + 1], vel[3 * c + 2]],
+            ));
+            assert!(dv <= 0.2 * len, "velocity jump {dv} on edge {a}-{c}");
+        }
+        // Flow follows the centrelines, and pressure falls along it.
+        let geo = Geometry::new(BIG);
+        for (k, tube) in geo.tubes.iter().enumerate() {
+            // Branch starts lie inside the parent, where the flows blend.
+            let first = if k == PARENT {
+                2
+            } else {
+                CENTRELINE_POINTS / 2
+            };
+            for i in [first, CENTRELINE_POINTS / 2, CENTRELINE_POINTS - 6] {
+                let (v, s, _) = geo.flow_at(tube.pts[i], 0.0);
+                assert!(
+                    dot(v, tube.tan[i]) > 0.9 * norm(v),
+                    "velocity along the centreline"
+                );
+                assert!(s > 0.2);
+            }
+            assert!(
+                tube.pres.windows(2).all(|w| w[1] < w[0]),
+                "pressure falls along each tube"
+            );
+        }
+        let pmin = pres.iter().cloned().fold(f64::INFINITY, f64::min);
+        let pmax = pres.iter().cloned().fold(0.0, f64::max);
+        assert!(
+            pmin > -1e-9 && pmax > 1.0,
+            "pressure range [{pmin}, {pmax}]"
+        );
+        // The inlet (z lowest) has the highest pressure.
+        let inlet = (0..m.points.len())
+            .min_by(|&a, &c| m.points[a][2].total_cmp(&m.points[c][2]))
+            .unwrap();
+        assert!(pres[inlet] > 0.95 * pmax);
+    }
+
+    #[test]
+    fn scene_parses_and_sees_the_whole_mesh() {
+        let m = mesh();
+        let text = demo_scene_toml("demo.vtk", m);
+        let scene = Scene::parse(&text, std::path::Path::new("data/demo.toml")).unwrap();
+        assert_eq!(scene.data.field, "speed");
+        assert_eq!(scene.data.path, std::path::Path::new("data/demo.vtk"));
+        assert!(text.starts_with("# "));
+        let view = scene.view();
+        let (lo, hi) = m.bounds();
+        let (mut xmin, mut xmax, mut ymin, mut ymax) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for c in 0..8 {
+            let p = [
+                if c & 1 == 0 { lo[0] } else { hi[0] },
+                if c & 2 == 0 { lo[1] } else { hi[1] },
+                if c & 4 == 0 { lo[2] } else { hi[2] },
+            ];
+            let cam = view.to_camera(p);
+            assert!(cam[2] > 0.0, "corner in front of the eye");
+            let [x, y] = view.camera_to_pixel(cam).unwrap();
+            assert!(
+                x > 0.0 && x < scene.image.width as f64 && y > 0.0 && y < scene.image.height as f64,
+                "corner {p:?} at pixel ({x}, {y})"
+            );
+            (xmin, xmax, ymin, ymax) = (xmin.min(x), xmax.max(x), ymin.min(y), ymax.max(y));
+        }
+        // Fitted: the box fills the image in at least one direction, up to the margin.
+        let fill = ((xmax - xmin) / scene.image.width as f64)
+            .max((ymax - ymin) / scene.image.height as f64);
+        assert!(fill > 0.85, "box fills {fill} of the image");
+        // unit_distance gives alpha about 0.9 across the parent.
+        let speed = m.scalar("speed").unwrap();
+        let range = [0.0, speed.iter().cloned().fold(0.0, f64::max)];
+        let geo = Geometry::new(BIG);
+        let t = &geo.tubes[PARENT];
+        let i = (CENTRELINE_POINTS - 1) / 4;
+        let (depth, _) = optical_depth(
+            &geo,
+            &scene.transfer,
+            range,
+            t.pts[i],
+            [0.0, 1.0, 0.0],
+            2.0 * t.rad[i] + 2.0,
+        );
+        let alpha = 1.0 - (-depth / scene.transfer.unit_distance).exp();
+        assert!(
+            (0.85..0.95).contains(&alpha),
+            "alpha across the parent {alpha}"
+        );
+    }
+
+    /// Prints the mesh statistics (`cargo test --release --lib data::demo -- --nocapture`).
+    #[test]
+    fn print_statistics() {
         let t0 = std::time::Instant::now();
         let m = generate(&DemoParams::default());
         let dt = t0.elapsed();
-        let adj = m.adjacency();
-        let (be, bv) = boundary_defects(&m, &adj);
-        let (_, nc) = components(&adj);
-        let q: Vec<f64> = m.tets.iter().map(|t| min_dihedral_deg(t.map(|v| m.points[v as usize]))).collect();
-        let mut qs = q.clone();
-        qs.sort_by(f64::total_cmp);
-        let vmin = (0..m.tets.len()).map(|t| m.tet_volume(t)).fold(f64::INFINITY, f64::min);
-        eprintln!("time {dt:?} tets {} pts {} nonman {} bad e {} v {} comps {} vmin {vmin} dih min {} p1 {} p5 {} med {}",
-            m.tets.len(), m.points.len(), adj.nonmanifold_faces, be.len(), bv.len(), nc, qs[0], qs[qs.len()/100], qs[qs.len()/20], qs[qs.len()/2]);
-        let geo = Geometry::new(BIG);
-        let tris = boundary_triangles(&m, &adj);
-        let mut bvs: Vec<u32> = tris.iter().flatten().copied().collect();
-        bvs.sort_unstable(); bvs.dedup();
-        let errs: Vec<f64> = bvs.iter().map(|&v| geo.phi(m.points[v as usize]).abs()).collect();
-        let h = spacing_for(&geo, 150_000);
-        let far = errs.iter().filter(|&&e| e > 0.1 * h).count();
-        let mut onb = vec![false; m.points.len()];
-        for &v in &bvs { onb[v as usize] = true; }
-        let inc = Incidence::new(&m);
-        let stuck: Vec<u32> = bvs.iter().copied().filter(|&v| geo.phi(m.points[v as usize]).abs() > 0.1 * h).collect();
-        let allb = stuck.iter().filter(|&&v| inc.of(v as usize).iter().any(|&t| m.tets[t as usize].iter().all(|&w| onb[w as usize]))).count();
-        let nallb = m.tets.iter().filter(|t| t.iter().all(|&w| onb[w as usize])).count();
-        let mut hist = [0usize; 8];
-        for &v in &stuck { let e = geo.phi(m.points[v as usize]) / h; hist[((e + 1.0) * 4.0).clamp(0.0, 7.0) as usize] += 1; }
-        eprintln!("stuck with all-boundary tet: {allb} of {}; all-boundary tets {nallb}; signed hist (-1..1 by .25) {hist:?}", stuck.len());
-        eprintln!("h {h} boundary verts {} max |phi| {} >0.1h: {far}", bvs.len(), errs.iter().cloned().fold(0.0, f64::max));
+        let mut q: Vec<f64> = m
+            .tets
+            .iter()
+            .map(|t| min_dihedral_deg(t.map(|v| m.points[v as usize])))
+            .collect();
+        q.sort_by(f64::total_cmp);
+        let mut vol: Vec<f64> = (0..m.tets.len()).map(|t| m.tet_volume(t)).collect();
+        vol.sort_by(f64::total_cmp);
+        let wall = boundary_flags(&m).iter().filter(|&&b| b).count();
+        let n = q.len();
+        eprintln!(
+            "demo mesh: generated in {dt:.2?}; {} tetrahedra, {} vertices ({wall} on the wall); volume min {:.4} median {:.4} max {:.4} mm3, total {:.0} mm3; \
+             min dihedral {:.2} deg, 1st pct {:.2}, 5th pct {:.2}, median {:.2}; below 20 deg: {}",
+            n,
+            m.points.len(),
+            vol[0],
+            vol[n / 2],
+            vol[n - 1],
+            vol.iter().sum::<f64>(),
+            q[0],
+            q[n / 100],
+            q[n / 20],
+            q[n / 2],
+            q.iter().filter(|&&a| a < 20.0).count()
+        );
     }
 }
