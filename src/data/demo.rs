@@ -31,31 +31,40 @@
 //!    (Kuhn) subdivision around its main diagonal, the same way in every cube,
 //!    so the lattice tetrahedralisation is conforming (dihedral angles 45°,
 //!    60°, 90°).
-//! 3. A tetrahedron is kept when the mean signed distance of its 4 vertices is
-//!    negative. Any subset of a conforming mesh is conforming. Where the kept
-//!    set pinches (a boundary edge with 4 boundary triangles, or a boundary
-//!    vertex whose boundary triangles form two fans), the lattice tetrahedra
-//!    around it are all added or all removed, by majority, until none is left;
-//!    then only the largest face-connected component is kept.
-//! 4. The staircase boundary is moved onto the surface: each boundary vertex is
-//!    moved towards its projection on the zero level set (two Newton steps),
-//!    taking the full step or the largest of 1/2, 1/4, 1/8 of it that keeps the
-//!    smallest dihedral angle of every incident tetrahedron at or above a
-//!    floor (`quality_floor_deg`, default 15°) or not worse than before. Then
-//!    interior vertices whose worst incident tetrahedron is below 35° are
-//!    moved to the mean of their incident tetrahedra's centroids when that
-//!    improves their worst tetrahedron. Several passes alternate the two. A
-//!    move never inverts a tetrahedron: the check rejects any step that
-//!    makes a volume non-positive.
-//! 5. Vertices are relaxed in 8 colour classes (lattice index parity): two
-//!    vertices of one class never share a tetrahedron, so each class is moved
-//!    in parallel with a result independent of the thread count. Nothing uses
-//!    hashing or randomness, so the same parameters give a bit-identical mesh.
+//! 3. A tetrahedron is kept when all four of its vertices are inside. Any
+//!    subset of a conforming mesh is conforming. Where the kept set pinches
+//!    (a boundary edge with 4 boundary triangles, or a boundary vertex whose
+//!    boundary triangles form two fans), the lattice tetrahedra around it are
+//!    all added or all removed, by majority, until none is left; then only the
+//!    largest face-connected component is kept. Tetrahedra whose four
+//!    vertices all lie on the boundary (they would be flattened when their
+//!    vertices reach a smooth surface) are peeled off, and the repair is
+//!    repeated (up to 3 rounds).
+//! 4. The staircase boundary is moved onto the surface. Each boundary
+//!    vertex's target is its projection on the zero level set (two Newton
+//!    steps); from the second pass on, the projection of the point halfway to
+//!    the mean of its boundary neighbours (snapping plus tangential
+//!    smoothing). A vertex takes the full step or the largest of 1/2, 1/4, 1/8
+//!    of it that keeps the smallest dihedral angle of every incident
+//!    tetrahedron at or above a floor (`quality_floor_deg`, default 15°), or
+//!    not worse than it was. Then interior vertices next to the boundary whose
+//!    worst incident tetrahedron is below 35° move to the mean of their
+//!    incident tetrahedra's centroids when that improves it. 4 passes. No move
+//!    is accepted that makes a volume non-positive.
+//! 5. Vertices move in 8 colour classes (lattice index parity): two vertices
+//!    of one class never share a tetrahedron, so each class moves in parallel
+//!    with a result independent of the thread count. Nothing uses hashing or
+//!    randomness, so the same parameters give a bit-identical mesh (tested,
+//!    also against a 1-thread pool).
 //!
-//! At the default 150 000 target the mesh has about 151 000 tetrahedra and
-//! 30 000 vertices; the smallest dihedral angle is at least the floor (15°)
-//! and boundary vertices end on the surface to a small fraction of `h` except
-//! where the floor stopped them (see the tests, which print statistics).
+//! Measured at the default target of 150 000 (the `print_statistics` test):
+//! 150 365 tetrahedra, 30 474 vertices (9 957 on the wall), `h` = 1.17 mm;
+//! tetrahedron volume min 0.0735 (0.046 h³), median 0.285, max 1.43 mm³;
+//! smallest dihedral angle 15.6°, 1st percentile 25.0°, 5th 31.4°, median
+//! 45°, 62 tetrahedra below 20°. 5 of the 9 957 wall vertices are more than
+//! 0.1 h from the implicit surface (at most 0.47 h), the rest on it. The
+//! boundary is a closed 2-manifold and the mesh one component. Generation
+//! takes about 0.4–0.65 s in release on 2 shared cores (0.57 s on one thread).
 //!
 //! # Fields (at the vertices)
 //!
