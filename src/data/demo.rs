@@ -68,19 +68,19 @@
 //!
 //! # Fields (at the vertices)
 //!
-//! - `velocity` [m/s]: the cross-section mean velocity `Q(s) / (π r(s)²)`
+//! - `velocity` (m/s): the cross-section mean velocity `Q(s) / (π r(s)²)`
 //!   along the local centreline tangent, blended between tubes near the
 //!   junctions with weights that fall to 0 over 4 mm of signed-distance
 //!   difference. Inlet mean 0.4 m/s; the side branch takes 10 % of the
 //!   flow, daughter A 50 %, daughter B 40 %.
-//! - `speed` [m/s]: `2 |velocity| (1 - (ρ/R)²)`, the Poiseuille profile, with
+//! - `speed` (m/s): `2 |velocity| (1 - (ρ/R)²)`, the Poiseuille profile, with
 //!   `d` the distance to the wall (minus the signed distance), `ρ` the
 //!   distance to the (blended) centreline and `R = d + ρ`; `d` ignores the
 //!   inlet and outlet caps, and the speed is instead faded to 0 over the
 //!   last 3 mm before each cap (smoothstep), so that it is 0 on every boundary
 //!   vertex (unphysical at the caps, but smooth). It is exactly 0 on the
 //!   boundary vertices and positive inside.
-//! - `pressure` [Pa]: Poiseuille pressure drop `dp/ds = -8 μ Q / (π r⁴)` with
+//! - `pressure` (Pa): Poiseuille pressure drop `dp/ds = -8 μ Q / (π r⁴)` with
 //!   blood viscosity `μ = 3.5 mPa s`, integrated along each tube from the
 //!   inlet, continuous at the junctions, shifted so that the lowest outlet is
 //!   at 0. It falls along the flow.
