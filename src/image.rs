@@ -101,6 +101,17 @@ impl Image {
         }
     }
 
+    /// `|a - b| * gain` per channel, alpha 1: where two renderers disagree.
+    pub fn difference(a: &Image, b: &Image, gain: f32) -> Image {
+        let pixels = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| [(p[0] - q[0]).abs() * gain, (p[1] - q[1]).abs() * gain, (p[2] - q[2]).abs() * gain, 1.0])
+            .collect();
+        Image { width: a.width, height: a.height, pixels }
+    }
+
     /// Puts `images` side by side (same height) with a gap, for looking at
     /// two renderers next to each other.
     pub fn side_by_side(images: &[&Image], gap: u32) -> Image {

@@ -38,3 +38,23 @@ impl RenderInput {
         Ok(RenderInput { scene, mesh, s_norm, range })
     }
 }
+
+impl RenderInput {
+    /// Reads the scene file and its mesh; returns the input and the seconds
+    /// spent reading the mesh.
+    pub fn load(scene_path: &std::path::Path) -> Result<(RenderInput, f64)> {
+        let scene = Scene::load(scene_path)?;
+        let t = std::time::Instant::now();
+        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
+        let load_s = t.elapsed().as_secs_f64();
+        Ok((RenderInput::new(scene, Arc::new(mesh))?, load_s))
+    }
+
+    /// The same input with the image size replaced (camera unchanged: an
+    /// orthographic view keeps its world height).
+    pub fn with_size(mut self, width: u32, height: u32) -> RenderInput {
+        self.scene.image.width = width;
+        self.scene.image.height = height;
+        self
+    }
+}

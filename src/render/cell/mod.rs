@@ -38,7 +38,7 @@ pub use segment::{Rgba, Segment};
 
 use crate::image::Image;
 use crate::render::RenderInput;
-use scan::{covered_pixels, ScanCounts, ScanTarget};
+use scan::{ScanCounts, ScanTarget};
 
 /// Options of the cell-projection renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,18 +130,19 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     let view = scene.view();
     let tf = PreparedTf::new(&scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
-    let order = match opts.cell_order {
-        CellOrder::Stored => None,
-        CellOrder::FrontToBack => Some(order::front_to_back(&input.mesh.tets, &pv)),
-    };
-    let binning = bin::bin_cells(&input.mesh.tets, order.as_deref(), &pv, &tf, opts.tile_size.max(1));
+    let mut binning = bin::bin_cells(&input.mesh.tets, &pv, &tf, opts.tile_size.max(1));
     let t1 = Instant::now();
 
     let tiles: Vec<TileResult> = binning
         .tiles
         .par_iter()
-        .zip(&binning.bins)
-        .map(|(rect, cells)| scan_tile(input, &pv, &tf, opts, *rect, cells))
+        .zip(&mut binning.bins)
+        .map(|(rect, cells)| {
+            if opts.cell_order == CellOrder::FrontToBack {
+                cells.sort_unstable_by_key(|c| c.order_key());
+            }
+            scan_tile(pv.perspective.then(|| pv.rays()), &tf, opts, *rect, cells)
+        })
         .collect();
     let t2 = Instant::now();
 
@@ -210,35 +211,23 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     (image, stats)
 }
 
-/// Scan-converts the cells of one tile into fresh lists.
-pub fn scan_tile(
-    input: &RenderInput,
-    pv: &project::ProjectedVertices,
-    tf: &PreparedTf,
-    opts: &CellOptions,
-    rect: scan::Rect,
-    cells: &[u32],
-) -> TileResult {
+/// Scan-converts the cells of one tile, in the given order, into fresh lists.
+pub fn scan_tile(perspective: Option<project::PerspRays>, tf: &PreparedTf, opts: &CellOptions, rect: scan::Rect, cells: &[bin::CellRecord]) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
-    let tets = &input.mesh.tets;
     {
         let mut target = ScanTarget::new(&mut lists, rect, tf, opts.integrator, opts.partial_composition, &mut counts);
-        for &c in cells {
-            let ids = tets[c as usize];
-            let range = if pv.perspective && ids.iter().any(|&v| pv.pixel[v as usize][0].is_nan()) {
-                Some((rect.x0, rect.x1 - 1, rect.y0, rect.y1 - 1))
-            } else {
-                covered_pixels(&ids.map(|v| pv.pixel[v as usize]), rect)
-            };
-            let Some(range) = range else { continue };
-            let Some(setup) = setup::setup_tet(ids, &pv.pos, &pv.s) else {
-                degenerate += 1;
+        for c in cells {
+            let [i0, i1, j0, j1] = c.range;
+            let range = (i0.max(rect.x0), i1.min(rect.x1 - 1), j0.max(rect.y0), j1.min(rect.y1 - 1));
+            let Some(setup) = setup::setup_tet(c.ids, &c.pos, &c.s) else {
+                // Counted once, in the tile holding the cell's first pixel.
+                degenerate += u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
                 continue;
             };
-            if pv.perspective {
-                scan::scan_persp(&setup, pv, range, &mut target);
+            if let Some(rays) = &perspective {
+                scan::scan_persp(&setup, rays, range, &mut target);
             } else {
                 scan::scan_ortho(&setup, range, &mut target);
             }

@@ -13,7 +13,7 @@
 use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
 use super::integrate::{Batch, Integrator, PreparedTf, BATCH};
 use super::list::{Inserted, SegmentLists};
-use super::project::ProjectedVertices;
+use super::project::PerspRays;
 use super::segment::Segment;
 use super::setup::TetSetup;
 
@@ -240,14 +240,14 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
 /// is `τ d`, `d = (dx, dy, 1)`; the face bound is `τ = h / (n · d)`; depth
 /// along the ray is `τ |d|`. `τ >= 0` clips everything behind the eye.
 #[inline]
-pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+pub fn scan_persp(t: &TetSetup, rays: &PerspRays, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
         for i in i0..=i1 {
             let x = i as f32 + 0.5;
             out.counts.pixels_tested += 1;
-            let d = pv.ray_dir(x, y);
+            let d = rays.dir(x, y);
             let (mut t_in, mut t_out) = (0.0f32, f32::INFINITY);
             let mut inside = true;
             for f in &t.faces {

@@ -54,12 +54,11 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Sets up tet `ids` with vertex positions `pos` and scalars `s`. `None` for a
-/// tet with no volume (in f32): it covers no ray stretch of positive length.
+/// Sets up the tet with global vertex ids `ids`, vertex positions `p` and
+/// scalars `sv`. `None` for a tet with no volume (in f32): it covers no ray
+/// stretch of positive length.
 #[inline]
-pub fn setup_tet(ids: [u32; 4], pos: &[[f32; 3]], s: &[f32]) -> Option<TetSetup> {
-    let p = ids.map(|v| pos[v as usize]);
-    let sv = ids.map(|v| s[v as usize]);
+pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetSetup> {
     let mut faces = [FacePlane::default(); 4];
     for (f, slots) in FACE_VERTICES.iter().enumerate() {
         let mut tri = [(ids[slots[0]], slots[0]), (ids[slots[1]], slots[1]), (ids[slots[2]], slots[2])];
