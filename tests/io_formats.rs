@@ -4,9 +4,39 @@
 use std::path::{Path, PathBuf};
 
 use pvrsim::data::io::read_mesh;
+use pvrsim::data::TetMesh;
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// Compares two meshes, reporting the first difference (not the whole mesh).
+fn assert_same(a: &TetMesh, b: &TetMesh, what: &str) {
+    assert_eq!(a.points.len(), b.points.len(), "{what}: point count");
+    if let Some(i) = (0..a.points.len()).find(|&i| a.points[i] != b.points[i]) {
+        panic!("{what}: point {i}: {:?} vs {:?}", a.points[i], b.points[i]);
+    }
+    assert_eq!(a.tets.len(), b.tets.len(), "{what}: tet count");
+    if let Some(i) = (0..a.tets.len()).find(|&i| a.tets[i] != b.tets[i]) {
+        panic!("{what}: tet {i}: {:?} vs {:?}", a.tets[i], b.tets[i]);
+    }
+    let names = |m: &TetMesh| {
+        m.fields
+            .iter()
+            .map(|f| (f.name.clone(), f.components))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(names(a), names(b), "{what}: fields");
+    for (fa, fb) in a.fields.iter().zip(&b.fields) {
+        if let Some(i) = (0..fa.values.len()).find(|&i| fa.values[i] != fb.values[i]) {
+            panic!(
+                "{what}: field {} value {i}: {} vs {}",
+                fa.name, fa.values[i], fb.values[i]
+            );
+        }
+    }
 }
 
 #[test]
@@ -17,7 +47,12 @@ fn aorta_full_load_time() {
     }
     let t = std::time::Instant::now();
     let m = read_mesh(p).unwrap();
-    eprintln!("aorta.vtk: {} points, {} tets in {:?}", m.points.len(), m.tets.len(), t.elapsed());
+    eprintln!(
+        "aorta.vtk: {} points, {} tets in {:?}",
+        m.points.len(),
+        m.tets.len(),
+        t.elapsed()
+    );
     assert_eq!(m.tets.len(), 305_703);
 }
 
@@ -36,4 +71,59 @@ fn aorta_full_load_time_repeat() {
         m.validate(p).unwrap();
         eprintln!("read {t1:?} parse {t2:?} validate {:?}", t.elapsed());
     }
+}
+
+#[test]
+fn spx_loads() {
+    let m = read_mesh(&data("spx.inp")).unwrap();
+    assert_eq!(m.points.len(), 2896);
+    assert_eq!(m.tets.len(), 12_936);
+    assert_eq!(m.fields.len(), 1);
+    assert_eq!(m.fields[0].name, "density");
+    let neg = (0..m.tets.len()).filter(|&t| m.tet_volume(t) < 0.0).count();
+    let zero = (0..m.tets.len())
+        .filter(|&t| m.tet_volume(t) == 0.0)
+        .count();
+    eprintln!(
+        "spx: {neg} negative, {zero} zero-volume tets; bounds {:?}",
+        m.bounds()
+    );
+}
+
+#[test]
+fn aorta_small_loads() {
+    let m = read_mesh(&data("aorta-small.vtk")).unwrap();
+    assert_eq!(m.tets.len(), 20_169);
+    assert_eq!(m.points.len(), 5_326);
+    let names: Vec<&str> = m.fields.iter().map(|f| f.name.as_str()).collect();
+    for n in ["speed", "pressure", "potential", "velocity"] {
+        assert!(names.contains(&n), "{names:?}");
+    }
+    assert_eq!(
+        m.fields
+            .iter()
+            .find(|f| f.name == "velocity")
+            .unwrap()
+            .components,
+        3
+    );
+    let speed = m.scalar("speed").unwrap();
+    let max = speed.iter().cloned().fold(f64::MIN, f64::max);
+    let min = speed.iter().cloned().fold(f64::MAX, f64::min);
+    assert!((max - 1.617).abs() < 1e-3, "{max}");
+    assert!(min.abs() < 1e-9);
+}
+
+#[test]
+fn ascii_and_binary_legacy_round_trip() {
+    let m = read_mesh(&data("aorta-small.vtk")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.vtk"), dir.path().join("b.vtk"));
+    pvrsim::data::io::write_vtk_legacy(&m, &a, false).unwrap();
+    pvrsim::data::io::write_vtk_legacy(&m, &b, true).unwrap();
+    let ma = read_mesh(&a).unwrap();
+    let mb = read_mesh(&b).unwrap();
+    // The source is float32, so the f32 writer loses nothing.
+    assert_same(&ma, &m, "ascii");
+    assert_same(&mb, &m, "binary");
 }

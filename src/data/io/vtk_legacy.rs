@@ -20,7 +20,8 @@
 //!
 //! Not supported (an error): other dataset types (`STRUCTURED_POINTS`,
 //! `POLYDATA`, ...), `bit` and `string` arrays, polyhedron cells.
-//! `long` is taken as 64-bit.
+//! `long` is taken as 64-bit. ASCII values of a `float` array are rounded
+//! to single precision, as VTK stores them, so ASCII and binary files agree.
 //!
 //! Errors give the line (text parts) or the byte offset (binary data) and
 //! say what was expected there: a truncated binary block reports how many
@@ -244,7 +245,13 @@ impl<'a> Parser<'a> {
         if self.binary {
             Ok(decode_f64(self.binary_block(n, ty, what)?, ty, true))
         } else {
-            self.ascii_values(n, "number", what)
+            let v: Vec<f64> = self.ascii_values(n, "number", what)?;
+            // A `float` array holds single-precision values, as in VTK.
+            Ok(if ty == NumType::F32 {
+                v.into_iter().map(|x| x as f32 as f64).collect()
+            } else {
+                v
+            })
         }
     }
 
