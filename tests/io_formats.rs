@@ -127,3 +127,88 @@ fn ascii_and_binary_legacy_round_trip() {
     assert_same(&ma, &m, "ascii");
     assert_same(&mb, &m, "binary");
 }
+
+/// meshio's view of the fixtures (see tests/data/vtu/make_fixtures.py).
+fn vtu_expected() -> (serde_json::Value, TetMesh) {
+    let text = std::fs::read_to_string(data("vtu/expected.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let f = |x: &serde_json::Value| x.as_str().unwrap().parse::<f64>().unwrap();
+    let points = v["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| [f(&p[0]), f(&p[1]), f(&p[2])])
+        .collect();
+    let tets = v["tets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| [0, 1, 2, 3].map(|k| t[k].as_u64().unwrap() as u32))
+        .collect();
+    let mut fields: Vec<pvrsim::data::Field> = v["fields"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(name, rows)| {
+            let rows = rows.as_array().unwrap();
+            let components = rows[0].as_array().unwrap().len();
+            let values = rows
+                .iter()
+                .flat_map(|r| r.as_array().unwrap().iter().map(f))
+                .collect();
+            pvrsim::data::Field {
+                name: name.clone(),
+                components,
+                values,
+            }
+        })
+        .collect();
+    fields.sort_by(|a, b| a.name.cmp(&b.name));
+    (
+        v,
+        TetMesh {
+            points,
+            tets,
+            fields,
+        },
+    )
+}
+
+#[test]
+fn every_vtu_fixture_equals_meshio_view() {
+    let (v, expected) = vtu_expected();
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 9);
+    for name in files {
+        let name = name.as_str().unwrap();
+        let mut m = read_mesh(&data(&format!("vtu/{name}"))).unwrap_or_else(|e| panic!("{e}"));
+        m.fields.sort_by(|a, b| a.name.cmp(&b.name));
+        if name == "ascii.vtu" {
+            // meshio prints 12 significant digits.
+            assert_eq!(m.tets, expected.tets);
+            for (a, b) in m
+                .points
+                .iter()
+                .flatten()
+                .zip(expected.points.iter().flatten())
+            {
+                assert!(
+                    (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
+                    "{name}: {a} vs {b}"
+                );
+            }
+            for (fa, fb) in m.fields.iter().zip(&expected.fields) {
+                assert_eq!((&fa.name, fa.components), (&fb.name, fb.components));
+                for (a, b) in fa.values.iter().zip(&fb.values) {
+                    assert!(
+                        (a - b).abs() <= 1e-11 * b.abs(),
+                        "{name} {}: {a} vs {b}",
+                        fa.name
+                    );
+                }
+            }
+        } else {
+            assert_same(&m, &expected, name);
+        }
+    }
+}
