@@ -212,3 +212,29 @@ fn every_vtu_fixture_equals_meshio_view() {
         }
     }
 }
+
+#[test]
+fn aorta_quality_report_matches_the_data_readme() {
+    let p = Path::new("/work/shared/data/aorta.vtk");
+    if !p.exists() {
+        return;
+    }
+    let m = read_mesh(p).unwrap();
+    let t = std::time::Instant::now();
+    let adj = m.adjacency();
+    let t_adj = t.elapsed();
+    let r = pvrsim::data::quality::MeshReport::compute(&m, &adj);
+    eprintln!("adjacency {t_adj:?}, report {:?}\n{r}", t.elapsed() - t_adj);
+    let v = r.volume.unwrap();
+    assert!(
+        (v.min - 0.089).abs() < 0.001
+            && (v.median - 0.588).abs() < 0.001
+            && (v.max - 1.66).abs() < 0.01
+    );
+    assert!((r.volume_total - 186_067.0).abs() < 1.0);
+    let a = r.min_dihedral_deg.unwrap();
+    assert!((a.min - 11.5).abs() < 0.05 && (a.median - 48.4).abs() < 0.05);
+    assert!((r.min_dihedral_p1_deg.unwrap() - 18.2).abs() < 0.05);
+    assert_eq!(r.dihedral_below_15, 368);
+    assert_eq!((r.inverted, r.degenerate, r.nonmanifold_faces), (0, 0, 0));
+}
