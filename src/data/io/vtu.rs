@@ -503,7 +503,7 @@ impl Ctx<'_> {
         if head + total > raw.len() as u128 {
             return Err(trunc(
                 (head + total) as u64,
-                &format!("{nblocks} compressed blocks"),
+                &format!("{nblocks} compressed block(s)"),
             ));
         }
         let expected_total = if nblocks == 0 {
