@@ -238,3 +238,178 @@ fn aorta_quality_report_matches_the_data_readme() {
     assert_eq!(r.dihedral_below_15, 368);
     assert_eq!((r.inverted, r.degenerate, r.nonmanifold_faces), (0, 0, 0));
 }
+
+/// A 2x1x1 block: one hexahedron, then the next unit cube as two wedges,
+/// a pyramid on top, and a skipped triangle and line. Classic ASCII layout.
+const MIXED_ASCII: &str = "# vtk DataFile Version 2.0
+mixed cells
+ASCII
+
+DATASET UNSTRUCTURED_GRID
+POINTS 13 double
+0 0 0  1 0 0  1 1 0  0 1 0
+0 0 1  1 0 1  1 1 1  0 1 1
+2 0 0  2 1 0  2 0 1  2 1 1
+1.5 0.5 2
+CELLS 6 36
+8 0 1 2 3 4 5 6 7
+6 1 8 9 5 10 11
+6 1 9 2 5 11 6
+5 5 10 11 6 12
+3 0 1 5
+2 0 1
+CELL_TYPES 6
+12 13 13 14 5 3
+CELL_DATA 6
+SCALARS material int 1
+LOOKUP_TABLE default
+1 2 2 3 4 5
+POINT_DATA 13
+FIELD FieldData 2
+temp 1 13 float
+0 1 2 3 4 5 6 7 8 9 10 11 12
+vel%20xyz 3 13 double
+0 0 0 1 0 0 2 0 0 3 0 0 4 0 0 5 0 0 6 0 0 7 0 0 8 0 0 9 0 0 10 0 0 11 0 0 12 0 0
+";
+
+#[test]
+fn mixed_cells_are_decomposed_and_lower_dimensional_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("mixed.vtk");
+    std::fs::write(&p, MIXED_ASCII).unwrap();
+    let m = read_mesh(&p).unwrap();
+    // 6 (hex) + 3 + 3 (wedges) + 2 (pyramid); triangle and line skipped.
+    assert_eq!(m.tets.len(), 14);
+    let vols: Vec<f64> = (0..m.tets.len()).map(|t| m.tet_volume(t)).collect();
+    assert!(vols.iter().all(|&v| v > 0.0));
+    let total: f64 = vols.iter().sum();
+    assert!((total - (2.0 + 1.0 / 3.0)).abs() < 1e-12, "{total}");
+    let adj = m.adjacency();
+    assert_eq!(adj.nonmanifold_faces, 0);
+    // Closed surface of the block plus pyramid: 2x1x1 box has 10 unit squares
+    // (20 triangles); the pyramid covers one (-2) and adds 4 triangles.
+    let boundary = adj
+        .neighbors
+        .iter()
+        .flatten()
+        .filter(|&&n| n == pvrsim::data::NO_NEIGHBOR)
+        .count();
+    assert_eq!(boundary, 22);
+    assert_eq!(
+        m.fields
+            .iter()
+            .map(|f| (f.name.as_str(), f.components))
+            .collect::<Vec<_>>(),
+        [("temp", 1), ("vel xyz", 3)]
+    );
+}
+
+/// The same tetrahedral mesh in the VTK 5.1 layout (OFFSETS/CONNECTIVITY),
+/// ASCII and binary, with CELL_DATA and METADATA to parse past.
+fn legacy_51(binary: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    let head = |out: &mut Vec<u8>, s: &str| out.extend_from_slice(s.as_bytes());
+    head(
+        &mut out,
+        &format!(
+            "# vtk DataFile Version 5.1\nvtk output\n{}\nDATASET UNSTRUCTURED_GRID\n",
+            if binary { "BINARY" } else { "ASCII" }
+        ),
+    );
+    let pts: [f32; 15] = [0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.];
+    let offs: [i64; 3] = [0, 4, 8];
+    let conn: [i64; 8] = [0, 1, 2, 3, 1, 2, 3, 4];
+    let f = |out: &mut Vec<u8>, v: &[f32]| {
+        if binary {
+            v.iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes()));
+            out.push(b'\n');
+        } else {
+            out.extend_from_slice(
+                format!(
+                    "{}\n",
+                    v.iter()
+                        .map(|x| x.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                )
+                .as_bytes(),
+            );
+        }
+    };
+    let i = |out: &mut Vec<u8>, v: &[i64]| {
+        if binary {
+            v.iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes()));
+            out.push(b'\n');
+        } else {
+            out.extend_from_slice(
+                format!(
+                    "{}\n",
+                    v.iter()
+                        .map(|x| x.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                )
+                .as_bytes(),
+            );
+        }
+    };
+    head(&mut out, "POINTS 5 float\n");
+    f(&mut out, &pts);
+    head(&mut out, "METADATA\nINFORMATION 0\n\n");
+    head(&mut out, "CELLS 3 8\nOFFSETS vtktypeint64\n");
+    i(&mut out, &offs);
+    head(&mut out, "CONNECTIVITY vtktypeint64\n");
+    i(&mut out, &conn);
+    head(&mut out, "CELL_TYPES 2\n");
+    if binary {
+        [10i32, 10]
+            .iter()
+            .for_each(|x| out.extend_from_slice(&x.to_be_bytes()));
+        out.push(b'\n');
+    } else {
+        head(&mut out, "10\n10\n");
+    }
+    head(
+        &mut out,
+        "CELL_DATA 2\nFIELD FieldData 1\nid 1 2 vtktypeint64\n",
+    );
+    i(&mut out, &[7, 8]);
+    head(&mut out, "VECTORS cellvec double\n");
+    if binary {
+        [0.5f64; 6]
+            .iter()
+            .for_each(|x| out.extend_from_slice(&x.to_be_bytes()));
+        out.push(b'\n');
+    } else {
+        head(&mut out, "0.5 0.5 0.5 0.5 0.5 0.5\n");
+    }
+    head(
+        &mut out,
+        "POINT_DATA 5\nSCALARS s float\nLOOKUP_TABLE default\n",
+    );
+    f(&mut out, &[0.0, 0.25, 0.5, 0.75, 1.0]);
+    head(&mut out, "VECTORS v float\n");
+    f(
+        &mut out,
+        &[
+            1., 2., 3., 4., 5., 6., 7., 8., 9., 10., 11., 12., 13., 14., 15.,
+        ],
+    );
+    out
+}
+
+#[test]
+fn version_51_layout_ascii_equals_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.vtk"), dir.path().join("b.vtk"));
+    std::fs::write(&a, legacy_51(false)).unwrap();
+    std::fs::write(&b, legacy_51(true)).unwrap();
+    let ma = read_mesh(&a).unwrap();
+    let mb = read_mesh(&b).unwrap();
+    assert_same(&ma, &mb, "5.1");
+    assert_eq!(ma.tets, vec![[0, 1, 2, 3], [1, 2, 3, 4]]);
+    assert_eq!(ma.fields.len(), 2);
+    assert_eq!(ma.fields[1].values[14], 15.0);
+}
