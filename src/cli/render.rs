@@ -18,7 +18,7 @@ pub enum RendererKind {
 }
 
 /// Options of `pvrsim render`.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct RenderArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
@@ -60,8 +60,18 @@ pub struct RenderArgs {
     pub compare: bool,
 }
 
-/// Runs `pvrsim render`.
-pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+/// What one render produced.
+pub struct RenderOutcome {
+    /// The image.
+    pub image: crate::image::Image,
+    /// Every statistic, as the `--stats` JSON holds them.
+    pub stats: serde_json::Value,
+}
+
+/// Renders as `pvrsim render` would, without writing files or printing
+/// (when `quiet`). Used by `render` and by `sweep`, so that a sweep can vary
+/// any option `render` has, under the same name.
+pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     let (mut input, load_s) = RenderInput::load(&a.scene).with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
@@ -73,39 +83,51 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         tile_size: a.tile.max(1),
         cell_order: a.cell_order,
     };
-    let (image, stats_json) = match a.renderer {
+    let (image, mut stats) = match a.renderer {
         RendererKind::Cell => {
             let (image, mut stats) = super::with_threads(a.threads, || cell::render(&input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
-            print_cell_summary(&a, &input, &stats);
+            if !quiet {
+                print_cell_summary(a, &input, &stats);
+            }
             (image, serde_json::to_value(&stats)?)
         }
         RendererKind::Reference => {
             let adjacency = input.mesh.adjacency();
             let (image, stats) = super::with_threads(a.threads, || reference::render(&input, &adjacency, &Default::default()))?;
-            println!("reference render of {}: {}x{} in {:.3} s (load {:.3} s)", a.scene.display(), image.width, image.height, stats.time_s, load_s);
+            if !quiet {
+                println!("reference render of {}: {}x{} in {:.3} s (load {:.3} s)", a.scene.display(), image.width, image.height, stats.time_s, load_s);
+            }
             (image, serde_json::to_value(&stats)?)
         }
     };
     anyhow::ensure!(!image.has_non_finite(), "internal error: the image has NaN or infinite pixels");
-    image.save_png(&a.output)?;
-    println!("wrote {}", a.output.display());
-    let mut stats_json = stats_json;
     if a.compare {
         let adjacency = input.mesh.adjacency();
         let (reference, rs) = super::with_threads(a.threads, || reference::render(&input, &adjacency, &Default::default()))?;
         let err = image.error_against(&reference);
-        println!("against the reference ({:.2} s): {err}", rs.time_s);
-        let diff = crate::image::Image::difference(&image, &reference, 10.0);
-        let side = crate::image::Image::side_by_side(&[&image, &reference, &diff], 4);
-        let path = a.output.with_file_name(format!("{}-compare.png", a.output.file_stem().unwrap_or_default().to_string_lossy()));
-        side.save_png(&path)?;
-        println!("wrote {} (this | reference | 10x difference)", path.display());
-        stats_json["error_vs_reference"] = serde_json::to_value(err)?;
+        stats["error_vs_reference"] = serde_json::to_value(err)?;
+        stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
+        if !quiet {
+            println!("against the reference ({:.2} s): {err}", rs.time_s);
+            let diff = crate::image::Image::difference(&image, &reference, 10.0);
+            let side = crate::image::Image::side_by_side(&[&image, &reference, &diff], 4);
+            let path = a.output.with_file_name(format!("{}-compare.png", a.output.file_stem().unwrap_or_default().to_string_lossy()));
+            side.save_png(&path)?;
+            println!("wrote {} (this | reference | 10x difference)", path.display());
+        }
     }
+    Ok(RenderOutcome { image, stats })
+}
+
+/// Runs `pvrsim render`.
+pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    let out = execute(&a, false)?;
+    out.image.save_png(&a.output)?;
+    println!("wrote {}", a.output.display());
     if let Some(path) = &a.stats {
-        std::fs::write(path, serde_json::to_string_pretty(&stats_json)?).with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::write(path, serde_json::to_string_pretty(&out.stats)?).with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote {}", path.display());
     }
     Ok(())
