@@ -17,7 +17,11 @@ pub struct BenchArgs {
     #[arg(long, default_value = "../shared/data")]
     pub data_dir: PathBuf,
     /// Scenes to time (file names in the data folder).
-    #[arg(long, value_delimiter = ',', default_value = "aorta-view-a.toml,aorta-view-b.toml")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "aorta-view-a.toml,aorta-view-b.toml"
+    )]
     pub scenes: Vec<String>,
     /// Renders per configuration; the median is reported.
     #[arg(long, default_value_t = 5)]
@@ -66,19 +70,28 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
          (../shared/data next to this checkout) or --data-dir pointing at it.",
         a.data_dir.display()
     );
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
     let mut rows = Vec::new();
-    println!("{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13}", "scene", "renderer", "threads", "median ms", "min ms", "scan ms", "Mcells/s", "Msegments/s");
+    println!(
+        "{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13}",
+        "scene", "renderer", "threads", "median ms", "min ms", "scan ms", "Mcells/s", "Msegments/s"
+    );
     for name in &a.scenes {
         let path = a.data_dir.join(name);
-        let (input, _) = RenderInput::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
+        let (input, _) =
+            RenderInput::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
         for integrator in [Integrator::Exact, Integrator::Midpoint] {
             let mut thread_counts = vec![1];
             if cores > 1 {
                 thread_counts.push(cores);
             }
             for &threads in &thread_counts {
-                let opts = CellOptions { integrator, ..Default::default() };
+                let opts = CellOptions {
+                    integrator,
+                    ..Default::default()
+                };
                 let mut total = Vec::new();
                 let mut scan = Vec::new();
                 let mut last = None;
@@ -108,7 +121,9 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         }
         if a.reference {
             let adjacency = input.mesh.adjacency();
-            let (_, rs) = super::with_threads(cores, || reference::render(&input, &adjacency, &Default::default()))?;
+            let (_, rs) = super::with_threads(cores, || {
+                reference::render(&input, &adjacency, &Default::default())
+            })?;
             let row = BenchRow {
                 scene: name.clone(),
                 renderer: "reference".into(),

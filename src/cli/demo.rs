@@ -27,21 +27,33 @@ pub struct DemoArgs {
 
 /// Runs `pvrsim demo`.
 pub fn run(a: DemoArgs) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
     let t = std::time::Instant::now();
-    let params = DemoParams { cells_target: a.cells, ..Default::default() };
-    let (mesh, scene_text) = super::with_threads(a.threads, || demo_mesh_and_scene(&params, "demo.vtk"))?;
+    let params = DemoParams {
+        cells_target: a.cells,
+        ..Default::default()
+    };
+    let (mesh, scene_text) =
+        super::with_threads(a.threads, || demo_mesh_and_scene(&params, "demo.vtk"))?;
     let gen_s = t.elapsed().as_secs_f64();
-    println!("generated a bifurcating vessel: {} tetrahedra, {} vertices in {:.2} s", mesh.tets.len(), mesh.points.len(), gen_s);
+    println!(
+        "generated a bifurcating vessel: {} tetrahedra, {} vertices in {:.2} s",
+        mesh.tets.len(),
+        mesh.points.len(),
+        gen_s
+    );
     let vtk = a.out_dir.join("demo.vtk");
     crate::data::io::write_vtk_legacy(&mesh, &vtk, true)?;
     let scene_path = a.out_dir.join("demo.toml");
-    std::fs::write(&scene_path, &scene_text).with_context(|| format!("cannot write {}", scene_path.display()))?;
+    std::fs::write(&scene_path, &scene_text)
+        .with_context(|| format!("cannot write {}", scene_path.display()))?;
     println!("wrote {} and {}", vtk.display(), scene_path.display());
 
     let scene = Scene::parse(&scene_text, &scene_path)?;
     let input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;
-    let (image, stats) = super::with_threads(a.threads, || cell::render(&input, &CellOptions::default()))?;
+    let (image, stats) =
+        super::with_threads(a.threads, || cell::render(&input, &CellOptions::default()))?;
     let png = a.out_dir.join("demo.png");
     image.save_png(&png)?;
     let stats_path = a.out_dir.join("demo-stats.json");
@@ -51,6 +63,9 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         image.width, image.height, stats.time_total_s, stats.threads, stats.segments_generated, stats.segments_merged
     );
     println!("wrote {} and {}", png.display(), stats_path.display());
-    println!("next: pvrsim render {} -o out.png --compare", scene_path.display());
+    println!(
+        "next: pvrsim render {} -o out.png --compare",
+        scene_path.display()
+    );
     Ok(())
 }

@@ -20,7 +20,8 @@ pub struct InfoArgs {
 /// Runs `pvrsim info`.
 pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
-    let mesh = crate::data::io::read_mesh(&a.file).with_context(|| format!("cannot read {}", a.file.display()))?;
+    let mesh = crate::data::io::read_mesh(&a.file)
+        .with_context(|| format!("cannot read {}", a.file.display()))?;
     let load_s = t.elapsed().as_secs_f64();
     let report = MeshReport::compute(&mesh, &mesh.adjacency());
     if a.json {

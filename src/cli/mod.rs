@@ -51,6 +51,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 
 /// Runs `f` in a rayon pool of `threads` threads (0: all cores).
 pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
     Ok(pool.install(f))
 }

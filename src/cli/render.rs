@@ -72,7 +72,8 @@ pub struct RenderOutcome {
 /// (when `quiet`). Used by `render` and by `sweep`, so that a sweep can vary
 /// any option `render` has, under the same name.
 pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
-    let (mut input, load_s) = RenderInput::load(&a.scene).with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    let (mut input, load_s) = RenderInput::load(&a.scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
@@ -85,7 +86,8 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     };
     let (image, mut stats) = match a.renderer {
         RendererKind::Cell => {
-            let (image, mut stats) = super::with_threads(a.threads, || cell::render(&input, &opts))?;
+            let (image, mut stats) =
+                super::with_threads(a.threads, || cell::render(&input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
             if !quiet {
@@ -95,17 +97,31 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         }
         RendererKind::Reference => {
             let adjacency = input.mesh.adjacency();
-            let (image, stats) = super::with_threads(a.threads, || reference::render(&input, &adjacency, &Default::default()))?;
+            let (image, stats) = super::with_threads(a.threads, || {
+                reference::render(&input, &adjacency, &Default::default())
+            })?;
             if !quiet {
-                println!("reference render of {}: {}x{} in {:.3} s (load {:.3} s)", a.scene.display(), image.width, image.height, stats.time_s, load_s);
+                println!(
+                    "reference render of {}: {}x{} in {:.3} s (load {:.3} s)",
+                    a.scene.display(),
+                    image.width,
+                    image.height,
+                    stats.time_s,
+                    load_s
+                );
             }
             (image, serde_json::to_value(&stats)?)
         }
     };
-    anyhow::ensure!(!image.has_non_finite(), "internal error: the image has NaN or infinite pixels");
+    anyhow::ensure!(
+        !image.has_non_finite(),
+        "internal error: the image has NaN or infinite pixels"
+    );
     if a.compare {
         let adjacency = input.mesh.adjacency();
-        let (reference, rs) = super::with_threads(a.threads, || reference::render(&input, &adjacency, &Default::default()))?;
+        let (reference, rs) = super::with_threads(a.threads, || {
+            reference::render(&input, &adjacency, &Default::default())
+        })?;
         let err = image.error_against(&reference);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
@@ -113,9 +129,15 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
             println!("against the reference ({:.2} s): {err}", rs.time_s);
             let diff = crate::image::Image::difference(&image, &reference, 10.0);
             let side = crate::image::Image::side_by_side(&[&image, &reference, &diff], 4);
-            let path = a.output.with_file_name(format!("{}-compare.png", a.output.file_stem().unwrap_or_default().to_string_lossy()));
+            let path = a.output.with_file_name(format!(
+                "{}-compare.png",
+                a.output.file_stem().unwrap_or_default().to_string_lossy()
+            ));
             side.save_png(&path)?;
-            println!("wrote {} (this | reference | 10x difference)", path.display());
+            println!(
+                "wrote {} (this | reference | 10x difference)",
+                path.display()
+            );
         }
     }
     Ok(RenderOutcome { image, stats })
@@ -127,7 +149,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     out.image.save_png(&a.output)?;
     println!("wrote {}", a.output.display());
     if let Some(path) = &a.stats {
-        std::fs::write(path, serde_json::to_string_pretty(&out.stats)?).with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::write(path, serde_json::to_string_pretty(&out.stats)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote {}", path.display());
     }
     Ok(())
@@ -153,7 +176,13 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
         "  segments: {} generated, {} merged by partial composition; lists: mean {:.2}, max {}",
         s.segments_generated, s.segments_merged, s.list_len_mean, s.list_len_max
     );
-    let rate = |n: u64| if s.time_scan_s > 0.0 { n as f64 / s.time_scan_s / 1e6 } else { 0.0 };
+    let rate = |n: u64| {
+        if s.time_scan_s > 0.0 {
+            n as f64 / s.time_scan_s / 1e6
+        } else {
+            0.0
+        }
+    };
     println!(
         "  time: load {:.3} s, project {:.3} s, scan {:.3} s ({:.2} M segments/s, {:.2} M cells/s), composite {:.3} s, total {:.3} s",
         s.time_load_s,

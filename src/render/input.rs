@@ -30,12 +30,25 @@ impl RenderInput {
             None => {
                 let lo = raw.iter().cloned().fold(f64::INFINITY, f64::min);
                 let hi = raw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                if raw.is_empty() { [0.0, 1.0] } else { [lo, hi] }
+                if raw.is_empty() {
+                    [0.0, 1.0]
+                } else {
+                    [lo, hi]
+                }
             }
         };
         let span = range[1] - range[0];
-        let s_norm = if span > 0.0 { raw.iter().map(|s| (s - range[0]) / span).collect() } else { vec![0.0; raw.len()] };
-        Ok(RenderInput { scene, mesh, s_norm, range })
+        let s_norm = if span > 0.0 {
+            raw.iter().map(|s| (s - range[0]) / span).collect()
+        } else {
+            vec![0.0; raw.len()]
+        };
+        Ok(RenderInput {
+            scene,
+            mesh,
+            s_norm,
+            range,
+        })
     }
 }
 

@@ -68,7 +68,12 @@ pub fn tiles(width: u32, height: u32, tile: u32) -> Vec<Rect> {
     let mut out = Vec::new();
     for y0 in (0..height).step_by(tile as usize) {
         for x0 in (0..width).step_by(tile as usize) {
-            out.push(Rect { x0, y0, x1: (x0 + tile).min(width), y1: (y0 + tile).min(height) });
+            out.push(Rect {
+                x0,
+                y0,
+                x1: (x0 + tile).min(width),
+                y1: (y0 + tile).min(height),
+            });
         }
     }
     out
@@ -79,7 +84,12 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
     let (w, h) = pv.size;
     let rects = tiles(w, h, tile);
     let tiles_x = w.div_ceil(tile);
-    let full = Rect { x0: 0, y0: 0, x1: w, y1: h };
+    let full = Rect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
     struct Part {
         pairs: Vec<(u32, CellRecord)>,
         empty: u64,
@@ -90,11 +100,19 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, chunk)| {
-            let mut part = Part { pairs: Vec::with_capacity(chunk.len() * 5 / 4), empty: 0, off: 0, none: 0 };
+            let mut part = Part {
+                pairs: Vec::with_capacity(chunk.len() * 5 / 4),
+                empty: 0,
+                off: 0,
+                none: 0,
+            };
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
                 let s = ids.map(|v| pv.s[v as usize]);
-                let (lo, hi) = (s.iter().cloned().fold(f32::INFINITY, f32::min), s.iter().cloned().fold(f32::NEG_INFINITY, f32::max));
+                let (lo, hi) = (
+                    s.iter().cloned().fold(f32::INFINITY, f32::min),
+                    s.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+                );
                 if tf.is_transparent(lo, hi) {
                     part.empty += 1;
                     continue;
@@ -109,8 +127,14 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
                     // Straddles the eye plane (perspective): bound by the screen.
                     Some((0, w - 1, 0, h - 1))
                 } else {
-                    let (xl, xh) = (px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min), px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max));
-                    let (yl, yh) = (px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min), px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max));
+                    let (xl, xh) = (
+                        px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min),
+                        px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max),
+                    );
+                    let (yl, yh) = (
+                        px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min),
+                        px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max),
+                    );
                     if xh < 0.0 || yh < 0.0 || xl > w as f32 || yl > h as f32 {
                         part.off += 1;
                         continue;
@@ -122,11 +146,20 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
                     continue;
                 };
                 let near = if pv.perspective {
-                    pos.iter().map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()).fold(f32::INFINITY, f32::min)
+                    pos.iter()
+                        .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+                        .fold(f32::INFINITY, f32::min)
                 } else {
                     pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
                 };
-                let rec = CellRecord { near, cell, range: [i0, i1, j0, j1], ids, pos, s };
+                let rec = CellRecord {
+                    near,
+                    cell,
+                    range: [i0, i1, j0, j1],
+                    ids,
+                    pos,
+                    s,
+                };
                 for ty in j0 / tile..=j1 / tile {
                     for tx in i0 / tile..=i1 / tile {
                         part.pairs.push((ty * tiles_x + tx, rec));
@@ -143,7 +176,10 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
         }
     }
     let mut bins: Vec<Vec<CellRecord>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
-    let mut out = Binning { tiles: rects, ..Default::default() };
+    let mut out = Binning {
+        tiles: rects,
+        ..Default::default()
+    };
     for p in parts {
         for (t, rec) in p.pairs {
             bins[t as usize].push(rec);

@@ -55,7 +55,12 @@ pub struct CellOptions {
 
 impl Default for CellOptions {
     fn default() -> Self {
-        CellOptions { integrator: Integrator::Exact, partial_composition: true, tile_size: 32, cell_order: CellOrder::FrontToBack }
+        CellOptions {
+            integrator: Integrator::Exact,
+            partial_composition: true,
+            tile_size: 32,
+            cell_order: CellOrder::FrontToBack,
+        }
     }
 }
 
@@ -156,12 +161,20 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         .map(|(k, (rect, t))| {
             let mut px = Vec::with_capacity((rect.width() * rect.height()) as usize);
             for (idx, l) in t.lists.lists().iter().enumerate() {
-                let (i, j) = (rect.x0 + idx as u32 % rect.width(), rect.y0 + idx as u32 / rect.width());
+                let (i, j) = (
+                    rect.x0 + idx as u32 % rect.width(),
+                    rect.y0 + idx as u32 / rect.width(),
+                );
                 let c = list::composite(l);
                 let keep = 1.0 - c.a;
                 px.push((
                     (j * view.width + i) as usize,
-                    [c.rgb[0] + keep * bg[0], c.rgb[1] + keep * bg[1], c.rgb[2] + keep * bg[2], c.a],
+                    [
+                        c.rgb[0] + keep * bg[0],
+                        c.rgb[1] + keep * bg[1],
+                        c.rgb[2] + keep * bg[2],
+                        c.a,
+                    ],
                 ));
             }
             (k, px)
@@ -188,7 +201,8 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         cell_order: opts.cell_order.to_string(),
         ..Default::default()
     };
-    stats.cells_projected = stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
+    stats.cells_projected =
+        stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
     for t in &tiles {
         counts.add(&t.counts);
         stats.cells_degenerate += t.degenerate;
@@ -203,7 +217,11 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     stats.pixels_tested = counts.pixels_tested;
     stats.segments_generated = counts.segments_generated;
     stats.segments_merged = counts.segments_merged;
-    stats.list_len_mean = if stats.pixels_covered > 0 { stats.segments_stored as f64 / stats.pixels_covered as f64 } else { 0.0 };
+    stats.list_len_mean = if stats.pixels_covered > 0 {
+        stats.segments_stored as f64 / stats.pixels_covered as f64
+    } else {
+        0.0
+    };
     stats.time_project_s = (t1 - t0).as_secs_f64();
     stats.time_scan_s = (t2 - t1).as_secs_f64();
     stats.time_composite_s = (t3 - t2).as_secs_f64();
@@ -212,18 +230,37 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
 }
 
 /// Scan-converts the cells of one tile, in the given order, into fresh lists.
-pub fn scan_tile(perspective: Option<project::PerspRays>, tf: &PreparedTf, opts: &CellOptions, rect: scan::Rect, cells: &[bin::CellRecord]) -> TileResult {
+pub fn scan_tile(
+    perspective: Option<project::PerspRays>,
+    tf: &PreparedTf,
+    opts: &CellOptions,
+    rect: scan::Rect,
+    cells: &[bin::CellRecord],
+) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
     {
-        let mut target = ScanTarget::new(&mut lists, rect, tf, opts.integrator, opts.partial_composition, &mut counts);
+        let mut target = ScanTarget::new(
+            &mut lists,
+            rect,
+            tf,
+            opts.integrator,
+            opts.partial_composition,
+            &mut counts,
+        );
         for c in cells {
             let [i0, i1, j0, j1] = c.range;
-            let range = (i0.max(rect.x0), i1.min(rect.x1 - 1), j0.max(rect.y0), j1.min(rect.y1 - 1));
+            let range = (
+                i0.max(rect.x0),
+                i1.min(rect.x1 - 1),
+                j0.max(rect.y0),
+                j1.min(rect.y1 - 1),
+            );
             let Some(setup) = setup::setup_tet(c.ids, &c.pos, &c.s) else {
                 // Counted once, in the tile holding the cell's first pixel.
-                degenerate += u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
+                degenerate +=
+                    u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
                 continue;
             };
             if let Some(rays) = &perspective {
@@ -233,5 +270,9 @@ pub fn scan_tile(perspective: Option<project::PerspRays>, tf: &PreparedTf, opts:
             }
         }
     }
-    TileResult { lists, counts, degenerate }
+    TileResult {
+        lists,
+        counts,
+        degenerate,
+    }
 }

@@ -39,8 +39,15 @@ impl ProjectedVertices {
             .par_iter()
             .map(|&p| {
                 let c = view.to_camera(p);
-                let px = view.camera_to_pixel(c).map(|q| [q[0] as f32, q[1] as f32]).unwrap_or([f32::NAN; 2]);
-                let pos = if perspective { c.map(|v| v as f32) } else { [px[0], px[1], c[2] as f32] };
+                let px = view
+                    .camera_to_pixel(c)
+                    .map(|q| [q[0] as f32, q[1] as f32])
+                    .unwrap_or([f32::NAN; 2]);
+                let pos = if perspective {
+                    c.map(|v| v as f32)
+                } else {
+                    [px[0], px[1], c[2] as f32]
+                };
                 (pos, px)
             })
             .unzip();
@@ -56,7 +63,11 @@ impl ProjectedVertices {
 
     /// The perspective rays of this image.
     pub fn rays(&self) -> PerspRays {
-        PerspRays { half_w: self.size.0 as f32 * 0.5, half_h: self.size.1 as f32 * 0.5, pixel_size: self.pixel_size }
+        PerspRays {
+            half_w: self.size.0 as f32 * 0.5,
+            half_h: self.size.1 as f32 * 0.5,
+            pixel_size: self.pixel_size,
+        }
     }
 }
 
@@ -72,6 +83,10 @@ impl PerspRays {
     /// Ray direction (not normalised, `z = 1`) of the pixel centre `(x, y)`.
     #[inline(always)]
     pub fn dir(&self, x: f32, y: f32) -> [f32; 3] {
-        [(x - self.half_w) * self.pixel_size, (self.half_h - y) * self.pixel_size, 1.0]
+        [
+            (x - self.half_w) * self.pixel_size,
+            (self.half_h - y) * self.pixel_size,
+            1.0,
+        ]
     }
 }

@@ -83,8 +83,24 @@ pub struct ScanTarget<'a> {
 
 impl<'a> ScanTarget<'a> {
     /// A target writing into `lists` (the lists of `tile`).
-    pub fn new(lists: &'a mut SegmentLists, tile: Rect, tf: &'a PreparedTf, integrator: Integrator, partial: bool, counts: &'a mut ScanCounts) -> Self {
-        ScanTarget { lists, tile, tf, integrator, partial, counts, batch: Batch::default(), pending: [(0, 0.0, 0.0); BATCH] }
+    pub fn new(
+        lists: &'a mut SegmentLists,
+        tile: Rect,
+        tf: &'a PreparedTf,
+        integrator: Integrator,
+        partial: bool,
+        counts: &'a mut ScanCounts,
+    ) -> Self {
+        ScanTarget {
+            lists,
+            tile,
+            tf,
+            integrator,
+            partial,
+            counts,
+            batch: Batch::default(),
+            pending: [(0, 0.0, 0.0); BATCH],
+        }
     }
 
     /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
@@ -94,7 +110,11 @@ impl<'a> ScanTarget<'a> {
         self.batch.s_in[n] = s_in;
         self.batch.s_out[n] = s_out;
         self.batch.len[n] = length;
-        self.pending[n] = ((j - self.tile.y0) * self.tile.width() + (i - self.tile.x0), z_in, z_out);
+        self.pending[n] = (
+            (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0),
+            z_in,
+            z_out,
+        );
         self.batch.n = n + 1;
         if n + 1 == BATCH {
             self.flush();
@@ -111,7 +131,11 @@ impl<'a> ScanTarget<'a> {
         self.counts.segments_generated += n as u64;
         for l in 0..n {
             let (idx, z_front, z_back) = self.pending[l];
-            let seg = Segment { z_front, z_back, rgba: self.batch.result(l) };
+            let seg = Segment {
+                z_front,
+                z_back,
+                rgba: self.batch.result(l),
+            };
             match self.lists.insert(idx as usize, seg, self.partial) {
                 Inserted::New => {}
                 Inserted::Merged => self.counts.segments_merged += 1,
@@ -127,7 +151,12 @@ impl<'a> ScanTarget<'a> {
 /// `None` if no pixel centre is inside.
 #[inline(always)]
 pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32, u32)> {
-    let (mut xl, mut xh, mut yl, mut yh) = (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+    let (mut xl, mut xh, mut yl, mut yh) = (
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    );
     for p in pts {
         xl = xl.min(p[0]);
         xh = xh.max(p[0]);
@@ -185,8 +214,16 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
-        let re = [ent[0][1] * y + ent[0][2], ent[1][1] * y + ent[1][2], ent[2][1] * y + ent[2][2]];
-        let rx = [ext[0][1] * y + ext[0][2], ext[1][1] * y + ext[1][2], ext[2][1] * y + ext[2][2]];
+        let re = [
+            ent[0][1] * y + ent[0][2],
+            ent[1][1] * y + ent[1][2],
+            ent[2][1] * y + ent[2][2],
+        ];
+        let rx = [
+            ext[0][1] * y + ext[0][2],
+            ext[1][1] * y + ext[1][2],
+            ext[2][1] * y + ext[2][2],
+        ];
         // The row's covered span: z_in(X) < z_out(X) holds iff every entering
         // plane lies in front of every leaving one, a linear inequality in X per
         // pair. The span is widened by a pixel and every pixel is still tested
@@ -219,8 +256,17 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             let x = i as f32 + 0.5;
             out.counts.pixels_tested += 1;
             // Depth is measured from the eye plane: nothing behind it is seen.
-            let z_in = fmax(fmax(fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]), ent[2][0] * x + re[2]), 0.0);
-            let z_out = fmin(fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]), ext[2][0] * x + rx[2]);
+            let z_in = fmax(
+                fmax(
+                    fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]),
+                    ent[2][0] * x + re[2],
+                ),
+                0.0,
+            );
+            let z_out = fmin(
+                fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]),
+                ext[2][0] * x + rx[2],
+            );
             if !(z_in < z_out) {
                 continue;
             }
@@ -240,7 +286,12 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
 /// is `τ d`, `d = (dx, dy, 1)`; the face bound is `τ = h / (n · d)`; depth
 /// along the ray is `τ |d|`. `τ >= 0` clips everything behind the eye.
 #[inline]
-pub fn scan_persp(t: &TetSetup, rays: &PerspRays, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+pub fn scan_persp(
+    t: &TetSetup,
+    rays: &PerspRays,
+    range: (u32, u32, u32, u32),
+    out: &mut ScanTarget,
+) {
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
@@ -267,7 +318,15 @@ pub fn scan_persp(t: &TetSetup, rays: &PerspRays, range: (u32, u32, u32, u32), o
             let len_d = (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt();
             let s_in = t.scalar_at([d[0] * t_in, d[1] * t_in, t_in]);
             let s_out = t.scalar_at([d[0] * t_out, d[1] * t_out, t_out]);
-            out.emit(i, j, t_in * len_d, t_out * len_d, s_in, s_out, (t_out - t_in) * len_d);
+            out.emit(
+                i,
+                j,
+                t_in * len_d,
+                t_out * len_d,
+                s_in,
+                s_out,
+                (t_out - t_in) * len_d,
+            );
         }
     }
     out.flush();
