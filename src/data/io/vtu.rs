@@ -642,7 +642,7 @@ impl Ctx<'_> {
     }
 
     fn check_len(&self, a: &ArrayDesc, n: usize) -> Result<()> {
-        if n % a.ty.size() != 0 {
+        if !n.is_multiple_of(a.ty.size()) {
             return Err(self.err(
                 a,
                 format!(
