@@ -413,3 +413,12 @@ fn version_51_layout_ascii_equals_binary() {
     assert_eq!(ma.fields.len(), 2);
     assert_eq!(ma.fields[1].values[14], 15.0);
 }
+
+#[test]
+fn spx_scene_loads_and_its_data_and_field_exist() {
+    let scene = pvrsim::scene::Scene::load(&data("spx.toml")).unwrap();
+    let path = if scene.data.path.is_absolute() { scene.data.path.clone() } else { data("").join(&scene.data.path) };
+    let m = read_mesh(&path).unwrap();
+    m.scalar(&scene.data.field).unwrap();
+    assert_eq!((scene.image.width, scene.image.height), (256, 256));
+}
