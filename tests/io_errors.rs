@@ -399,3 +399,15 @@ fn fuzz_small_binary_files_never_panic() {
     }
     assert!(errors > 300, "only {errors} of 900 variants were rejected");
 }
+
+#[test]
+fn misspelt_keyword_in_binary_file_is_named_with_its_line() {
+    let mut b = std::fs::read(data("aorta-small.vtk")).unwrap();
+    let at = b.windows(15).position(|w| w == b"POINT_DATA 5326").unwrap();
+    b.splice(at..at + 10, b"POINT_DATTA".iter().copied());
+    expect_err(
+        "k.vtk",
+        &b,
+        &["line 23114", "unknown keyword \"POINT_DATTA\""],
+    );
+}
