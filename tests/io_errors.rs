@@ -352,7 +352,10 @@ fn fuzz_small_binary_files_never_panic() {
     let mesh = read_mesh(&data("vtu/appended-raw.vtu")).unwrap();
     let mut vtk = Vec::new();
     pvrsim::data::io::vtk_write::write_to(&mesh, &mut vtk, true).unwrap();
-    let inputs: [(&str, Vec<u8>); 3] = [
+    let ucd = "# tiny\n5 2 1 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n1 1 tet 1 2 3 4\n2 1 tet 2 3 4 5\n1 1\ns, none\n1 0.1\n2 0.2\n3 0.3\n4 0.4\n5 0.5\n";
+    let dir = tempfile::tempdir().unwrap();
+    let inputs: [(&str, Vec<u8>); 4] = [
+        ("f.inp", ucd.as_bytes().to_vec()),
         ("f.vtk", vtk),
         (
             "f.vtu",
@@ -388,8 +391,12 @@ fn fuzz_small_binary_files_never_panic() {
             let p = Path::new(name);
             let r = if name.ends_with(".vtk") {
                 vtk_legacy::parse(&b, p)
-            } else {
+            } else if name.ends_with(".vtu") {
                 vtu::parse(&b, p)
+            } else {
+                let f = dir.path().join(name);
+                std::fs::write(&f, &b).unwrap();
+                read_mesh(&f).map_err(|e| pvrsim::Error::data(p, "", e.to_string()))
             };
             if let Err(e) = r.and_then(|m| m.validate(p).map(|_| m)) {
                 assert!(e.to_string().starts_with(name), "{e}");
@@ -397,5 +404,17 @@ fn fuzz_small_binary_files_never_panic() {
             }
         }
     }
-    assert!(errors > 300, "only {errors} of 900 variants were rejected");
+    assert!(errors > 400, "only {errors} of 1200 variants were rejected");
+}
+
+#[test]
+fn misspelt_keyword_in_binary_file_is_named_with_its_line() {
+    let mut b = std::fs::read(data("aorta-small.vtk")).unwrap();
+    let at = b.windows(15).position(|w| w == b"POINT_DATA 5326").unwrap();
+    b.splice(at..at + 10, b"POINT_DATTA".iter().copied());
+    expect_err(
+        "k.vtk",
+        &b,
+        &["line 23114", "unknown keyword \"POINT_DATTA\""],
+    );
 }

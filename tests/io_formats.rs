@@ -357,7 +357,7 @@ fn legacy_51(binary: bool) -> Vec<u8> {
     };
     head(&mut out, "POINTS 5 float\n");
     f(&mut out, &pts);
-    head(&mut out, "METADATA\nINFORMATION 0\n\n");
+    head(&mut out, "METADATA\nINFORMATION 2\n\nNAME L2_NORM_RANGE LOCATION vtkDataArray\nDATA 2 0 1.73205\nNAME L2_NORM_FINITE_RANGE LOCATION vtkDataArray\nDATA 2 0 1.73205\n\n");
     head(&mut out, "CELLS 3 8\nOFFSETS vtktypeint64\n");
     i(&mut out, &offs);
     head(&mut out, "CONNECTIVITY vtktypeint64\n");
@@ -373,9 +373,14 @@ fn legacy_51(binary: bool) -> Vec<u8> {
     }
     head(
         &mut out,
-        "CELL_DATA 2\nFIELD FieldData 1\nid 1 2 vtktypeint64\n",
+        "CELL_DATA 2\nFIELD FieldData 2\nid 1 2 vtktypeint64\n",
     );
     i(&mut out, &[7, 8]);
+    head(
+        &mut out,
+        "METADATA\nCOMPONENT_NAMES\nthe%20id\n\nINFORMATION 0\n\nid2 1 2 vtktypeint64\n",
+    );
+    i(&mut out, &[9, 10]);
     head(&mut out, "VECTORS cellvec double\n");
     if binary {
         [0.5f64; 6]
@@ -412,4 +417,17 @@ fn version_51_layout_ascii_equals_binary() {
     assert_eq!(ma.tets, vec![[0, 1, 2, 3], [1, 2, 3, 4]]);
     assert_eq!(ma.fields.len(), 2);
     assert_eq!(ma.fields[1].values[14], 15.0);
+}
+
+#[test]
+fn spx_scene_loads_and_its_data_and_field_exist() {
+    let scene = pvrsim::scene::Scene::load(&data("spx.toml")).unwrap();
+    let path = if scene.data.path.is_absolute() {
+        scene.data.path.clone()
+    } else {
+        data("").join(&scene.data.path)
+    };
+    let m = read_mesh(&path).unwrap();
+    m.scalar(&scene.data.field).unwrap();
+    assert_eq!((scene.image.width, scene.image.height), (256, 256));
 }

@@ -125,7 +125,7 @@ pub fn tet_metrics(p: [[f64; 3]; 4]) -> (f64, f64) {
             max_cos = max_cos.max(-dot(n[i], n[j]));
         }
     }
-    if n.iter().any(|v| *v == [0.0; 3]) {
+    if n.contains(&[0.0; 3]) {
         return (vol, 0.0);
     }
     (vol, max_cos.clamp(-1.0, 1.0).acos().to_degrees())

@@ -177,6 +177,9 @@ pub fn parse(text: &str, path: &Path) -> Result<TetMesh> {
         for k in 0..ncomp {
             sizes.push(num::<usize>(&lines, ln, &w, k + 1, "component size")?);
         }
+        if sizes.iter().any(|&s| s == 0 || s > 64) {
+            return Err(lines.err(ln, "node data component sizes must be between 1 and 64"));
+        }
         let total: usize = sizes.iter().sum();
         for (k, &s) in sizes.iter().enumerate() {
             let (_, lw) = lines.next(&format!("the label of node data component {}", k + 1))?;
@@ -190,7 +193,7 @@ pub fn parse(text: &str, path: &Path) -> Result<TetMesh> {
             fields.push(Field {
                 name,
                 components: s,
-                values: vec![f64::NAN; s * nnodes],
+                values: vec![f64::NAN; s * points.len()],
             });
         }
         let mut seen = vec![false; nnodes];

@@ -13,7 +13,8 @@
 //!   `TEXTURE_COORDINATES` and `FIELD name n` arrays, each becoming a
 //!   [`Field`] (`%20` in names decoded);
 //! - `CELL_DATA`, standalone `LOOKUP_TABLE`, `COLOR_SCALARS`, dataset-level
-//!   `FIELD` data and `METADATA` blocks are parsed past and dropped.
+//!   `FIELD` data and `METADATA` blocks (`INFORMATION`, `COMPONENT_NAMES`)
+//!   are parsed past and dropped.
 //!
 //! Cells other than tetrahedra are handled as described in
 //! [`decompose`](super::decompose).
@@ -437,6 +438,10 @@ impl<'a> Parser<'a> {
                     let _name = w.next();
                     let narrays = self.count(at, w.next(), "FIELD array count")?;
                     for _ in 0..narrays {
+                        if self.peek_keyword().as_deref() == Some("METADATA") {
+                            self.line()?;
+                            self.skip_metadata()?;
+                        }
                         let (at, l) = self.line()?.ok_or_else(|| {
                             self.at_line(
                                 self.d.len(),
@@ -472,19 +477,46 @@ impl<'a> Parser<'a> {
                         }
                     }
                 }
-                "METADATA" => {
-                    while let Some((_, l)) = self.raw_line()? {
-                        if l.trim().is_empty() {
-                            break;
-                        }
-                    }
-                }
+                "METADATA" => self.skip_metadata()?,
                 _ => {
                     return Err(self.at_line(at, format!("unknown keyword \"{}\" (expected POINTS, CELLS, CELL_TYPES, POINT_DATA, CELL_DATA, SCALARS, VECTORS, FIELD, ...)", short(w_first(line)))));
                 }
             }
         }
         self.assemble(points, cells, types, fields)
+    }
+
+    /// Skips the body of a `METADATA` block (whose keyword line is already
+    /// read): `INFORMATION n` with `NAME` / `DATA` lines, and
+    /// `COMPONENT_NAMES` followed by names up to a blank line. Stops before
+    /// the first other line.
+    fn skip_metadata(&mut self) -> Result<()> {
+        loop {
+            let save = self.pos;
+            let Ok(Some((_, l))) = self.raw_line() else {
+                self.pos = save;
+                return Ok(());
+            };
+            let first = l
+                .split_whitespace()
+                .next()
+                .unwrap_or("")
+                .to_ascii_uppercase();
+            match first.as_str() {
+                "" | "INFORMATION" | "NAME" | "DATA" => {}
+                "COMPONENT_NAMES" => {
+                    while let Ok(Some((_, l))) = self.raw_line() {
+                        if l.trim().is_empty() {
+                            break;
+                        }
+                    }
+                }
+                _ => {
+                    self.pos = save;
+                    return Ok(());
+                }
+            }
+        }
     }
 
     /// Number of tuples in the current attribute section.

@@ -517,7 +517,7 @@ impl Ctx<'_> {
                 format!("compression header claims {expected_total} bytes of data"),
             ));
         }
-        let mut out = Vec::with_capacity(expected_total as usize);
+        let mut out = Vec::with_capacity(expected_total.min(raw.len() as u128 * 8) as usize);
         let mut p = head as usize;
         for (k, &cs) in sizes.iter().enumerate() {
             let want = if k + 1 == sizes.len() && last != 0 {
@@ -642,7 +642,7 @@ impl Ctx<'_> {
     }
 
     fn check_len(&self, a: &ArrayDesc, n: usize) -> Result<()> {
-        if n % a.ty.size() != 0 {
+        if !n.is_multiple_of(a.ty.size()) {
             return Err(self.err(
                 a,
                 format!(
@@ -684,7 +684,7 @@ fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
                     format!("points need NumberOfComponents=\"3\", found {}", pa.ncomp),
                 ));
             }
-            let v = ctx.f64s(pa, p.npoints * 3)?;
+            let v = ctx.f64s(pa, p.npoints.saturating_mul(3))?;
             points.extend(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         }
         for a in &p.point_data {
