@@ -30,9 +30,10 @@
 //!   boundary faces the ray enters through are found with a BVH over the
 //!   boundary faces, and each starts a walk from tet to tet across shared
 //!   faces, with watertight (Plücker) face tests, robust to rays through
-//!   edges and vertices and to degenerate tets, and a recovery (point location
-//!   with a BVH over the tets) when a walk gets stuck. A ray whose origin is
-//!   inside the mesh starts in the tet located there.
+//!   edges and vertices, along edges, and to degenerate tets, and a recovery
+//!   (point location with a BVH over the tets and barycentric clipping) when a
+//!   walk gets stuck. A ray whose origin is inside the mesh starts in the tet
+//!   located there.
 //! - `quadrature`: each stretch is cut at the transfer function's control
 //!   points (and where the opacity crosses the clamp `1 - 1e-6`), and each
 //!   kink-free piece is integrated by adaptive Gauss–Legendre collocation
@@ -92,12 +93,14 @@ pub struct ReferenceStats {
     /// Entering boundary-face crossings found by the BVH (before skipping the
     /// ones already passed).
     pub boundary_hits: u64,
-    /// Tet visits of all walks (a tet is counted each time it is entered).
+    /// Tet visits of all walks (a tet is counted each time it is entered;
+    /// location steps, including the check after each exit, count too).
     pub tets_visited: u64,
     /// Visits that advanced the ray by nothing (edge / vertex circulation,
     /// degenerate tets).
     pub zero_length_steps: u64,
-    /// Times a walk got stuck and re-located itself with the tet BVH.
+    /// Times a walk got stuck (or left through a boundary face while the ray
+    /// was still inside the mesh) and went on with a locate-and-clip step.
     pub walk_recoveries: u64,
     /// Walks given up after too many recoveries (the rest of the ray was
     /// then taken from the next boundary entry; a stretch may be missing).

@@ -240,7 +240,7 @@ impl<'a> Integrator<'a> {
         ctr: &mut QuadCounters,
     ) {
         let h = t1 - t0;
-        if !(h > 0.0) || !h.is_finite() {
+        if h.is_nan() || h <= 0.0 || h.is_infinite() {
             return;
         }
         let (s0, s1) = (

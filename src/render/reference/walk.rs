@@ -35,7 +35,20 @@
 //! circulates around the edge (each tet of the fan has two faces on it, one
 //! is excluded as the entry) until it reaches the tet beyond.
 //!
-//! # Entries (non-convex meshes) and recovery
+//! # Ill-conditioned pierces
+//!
+//! When the ray runs (nearly) in a face's plane — along an edge, or seeing a
+//! face edge-on — that face's three side products are round-off noise: the
+//! sign test still gives a *consistent* answer (the walk follows a virtual
+//! ray perturbed by round-off, the same in every tet), but the weights put the
+//! pierce point somewhere in the triangle, off the ray. Such a pierce is
+//! flagged (`on_ray` false: the point is farther than `1e-10 (L_ref + |t|)`
+//! from the ray) and the scalar at its `t` is then taken from the tet's own
+//! linear function evaluated on the ray (`s_on_ray`), in the tet before and
+//! the tet after. With a P1 field the tets sharing a face or an edge agree on
+//! it, so the integral stays right even where the transition `t` is vague.
+//!
+//! # Entries (non-convex meshes)
 //!
 //! All boundary faces (no neighbour) pierced by the ray at `t >= 0` are found
 //! with a BVH, kept when the ray goes *into* their tet there, and sorted by
@@ -43,17 +56,32 @@
 //! previous walk (minus a tiny `eps_t`) was already passed inside the mesh and
 //! is skipped. So every re-entry of a non-convex mesh starts a new walk.
 //! If the ray origin is inside the mesh (a perspective eye inside, an
-//! orthographic eye plane cutting the mesh) the tet containing it is located
-//! with a BVH over the tets and the first walk starts there.
+//! orthographic eye plane cutting the mesh) the first walk starts with a
+//! location step (below) at `t = 0`.
 //!
-//! A walk that stalls (no pierced face, more than `MAX_ZERO_STEPS` steps in a
-//! row without progress — a ray through a vertex can cycle around it —, or a
-//! degenerate neighbour) *recovers*: the tet that contains the ray just beyond
-//! `t_cur` is located with the tet BVH (the one whose stretch reaches
-//! farthest) and the walk resumes there from `t_cur`, so no stretch is
-//! skipped. If none contains it, the ray is outside the mesh and the next
-//! boundary entry takes over. Recoveries are counted; a walk with too many is
-//! abandoned (counted separately) and the boundary entries take over.
+//! # Recovery: locate-and-clip steps
+//!
+//! A walk *recovers* when it stalls: no pierced face but the entry, the best
+//! exit lies behind `t` (a zero-length step at a degenerate spot led into a
+//! tet the ray has already passed), or more than `MAX_ZERO_STEPS` steps in a
+//! row made no progress (a ray through a vertex can circle around it). It
+//! also checks every exit through a boundary face the same way, since a walk
+//! confused at a boundary edge or vertex may leave too early.
+//!
+//! The step: the tets whose (padded) boxes hold the point `r(t)` are taken
+//! from a BVH over all tets; for each, the ray's chord is computed by plain
+//! barycentric clipping (each coordinate `lambda_k(t) = a_k + b_k t` by
+//! Cramer's rule, chord where all are `>= -1e-12`), which does not depend on
+//! noisy sign tests. Among the tets whose chord starts at or before
+//! `t + eps_t` and ends after it, the one reaching farthest is taken; its
+//! chord `[t, hi]` is integrated with its own linear scalar, and the walk
+//! resumes in the neighbour across the face whose coordinate ends the chord.
+//! Each such step advances the ray by more than `eps_t`, so recoveries cannot
+//! loop. If no tet holds the ray beyond `t`, the ray is outside and the next
+//! boundary entry takes over. Successful locations after a stall or an exit
+//! are counted as recoveries; flat tets are skipped (they hold no stretch).
+//! A walk is abandoned (counted) only after `MAX_RECOVERIES` recoveries or
+//! `4 n_tets + 1024` steps, a safety net no test reaches.
 
 use super::bvh::{Aabb, Bvh};
 use super::quadrature::{Accum, Integrator, QuadCounters};
@@ -64,7 +92,7 @@ use crate::data::{Adjacency, TetMesh};
 /// Steps in a row that make no progress along the ray before recovering.
 const MAX_ZERO_STEPS: u32 = 48;
 /// Recoveries of one ray before its walk is abandoned.
-const MAX_RECOVERIES: u32 = 64;
+const MAX_RECOVERIES: u32 = 1000;
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -115,6 +143,11 @@ impl RayCounters {
 struct Pierce {
     t: f64,
     s: f64,
+    /// The pierce point lies on the ray (to round-off). When the ray is
+    /// (nearly) in the face's plane the barycentric weights are round-off
+    /// noise: the point is somewhere in the triangle, its `t` and `s` are
+    /// not the ray's, and the scalar is taken from the tet instead.
+    on_ray: bool,
 }
 
 /// Everything that does not depend on the ray.
@@ -141,7 +174,6 @@ struct RayCtx<'c> {
     eps_t: f64,
     acc: Accum,
     ctr: &'c mut RayCounters,
-    recoveries: u32,
 }
 
 enum WalkEnd {
@@ -174,9 +206,9 @@ impl<'a> Tracer<'a> {
             let mut b = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for &v in vs {
                 let p = pts[v as usize];
-                for k in 0..3 {
-                    b.0[k] = b.0[k].min(p[k]);
-                    b.1[k] = b.1[k].max(p[k]);
+                for (k, &x) in p.iter().enumerate() {
+                    b.0[k] = b.0[k].min(x);
+                    b.1[k] = b.1[k].max(x);
                 }
             }
             b
@@ -241,18 +273,17 @@ impl<'a> Tracer<'a> {
             eps_t,
             acc: Accum::CLEAR,
             ctr,
-            recoveries: 0,
         };
 
         // Boundary entries, sorted by t (then by face id: deterministic).
-        let mut hits: Vec<(f64, u32, f64)> = Vec::new();
+        let mut hits: Vec<(f64, u32, f64, bool)> = Vec::new();
         self.face_bvh
             .for_each_on_ray(o, d, -eps_t, f64::INFINITY, |k| {
                 let bf = self.bfaces[k as usize];
                 let (tet, f) = (bf >> 2, (bf & 3) as usize);
                 if let Some(p) = self.pierce(&ctx, tet, f) {
                     if p.t >= -eps_t && self.entering(&ctx, tet, f) {
-                        hits.push((p.t, bf, p.s));
+                        hits.push((p.t, bf, p.s, p.on_ray));
                     }
                 }
             });
@@ -263,18 +294,16 @@ impl<'a> Tracer<'a> {
         let mut hit_any = false;
         // Origin inside the mesh?
         let inside_box = (0..3).all(|k| o[k] >= self.lo[k] - eps_t && o[k] <= self.hi[k] + eps_t);
-        if inside_box {
-            if let Some((tet, s0)) = self.locate(&ctx, 0.0) {
-                ctx.ctr.origin_inside += 1;
-                ctx.ctr.mesh_entries += 1;
-                hit_any = true;
-                match self.walk(&mut ctx, tet, None, 0.0, s0) {
-                    WalkEnd::At(t) => t_done = t,
-                    WalkEnd::Opaque => t_done = f64::INFINITY,
-                }
+        if inside_box && self.locate(&ctx, 0.0).is_some() {
+            ctx.ctr.origin_inside += 1;
+            ctx.ctr.mesh_entries += 1;
+            hit_any = true;
+            match self.walk(&mut ctx, None, 0.0, 0.0, true) {
+                WalkEnd::At(t) => t_done = t,
+                WalkEnd::Opaque => t_done = f64::INFINITY,
             }
         }
-        for &(t, bf, s) in &hits {
+        for &(t, bf, s, on_ray) in &hits {
             if ctx.acc.t < T_MIN {
                 break;
             }
@@ -283,13 +312,12 @@ impl<'a> Tracer<'a> {
             }
             hit_any = true;
             ctx.ctr.mesh_entries += 1;
-            ctx.recoveries = 0;
             match self.walk(
                 &mut ctx,
-                bf >> 2,
-                Some((bf & 3) as usize),
+                Some((bf >> 2, Some((bf & 3) as usize))),
                 t.max(t_done).max(0.0),
                 s,
+                !on_ray || t < t_done || t < 0.0,
             ) {
                 WalkEnd::At(te) => t_done = t_done.max(te),
                 WalkEnd::Opaque => break,
@@ -298,28 +326,68 @@ impl<'a> Tracer<'a> {
         if hit_any {
             ctx.ctr.rays_hit += 1;
         }
+
         ctx.acc
     }
 
-    /// Walks from `tet` (entered through `entry`, or from inside) at `t`,
-    /// where the scalar is `s`, until the ray leaves the mesh.
+    /// Walks from `start` (a tet and the face it is entered through, or
+    /// `None`: locate the tet at `t`) at `t`, where the scalar is `s` (to be
+    /// recomputed in the tet if `s_suspect`), until the ray leaves the mesh.
     fn walk(
         &self,
         ctx: &mut RayCtx,
-        mut tet: u32,
-        mut entry: Option<usize>,
+        start: Option<(u32, Option<usize>)>,
         mut t: f64,
         mut s: f64,
+        mut s_suspect: bool,
     ) -> WalkEnd {
+        let mut state = start;
         let mut zero_steps = 0u32;
+        let mut recoveries = 0u32;
+        // Why `state` is `None`: true after a stall or a boundary exit (a
+        // successful location then counts as a recovery).
+        let mut relocating = false;
         // Far more than any honest walk needs; a safety net only.
         let mut budget = 4 * self.tets.len() as u64 + 1024;
         loop {
             if ctx.acc.t < T_MIN {
                 return WalkEnd::Opaque;
             }
-            budget = budget.saturating_sub(1);
+            if budget == 0 || recoveries > MAX_RECOVERIES {
+                ctx.ctr.walks_abandoned += 1;
+                return WalkEnd::At(t);
+            }
+            budget -= 1;
             ctx.ctr.tets_visited += 1;
+            let Some((tet, entry)) = state else {
+                // Locate-and-clip step: the tet holding the ray beyond t, its
+                // chord from barycentric clipping, the scalar from its own
+                // linear function. Progress is guaranteed (the chord ends
+                // beyond t + eps_t), so repeated recoveries cannot loop.
+                let Some((tet, hi, f_hi)) = self.locate(ctx, t) else {
+                    return WalkEnd::At(t);
+                };
+                if relocating {
+                    ctx.ctr.walk_recoveries += 1;
+                    recoveries += 1;
+                }
+                let s0 = self.s_on_ray(ctx, tet, t).unwrap_or(s);
+                let s1 = self.s_on_ray(ctx, tet, hi).unwrap_or(s0);
+                self.quad
+                    .stretch(&mut ctx.acc, t, hi, s0, s1, &mut ctx.ctr.quad);
+                t = hi;
+                s = s1;
+                s_suspect = true;
+                zero_steps = 0;
+                let n = self.nb[tet as usize][f_hi];
+                relocating = true;
+                state = if n == NO_NEIGHBOR || n as usize >= self.tets.len() {
+                    None
+                } else {
+                    Some((n, self.nb[n as usize].iter().position(|&x| x == tet)))
+                };
+                continue;
+            };
             // Exit: the pierced face (other than the entry) farthest along.
             let mut best: Option<(usize, Pierce)> = None;
             for f in 0..4 {
@@ -332,104 +400,140 @@ impl<'a> Tracer<'a> {
                     }
                 }
             }
-            let stalled = match best {
+            match best {
                 // No way out, or the whole stretch of this tet lies behind
                 // us (a zero-length step at a degenerate spot led backwards).
-                None => true,
-                Some((_, p)) if p.t < t - ctx.eps_t => true,
+                None => state = None,
+                Some((_, p)) if p.t < t - ctx.eps_t => state = None,
                 Some((f, p)) => {
                     let t_exit = p.t.max(t);
+                    if s_suspect {
+                        // Entered through an ill-conditioned pierce: take the
+                        // start value from this tet, on the ray.
+                        s = self.s_on_ray(ctx, tet, t).unwrap_or(s);
+                    }
+                    let s_exit = if p.on_ray {
+                        p.s
+                    } else {
+                        self.s_on_ray(ctx, tet, t_exit).unwrap_or(p.s)
+                    };
+                    s_suspect = !p.on_ray;
                     if t_exit > t {
                         self.quad
-                            .stretch(&mut ctx.acc, t, t_exit, s, p.s, &mut ctx.ctr.quad);
+                            .stretch(&mut ctx.acc, t, t_exit, s, s_exit, &mut ctx.ctr.quad);
                         zero_steps = 0;
                     } else {
                         zero_steps += 1;
                         ctx.ctr.zero_length_steps += 1;
                     }
                     t = t_exit;
-                    s = p.s;
-                    let n = self.nb.get(tet as usize).map_or(NO_NEIGHBOR, |n| n[f]);
-                    if n == NO_NEIGHBOR || n as usize >= self.tets.len() {
-                        // Leaving the mesh. Make sure the ray really is
-                        // outside beyond t: a walk confused at an edge or a
-                        // vertex on the boundary may leave too early.
-                        match self.locate(ctx, t) {
-                            None => return WalkEnd::At(t),
-                            Some((t2, s2)) => {
-                                ctx.ctr.walk_recoveries += 1;
-                                ctx.recoveries += 1;
-                                if ctx.recoveries > MAX_RECOVERIES {
-                                    ctx.ctr.walks_abandoned += 1;
-                                    return WalkEnd::At(t);
-                                }
-                                tet = t2;
-                                entry = None;
-                                s = s2;
-                                zero_steps = 0;
-                                continue;
-                            }
-                        }
-                    }
-                    entry = self.nb[n as usize].iter().position(|&x| x == tet);
-                    tet = n;
-                    zero_steps > MAX_ZERO_STEPS || budget == 0
-                }
-            };
-            if stalled {
-                ctx.ctr.walk_recoveries += 1;
-                ctx.recoveries += 1;
-                if ctx.recoveries > MAX_RECOVERIES || budget == 0 {
-                    ctx.ctr.walks_abandoned += 1;
-                    return WalkEnd::At(t);
-                }
-                match self.locate(ctx, t) {
-                    Some((t2, s2)) => {
-                        tet = t2;
-                        entry = None;
-                        s = s2;
-                        zero_steps = 0;
-                    }
-                    None => return WalkEnd::At(t),
+                    s = s_exit;
+                    let n = self.nb[tet as usize][f];
+                    state = if n == NO_NEIGHBOR || n as usize >= self.tets.len() {
+                        // Leaving the mesh. The next (locate) step makes sure
+                        // the ray really is outside beyond t: a walk confused
+                        // at an edge or a vertex may leave too early.
+                        None
+                    } else if zero_steps > MAX_ZERO_STEPS {
+                        None
+                    } else {
+                        Some((n, self.nb[n as usize].iter().position(|&x| x == tet)))
+                    };
                 }
             }
+            relocating = state.is_none();
         }
     }
 
-    /// The tet that contains the ray just beyond `t` (the one whose stretch
-    /// reaches farthest), and the scalar at `t` in it.
-    fn locate(&self, ctx: &RayCtx, t: f64) -> Option<(u32, f64)> {
+    /// The tet that contains the ray just beyond `t` (the one whose chord
+    /// reaches farthest), the end of its chord and the face it leaves by.
+    ///
+    /// Unlike the walk this uses plain barycentric clipping (each barycentric
+    /// coordinate is affine in `t`; the chord is where all four are >= 0, with
+    /// a round-off margin): it does not depend on the signs of side products
+    /// that are pure round-off when the ray runs through a vertex or along an
+    /// edge. Flat tets are skipped (they hold no stretch).
+    fn locate(&self, ctx: &RayCtx, t: f64) -> Option<(u32, f64, usize)> {
         let p = [
             ctx.o[0] + t * ctx.d[0],
             ctx.o[1] + t * ctx.d[1],
             ctx.o[2] + t * ctx.d[2],
         ];
-        let mut best: Option<(u32, f64, f64)> = None; // (tet, t_out, s at t)
+        let mut best: Option<(u32, f64, usize)> = None;
         self.tet_bvh.for_each_containing(p, |tet| {
-            let (mut a, mut b): (Option<Pierce>, Option<Pierce>) = (None, None);
-            for f in 0..4 {
-                if let Some(q) = self.pierce(ctx, tet, f) {
-                    if a.is_none_or(|a| q.t < a.t) {
-                        a = Some(q);
-                    }
-                    if b.is_none_or(|b| q.t > b.t) {
-                        b = Some(q);
-                    }
-                }
-            }
-            let (Some(a), Some(b)) = (a, b) else { return };
-            if a.t <= t + ctx.eps_t && b.t > t + ctx.eps_t && best.is_none_or(|(_, bt, _)| b.t > bt)
-            {
-                // The scalar is linear along the chord.
-                let s = if b.t > a.t {
-                    a.s + (b.s - a.s) * ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0)
-                } else {
-                    a.s
-                };
-                best = Some((tet, b.t, s));
+            let Some((lo, hi, f)) = self.chord(ctx, tet) else {
+                return;
+            };
+            if lo <= t + ctx.eps_t && hi > t + ctx.eps_t && best.is_none_or(|(_, bt, _)| hi > bt) {
+                best = Some((tet, hi, f));
             }
         });
-        best.map(|(tet, _, s)| (tet, s))
+        best
+    }
+
+    /// The barycentric coordinates of the ray point `o + t d` in `tet` as
+    /// affine functions of `t`: `lambda_k(t) = a_k + b_k t` (Cramer's rule,
+    /// ray-relative), or `None` for a (nearly) flat tet (`|6 V| <= 1e-12 L^3`,
+    /// `L` its longest edge from vertex 0).
+    fn bary_on_ray(&self, ctx: &RayCtx, tet: u32) -> Option<([f64; 4], [f64; 4])> {
+        let tv = self.tets[tet as usize];
+        let p = tv.map(|v| sub(self.pts[v as usize], ctx.o));
+        let (e1, e2, e3) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0]));
+        let c23 = cross(e2, e3);
+        let det = dot(e1, c23);
+        let l2 = dot(e1, e1).max(dot(e2, e2)).max(dot(e3, e3));
+        let flat = det.abs() <= 1e-12 * l2 * l2.sqrt();
+        if flat || det.is_nan() {
+            return None;
+        }
+        let x0 = sub([0.0; 3], p[0]);
+        let d = ctx.d;
+        let a = [
+            dot(x0, c23) / det,
+            dot(e1, cross(x0, e3)) / det,
+            dot(e1, cross(e2, x0)) / det,
+        ];
+        let b = [
+            dot(d, c23) / det,
+            dot(e1, cross(d, e3)) / det,
+            dot(e1, cross(e2, d)) / det,
+        ];
+        Some((
+            [1.0 - a[0] - a[1] - a[2], a[0], a[1], a[2]],
+            [-b[0] - b[1] - b[2], b[0], b[1], b[2]],
+        ))
+    }
+
+    /// The parameter interval where the ray is inside `tet` (barycentric
+    /// coordinates >= -1e-12) and the face whose coordinate ends it, or `None`
+    /// if the ray misses the tet or the tet is flat.
+    fn chord(&self, ctx: &RayCtx, tet: u32) -> Option<(f64, f64, usize)> {
+        let (a, b) = self.bary_on_ray(ctx, tet)?;
+        let (mut lo, mut hi, mut f_hi) = (f64::NEG_INFINITY, f64::INFINITY, 0);
+        let margin = 1e-12;
+        // Coordinate k belongs to vertex k; it vanishes on face k.
+        for k in 0..4 {
+            if b[k] > 0.0 {
+                lo = lo.max((-margin - a[k]) / b[k]);
+            } else if b[k] < 0.0 {
+                let tk = (-margin - a[k]) / b[k];
+                if tk < hi {
+                    hi = tk;
+                    f_hi = k;
+                }
+            } else if a[k] < -margin {
+                return None;
+            }
+        }
+        (lo <= hi && hi.is_finite()).then_some((lo, hi, f_hi))
+    }
+
+    /// The tet's linear scalar at the ray point `o + t d`, or `None` for a
+    /// (nearly) flat tet.
+    fn s_on_ray(&self, ctx: &RayCtx, tet: u32, t: f64) -> Option<f64> {
+        let (a, b) = self.bary_on_ray(ctx, tet)?;
+        let tv = self.tets[tet as usize];
+        Some((0..4).map(|k| (a[k] + b[k] * t) * self.scalar(tv[k])).sum())
     }
 
     /// Whether the ray's line pierces face `f` of `tet`, and where.
@@ -461,7 +565,10 @@ impl<'a> Tracer<'a> {
         ];
         let s =
             (w[0] * self.scalar(v[0]) + w[1] * self.scalar(v[1]) + w[2] * self.scalar(v[2])) / sum;
-        Some(Pierce { t: dot(d, x), s })
+        let t = dot(d, x);
+        let r = [x[0] - t * d[0], x[1] - t * d[1], x[2] - t * d[2]];
+        let on_ray = dot(r, r).sqrt() <= 1e-10 * (self.l_ref + t.abs());
+        Some(Pierce { t, s, on_ray })
     }
 
     /// Whether the ray goes into `tet` across its face `f` (the tet lies on
