@@ -174,6 +174,23 @@ pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32,
     Some((i0 as u32, i1 as u32, j0 as u32, j1 as u32))
 }
 
+/// Whether a ray is outside the half-space of a face seen exactly edge-on
+/// (the face plane contains the ray direction), given `v` = signed distance
+/// of the ray from the plane in the outward direction and `(a, b)` the
+/// outward normal's screen components.
+///
+/// A ray that lies *in* the plane (`v == 0`, e.g. a pixel centre exactly on
+/// the projection of a face or an edge parallel to the view) touches both
+/// tets sharing that face; counting it for both would add its light twice.
+/// So ties are broken by symbolic perturbation, as rasterisers' fill rules
+/// do: the ray is moved by `(-ε, -ε²)`, and it is inside iff the outward normal
+/// points away from that move (`a > 0`, or `a == 0` and `b > 0`). The two
+/// tets sharing the face have opposite normals, so exactly one gets the ray.
+#[inline(always)]
+fn outside_edge_on(v: f32, a: f32, b: f32) -> bool {
+    v > 0.0 || (v == 0.0 && (a < 0.0 || (a == 0.0 && b <= 0.0)))
+}
+
 /// Scans one tet in screen space (orthographic), over the pixels of
 /// `range = (i0, i1, j0, j1)`.
 #[inline]
@@ -270,7 +287,7 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             if !(z_in < z_out) {
                 continue;
             }
-            if edge[..nedge].iter().any(|e| e[0] * x + e[1] * y > e[2]) {
+            if edge[..nedge].iter().any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1])) {
                 continue;
             }
             let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
@@ -308,7 +325,7 @@ pub fn scan_persp(
                     t_out = t_out.min(f.h / den);
                 } else if out_den < 0.0 {
                     t_in = t_in.max(f.h / den);
-                } else if f.sigma * f.h < 0.0 {
+                } else if outside_edge_on(-f.sigma * f.h, f.sigma * f.n[0], f.sigma * f.n[1]) {
                     inside = false;
                 }
             }
