@@ -42,7 +42,10 @@ pub fn exp_neg(x: f32) -> f32 {
                 + r * (1.0 / 6.0
                     + r * (1.0 / 24.0
                         + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0)))))));
-    p * f32::from_bits(((k as i32 + 127) as u32) << 23)
+    // 2^k: the biased exponent k + 127 (in [1, 127]) read off the mantissa
+    // bits of (k + 127 + 2^23), again without a float-to-int cast.
+    let biased = (k + (127.0 + 8_388_608.0)).to_bits() & 0x007f_ffff;
+    p * f32::from_bits(biased << 23)
 }
 
 #[cfg(test)]

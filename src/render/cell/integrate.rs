@@ -68,6 +68,13 @@ struct Piece {
 pub struct PreparedTf {
     /// Control-point scalars, ascending (the kinks).
     breaks: Vec<f32>,
+    /// `breaks` followed by `+inf`, so `breaks_inf[i]` exists for every piece `i`.
+    breaks_inf: Vec<f32>,
+    /// Piece lookup table over `[lut_lo, lut_lo + LUT / lut_scale)`: the piece
+    /// at the start of each cell; one or two comparisons finish the job.
+    lut: Vec<u16>,
+    lut_lo: f32,
+    lut_scale: f32,
     /// `breaks.len() + 1` pieces: below the first point, between each pair, above the last.
     pieces: Vec<Piece>,
     inv_unit_distance: f32,
@@ -108,18 +115,35 @@ impl PreparedTf {
             c0: c(l),
             c1: c(l),
         });
-        PreparedTf {
-            breaks: p.iter().map(|c| f(c.s)).collect(),
-            pieces,
-            inv_unit_distance: (1.0 / tf.unit_distance) as f32,
-        }
+        let breaks: Vec<f32> = p.iter().map(|c| f(c.s)).collect();
+        let mut breaks_inf = breaks.clone();
+        breaks_inf.push(f32::INFINITY);
+        let (lo, hi) = (breaks[0], breaks[breaks.len() - 1]);
+        let lut_scale = if hi > lo { LUT as f32 / (hi - lo) } else { 0.0 };
+        let count = |s: f32| breaks.iter().take_while(|&&b| b <= s).count();
+        let lut = (0..LUT)
+            .map(|k| if lut_scale > 0.0 { count(lo + k as f32 / lut_scale).min(breaks.len()) as u16 } else { 0 })
+            .collect();
+        PreparedTf { breaks, breaks_inf, lut, lut_lo: lo, lut_scale, pieces, inv_unit_distance: (1.0 / tf.unit_distance) as f32 }
     }
 
     /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).
     #[inline(always)]
     fn piece_index(&self, s: f32) -> usize {
-        // Few control points in practice: a linear scan beats a binary search.
-        self.breaks.iter().take_while(|&&b| b <= s).count()
+        if s < self.lut_lo {
+            return 0;
+        }
+        // round(t - 1) by the 2^23 trick (a float-to-usize cast is slow
+        // without SSE4.1): at most floor(t), so the table entry is a lower bound.
+        let t = fclamp((s - self.lut_lo) * self.lut_scale, 1.0, LUT as f32);
+        let k = ((t - 1.0 + 8_388_608.0).to_bits() & 0x007f_ffff) as usize;
+        let mut i = self.lut[k] as usize;
+        // The table gives the piece at the cell's start (a lower bound, never
+        // above the answer); step over the breaks inside the cell.
+        while self.breaks_inf[i] <= s {
+            i += 1;
+        }
+        i
     }
 
     /// Opacity and colour at `s`.
@@ -256,6 +280,9 @@ impl PreparedTf {
 /// Lanes in an integration batch.
 pub const BATCH: usize = 32;
 
+/// Cells of the piece lookup table.
+const LUT: usize = 1024;
+
 /// Segments to integrate together, structure of arrays, so the common case
 /// (every segment of a tet within one transfer-function piece) runs as one
 /// vectorised loop.
@@ -271,6 +298,8 @@ pub struct Batch {
     pub len: [f32; BATCH],
     /// Results: premultiplied red, green, blue and alpha.
     pub rgba: [[f32; BATCH]; 4],
+    /// Scratch: each lane's transfer-function piece, gathered.
+    lanes: Lanes,
 }
 
 impl Default for Batch {
@@ -281,6 +310,15 @@ impl Default for Batch {
             s_out: [0.0; BATCH],
             len: [0.0; BATCH],
             rgba: [[0.0; BATCH]; 4],
+            lanes: Lanes {
+                split: [false; BATCH],
+                s0: [0.0; BATCH],
+                inv_w: [0.0; BATCH],
+                o0: [0.0; BATCH],
+                d_o: [0.0; BATCH],
+                c0: [[0.0; BATCH]; 3],
+                d_c: [[0.0; BATCH]; 3],
+            },
         }
     }
 }
@@ -304,7 +342,9 @@ impl Batch {
 }
 
 /// Transfer-function piece parameters gathered per lane (structure of arrays).
+#[derive(Debug, Clone)]
 struct Lanes {
+    split: [bool; BATCH],
     s0: [f32; BATCH],
     inv_w: [f32; BATCH],
     o0: [f32; BATCH],
@@ -324,97 +364,19 @@ impl PreparedTf {
     /// sub-steps are redone one by one by the scalar code.
     pub fn integrate_batch(&self, integrator: Integrator, b: &mut Batch) {
         let lanes = ((b.n + 7) & !7).min(BATCH);
-        let mut piece = [0u32; BATCH];
-        let mut split = [false; BATCH];
-        match integrator {
-            Integrator::Exact => {
-                let mut piece_out = [0u32; BATCH];
-                for &br in &self.breaks {
-                    for l in 0..lanes {
-                        piece[l] += (br <= b.s_in[l]) as u32;
-                        piece_out[l] += (br <= b.s_out[l]) as u32;
-                    }
+        // Pass 1 (scalar): each lane's piece; a lane whose ends lie in
+        // different pieces crosses a control point and is split later.
+        for l in 0..b.n {
+            let (i, split) = match integrator {
+                Integrator::Exact => {
+                    let i = self.piece_index(b.s_in[l]);
+                    (i, i != self.piece_index(b.s_out[l]))
                 }
-                for l in 0..lanes {
-                    split[l] = piece[l] != piece_out[l];
-                }
-            }
-            Integrator::Midpoint => {
-                for &br in &self.breaks {
-                    for l in 0..lanes {
-                        piece[l] += (br <= 0.5 * (b.s_in[l] + b.s_out[l])) as u32;
-                    }
-                }
-            }
-        }
-        let g = self.gather(&piece, lanes);
-        let inv_ud = self.inv_unit_distance;
-        let omax = OPACITY_MAX as f32;
-        match integrator {
-            Integrator::Exact => {
-                for l in 0..lanes {
-                    let k = b.len[l] * inv_ud;
-                    let w0 = fclamp((b.s_in[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
-                    let w1 = fclamp((b.s_out[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
-                    let u0 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w0, omax);
-                    let u1 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w1, omax);
-                    let (l0, l1) = (-ln(u0), -ln(u1));
-                    let d_est = k * fmax(l0, l1);
-                    let rel = (u1 - u0).abs() / fmin(u0, u1);
-                    split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
-                    let c0 = [
-                        g.c0[0][l] + g.d_c[0][l] * w0,
-                        g.c0[1][l] + g.d_c[1][l] * w0,
-                        g.c0[2][l] + g.d_c[2][l] * w0,
-                    ];
-                    let c1 = [
-                        g.c0[0][l] + g.d_c[0][l] * w1,
-                        g.c0[1][l] + g.d_c[1][l] * w1,
-                        g.c0[2][l] + g.d_c[2][l] * w1,
-                    ];
-                    let v = sub_step(u0, u1, l0, l1, c0, c1, k);
-                    b.rgba[0][l] = v.rgb[0];
-                    b.rgba[1][l] = v.rgb[1];
-                    b.rgba[2][l] = v.rgb[2];
-                    b.rgba[3][l] = v.a;
-                }
-                for l in 0..b.n {
-                    if split[l] {
-                        let v = self.exact(b.s_in[l], b.s_out[l], b.len[l]);
-                        b.set(l, v);
-                    }
-                }
-            }
-            Integrator::Midpoint => {
-                for l in 0..lanes {
-                    let k = b.len[l] * inv_ud;
-                    let w = fclamp(
-                        (0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l],
-                        0.0,
-                        1.0,
-                    );
-                    let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
-                    let a = 1.0 - exp_neg(k * ln(1.0 - o));
-                    for c in 0..3 {
-                        b.rgba[c][l] = (g.c0[c][l] + g.d_c[c][l] * w) * a;
-                    }
-                    b.rgba[3][l] = a;
-                }
-            }
-        }
-    }
-
-    fn gather(&self, piece: &[u32; BATCH], lanes: usize) -> Lanes {
-        let mut g = Lanes {
-            s0: [0.0; BATCH],
-            inv_w: [0.0; BATCH],
-            o0: [0.0; BATCH],
-            d_o: [0.0; BATCH],
-            c0: [[0.0; BATCH]; 3],
-            d_c: [[0.0; BATCH]; 3],
-        };
-        for l in 0..lanes {
-            let p = &self.pieces[piece[l] as usize];
+                Integrator::Midpoint => (self.piece_index(0.5 * (b.s_in[l] + b.s_out[l])), false),
+            };
+            let p = &self.pieces[i];
+            let g = &mut b.lanes;
+            g.split[l] = split;
             g.s0[l] = p.s0;
             g.inv_w[l] = p.inv_w;
             g.o0[l] = p.o0;
@@ -424,7 +386,77 @@ impl PreparedTf {
                 g.d_c[c][l] = p.c1[c] - p.c0[c];
             }
         }
-        g
+        // Pass 2 (vectorised): the math, on whole vectors of lanes (lanes past
+        // `n` hold stale inputs; their results are ignored).
+        let (inv_ud, exact) = (self.inv_unit_distance, integrator == Integrator::Exact);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                unsafe { math_avx2(b, lanes, inv_ud, exact) };
+            } else {
+                math_lanes(b, lanes, inv_ud, exact);
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        math_lanes(b, lanes, inv_ud, exact);
+        if exact {
+            // Pass 3 (scalar, rare): lanes that cross a control point or need sub-steps.
+            for l in 0..b.n {
+                if b.lanes.split[l] {
+                    let v = self.exact(b.s_in[l], b.s_out[l], b.len[l]);
+                    b.set(l, v);
+                }
+            }
+        }
+    }
+}
+
+/// Pass 2 compiled for AVX2 (eight lanes per instruction). No FMA: the
+/// results are bit-identical to the SSE2 build, so images do not depend on
+/// the machine.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn math_avx2(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
+    math_lanes(b, lanes, inv_ud, exact)
+}
+
+/// Pass 2 of [`PreparedTf::integrate_batch`]: per lane, the exact sub-step
+/// (or the midpoint rule) from the gathered piece parameters.
+#[inline(always)]
+fn math_lanes(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
+    let omax = OPACITY_MAX as f32;
+    let g = &mut b.lanes;
+    if exact {
+        for l in 0..lanes {
+            let k = b.len[l] * inv_ud;
+            let w0 = fclamp((b.s_in[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+            let w1 = fclamp((b.s_out[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+            let u0 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w0, omax);
+            let u1 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w1, omax);
+            let (l0, l1) = (-ln(u0), -ln(u1));
+            let d_est = k * fmax(l0, l1);
+            let rel = (u1 - u0).abs() / fmin(u0, u1);
+            g.split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
+            let c0 = [g.c0[0][l] + g.d_c[0][l] * w0, g.c0[1][l] + g.d_c[1][l] * w0, g.c0[2][l] + g.d_c[2][l] * w0];
+            let c1 = [g.c0[0][l] + g.d_c[0][l] * w1, g.c0[1][l] + g.d_c[1][l] * w1, g.c0[2][l] + g.d_c[2][l] * w1];
+            let v = sub_step(u0, u1, l0, l1, c0, c1, k);
+            b.rgba[0][l] = v.rgb[0];
+            b.rgba[1][l] = v.rgb[1];
+            b.rgba[2][l] = v.rgb[2];
+            b.rgba[3][l] = v.a;
+        }
+    } else {
+        for l in 0..lanes {
+            let k = b.len[l] * inv_ud;
+            let w = fclamp((0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+            let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
+            let a = 1.0 - exp_neg(k * ln(1.0 - o));
+            for c in 0..3 {
+                b.rgba[c][l] = (g.c0[c][l] + g.d_c[c][l] * w) * a;
+            }
+            b.rgba[3][l] = a;
+        }
     }
 }
 

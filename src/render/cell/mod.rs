@@ -269,6 +269,8 @@ pub fn scan_tile(
                 scan::scan_ortho(&setup, range, &mut target);
             }
         }
+        // Segments are integrated in batches that span cells: finish the last one.
+        target.flush();
     }
     TileResult {
         lists,

@@ -296,7 +296,6 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             out.emit(i, j, z_in, z_out, s_in, s_out, z_out - z_in);
         }
     }
-    out.flush();
 }
 
 /// Scans one tet in the camera frame (perspective): the ray of pixel `(X, Y)`
@@ -346,5 +345,4 @@ pub fn scan_persp(
             );
         }
     }
-    out.flush();
 }
