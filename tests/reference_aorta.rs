@@ -1,112 +1,35 @@
 //! The reference renderer on the aorta meshes (timing and robustness).
 //!
-//! The legacy-VTK parser below is a throwaway test helper (big-endian binary
-//! UNSTRUCTURED_GRID of tetrahedra only), not the project's reader.
+//! The small mesh and its scenes are bundled in `tests/data`; the full
+//! `aorta.vtk` is read from the shared data folder (`../shared/data`, or
+//! `PVRSIM_DATA`) and its test is skipped, saying so, when absent.
 //!
 //! `cargo test --release --test reference_aorta -- --nocapture` runs the
 //! aorta-small checks; add `--ignored` for the full aorta.vtk timing.
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::PathBuf;
 
-use pvrsim::data::{Field, TetMesh};
 use pvrsim::render::reference::{self, ReferenceOptions};
 use pvrsim::render::RenderInput;
-use pvrsim::scene::{Camera, Projection, Scene};
+use pvrsim::scene::{Camera, Projection};
 
-fn data_dir() -> PathBuf {
-    PathBuf::from(std::env::var("PVRSIM_DATA").unwrap_or_else(|_| "/work/shared/data".into()))
-}
-
-fn be_f32(b: &[u8]) -> Vec<f64> {
-    b.chunks_exact(4)
-        .map(|c| f32::from_be_bytes([c[0], c[1], c[2], c[3]]) as f64)
-        .collect()
-}
-
-/// Minimal big-endian binary legacy VTK reader (tets only). Test helper.
-fn read_vtk(path: &Path) -> TetMesh {
-    let b = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut pos = 0usize;
-    let mut mesh = TetMesh::default();
-    let mut npts = 0usize;
-    let next_line = |pos: &mut usize| -> Option<String> {
-        while *pos < b.len() {
-            let start = *pos;
-            while *pos < b.len() && b[*pos] != b'\n' {
-                *pos += 1;
-            }
-            let s = String::from_utf8_lossy(&b[start..*pos]).trim().to_string();
-            *pos += 1;
-            if !s.is_empty() {
-                return Some(s);
-            }
-        }
-        None
-    };
-    for _ in 0..4 {
-        next_line(&mut pos); // header, title, BINARY, DATASET
+fn data_dir(scene: &str) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    if scene.starts_with("aorta-small") {
+        return root.join("tests/data");
     }
-    while let Some(line) = next_line(&mut pos) {
-        let w: Vec<&str> = line.split_whitespace().collect();
-        match w[0] {
-            "POINTS" => {
-                npts = w[1].parse().unwrap();
-                let v = be_f32(&b[pos..pos + 12 * npts]);
-                pos += 12 * npts;
-                mesh.points = v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-            }
-            "CELLS" => {
-                let (n, size): (usize, usize) = (w[1].parse().unwrap(), w[2].parse().unwrap());
-                let ints: Vec<i32> = b[pos..pos + 4 * size]
-                    .chunks_exact(4)
-                    .map(|c| i32::from_be_bytes([c[0], c[1], c[2], c[3]]))
-                    .collect();
-                pos += 4 * size;
-                assert_eq!(size, 5 * n, "tets only");
-                mesh.tets = ints
-                    .chunks_exact(5)
-                    .map(|c| [c[1] as u32, c[2] as u32, c[3] as u32, c[4] as u32])
-                    .collect();
-            }
-            "CELL_TYPES" => pos += 4 * w[1].parse::<usize>().unwrap(),
-            "POINT_DATA" => {}
-            "VECTORS" => {
-                let values = be_f32(&b[pos..pos + 12 * npts]);
-                pos += 12 * npts;
-                mesh.fields.push(Field {
-                    name: w[1].into(),
-                    components: 3,
-                    values,
-                });
-            }
-            "SCALARS" => {
-                next_line(&mut pos); // LOOKUP_TABLE
-                let values = be_f32(&b[pos..pos + 4 * npts]);
-                pos += 4 * npts;
-                mesh.fields.push(Field {
-                    name: w[1].into(),
-                    components: 1,
-                    values,
-                });
-            }
-            other => panic!("unexpected VTK keyword {other}"),
-        }
-    }
-    mesh.validate(path).unwrap();
-    mesh
+    std::env::var("PVRSIM_DATA").map(PathBuf::from).unwrap_or_else(|_| root.join("../shared/data"))
 }
 
 fn load(scene: &str) -> Option<(RenderInput, pvrsim::data::Adjacency)> {
-    let path = data_dir().join(scene);
+    let path = data_dir(scene).join(scene);
     if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
+        eprintln!("skipping: {} not found (the shared data folder is not next to this checkout)", path.display());
         return None;
     }
-    let scene = Scene::load(&path).unwrap();
-    let mesh = read_vtk(&scene.data.path);
-    let adj = mesh.adjacency();
-    Some((RenderInput::new(scene, Arc::new(mesh)).unwrap(), adj))
+    let (input, _) = RenderInput::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let adj = input.mesh.adjacency();
+    Some((input, adj))
 }
 
 fn check(input: &RenderInput, adj: &pvrsim::data::Adjacency, name: &str) -> pvrsim::image::Image {
