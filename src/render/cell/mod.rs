@@ -144,7 +144,10 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         .zip(&mut binning.bins)
         .map(|(rect, cells)| {
             if opts.cell_order == CellOrder::FrontToBack {
-                cells.sort_unstable_by_key(|c| c.order_key());
+                // Sort small (key, index) pairs, then permute the records once.
+                let mut keys: Vec<(u64, u32)> = cells.iter().enumerate().map(|(i, c)| (c.order_key(), i as u32)).collect();
+                keys.sort_unstable();
+                *cells = keys.iter().map(|&(_, i)| cells[i as usize]).collect();
             }
             scan_tile(pv.perspective.then(|| pv.rays()), &tf, opts, *rect, cells)
         })

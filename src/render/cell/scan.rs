@@ -164,11 +164,17 @@ pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32,
         yh = yh.max(p[1]);
     }
     // Centre i + 0.5 in [xl, xh]  <=>  i in [ceil(xl - 0.5), floor(xh - 0.5)].
-    let i0 = (xl - 0.5).ceil().max(clip.x0 as f32);
-    let i1 = (xh - 0.5).floor().min(clip.x1 as f32 - 1.0);
-    let j0 = (yl - 0.5).ceil().max(clip.y0 as f32);
-    let j1 = (yh - 0.5).floor().min(clip.y1 as f32 - 1.0);
-    if i0 > i1 || j0 > j1 || i0.is_nan() || i1.is_nan() || j0.is_nan() || j1.is_nan() {
+    // Clamping to the clip rectangle (padded by one) first keeps the integer
+    // conversions in range, NaN included (it fails every comparison below).
+    if !(xl <= xh && yl <= yh) {
+        return None;
+    }
+    let lim = |v: f32, lo: u32, hi: u32| fclamp(v, lo as f32 - 1.0, hi as f32 + 1.0);
+    let i0 = ceil_i(lim(xl - 0.5, clip.x0, clip.x1)).max(clip.x0 as i64);
+    let i1 = floor_i(lim(xh - 0.5, clip.x0, clip.x1)).min(clip.x1 as i64 - 1);
+    let j0 = ceil_i(lim(yl - 0.5, clip.y0, clip.y1)).max(clip.y0 as i64);
+    let j1 = floor_i(lim(yh - 0.5, clip.y0, clip.y1)).min(clip.y1 as i64 - 1);
+    if i0 > i1 || j0 > j1 {
         return None;
     }
     Some((i0 as u32, i1 as u32, j0 as u32, j1 as u32))
