@@ -227,14 +227,21 @@ pub fn scan_tile(
         let mut target = ScanTarget::new(&mut lists, rect, tf, opts.integrator, opts.partial_composition, &mut counts);
         for &c in cells {
             let ids = tets[c as usize];
-            let range = if pv.perspective && ids.iter().any(|&v| pv.pixel[v as usize][0].is_nan()) {
+            let straddles = pv.perspective && ids.iter().any(|&v| pv.pixel[v as usize][0].is_nan());
+            let range = if straddles {
                 Some((rect.x0, rect.x1 - 1, rect.y0, rect.y1 - 1))
             } else {
                 covered_pixels(&ids.map(|v| pv.pixel[v as usize]), rect)
             };
             let Some(range) = range else { continue };
             let Some(setup) = setup::setup_tet(ids, &pv.pos, &pv.s) else {
-                degenerate += 1;
+                // A cell binned into several tiles is counted once: by the
+                // tile holding the first pixel of its whole-image range.
+                let full = scan::Rect { x0: 0, y0: 0, x1: pv.size.0, y1: pv.size.1 };
+                let first = if straddles { Some((0, 0, 0, 0)) } else { covered_pixels(&ids.map(|v| pv.pixel[v as usize]), full) };
+                if first.is_some_and(|f| f.0 >= rect.x0 && f.2 >= rect.y0) {
+                    degenerate += 1;
+                }
                 continue;
             };
             if pv.perspective {

@@ -145,6 +145,21 @@ pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32,
     Some((i0 as u32, i1 as u32, j0 as u32, j1 as u32))
 }
 
+/// Whether the pixel centre `(X, Y)` is outside the half-plane
+/// `e0 X + e1 Y <= e2` of a face seen edge-on, given `v = e0 X + e1 Y`.
+///
+/// A pixel centre exactly on the line (its ray lies in the face) is given to
+/// the side that holds the point nudged by `(ε, ε²)`, as if it were: inside iff
+/// `e0 < 0`, or `e0 = 0` and `e1 < 0`. The two tets sharing the face have
+/// exactly opposite `(e0, e1, e2)` and compute exactly opposite `v`, so exactly
+/// one of them takes the ray (no double coverage, no crack); around a line
+/// where several such faces meet, the nudged point lies in exactly one of the
+/// tets, as in the top-left rule of triangle rasterisation.
+#[inline(always)]
+fn edge_on_rejects(e0: f32, e1: f32, v: f32, e2: f32) -> bool {
+    v > e2 || (v == e2 && (e0 > 0.0 || (e0 == 0.0 && e1 > 0.0)))
+}
+
 /// Scans one tet in screen space (orthographic), over the pixels of
 /// `range = (i0, i1, j0, j1)`.
 #[inline]
@@ -159,7 +174,8 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
     for f in &t.faces {
         let [x, y, z] = f.n;
         if z == 0.0 {
-            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h.
+            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h; a ray
+            // lying in the face goes to one side only (see `edge_on_rejects`).
             edge[nedge] = [f.sigma * x, f.sigma * y, f.sigma * f.h];
             nedge += 1;
             continue;
@@ -224,7 +240,7 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             if !(z_in < z_out) {
                 continue;
             }
-            if edge[..nedge].iter().any(|e| e[0] * x + e[1] * y > e[2]) {
+            if edge[..nedge].iter().any(|e| edge_on_rejects(e[0], e[1], e[0] * x + e[1] * y, e[2])) {
                 continue;
             }
             let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
@@ -257,7 +273,9 @@ pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u
                     t_out = t_out.min(f.h / den);
                 } else if out_den < 0.0 {
                     t_in = t_in.max(f.h / den);
-                } else if f.sigma * f.h < 0.0 {
+                } else if f.sigma * f.h < 0.0 || (f.h == 0.0 && edge_on_rejects(f.sigma * f.n[0], -f.sigma * f.n[1], 0.0, 0.0)) {
+                    // Parallel to the face: all of the ray is on one side, or
+                    // (h = 0) the ray lies in it and goes to one side only.
                     inside = false;
                 }
             }
