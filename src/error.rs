@@ -46,15 +46,30 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
     /// Shorthand for a data-file error.
-    pub fn data(path: impl Into<PathBuf>, location: impl Into<String>, msg: impl Into<String>) -> Self {
-        Error::Data { path: path.into(), location: location.into(), msg: msg.into() }
+    pub fn data(
+        path: impl Into<PathBuf>,
+        location: impl Into<String>,
+        msg: impl Into<String>,
+    ) -> Self {
+        Error::Data {
+            path: path.into(),
+            location: location.into(),
+            msg: msg.into(),
+        }
     }
     /// Shorthand for a scene-file error.
     pub fn scene(path: impl Into<PathBuf>, key: impl Into<String>, msg: impl Into<String>) -> Self {
-        Error::Scene { path: path.into(), key: key.into(), msg: msg.into() }
+        Error::Scene {
+            path: path.into(),
+            key: key.into(),
+            msg: msg.into(),
+        }
     }
     /// Shorthand for an I/O error on a file.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }

@@ -43,7 +43,11 @@ impl std::fmt::Display for ImageError {
 impl Image {
     /// A blank (all zero) image.
     pub fn new(width: u32, height: u32) -> Image {
-        Image { width, height, pixels: vec![[0.0; 4]; width as usize * height as usize] }
+        Image {
+            width,
+            height,
+            pixels: vec![[0.0; 4]; width as usize * height as usize],
+        }
     }
 
     /// Pixel `(i, j)`.
@@ -53,7 +57,11 @@ impl Image {
 
     /// 8-bit RGB bytes, rounded, clamped to [0, 1].
     pub fn to_rgb8(&self) -> Vec<u8> {
-        self.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+        self.pixels
+            .iter()
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect()
     }
 
     /// Writes an 8-bit RGB PNG.
@@ -61,8 +69,14 @@ impl Image {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         }
-        image::save_buffer(path, &self.to_rgb8(), self.width, self.height, image::ExtendedColorType::Rgb8)
-            .map_err(|e| Error::io(path, std::io::Error::other(e)))
+        image::save_buffer(
+            path,
+            &self.to_rgb8(),
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| Error::io(path, std::io::Error::other(e)))
     }
 
     /// Whether any channel of any pixel is NaN or infinite.
@@ -72,7 +86,11 @@ impl Image {
 
     /// Error of `self` against `reference` (same size), RGB channels, 1/255 units.
     pub fn error_against(&self, reference: &Image) -> ImageError {
-        assert_eq!((self.width, self.height), (reference.width, reference.height), "images differ in size");
+        assert_eq!(
+            (self.width, self.height),
+            (reference.width, reference.height),
+            "images differ in size"
+        );
         let mut max_abs = 0.0f64;
         let mut worst = 0usize;
         let mut sum2 = 0.0f64;
@@ -97,7 +115,32 @@ impl Image {
             max_abs,
             rmse: (sum2 / n).sqrt(),
             pixels_over_1: over,
-            worst_pixel: ((worst % self.width as usize) as u32, (worst / self.width as usize) as u32),
+            worst_pixel: (
+                (worst % self.width as usize) as u32,
+                (worst / self.width as usize) as u32,
+            ),
+        }
+    }
+
+    /// `|a - b| * gain` per channel, alpha 1: where two renderers disagree.
+    pub fn difference(a: &Image, b: &Image, gain: f32) -> Image {
+        let pixels = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| {
+                [
+                    (p[0] - q[0]).abs() * gain,
+                    (p[1] - q[1]).abs() * gain,
+                    (p[2] - q[2]).abs() * gain,
+                    1.0,
+                ]
+            })
+            .collect();
+        Image {
+            width: a.width,
+            height: a.height,
+            pixels,
         }
     }
 
@@ -105,7 +148,8 @@ impl Image {
     /// two renderers next to each other.
     pub fn side_by_side(images: &[&Image], gap: u32) -> Image {
         let h = images.iter().map(|i| i.height).max().unwrap_or(0);
-        let w = images.iter().map(|i| i.width).sum::<u32>() + gap * images.len().saturating_sub(1) as u32;
+        let w = images.iter().map(|i| i.width).sum::<u32>()
+            + gap * images.len().saturating_sub(1) as u32;
         let mut out = Image::new(w, h);
         for p in &mut out.pixels {
             *p = [1.0, 1.0, 1.0, 1.0];

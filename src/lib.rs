@@ -6,6 +6,7 @@
 //! Module dependencies flow one way: `cli -> render -> {scene, data, image}`.
 #![warn(missing_docs)]
 
+pub mod cli;
 pub mod data;
 pub mod error;
 pub mod image;

@@ -47,12 +47,25 @@ impl TetMesh {
     /// value is finite; `source` names the file for the error message.
     pub fn validate(&self, source: &std::path::Path) -> Result<()> {
         let n = self.points.len();
-        if let Some((i, p)) = self.points.iter().enumerate().find(|(_, p)| p.iter().any(|v| !v.is_finite())) {
-            return Err(Error::data(source, format!("point {i}"), format!("coordinate is not finite: {p:?}")));
+        if let Some((i, p)) = self
+            .points
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.iter().any(|v| !v.is_finite()))
+        {
+            return Err(Error::data(
+                source,
+                format!("point {i}"),
+                format!("coordinate is not finite: {p:?}"),
+            ));
         }
         for (t, tet) in self.tets.iter().enumerate() {
             if let Some(&v) = tet.iter().find(|&&v| v as usize >= n) {
-                return Err(Error::data(source, format!("cell {t}"), format!("vertex index {v} is out of range (the mesh has {n} points)")));
+                return Err(Error::data(
+                    source,
+                    format!("cell {t}"),
+                    format!("vertex index {v} is out of range (the mesh has {n} points)"),
+                ));
             }
         }
         for f in &self.fields {
@@ -60,11 +73,25 @@ impl TetMesh {
                 return Err(Error::data(
                     source,
                     format!("field \"{}\"", f.name),
-                    format!("has {} values, expected {} ({} points x {} components)", f.values.len(), f.components * n, n, f.components),
+                    format!(
+                        "has {} values, expected {} ({} points x {} components)",
+                        f.values.len(),
+                        f.components * n,
+                        n,
+                        f.components
+                    ),
                 ));
             }
             if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
-                return Err(Error::data(source, format!("field \"{}\"", f.name), format!("value of point {} is not finite ({})", i / f.components, f.values[i])));
+                return Err(Error::data(
+                    source,
+                    format!("field \"{}\"", f.name),
+                    format!(
+                        "value of point {} is not finite ({})",
+                        i / f.components,
+                        f.values[i]
+                    ),
+                ));
             }
         }
         Ok(())
@@ -75,11 +102,26 @@ impl TetMesh {
     pub fn scalar(&self, name: &str) -> Result<Vec<f64>> {
         let f = self.fields.iter().find(|f| f.name == name).ok_or_else(|| {
             let names: Vec<_> = self.fields.iter().map(|f| f.name.as_str()).collect();
-            Error::Invalid(format!("the mesh has no point-data field \"{name}\"; it has: {}", if names.is_empty() { "none".into() } else { names.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ") }))
+            Error::Invalid(format!(
+                "the mesh has no point-data field \"{name}\"; it has: {}",
+                if names.is_empty() {
+                    "none".into()
+                } else {
+                    names
+                        .iter()
+                        .map(|n| format!("\"{n}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            ))
         })?;
         Ok(match f.components {
             1 => f.values.clone(),
-            c => f.values.chunks_exact(c).map(|v| v.iter().map(|x| x * x).sum::<f64>().sqrt()).collect(),
+            c => f
+                .values
+                .chunks_exact(c)
+                .map(|v| v.iter().map(|x| x * x).sum::<f64>().sqrt())
+                .collect(),
         })
     }
 
@@ -102,7 +144,9 @@ impl TetMesh {
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
         let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-        (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0
+        (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]))
+            / 6.0
     }
 
     /// Face adjacency, built by sorting the `4 n` faces by their sorted vertex
@@ -134,7 +178,10 @@ impl TetMesh {
             }
             i = j;
         }
-        Adjacency { neighbors, nonmanifold_faces }
+        Adjacency {
+            neighbors,
+            nonmanifold_faces,
+        }
     }
 }
 
@@ -144,9 +191,19 @@ mod tests {
 
     fn two_tets() -> TetMesh {
         TetMesh {
-            points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]],
+            points: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 1.0, 1.0],
+            ],
             tets: vec![[0, 1, 2, 3], [1, 2, 3, 4]],
-            fields: vec![Field { name: "s".into(), components: 1, values: vec![0.0, 1.0, 2.0, 3.0, 4.0] }],
+            fields: vec![Field {
+                name: "s".into(),
+                components: 1,
+                values: vec![0.0, 1.0, 2.0, 3.0, 4.0],
+            }],
         }
     }
 
@@ -161,10 +218,18 @@ mod tests {
     fn validate_catches_bad_index_and_nan() {
         let mut m = two_tets();
         m.tets[1][3] = 9;
-        assert!(m.validate(std::path::Path::new("m")).unwrap_err().to_string().contains("out of range"));
+        assert!(m
+            .validate(std::path::Path::new("m"))
+            .unwrap_err()
+            .to_string()
+            .contains("out of range"));
         let mut m = two_tets();
         m.fields[0].values[2] = f64::NAN;
-        assert!(m.validate(std::path::Path::new("m")).unwrap_err().to_string().contains("not finite"));
+        assert!(m
+            .validate(std::path::Path::new("m"))
+            .unwrap_err()
+            .to_string()
+            .contains("not finite"));
     }
 
     #[test]

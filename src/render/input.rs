@@ -30,11 +30,44 @@ impl RenderInput {
             None => {
                 let lo = raw.iter().cloned().fold(f64::INFINITY, f64::min);
                 let hi = raw.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                if raw.is_empty() { [0.0, 1.0] } else { [lo, hi] }
+                if raw.is_empty() {
+                    [0.0, 1.0]
+                } else {
+                    [lo, hi]
+                }
             }
         };
         let span = range[1] - range[0];
-        let s_norm = if span > 0.0 { raw.iter().map(|s| (s - range[0]) / span).collect() } else { vec![0.0; raw.len()] };
-        Ok(RenderInput { scene, mesh, s_norm, range })
+        let s_norm = if span > 0.0 {
+            raw.iter().map(|s| (s - range[0]) / span).collect()
+        } else {
+            vec![0.0; raw.len()]
+        };
+        Ok(RenderInput {
+            scene,
+            mesh,
+            s_norm,
+            range,
+        })
+    }
+}
+
+impl RenderInput {
+    /// Reads the scene file and its mesh; returns the input and the seconds
+    /// spent reading the mesh.
+    pub fn load(scene_path: &std::path::Path) -> Result<(RenderInput, f64)> {
+        let scene = Scene::load(scene_path)?;
+        let t = std::time::Instant::now();
+        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
+        let load_s = t.elapsed().as_secs_f64();
+        Ok((RenderInput::new(scene, Arc::new(mesh))?, load_s))
+    }
+
+    /// The same input with the image size replaced (camera unchanged: an
+    /// orthographic view keeps its world height).
+    pub fn with_size(mut self, width: u32, height: u32) -> RenderInput {
+        self.scene.image.width = width;
+        self.scene.image.height = height;
+        self
     }
 }

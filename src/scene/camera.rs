@@ -64,7 +64,11 @@ pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 pub(crate) fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
@@ -84,7 +88,10 @@ impl Camera {
         let f = sub(self.target, self.eye);
         let lf = norm(f);
         if lf == 0.0 {
-            return Err(("camera.target", "eye and target are the same point: no view direction".into()));
+            return Err((
+                "camera.target",
+                "eye and target are the same point: no view direction".into(),
+            ));
         }
         let lu = norm(self.up);
         if lu == 0.0 {
@@ -92,16 +99,31 @@ impl Camera {
         }
         let c = norm(cross(f, self.up)) / (lf * lu);
         if c < 1e-9 {
-            return Err(("camera.up", "up is parallel to the view direction (target - eye)".into()));
+            return Err((
+                "camera.up",
+                "up is parallel to the view direction (target - eye)".into(),
+            ));
         }
         match self.projection {
-            Projection::Orthographic { height } if !(height > 0.0 && height.is_finite()) => {
-                Err(("camera.height", format!("orthographic height must be > 0, got {height}")))
-            }
+            Projection::Orthographic { height } if !(height > 0.0 && height.is_finite()) => Err((
+                "camera.height",
+                format!("orthographic height must be > 0, got {height}"),
+            )),
             Projection::Perspective { fov_y_deg } if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) => {
-                Err(("camera.fov_y_deg", format!("field of view must be in (0, 180) degrees, got {fov_y_deg}")))
+                Err((
+                    "camera.fov_y_deg",
+                    format!("field of view must be in (0, 180) degrees, got {fov_y_deg}"),
+                ))
             }
             _ => Ok(()),
+        }
+    }
+
+    /// World height of an orthographic view; `None` for perspective.
+    pub fn projection_height(&self) -> Option<f64> {
+        match self.projection {
+            Projection::Orthographic { height } => Some(height),
+            Projection::Perspective { .. } => None,
         }
     }
 
@@ -115,9 +137,20 @@ impl Camera {
         let up = cross(right, forward);
         let pixel_size = match self.projection {
             Projection::Orthographic { height: h } => h / height as f64,
-            Projection::Perspective { fov_y_deg } => 2.0 * (fov_y_deg.to_radians() * 0.5).tan() / height as f64,
+            Projection::Perspective { fov_y_deg } => {
+                2.0 * (fov_y_deg.to_radians() * 0.5).tan() / height as f64
+            }
         };
-        View { eye: self.eye, right, up, forward, width, height, projection: self.projection, pixel_size }
+        View {
+            eye: self.eye,
+            right,
+            up,
+            forward,
+            width,
+            height,
+            projection: self.projection,
+            pixel_size,
+        }
     }
 }
 
@@ -134,12 +167,18 @@ impl View {
     pub fn camera_to_pixel(&self, c: [f64; 3]) -> Option<[f64; 2]> {
         let (w, h) = (self.width as f64, self.height as f64);
         match self.projection {
-            Projection::Orthographic { .. } => Some([w * 0.5 + c[0] / self.pixel_size, h * 0.5 - c[1] / self.pixel_size]),
+            Projection::Orthographic { .. } => Some([
+                w * 0.5 + c[0] / self.pixel_size,
+                h * 0.5 - c[1] / self.pixel_size,
+            ]),
             Projection::Perspective { .. } => {
                 if c[2] <= 0.0 {
                     return None;
                 }
-                Some([w * 0.5 + c[0] / (c[2] * self.pixel_size), h * 0.5 - c[1] / (c[2] * self.pixel_size)])
+                Some([
+                    w * 0.5 + c[0] / (c[2] * self.pixel_size),
+                    h * 0.5 - c[1] / (c[2] * self.pixel_size),
+                ])
             }
         }
     }
@@ -195,7 +234,12 @@ mod tests {
 
     #[test]
     fn rejects_bad_cameras() {
-        let mut cam = Camera { eye: [0.0; 3], target: [0.0; 3], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_y_deg: 30.0 } };
+        let mut cam = Camera {
+            eye: [0.0; 3],
+            target: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            projection: Projection::Perspective { fov_y_deg: 30.0 },
+        };
         assert_eq!(cam.check().unwrap_err().0, "camera.target");
         cam.target = [0.0, 0.0, 5.0];
         assert_eq!(cam.check().unwrap_err().0, "camera.up");
@@ -203,7 +247,12 @@ mod tests {
 
     #[test]
     fn perspective_pixel_round_trip() {
-        let cam = Camera { eye: [1.0, 2.0, 3.0], target: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], projection: Projection::Perspective { fov_y_deg: 40.0 } };
+        let cam = Camera {
+            eye: [1.0, 2.0, 3.0],
+            target: [0.0, 0.0, 0.0],
+            up: [0.0, 0.0, 1.0],
+            projection: Projection::Perspective { fov_y_deg: 40.0 },
+        };
         let v = cam.view(64, 48);
         let (o, d) = v.ray(10, 20);
         let p = [o[0] + 5.0 * d[0], o[1] + 5.0 * d[1], o[2] + 5.0 * d[2]];

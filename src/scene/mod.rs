@@ -114,7 +114,11 @@ impl Scene {
                 Some(l) => format!("line {l}: {}", e.message().trim()),
                 None => e.message().trim().to_string(),
             };
-            Error::scene(path, if key.is_empty() { "(file)".into() } else { key }, msg)
+            Error::scene(
+                path,
+                if key.is_empty() { "(file)".into() } else { key },
+                msg,
+            )
         })?;
         Scene::from_raw(raw, path)
     }
@@ -130,21 +134,44 @@ impl Scene {
         }
         if let Some([a, b]) = raw.data.range {
             if !(a.is_finite() && b.is_finite() && a < b) {
-                return Err(err("data.range", format!("must be two finite numbers with range[0] < range[1], got [{a}, {b}]")));
+                return Err(err(
+                    "data.range",
+                    format!("must be two finite numbers with range[0] < range[1], got [{a}, {b}]"),
+                ));
             }
         }
 
         // [camera]
         let projection = match raw.camera.projection.as_str() {
             "orthographic" => Projection::Orthographic {
-                height: raw.camera.height.ok_or_else(|| err("camera.height", "required for an orthographic camera".into()))?,
+                height: raw.camera.height.ok_or_else(|| {
+                    err(
+                        "camera.height",
+                        "required for an orthographic camera".into(),
+                    )
+                })?,
             },
             "perspective" => Projection::Perspective {
-                fov_y_deg: raw.camera.fov_y_deg.ok_or_else(|| err("camera.fov_y_deg", "required for a perspective camera".into()))?,
+                fov_y_deg: raw.camera.fov_y_deg.ok_or_else(|| {
+                    err(
+                        "camera.fov_y_deg",
+                        "required for a perspective camera".into(),
+                    )
+                })?,
             },
-            other => return Err(err("camera.projection", format!("must be \"orthographic\" or \"perspective\", got \"{other}\""))),
+            other => {
+                return Err(err(
+                    "camera.projection",
+                    format!("must be \"orthographic\" or \"perspective\", got \"{other}\""),
+                ))
+            }
         };
-        let camera = Camera { eye: raw.camera.eye, target: raw.camera.target, up: raw.camera.up, projection };
+        let camera = Camera {
+            eye: raw.camera.eye,
+            target: raw.camera.target,
+            up: raw.camera.up,
+            projection,
+        };
         camera.check().map_err(|(k, m)| err(k, m))?;
 
         // [image]
@@ -152,28 +179,51 @@ impl Scene {
             if (1..=65536).contains(&v) {
                 Ok(v as u32)
             } else {
-                Err(err(key, format!("must be between 1 and 65536 pixels, got {v}")))
+                Err(err(
+                    key,
+                    format!("must be between 1 and 65536 pixels, got {v}"),
+                ))
             }
         };
         let width = dim("image.width", raw.image.width)?;
         let height = dim("image.height", raw.image.height)?;
-        if raw.image.background.iter().any(|c| !(0.0..=1.0).contains(c)) {
-            return Err(err("image.background", format!("RGB components must be in [0, 1], got {:?}", raw.image.background)));
+        if raw
+            .image
+            .background
+            .iter()
+            .any(|c| !(0.0..=1.0).contains(c))
+        {
+            return Err(err(
+                "image.background",
+                format!(
+                    "RGB components must be in [0, 1], got {:?}",
+                    raw.image.background
+                ),
+            ));
         }
 
         // [transfer]
         let ud = raw.transfer.unit_distance;
         if !(ud > 0.0 && ud.is_finite()) {
-            return Err(err("transfer.unit_distance", format!("must be a finite number > 0, got {ud}")));
+            return Err(err(
+                "transfer.unit_distance",
+                format!("must be a finite number > 0, got {ud}"),
+            ));
         }
         if raw.transfer.points.is_empty() {
-            return Err(err("transfer.points", "needs at least one control point".into()));
+            return Err(err(
+                "transfer.points",
+                "needs at least one control point".into(),
+            ));
         }
         let mut points = Vec::with_capacity(raw.transfer.points.len());
         for (i, p) in raw.transfer.points.iter().enumerate() {
             let key = format!("transfer.points[{i}]");
             if p.len() != 5 {
-                return Err(err(&key, format!("must be [s, r, g, b, opacity], got {} numbers", p.len())));
+                return Err(err(
+                    &key,
+                    format!("must be [s, r, g, b, opacity], got {} numbers", p.len()),
+                ));
             }
             if p.iter().any(|v| !v.is_finite()) {
                 return Err(err(&key, "must hold finite numbers".into()));
@@ -182,7 +232,10 @@ impl Scene {
                 return Err(err(&key, format!("s = {} is outside [0, 1]", p[0])));
             }
             if p[1..4].iter().any(|c| !(0.0..=1.0).contains(c)) {
-                return Err(err(&key, format!("colour {:?} has a component outside [0, 1]", &p[1..4])));
+                return Err(err(
+                    &key,
+                    format!("colour {:?} has a component outside [0, 1]", &p[1..4]),
+                ));
             }
             if !(0.0..=1.0).contains(&p[4]) {
                 return Err(err(&key, format!("opacity {} is outside [0, 1]", p[4])));
@@ -193,14 +246,29 @@ impl Scene {
                     return Err(err(&key, format!("s = {} is less than the previous point's s = {}: control points must be in ascending order", p[0], prev.s)));
                 }
             }
-            points.push(ControlPoint { s: p[0], rgb: [p[1], p[2], p[3]], opacity: p[4] });
+            points.push(ControlPoint {
+                s: p[0],
+                rgb: [p[1], p[2], p[3]],
+                opacity: p[4],
+            });
         }
 
         Ok(Scene {
-            data: DataSpec { path: data_path, field: raw.data.field, range: raw.data.range },
+            data: DataSpec {
+                path: data_path,
+                field: raw.data.field,
+                range: raw.data.range,
+            },
             camera,
-            image: ImageSpec { width, height, background: raw.image.background },
-            transfer: TransferFunction { points, unit_distance: ud },
+            image: ImageSpec {
+                width,
+                height,
+                background: raw.image.background,
+            },
+            transfer: TransferFunction {
+                points,
+                unit_distance: ud,
+            },
         })
     }
 
@@ -214,11 +282,18 @@ impl Scene {
     pub fn to_toml(&self, data_path: &str) -> String {
         let c = &self.camera;
         let (proj, extra) = match c.projection {
-            Projection::Orthographic { height } => ("orthographic", format!("height     = {height}")),
-            Projection::Perspective { fov_y_deg } => ("perspective", format!("fov_y_deg  = {fov_y_deg}")),
+            Projection::Orthographic { height } => {
+                ("orthographic", format!("height     = {height}"))
+            }
+            Projection::Perspective { fov_y_deg } => {
+                ("perspective", format!("fov_y_deg  = {fov_y_deg}"))
+            }
         };
         let mut s = String::new();
-        s += &format!("[data]\npath  = {:?}\nfield = {:?}\n", data_path, self.data.field);
+        s += &format!(
+            "[data]\npath  = {:?}\nfield = {:?}\n",
+            data_path, self.data.field
+        );
         if let Some([a, b]) = self.data.range {
             s += &format!("range = [{a}, {b}]\n");
         }
@@ -230,9 +305,15 @@ impl Scene {
             "\n[image]\nwidth      = {}\nheight     = {}\nbackground = {:?}\n",
             self.image.width, self.image.height, self.image.background
         );
-        s += &format!("\n[transfer]\nunit_distance = {}\npoints = [\n", self.transfer.unit_distance);
+        s += &format!(
+            "\n[transfer]\nunit_distance = {}\npoints = [\n",
+            self.transfer.unit_distance
+        );
         for p in &self.transfer.points {
-            s += &format!("  [{}, {}, {}, {}, {}],\n", p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.opacity);
+            s += &format!(
+                "  [{}, {}, {}, {}, {}],\n",
+                p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.opacity
+            );
         }
         s += "]\n";
         s
@@ -280,12 +361,36 @@ points = [[0.0, 0.0, 0.0, 1.0, 0.0], [1.0, 1.0, 0.0, 0.0, 0.2]]
 
     #[test]
     fn errors_name_the_key() {
-        assert_eq!(key_of(&GOOD.replace("width = 30", "width = 0")), "image.width");
-        assert_eq!(key_of(&GOOD.replace("target = [0.0, 0.0, 0.0]", "target = [0.0, -200.0, 0.0]")), "camera.target");
-        assert_eq!(key_of(&GOOD.replace("up = [0.0, 0.0, 1.0]", "up = [0.0, 1.0, 0.0]")), "camera.up");
-        assert_eq!(key_of(&GOOD.replace("[1.0, 1.0, 0.0, 0.0, 0.2]", "[1.0, 1.0, 0.0, 0.0, 1.2]")), "transfer.points[1]");
-        assert_eq!(key_of(&GOOD.replace("[[0.0, 0.0, 0.0, 1.0, 0.0], [1.0,", "[[0.5, 0.0, 0.0, 1.0, 0.0], [0.2,")), "transfer.points[1]");
-        assert_eq!(key_of(&GOOD.replace("height = 120.0", "height = 120.0\nzoom = 2")), "zoom");
-        assert_eq!(key_of(&GOOD.replace("unit_distance = 1.0", "unit_distance = 0.0")), "transfer.unit_distance");
+        assert_eq!(
+            key_of(&GOOD.replace("width = 30", "width = 0")),
+            "image.width"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace("target = [0.0, 0.0, 0.0]", "target = [0.0, -200.0, 0.0]")),
+            "camera.target"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace("up = [0.0, 0.0, 1.0]", "up = [0.0, 1.0, 0.0]")),
+            "camera.up"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace("[1.0, 1.0, 0.0, 0.0, 0.2]", "[1.0, 1.0, 0.0, 0.0, 1.2]")),
+            "transfer.points[1]"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace(
+                "[[0.0, 0.0, 0.0, 1.0, 0.0], [1.0,",
+                "[[0.5, 0.0, 0.0, 1.0, 0.0], [0.2,"
+            )),
+            "transfer.points[1]"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace("height = 120.0", "height = 120.0\nzoom = 2")),
+            "zoom"
+        );
+        assert_eq!(
+            key_of(&GOOD.replace("unit_distance = 1.0", "unit_distance = 0.0")),
+            "transfer.unit_distance"
+        );
     }
 }

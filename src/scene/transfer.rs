@@ -43,10 +43,18 @@ impl TransferFunction {
         // First point strictly right of s; s lies in [p[k-1].s, p[k].s).
         let k = p.partition_point(|c| c.s <= s);
         let (a, b) = (p[k - 1], p[k]);
-        let w = if b.s > a.s { (s - a.s) / (b.s - a.s) } else { 0.0 };
+        let w = if b.s > a.s {
+            (s - a.s) / (b.s - a.s)
+        } else {
+            0.0
+        };
         let lerp = |x: f64, y: f64| x + (y - x) * w;
         (
-            [lerp(a.rgb[0], b.rgb[0]), lerp(a.rgb[1], b.rgb[1]), lerp(a.rgb[2], b.rgb[2])],
+            [
+                lerp(a.rgb[0], b.rgb[0]),
+                lerp(a.rgb[1], b.rgb[1]),
+                lerp(a.rgb[2], b.rgb[2]),
+            ],
             lerp(a.opacity, b.opacity),
         )
     }
@@ -93,9 +101,21 @@ mod tests {
     fn tf() -> TransferFunction {
         TransferFunction {
             points: vec![
-                ControlPoint { s: 0.0, rgb: [0.0, 0.0, 1.0], opacity: 0.0 },
-                ControlPoint { s: 0.5, rgb: [0.0, 1.0, 0.0], opacity: 0.5 },
-                ControlPoint { s: 1.0, rgb: [1.0, 0.0, 0.0], opacity: 0.2 },
+                ControlPoint {
+                    s: 0.0,
+                    rgb: [0.0, 0.0, 1.0],
+                    opacity: 0.0,
+                },
+                ControlPoint {
+                    s: 0.5,
+                    rgb: [0.0, 1.0, 0.0],
+                    opacity: 0.5,
+                },
+                ControlPoint {
+                    s: 1.0,
+                    rgb: [1.0, 0.0, 0.0],
+                    opacity: 0.2,
+                },
             ],
             unit_distance: 2.0,
         }

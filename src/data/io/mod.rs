@@ -1,1 +1,73 @@
-//! Mesh readers, one file per format. (Being written.)
+//! Mesh readers, one file per format, and the legacy VTK writer.
+//!
+//! [`read_mesh`] picks the reader by file extension:
+//!
+//! | extension | format | module |
+//! | --- | --- | --- |
+//! | `.vtk` | VTK legacy `UNSTRUCTURED_GRID`, ASCII or BINARY, classic and 5.1 cell layout | [`vtk_legacy`] |
+//! | `.vtu` | VTK XML `UnstructuredGrid`: ascii, inline base64, appended raw/base64, zlib | [`vtu`] |
+//! | `.inp` | AVS UCD ASCII | [`avs_ucd`] |
+//!
+//! Every reader returns tetrahedra (other 3D linear cells are decomposed, see
+//! [`decompose`]) and point-data fields; cell data is skipped. Every error is
+//! an [`Error`](crate::Error) naming the file and the line, byte offset, XML
+//! element or cell at fault.
+
+pub mod avs_ucd;
+pub mod decompose;
+pub mod numeric;
+pub mod vtk_legacy;
+pub mod vtk_write;
+pub mod vtu;
+
+use std::path::Path;
+
+use crate::data::TetMesh;
+use crate::error::{Error, Result};
+
+pub use vtk_write::write_vtk_legacy;
+
+/// The extensions [`read_mesh`] understands, for messages.
+pub const SUPPORTED: &str =
+    ".vtk (VTK legacy), .vtu (VTK XML UnstructuredGrid), .inp (AVS UCD ASCII)";
+
+/// Reads a tetrahedral mesh, choosing the format by the file's extension
+/// (case-insensitive), and validates it ([`TetMesh::validate`]: indices in
+/// range, coordinates and field values finite, field lengths right).
+pub fn read_mesh(path: &Path) -> Result<TetMesh> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let mesh = match ext.as_deref() {
+        Some("vtk") => vtk_legacy::read(path)?,
+        Some("vtu") => vtu::read(path)?,
+        Some("inp") => avs_ucd::read(path)?,
+        _ => {
+            return Err(Error::data(
+                path,
+                "file name",
+                format!(
+                    "unsupported mesh format (extension {}); supported: {SUPPORTED}",
+                    ext.map_or("missing".to_string(), |e| format!("\".{e}\""))
+                ),
+            ))
+        }
+    };
+    mesh.validate(path)?;
+    Ok(mesh)
+}
+
+/// Reads a whole file, mapping the failure to [`Error::Io`].
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
+/// 1-based line number of byte `offset` in `data`.
+pub(crate) fn line_of(data: &[u8], offset: usize) -> usize {
+    data[..offset.min(data.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}

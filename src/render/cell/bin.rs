@@ -4,9 +4,12 @@
 //! A cell is skipped before projection when its scalar interval maps to zero
 //! opacity everywhere (an *empty* cell) or when its projected bounding box
 //! misses the image (or lies behind the eye). The survivors are sorted into
-//! fixed-size screen tiles, each tile keeping the cells in their stored order,
-//! so every pixel sees the same sequence of segments however many threads
-//! render the tiles: the image does not depend on the thread count.
+//! fixed-size screen tiles as compact [`CellRecord`]s (the cell's vertices
+//! gathered, so scan conversion reads memory in order). Each tile keeps its
+//! cells in stored order; [`CellOrder::FrontToBack`](super::CellOrder) then
+//! sorts each tile by `(nearest depth, cell id)`. Either way every pixel sees
+//! the same sequence of segments however many threads render the tiles, so
+//! the image does not depend on the thread count or the tile size.
 
 use rayon::prelude::*;
 
@@ -17,13 +20,41 @@ use super::scan::{covered_pixels, Rect};
 /// Cells per binning task.
 const CHUNK: usize = 16 * 1024;
 
+/// A cell as scan conversion needs it, gathered in one place.
+#[derive(Debug, Clone, Copy)]
+pub struct CellRecord {
+    /// Nearest depth of its vertices (screen depth, or distance from the eye).
+    pub near: f32,
+    /// Cell index in the mesh.
+    pub cell: u32,
+    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
+    pub range: [u32; 4],
+    /// Global vertex ids (for the watertight face set-up).
+    pub ids: [u32; 4],
+    /// Vertex positions (screen space or camera frame).
+    pub pos: [[f32; 3]; 4],
+    /// Vertex scalars.
+    pub s: [f32; 4],
+}
+
+impl CellRecord {
+    /// Sort key for front-to-back order: nearest depth, then cell id.
+    #[inline]
+    pub fn order_key(&self) -> u64 {
+        // Order-preserving map of f32 onto u32.
+        let b = self.near.to_bits();
+        let k = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
+        (k as u64) << 32 | self.cell as u64
+    }
+}
+
 /// The result of culling and binning.
 #[derive(Debug, Clone, Default)]
 pub struct Binning {
     /// The tiles, row-major.
     pub tiles: Vec<Rect>,
     /// For each tile, the cells whose pixel range touches it, in stored order.
-    pub bins: Vec<Vec<u32>>,
+    pub bins: Vec<Vec<CellRecord>>,
     /// Cells skipped because their scalar interval has zero opacity.
     pub culled_empty: u64,
     /// Cells skipped because they project outside the image or lie behind the eye.
@@ -37,52 +68,73 @@ pub fn tiles(width: u32, height: u32, tile: u32) -> Vec<Rect> {
     let mut out = Vec::new();
     for y0 in (0..height).step_by(tile as usize) {
         for x0 in (0..width).step_by(tile as usize) {
-            out.push(Rect { x0, y0, x1: (x0 + tile).min(width), y1: (y0 + tile).min(height) });
+            out.push(Rect {
+                x0,
+                y0,
+                x1: (x0 + tile).min(width),
+                y1: (y0 + tile).min(height),
+            });
         }
     }
     out
 }
 
-/// Culls and bins `tets`, visiting them in `order` (all cells, a permutation)
-/// or in stored order when `None`.
-pub fn bin_cells(tets: &[[u32; 4]], order: Option<&[u32]>, pv: &ProjectedVertices, tf: &PreparedTf, tile: u32) -> Binning {
+/// Culls `tets` and bins the rest into `tile x tile` tiles.
+pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, tile: u32) -> Binning {
     let (w, h) = pv.size;
     let rects = tiles(w, h, tile);
     let tiles_x = w.div_ceil(tile);
-    let full = Rect { x0: 0, y0: 0, x1: w, y1: h };
+    let full = Rect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
     struct Part {
-        pairs: Vec<(u32, u32)>,
+        pairs: Vec<(u32, CellRecord)>,
         empty: u64,
         off: u64,
         none: u64,
     }
-    let n = tets.len();
-    let parts: Vec<Part> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let span = c * CHUNK..(c * CHUNK + CHUNK).min(n);
-            let mut part = Part { pairs: Vec::with_capacity(span.len() * 5 / 4), empty: 0, off: 0, none: 0 };
-            for k in span {
-                let cell = order.map_or(k as u32, |o| o[k]);
-                let tet = &tets[cell as usize];
-                let s = tet.map(|v| pv.s[v as usize]);
-                let (lo, hi) = (s.iter().cloned().fold(f32::INFINITY, f32::min), s.iter().cloned().fold(f32::NEG_INFINITY, f32::max));
+    let parts: Vec<Part> = tets
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let mut part = Part {
+                pairs: Vec::with_capacity(chunk.len() * 5 / 4),
+                empty: 0,
+                off: 0,
+                none: 0,
+            };
+            for (k, &ids) in chunk.iter().enumerate() {
+                let cell = (c * CHUNK + k) as u32;
+                let s = ids.map(|v| pv.s[v as usize]);
+                let (lo, hi) = (
+                    s.iter().cloned().fold(f32::INFINITY, f32::min),
+                    s.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+                );
                 if tf.is_transparent(lo, hi) {
                     part.empty += 1;
                     continue;
                 }
-                let depth = tet.map(|v| pv.pos[v as usize][2]);
-                if depth.iter().all(|&z| z <= 0.0) {
+                let pos = ids.map(|v| pv.pos[v as usize]);
+                if pos.iter().all(|p| p[2] <= 0.0) {
                     part.off += 1; // behind the eye
                     continue;
                 }
-                let px = tet.map(|v| pv.pixel[v as usize]);
+                let px = ids.map(|v| pv.pixel[v as usize]);
                 let range = if px.iter().any(|p| p[0].is_nan()) {
                     // Straddles the eye plane (perspective): bound by the screen.
                     Some((0, w - 1, 0, h - 1))
                 } else {
-                    let (xl, xh) = (px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min), px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max));
-                    let (yl, yh) = (px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min), px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max));
+                    let (xl, xh) = (
+                        px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min),
+                        px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max),
+                    );
+                    let (yl, yh) = (
+                        px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min),
+                        px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max),
+                    );
                     if xh < 0.0 || yh < 0.0 || xl > w as f32 || yl > h as f32 {
                         part.off += 1;
                         continue;
@@ -93,9 +145,24 @@ pub fn bin_cells(tets: &[[u32; 4]], order: Option<&[u32]>, pv: &ProjectedVertice
                     part.none += 1;
                     continue;
                 };
+                let near = if pv.perspective {
+                    pos.iter()
+                        .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+                        .fold(f32::INFINITY, f32::min)
+                } else {
+                    pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
+                };
+                let rec = CellRecord {
+                    near,
+                    cell,
+                    range: [i0, i1, j0, j1],
+                    ids,
+                    pos,
+                    s,
+                };
                 for ty in j0 / tile..=j1 / tile {
                     for tx in i0 / tile..=i1 / tile {
-                        part.pairs.push((ty * tiles_x + tx, cell));
+                        part.pairs.push((ty * tiles_x + tx, rec));
                     }
                 }
             }
@@ -104,15 +171,18 @@ pub fn bin_cells(tets: &[[u32; 4]], order: Option<&[u32]>, pv: &ProjectedVertice
         .collect();
     let mut counts = vec![0usize; rects.len()];
     for p in &parts {
-        for &(t, _) in &p.pairs {
-            counts[t as usize] += 1;
+        for (t, _) in &p.pairs {
+            counts[*t as usize] += 1;
         }
     }
-    let mut bins: Vec<Vec<u32>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
-    let mut out = Binning { tiles: rects, ..Default::default() };
-    for p in &parts {
-        for &(t, cell) in &p.pairs {
-            bins[t as usize].push(cell);
+    let mut bins: Vec<Vec<CellRecord>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
+    let mut out = Binning {
+        tiles: rects,
+        ..Default::default()
+    };
+    for p in parts {
+        for (t, rec) in p.pairs {
+            bins[t as usize].push(rec);
         }
         out.culled_empty += p.empty;
         out.culled_offscreen += p.off;

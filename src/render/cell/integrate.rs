@@ -31,7 +31,9 @@ use super::segment::Rgba;
 use crate::scene::transfer::{TransferFunction, OPACITY_MAX};
 
 /// Which integrator turns a segment's `(s_a, s_b, length)` into colour and alpha.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Piecewise closed-form optical depth + Simpson on the colour; within 1e-4.
@@ -78,7 +80,14 @@ impl PreparedTf {
         let f = |v: f64| v as f32;
         let c = |i: usize| p[i].rgb.map(f);
         let mut pieces = Vec::with_capacity(p.len() + 1);
-        pieces.push(Piece { s0: f(p[0].s), inv_w: 0.0, o0: f(p[0].opacity), o1: f(p[0].opacity), c0: c(0), c1: c(0) });
+        pieces.push(Piece {
+            s0: f(p[0].s),
+            inv_w: 0.0,
+            o0: f(p[0].opacity),
+            o1: f(p[0].opacity),
+            c0: c(0),
+            c1: c(0),
+        });
         for i in 0..p.len() - 1 {
             let w = p[i + 1].s - p[i].s;
             pieces.push(Piece {
@@ -91,8 +100,19 @@ impl PreparedTf {
             });
         }
         let l = p.len() - 1;
-        pieces.push(Piece { s0: f(p[l].s), inv_w: 0.0, o0: f(p[l].opacity), o1: f(p[l].opacity), c0: c(l), c1: c(l) });
-        PreparedTf { breaks: p.iter().map(|c| f(c.s)).collect(), pieces, inv_unit_distance: (1.0 / tf.unit_distance) as f32 }
+        pieces.push(Piece {
+            s0: f(p[l].s),
+            inv_w: 0.0,
+            o0: f(p[l].opacity),
+            o1: f(p[l].opacity),
+            c0: c(l),
+            c1: c(l),
+        });
+        PreparedTf {
+            breaks: p.iter().map(|c| f(c.s)).collect(),
+            pieces,
+            inv_unit_distance: (1.0 / tf.unit_distance) as f32,
+        }
     }
 
     /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).
@@ -108,7 +128,14 @@ impl PreparedTf {
         let p = &self.pieces[self.piece_index(s)];
         let w = ((s - p.s0) * p.inv_w).clamp(0.0, 1.0);
         let lerp = |a: f32, b: f32| a + (b - a) * w;
-        (lerp(p.o0, p.o1), [lerp(p.c0[0], p.c1[0]), lerp(p.c0[1], p.c1[1]), lerp(p.c0[2], p.c1[2])])
+        (
+            lerp(p.o0, p.o1),
+            [
+                lerp(p.c0[0], p.c1[0]),
+                lerp(p.c0[1], p.c1[1]),
+                lerp(p.c0[2], p.c1[2]),
+            ],
+        )
     }
 
     /// Whether the opacity is zero everywhere on `[lo, hi]` (cells whose
@@ -138,7 +165,10 @@ impl PreparedTf {
         let (o, c) = self.eval(0.5 * (s_a + s_b));
         let k = length * self.inv_unit_distance;
         let a = 1.0 - exp_neg(k * ln(1.0 - o.min(OPACITY_MAX as f32)));
-        Rgba { rgb: [c[0] * a, c[1] * a, c[2] * a], a }
+        Rgba {
+            rgb: [c[0] * a, c[1] * a, c[2] * a],
+            a,
+        }
     }
 
     /// The exact integrator (see the module doc).
@@ -181,7 +211,14 @@ impl PreparedTf {
         let at = |s: f32| {
             let w = ((s - p.s0) * p.inv_w).clamp(0.0, 1.0);
             let o = (p.o0 + (p.o1 - p.o0) * w).min(OPACITY_MAX as f32);
-            (1.0 - o, [p.c0[0] + (p.c1[0] - p.c0[0]) * w, p.c0[1] + (p.c1[1] - p.c0[1]) * w, p.c0[2] + (p.c1[2] - p.c0[2]) * w])
+            (
+                1.0 - o,
+                [
+                    p.c0[0] + (p.c1[0] - p.c0[0]) * w,
+                    p.c0[1] + (p.c1[1] - p.c0[1]) * w,
+                    p.c0[2] + (p.c1[2] - p.c0[2]) * w,
+                ],
+            )
         };
         let (u0, c0) = at(s0);
         let (u1, c1) = at(s1);
@@ -203,7 +240,11 @@ impl PreparedTf {
         for j in 1..=n {
             let x = j as f32 * inv_n;
             let ub = u0 + (u1 - u0) * x;
-            let cb = [c0[0] + (c1[0] - c0[0]) * x, c0[1] + (c1[1] - c0[1]) * x, c0[2] + (c1[2] - c0[2]) * x];
+            let cb = [
+                c0[0] + (c1[0] - c0[0]) * x,
+                c0[1] + (c1[1] - c0[1]) * x,
+                c0[2] + (c1[2] - c0[2]) * x,
+            ];
             let lb = if j == n { l1 } else { -ln(ub) };
             acc = acc.over(sub_step(ua, ub, la, lb, ca, cb, k * inv_n));
             (ua, la, ca) = (ub, lb, cb);
@@ -234,7 +275,13 @@ pub struct Batch {
 
 impl Default for Batch {
     fn default() -> Self {
-        Batch { n: 0, s_in: [0.0; BATCH], s_out: [0.0; BATCH], len: [0.0; BATCH], rgba: [[0.0; BATCH]; 4] }
+        Batch {
+            n: 0,
+            s_in: [0.0; BATCH],
+            s_out: [0.0; BATCH],
+            len: [0.0; BATCH],
+            rgba: [[0.0; BATCH]; 4],
+        }
     }
 }
 
@@ -242,7 +289,10 @@ impl Batch {
     /// The result of lane `i`.
     #[inline(always)]
     pub fn result(&self, i: usize) -> Rgba {
-        Rgba { rgb: [self.rgba[0][i], self.rgba[1][i], self.rgba[2][i]], a: self.rgba[3][i] }
+        Rgba {
+            rgb: [self.rgba[0][i], self.rgba[1][i], self.rgba[2][i]],
+            a: self.rgba[3][i],
+        }
     }
     #[inline(always)]
     fn set(&mut self, i: usize, v: Rgba) {
@@ -312,8 +362,16 @@ impl PreparedTf {
                     let d_est = k * fmax(l0, l1);
                     let rel = (u1 - u0).abs() / fmin(u0, u1);
                     split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
-                    let c0 = [g.c0[0][l] + g.d_c[0][l] * w0, g.c0[1][l] + g.d_c[1][l] * w0, g.c0[2][l] + g.d_c[2][l] * w0];
-                    let c1 = [g.c0[0][l] + g.d_c[0][l] * w1, g.c0[1][l] + g.d_c[1][l] * w1, g.c0[2][l] + g.d_c[2][l] * w1];
+                    let c0 = [
+                        g.c0[0][l] + g.d_c[0][l] * w0,
+                        g.c0[1][l] + g.d_c[1][l] * w0,
+                        g.c0[2][l] + g.d_c[2][l] * w0,
+                    ];
+                    let c1 = [
+                        g.c0[0][l] + g.d_c[0][l] * w1,
+                        g.c0[1][l] + g.d_c[1][l] * w1,
+                        g.c0[2][l] + g.d_c[2][l] * w1,
+                    ];
                     let v = sub_step(u0, u1, l0, l1, c0, c1, k);
                     b.rgba[0][l] = v.rgb[0];
                     b.rgba[1][l] = v.rgb[1];
@@ -330,7 +388,11 @@ impl PreparedTf {
             Integrator::Midpoint => {
                 for l in 0..lanes {
                     let k = b.len[l] * inv_ud;
-                    let w = fclamp((0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+                    let w = fclamp(
+                        (0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l],
+                        0.0,
+                        1.0,
+                    );
                     let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
                     let a = 1.0 - exp_neg(k * ln(1.0 - o));
                     for c in 0..3 {
@@ -424,7 +486,14 @@ mod tests {
             [1.0000, 0.7060, 0.0160, 0.1500, 0.2443],
         ];
         TransferFunction {
-            points: pts.iter().map(|p| ControlPoint { s: p[0], rgb: [p[1], p[2], p[3]], opacity: p[4] }).collect(),
+            points: pts
+                .iter()
+                .map(|p| ControlPoint {
+                    s: p[0],
+                    rgb: [p[1], p[2], p[3]],
+                    opacity: p[4],
+                })
+                .collect(),
             unit_distance: 5.0,
         }
     }
@@ -454,18 +523,31 @@ mod tests {
         let mut worst = 0.0f64;
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..3000 {
             let sa = rnd() * 1.1 - 0.05;
-            let sb = if rnd() < 0.5 { sa + (rnd() - 0.5) * 0.1 } else { rnd() * 1.1 - 0.05 };
+            let sb = if rnd() < 0.5 {
+                sa + (rnd() - 0.5) * 0.1
+            } else {
+                rnd() * 1.1 - 0.05
+            };
             let len = [0.01, 0.5, 2.0, 10.0, 40.0][(rnd() * 5.0) as usize % 5] * rnd();
             let got = p.exact(sa as f32, sb as f32, len as f32);
             let (a, c) = brute(&tf, sa, sb, len);
-            let err = (got.a as f64 - a).abs().max((0..3).map(|k| (got.rgb[k] as f64 - c[k]).abs()).fold(0.0, f64::max));
+            let err = (got.a as f64 - a).abs().max(
+                (0..3)
+                    .map(|k| (got.rgb[k] as f64 - c[k]).abs())
+                    .fold(0.0, f64::max),
+            );
             worst = worst.max(err);
-            assert!(err < 1e-4, "sa={sa} sb={sb} len={len}: got {got:?}, want a={a} c={c:?}, err {err}");
+            assert!(
+                err < 1e-4,
+                "sa={sa} sb={sb} len={len}: got {got:?}, want a={a} c={c:?}, err {err}"
+            );
         }
         eprintln!("worst exact error {worst:e}");
     }
@@ -473,13 +555,27 @@ mod tests {
     #[test]
     fn opacity_one_and_zero_length_are_finite() {
         let tf = TransferFunction {
-            points: vec![ControlPoint { s: 0.0, rgb: [1.0, 0.5, 0.0], opacity: 1.0 }, ControlPoint { s: 1.0, rgb: [1.0, 0.5, 0.0], opacity: 1.0 }],
+            points: vec![
+                ControlPoint {
+                    s: 0.0,
+                    rgb: [1.0, 0.5, 0.0],
+                    opacity: 1.0,
+                },
+                ControlPoint {
+                    s: 1.0,
+                    rgb: [1.0, 0.5, 0.0],
+                    opacity: 1.0,
+                },
+            ],
             unit_distance: 1.0,
         };
         let p = PreparedTf::new(&tf);
         for integ in [Integrator::Exact, Integrator::Midpoint] {
             let r = p.integrate(integ, 0.2, 0.8, 3.0);
-            assert!(r.a > 0.999_999 && r.a <= 1.0 && r.rgb.iter().all(|v| v.is_finite()), "{r:?}");
+            assert!(
+                r.a > 0.999_999 && r.a <= 1.0 && r.rgb.iter().all(|v| v.is_finite()),
+                "{r:?}"
+            );
             let z = p.integrate(integ, 0.2, 0.8, 0.0);
             assert_eq!(z.a, 0.0);
         }

@@ -33,7 +33,11 @@ pub enum Inserted {
 impl SegmentLists {
     /// Empty lists for a `width x height` rectangle.
     pub fn new(width: u32, height: u32) -> SegmentLists {
-        SegmentLists { width, height, lists: vec![Vec::new(); width as usize * height as usize] }
+        SegmentLists {
+            width,
+            height,
+            lists: vec![Vec::new(); width as usize * height as usize],
+        }
     }
 
     /// The list of local pixel `idx` (row-major in the rectangle).
@@ -94,15 +98,31 @@ mod tests {
     use super::*;
 
     fn seg(zf: f32, zb: f32, a: f32) -> Segment {
-        Segment { z_front: zf, z_back: zb, rgba: Rgba { rgb: [a * 0.5, a * 0.25, a], a } }
+        Segment {
+            z_front: zf,
+            z_back: zb,
+            rgba: Rgba {
+                rgb: [a * 0.5, a * 0.25, a],
+                a,
+            },
+        }
     }
 
     #[test]
     fn merges_touching_neighbours() {
         let mut l = Vec::new();
-        assert_eq!(insert_sorted(&mut l, seg(0.0, 1.0, 0.2), true), Inserted::New);
-        assert_eq!(insert_sorted(&mut l, seg(2.0, 3.0, 0.3), true), Inserted::New);
-        assert_eq!(insert_sorted(&mut l, seg(1.0, 2.0, 0.4), true), Inserted::MergedBoth);
+        assert_eq!(
+            insert_sorted(&mut l, seg(0.0, 1.0, 0.2), true),
+            Inserted::New
+        );
+        assert_eq!(
+            insert_sorted(&mut l, seg(2.0, 3.0, 0.3), true),
+            Inserted::New
+        );
+        assert_eq!(
+            insert_sorted(&mut l, seg(1.0, 2.0, 0.4), true),
+            Inserted::MergedBoth
+        );
         assert_eq!(l.len(), 1);
         assert_eq!((l[0].z_front, l[0].z_back), (0.0, 3.0));
         let want = 1.0 - 0.8 * 0.6 * 0.7;
@@ -115,6 +135,9 @@ mod tests {
         for s in [seg(2.0, 3.0, 0.3), seg(0.0, 1.0, 0.2), seg(1.0, 2.0, 0.4)] {
             insert_sorted(&mut l, s, false);
         }
-        assert_eq!(l.iter().map(|s| s.z_front).collect::<Vec<_>>(), vec![0.0, 1.0, 2.0]);
+        assert_eq!(
+            l.iter().map(|s| s.z_front).collect::<Vec<_>>(),
+            vec![0.0, 1.0, 2.0]
+        );
     }
 }

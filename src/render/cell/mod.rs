@@ -38,7 +38,7 @@ pub use segment::{Rgba, Segment};
 
 use crate::image::Image;
 use crate::render::RenderInput;
-use scan::{covered_pixels, ScanCounts, ScanTarget};
+use scan::{ScanCounts, ScanTarget};
 
 /// Options of the cell-projection renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,7 +55,12 @@ pub struct CellOptions {
 
 impl Default for CellOptions {
     fn default() -> Self {
-        CellOptions { integrator: Integrator::Exact, partial_composition: true, tile_size: 32, cell_order: CellOrder::FrontToBack }
+        CellOptions {
+            integrator: Integrator::Exact,
+            partial_composition: true,
+            tile_size: 32,
+            cell_order: CellOrder::FrontToBack,
+        }
     }
 }
 
@@ -130,18 +135,19 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     let view = scene.view();
     let tf = PreparedTf::new(&scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
-    let order = match opts.cell_order {
-        CellOrder::Stored => None,
-        CellOrder::FrontToBack => Some(order::front_to_back(&input.mesh.tets, &pv)),
-    };
-    let binning = bin::bin_cells(&input.mesh.tets, order.as_deref(), &pv, &tf, opts.tile_size.max(1));
+    let mut binning = bin::bin_cells(&input.mesh.tets, &pv, &tf, opts.tile_size.max(1));
     let t1 = Instant::now();
 
     let tiles: Vec<TileResult> = binning
         .tiles
         .par_iter()
-        .zip(&binning.bins)
-        .map(|(rect, cells)| scan_tile(input, &pv, &tf, opts, *rect, cells))
+        .zip(&mut binning.bins)
+        .map(|(rect, cells)| {
+            if opts.cell_order == CellOrder::FrontToBack {
+                cells.sort_unstable_by_key(|c| c.order_key());
+            }
+            scan_tile(pv.perspective.then(|| pv.rays()), &tf, opts, *rect, cells)
+        })
         .collect();
     let t2 = Instant::now();
 
@@ -155,12 +161,20 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         .map(|(k, (rect, t))| {
             let mut px = Vec::with_capacity((rect.width() * rect.height()) as usize);
             for (idx, l) in t.lists.lists().iter().enumerate() {
-                let (i, j) = (rect.x0 + idx as u32 % rect.width(), rect.y0 + idx as u32 / rect.width());
+                let (i, j) = (
+                    rect.x0 + idx as u32 % rect.width(),
+                    rect.y0 + idx as u32 / rect.width(),
+                );
                 let c = list::composite(l);
                 let keep = 1.0 - c.a;
                 px.push((
                     (j * view.width + i) as usize,
-                    [c.rgb[0] + keep * bg[0], c.rgb[1] + keep * bg[1], c.rgb[2] + keep * bg[2], c.a],
+                    [
+                        c.rgb[0] + keep * bg[0],
+                        c.rgb[1] + keep * bg[1],
+                        c.rgb[2] + keep * bg[2],
+                        c.a,
+                    ],
                 ));
             }
             (k, px)
@@ -187,7 +201,8 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         cell_order: opts.cell_order.to_string(),
         ..Default::default()
     };
-    stats.cells_projected = stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
+    stats.cells_projected =
+        stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
     for t in &tiles {
         counts.add(&t.counts);
         stats.cells_degenerate += t.degenerate;
@@ -202,7 +217,11 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     stats.pixels_tested = counts.pixels_tested;
     stats.segments_generated = counts.segments_generated;
     stats.segments_merged = counts.segments_merged;
-    stats.list_len_mean = if stats.pixels_covered > 0 { stats.segments_stored as f64 / stats.pixels_covered as f64 } else { 0.0 };
+    stats.list_len_mean = if stats.pixels_covered > 0 {
+        stats.segments_stored as f64 / stats.pixels_covered as f64
+    } else {
+        0.0
+    };
     stats.time_project_s = (t1 - t0).as_secs_f64();
     stats.time_scan_s = (t2 - t1).as_secs_f64();
     stats.time_composite_s = (t3 - t2).as_secs_f64();
@@ -210,46 +229,50 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     (image, stats)
 }
 
-/// Scan-converts the cells of one tile into fresh lists.
+/// Scan-converts the cells of one tile, in the given order, into fresh lists.
 pub fn scan_tile(
-    input: &RenderInput,
-    pv: &project::ProjectedVertices,
+    perspective: Option<project::PerspRays>,
     tf: &PreparedTf,
     opts: &CellOptions,
     rect: scan::Rect,
-    cells: &[u32],
+    cells: &[bin::CellRecord],
 ) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
-    let tets = &input.mesh.tets;
     {
-        let mut target = ScanTarget::new(&mut lists, rect, tf, opts.integrator, opts.partial_composition, &mut counts);
-        for &c in cells {
-            let ids = tets[c as usize];
-            let straddles = pv.perspective && ids.iter().any(|&v| pv.pixel[v as usize][0].is_nan());
-            let range = if straddles {
-                Some((rect.x0, rect.x1 - 1, rect.y0, rect.y1 - 1))
-            } else {
-                covered_pixels(&ids.map(|v| pv.pixel[v as usize]), rect)
-            };
-            let Some(range) = range else { continue };
-            let Some(setup) = setup::setup_tet(ids, &pv.pos, &pv.s) else {
-                // A cell binned into several tiles is counted once: by the
-                // tile holding the first pixel of its whole-image range.
-                let full = scan::Rect { x0: 0, y0: 0, x1: pv.size.0, y1: pv.size.1 };
-                let first = if straddles { Some((0, 0, 0, 0)) } else { covered_pixels(&ids.map(|v| pv.pixel[v as usize]), full) };
-                if first.is_some_and(|f| f.0 >= rect.x0 && f.2 >= rect.y0) {
-                    degenerate += 1;
-                }
+        let mut target = ScanTarget::new(
+            &mut lists,
+            rect,
+            tf,
+            opts.integrator,
+            opts.partial_composition,
+            &mut counts,
+        );
+        for c in cells {
+            let [i0, i1, j0, j1] = c.range;
+            let range = (
+                i0.max(rect.x0),
+                i1.min(rect.x1 - 1),
+                j0.max(rect.y0),
+                j1.min(rect.y1 - 1),
+            );
+            let Some(setup) = setup::setup_tet(c.ids, &c.pos, &c.s) else {
+                // Counted once, in the tile holding the cell's first pixel.
+                degenerate +=
+                    u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
                 continue;
             };
-            if pv.perspective {
-                scan::scan_persp(&setup, pv, range, &mut target);
+            if let Some(rays) = &perspective {
+                scan::scan_persp(&setup, rays, range, &mut target);
             } else {
                 scan::scan_ortho(&setup, range, &mut target);
             }
         }
     }
-    TileResult { lists, counts, degenerate }
+    TileResult {
+        lists,
+        counts,
+        degenerate,
+    }
 }

@@ -39,8 +39,15 @@ impl ProjectedVertices {
             .par_iter()
             .map(|&p| {
                 let c = view.to_camera(p);
-                let px = view.camera_to_pixel(c).map(|q| [q[0] as f32, q[1] as f32]).unwrap_or([f32::NAN; 2]);
-                let pos = if perspective { c.map(|v| v as f32) } else { [px[0], px[1], c[2] as f32] };
+                let px = view
+                    .camera_to_pixel(c)
+                    .map(|q| [q[0] as f32, q[1] as f32])
+                    .unwrap_or([f32::NAN; 2]);
+                let pos = if perspective {
+                    c.map(|v| v as f32)
+                } else {
+                    [px[0], px[1], c[2] as f32]
+                };
                 (pos, px)
             })
             .unzip();
@@ -54,9 +61,32 @@ impl ProjectedVertices {
         }
     }
 
-    /// Ray direction (not normalised, `z = 1`) of the pixel centre `(x, y)` (perspective).
+    /// The perspective rays of this image.
+    pub fn rays(&self) -> PerspRays {
+        PerspRays {
+            half_w: self.size.0 as f32 * 0.5,
+            half_h: self.size.1 as f32 * 0.5,
+            pixel_size: self.pixel_size,
+        }
+    }
+}
+
+/// Perspective ray directions in the camera frame.
+#[derive(Debug, Clone, Copy)]
+pub struct PerspRays {
+    half_w: f32,
+    half_h: f32,
+    pixel_size: f32,
+}
+
+impl PerspRays {
+    /// Ray direction (not normalised, `z = 1`) of the pixel centre `(x, y)`.
     #[inline(always)]
-    pub fn ray_dir(&self, x: f32, y: f32) -> [f32; 3] {
-        [(x - self.size.0 as f32 * 0.5) * self.pixel_size, (self.size.1 as f32 * 0.5 - y) * self.pixel_size, 1.0]
+    pub fn dir(&self, x: f32, y: f32) -> [f32; 3] {
+        [
+            (x - self.half_w) * self.pixel_size,
+            (self.half_h - y) * self.pixel_size,
+            1.0,
+        ]
     }
 }

@@ -13,7 +13,7 @@
 use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
 use super::integrate::{Batch, Integrator, PreparedTf, BATCH};
 use super::list::{Inserted, SegmentLists};
-use super::project::ProjectedVertices;
+use super::project::PerspRays;
 use super::segment::Segment;
 use super::setup::TetSetup;
 
@@ -83,8 +83,24 @@ pub struct ScanTarget<'a> {
 
 impl<'a> ScanTarget<'a> {
     /// A target writing into `lists` (the lists of `tile`).
-    pub fn new(lists: &'a mut SegmentLists, tile: Rect, tf: &'a PreparedTf, integrator: Integrator, partial: bool, counts: &'a mut ScanCounts) -> Self {
-        ScanTarget { lists, tile, tf, integrator, partial, counts, batch: Batch::default(), pending: [(0, 0.0, 0.0); BATCH] }
+    pub fn new(
+        lists: &'a mut SegmentLists,
+        tile: Rect,
+        tf: &'a PreparedTf,
+        integrator: Integrator,
+        partial: bool,
+        counts: &'a mut ScanCounts,
+    ) -> Self {
+        ScanTarget {
+            lists,
+            tile,
+            tf,
+            integrator,
+            partial,
+            counts,
+            batch: Batch::default(),
+            pending: [(0, 0.0, 0.0); BATCH],
+        }
     }
 
     /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
@@ -94,7 +110,11 @@ impl<'a> ScanTarget<'a> {
         self.batch.s_in[n] = s_in;
         self.batch.s_out[n] = s_out;
         self.batch.len[n] = length;
-        self.pending[n] = ((j - self.tile.y0) * self.tile.width() + (i - self.tile.x0), z_in, z_out);
+        self.pending[n] = (
+            (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0),
+            z_in,
+            z_out,
+        );
         self.batch.n = n + 1;
         if n + 1 == BATCH {
             self.flush();
@@ -111,7 +131,11 @@ impl<'a> ScanTarget<'a> {
         self.counts.segments_generated += n as u64;
         for l in 0..n {
             let (idx, z_front, z_back) = self.pending[l];
-            let seg = Segment { z_front, z_back, rgba: self.batch.result(l) };
+            let seg = Segment {
+                z_front,
+                z_back,
+                rgba: self.batch.result(l),
+            };
             match self.lists.insert(idx as usize, seg, self.partial) {
                 Inserted::New => {}
                 Inserted::Merged => self.counts.segments_merged += 1,
@@ -127,7 +151,12 @@ impl<'a> ScanTarget<'a> {
 /// `None` if no pixel centre is inside.
 #[inline(always)]
 pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32, u32)> {
-    let (mut xl, mut xh, mut yl, mut yh) = (f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY);
+    let (mut xl, mut xh, mut yl, mut yh) = (
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    );
     for p in pts {
         xl = xl.min(p[0]);
         xh = xh.max(p[0]);
@@ -145,19 +174,21 @@ pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32,
     Some((i0 as u32, i1 as u32, j0 as u32, j1 as u32))
 }
 
-/// Whether the pixel centre `(X, Y)` is outside the half-plane
-/// `e0 X + e1 Y <= e2` of a face seen edge-on, given `v = e0 X + e1 Y`.
+/// Whether a ray is outside the half-space of a face seen exactly edge-on
+/// (the face plane contains the ray direction), given `v` = signed distance
+/// of the ray from the plane in the outward direction and `(a, b)` the
+/// outward normal's screen components.
 ///
-/// A pixel centre exactly on the line (its ray lies in the face) is given to
-/// the side that holds the point nudged by `(ε, ε²)`, as if it were: inside iff
-/// `e0 < 0`, or `e0 = 0` and `e1 < 0`. The two tets sharing the face have
-/// exactly opposite `(e0, e1, e2)` and compute exactly opposite `v`, so exactly
-/// one of them takes the ray (no double coverage, no crack); around a line
-/// where several such faces meet, the nudged point lies in exactly one of the
-/// tets, as in the top-left rule of triangle rasterisation.
+/// A ray that lies *in* the plane (`v == 0`, e.g. a pixel centre exactly on
+/// the projection of a face or an edge parallel to the view) touches both
+/// tets sharing that face; counting it for both would add its light twice.
+/// So ties are broken by symbolic perturbation, as rasterisers' fill rules
+/// do: the ray is moved by `(-ε, -ε²)`, and it is inside iff the outward normal
+/// points away from that move (`a > 0`, or `a == 0` and `b > 0`). The two
+/// tets sharing the face have opposite normals, so exactly one gets the ray.
 #[inline(always)]
-fn edge_on_rejects(e0: f32, e1: f32, v: f32, e2: f32) -> bool {
-    v > e2 || (v == e2 && (e0 > 0.0 || (e0 == 0.0 && e1 > 0.0)))
+fn outside_edge_on(v: f32, a: f32, b: f32) -> bool {
+    v > 0.0 || (v == 0.0 && (a < 0.0 || (a == 0.0 && b <= 0.0)))
 }
 
 /// Scans one tet in screen space (orthographic), over the pixels of
@@ -174,8 +205,7 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
     for f in &t.faces {
         let [x, y, z] = f.n;
         if z == 0.0 {
-            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h; a ray
-            // lying in the face goes to one side only (see `edge_on_rejects`).
+            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h.
             edge[nedge] = [f.sigma * x, f.sigma * y, f.sigma * f.h];
             nedge += 1;
             continue;
@@ -201,8 +231,16 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
-        let re = [ent[0][1] * y + ent[0][2], ent[1][1] * y + ent[1][2], ent[2][1] * y + ent[2][2]];
-        let rx = [ext[0][1] * y + ext[0][2], ext[1][1] * y + ext[1][2], ext[2][1] * y + ext[2][2]];
+        let re = [
+            ent[0][1] * y + ent[0][2],
+            ent[1][1] * y + ent[1][2],
+            ent[2][1] * y + ent[2][2],
+        ];
+        let rx = [
+            ext[0][1] * y + ext[0][2],
+            ext[1][1] * y + ext[1][2],
+            ext[2][1] * y + ext[2][2],
+        ];
         // The row's covered span: z_in(X) < z_out(X) holds iff every entering
         // plane lies in front of every leaving one, a linear inequality in X per
         // pair. The span is widened by a pixel and every pixel is still tested
@@ -235,12 +273,21 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             let x = i as f32 + 0.5;
             out.counts.pixels_tested += 1;
             // Depth is measured from the eye plane: nothing behind it is seen.
-            let z_in = fmax(fmax(fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]), ent[2][0] * x + re[2]), 0.0);
-            let z_out = fmin(fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]), ext[2][0] * x + rx[2]);
+            let z_in = fmax(
+                fmax(
+                    fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]),
+                    ent[2][0] * x + re[2],
+                ),
+                0.0,
+            );
+            let z_out = fmin(
+                fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]),
+                ext[2][0] * x + rx[2],
+            );
             if !(z_in < z_out) {
                 continue;
             }
-            if edge[..nedge].iter().any(|e| edge_on_rejects(e[0], e[1], e[0] * x + e[1] * y, e[2])) {
+            if edge[..nedge].iter().any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1])) {
                 continue;
             }
             let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
@@ -256,14 +303,19 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
 /// is `τ d`, `d = (dx, dy, 1)`; the face bound is `τ = h / (n · d)`; depth
 /// along the ray is `τ |d|`. `τ >= 0` clips everything behind the eye.
 #[inline]
-pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+pub fn scan_persp(
+    t: &TetSetup,
+    rays: &PerspRays,
+    range: (u32, u32, u32, u32),
+    out: &mut ScanTarget,
+) {
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
         for i in i0..=i1 {
             let x = i as f32 + 0.5;
             out.counts.pixels_tested += 1;
-            let d = pv.ray_dir(x, y);
+            let d = rays.dir(x, y);
             let (mut t_in, mut t_out) = (0.0f32, f32::INFINITY);
             let mut inside = true;
             for f in &t.faces {
@@ -273,9 +325,7 @@ pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u
                     t_out = t_out.min(f.h / den);
                 } else if out_den < 0.0 {
                     t_in = t_in.max(f.h / den);
-                } else if f.sigma * f.h < 0.0 || (f.h == 0.0 && edge_on_rejects(f.sigma * f.n[0], -f.sigma * f.n[1], 0.0, 0.0)) {
-                    // Parallel to the face: all of the ray is on one side, or
-                    // (h = 0) the ray lies in it and goes to one side only.
+                } else if outside_edge_on(-f.sigma * f.h, f.sigma * f.n[0], f.sigma * f.n[1]) {
                     inside = false;
                 }
             }
@@ -285,7 +335,15 @@ pub fn scan_persp(t: &TetSetup, pv: &ProjectedVertices, range: (u32, u32, u32, u
             let len_d = (d[0] * d[0] + d[1] * d[1] + 1.0).sqrt();
             let s_in = t.scalar_at([d[0] * t_in, d[1] * t_in, t_in]);
             let s_out = t.scalar_at([d[0] * t_out, d[1] * t_out, t_out]);
-            out.emit(i, j, t_in * len_d, t_out * len_d, s_in, s_out, (t_out - t_in) * len_d);
+            out.emit(
+                i,
+                j,
+                t_in * len_d,
+                t_out * len_d,
+                s_in,
+                s_out,
+                (t_out - t_in) * len_d,
+            );
         }
     }
     out.flush();

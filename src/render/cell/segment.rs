@@ -17,14 +17,21 @@ pub struct Rgba {
 
 impl Rgba {
     /// Fully transparent.
-    pub const CLEAR: Rgba = Rgba { rgb: [0.0; 3], a: 0.0 };
+    pub const CLEAR: Rgba = Rgba {
+        rgb: [0.0; 3],
+        a: 0.0,
+    };
 
     /// `self` in front of `back`.
     #[inline(always)]
     pub fn over(self, back: Rgba) -> Rgba {
         let t = 1.0 - self.a;
         Rgba {
-            rgb: [self.rgb[0] + t * back.rgb[0], self.rgb[1] + t * back.rgb[1], self.rgb[2] + t * back.rgb[2]],
+            rgb: [
+                self.rgb[0] + t * back.rgb[0],
+                self.rgb[1] + t * back.rgb[1],
+                self.rgb[2] + t * back.rgb[2],
+            ],
             a: self.a + t * back.a,
         }
     }
@@ -45,7 +52,11 @@ impl Segment {
     /// `self` in front of `back`, covering both depth ranges (used when they touch).
     #[inline(always)]
     pub fn merged_with(self, back: Segment) -> Segment {
-        Segment { z_front: self.z_front, z_back: back.z_back, rgba: self.rgba.over(back.rgba) }
+        Segment {
+            z_front: self.z_front,
+            z_back: back.z_back,
+            rgba: self.rgba.over(back.rgba),
+        }
     }
 }
 

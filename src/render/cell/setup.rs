@@ -47,22 +47,29 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 }
 #[inline(always)]
 fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 #[inline(always)]
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Sets up tet `ids` with vertex positions `pos` and scalars `s`. `None` for a
-/// tet with no volume (in f32): it covers no ray stretch of positive length.
+/// Sets up the tet with global vertex ids `ids`, vertex positions `p` and
+/// scalars `sv`. `None` for a tet with no volume (in f32): it covers no ray
+/// stretch of positive length.
 #[inline]
-pub fn setup_tet(ids: [u32; 4], pos: &[[f32; 3]], s: &[f32]) -> Option<TetSetup> {
-    let p = ids.map(|v| pos[v as usize]);
-    let sv = ids.map(|v| s[v as usize]);
+pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetSetup> {
     let mut faces = [FacePlane::default(); 4];
     for (f, slots) in FACE_VERTICES.iter().enumerate() {
-        let mut tri = [(ids[slots[0]], slots[0]), (ids[slots[1]], slots[1]), (ids[slots[2]], slots[2])];
+        let mut tri = [
+            (ids[slots[0]], slots[0]),
+            (ids[slots[1]], slots[1]),
+            (ids[slots[2]], slots[2]),
+        ];
         tri.sort_unstable_by_key(|t| t.0);
         let (a, b, c) = (p[tri[0].1], p[tri[1].1], p[tri[2].1]);
         let n = cross(sub(b, a), sub(c, a));
@@ -71,7 +78,11 @@ pub fn setup_tet(ids: [u32; 4], pos: &[[f32; 3]], s: &[f32]) -> Option<TetSetup>
         if side == 0.0 || !side.is_finite() {
             return None;
         }
-        faces[f] = FacePlane { n, h, sigma: if side > 0.0 { -1.0 } else { 1.0 } };
+        faces[f] = FacePlane {
+            n,
+            h,
+            sigma: if side > 0.0 { -1.0 } else { 1.0 },
+        };
     }
     let (e1, e2, e3) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0]));
     let (c23, c31, c12) = (cross(e2, e3), cross(e3, e1), cross(e1, e2));
@@ -86,7 +97,11 @@ pub fn setup_tet(ids: [u32; 4], pos: &[[f32; 3]], s: &[f32]) -> Option<TetSetup>
         (d1 * c23[1] + d2 * c31[1] + d3 * c12[1]) * inv,
         (d1 * c23[2] + d2 * c31[2] + d3 * c12[2]) * inv,
     ];
-    let grad = if grad.iter().all(|g| g.is_finite()) { grad } else { [0.0; 3] };
+    let grad = if grad.iter().all(|g| g.is_finite()) {
+        grad
+    } else {
+        [0.0; 3]
+    };
     Some(TetSetup {
         faces,
         grad,

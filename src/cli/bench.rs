@@ -1,0 +1,161 @@
+//! `pvrsim bench`: times the renderers on the shared aorta scenes, one thread
+//! and all threads, and prints a table (median of repeated renders, load
+//! excluded). Needs `../shared/data` (or `--data-dir`); says so if absent.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::render::cell::{self, CellOptions, Integrator};
+use crate::render::{reference, RenderInput};
+
+/// Options of `pvrsim bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Folder holding aorta.vtk and the aorta-view-*.toml scenes.
+    #[arg(long, default_value = "../shared/data")]
+    pub data_dir: PathBuf,
+    /// Scenes to time (file names in the data folder).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "aorta-view-a.toml,aorta-view-b.toml"
+    )]
+    pub scenes: Vec<String>,
+    /// Renders per configuration; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Also time the reference renderer (slow) once per scene.
+    #[arg(long)]
+    pub reference: bool,
+    /// Write the measurements as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// One timed configuration.
+#[derive(Debug, serde::Serialize)]
+pub struct BenchRow {
+    /// Scene file name.
+    pub scene: String,
+    /// Renderer and integrator.
+    pub renderer: String,
+    /// Threads.
+    pub threads: usize,
+    /// Median render time without loading, ms.
+    pub median_ms: f64,
+    /// Fastest render, ms.
+    pub min_ms: f64,
+    /// Median scan-conversion time, ms.
+    pub scan_ms: f64,
+    /// Projected cells per second of total render time.
+    pub cells_per_s: f64,
+    /// Ray segments per second of total render time.
+    pub segments_per_s: f64,
+    /// Segments generated.
+    pub segments: u64,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Runs `pvrsim bench`.
+pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.data_dir.join("aorta.vtk").exists(),
+        "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data folder \
+         (../shared/data next to this checkout) or --data-dir pointing at it.",
+        a.data_dir.display()
+    );
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let mut rows = Vec::new();
+    println!(
+        "{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13}",
+        "scene", "renderer", "threads", "median ms", "min ms", "scan ms", "Mcells/s", "Msegments/s"
+    );
+    for name in &a.scenes {
+        let path = a.data_dir.join(name);
+        let (input, _) =
+            RenderInput::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
+        for integrator in [Integrator::Exact, Integrator::Midpoint] {
+            let mut thread_counts = vec![1];
+            if cores > 1 {
+                thread_counts.push(cores);
+            }
+            for &threads in &thread_counts {
+                let opts = CellOptions {
+                    integrator,
+                    ..Default::default()
+                };
+                let mut total = Vec::new();
+                let mut scan = Vec::new();
+                let mut last = None;
+                for _ in 0..a.repeats.max(1) {
+                    let (_, s) = super::with_threads(threads, || cell::render(&input, &opts))?;
+                    total.push(s.time_total_s * 1e3);
+                    scan.push(s.time_scan_s * 1e3);
+                    last = Some(s);
+                }
+                let s = last.expect("at least one repeat");
+                let min_ms = total.iter().cloned().fold(f64::INFINITY, f64::min);
+                let med = median(&mut total);
+                let row = BenchRow {
+                    scene: name.clone(),
+                    renderer: format!("cell {integrator}"),
+                    threads,
+                    median_ms: med,
+                    min_ms,
+                    scan_ms: median(&mut scan),
+                    cells_per_s: s.cells_projected as f64 / (med / 1e3),
+                    segments_per_s: s.segments_generated as f64 / (med / 1e3),
+                    segments: s.segments_generated,
+                };
+                print_row(&row);
+                rows.push(row);
+            }
+        }
+        if a.reference {
+            let adjacency = input.mesh.adjacency();
+            let (_, rs) = super::with_threads(cores, || {
+                reference::render(&input, &adjacency, &Default::default())
+            })?;
+            let row = BenchRow {
+                scene: name.clone(),
+                renderer: "reference".into(),
+                threads: cores,
+                median_ms: rs.time_s * 1e3,
+                min_ms: rs.time_s * 1e3,
+                scan_ms: rs.time_s * 1e3,
+                cells_per_s: 0.0,
+                segments_per_s: 0.0,
+                segments: 0,
+            };
+            print_row(&row);
+            rows.push(row);
+        }
+    }
+    if let Some(path) = &a.json {
+        std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn print_row(r: &BenchRow) {
+    println!(
+        "{:<20} {:<16} {:>7} {:>11.1} {:>9.1} {:>9.1} {:>11.2} {:>13.2}",
+        r.scene,
+        r.renderer,
+        r.threads,
+        r.median_ms,
+        r.min_ms,
+        r.scan_ms,
+        r.cells_per_s / 1e6,
+        r.segments_per_s / 1e6
+    );
+}

@@ -1,0 +1,34 @@
+//! `pvrsim info`: what is in a mesh file.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::data::quality::MeshReport;
+
+/// Options of `pvrsim info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Mesh file: .vtk (legacy, ASCII or binary), .vtu (XML) or .inp (AVS UCD).
+    pub file: PathBuf,
+    /// Print the report as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `pvrsim info`.
+pub fn run(a: InfoArgs) -> anyhow::Result<()> {
+    let t = std::time::Instant::now();
+    let mesh = crate::data::io::read_mesh(&a.file)
+        .with_context(|| format!("cannot read {}", a.file.display()))?;
+    let load_s = t.elapsed().as_secs_f64();
+    let report = MeshReport::compute(&mesh, &mesh.adjacency());
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("{}  (read in {:.3} s)", a.file.display(), load_s);
+        print!("{report}");
+    }
+    Ok(())
+}

@@ -1,0 +1,755 @@
+//! Reader for VTK XML unstructured grids (`.vtu`, `<VTKFile type="UnstructuredGrid">`).
+//!
+//! Supported, in any combination (this covers what ParaView, VTK and meshio write):
+//! - `<DataArray format="ascii">`, `format="binary"` (inline base64) and
+//!   `format="appended"` with `<AppendedData encoding="raw">` (data after the
+//!   `_` marker, arrays located by their `offset`) or `encoding="base64"`;
+//! - `header_type="UInt32"` (the default) or `"UInt64"` length headers;
+//! - `compressor="vtkZLibDataCompressor"` (block header `nblocks, blocksize,
+//!   lastblocksize, compressed sizes...`) or no compression;
+//! - `byte_order="LittleEndian"` or `"BigEndian"`;
+//! - `Points`, `Cells` (`connectivity`, `offsets`, `types`) and `PointData`
+//!   arrays of type Int8..Int64, UInt8..UInt64, Float32, Float64 with any
+//!   `NumberOfComponents`; several `Piece`s are concatenated.
+//!
+//! `CellData`, `FieldData` and string arrays are skipped. Cells other than
+//! tetrahedra are handled as described in [`decompose`](super::decompose).
+//!
+//! Not supported (an error naming the element): other dataset types,
+//! the LZ4 and LZMA compressors, polyhedron cells (`faces`/`faceoffsets`).
+//!
+//! Errors name the XML element (`<DataArray Name="speed">` in `<PointData>`)
+//! or, for XML syntax errors, the byte offset.
+
+use std::io::Read;
+use std::path::Path;
+
+use base64::Engine;
+
+use super::decompose::{vtk_type_name, CellShape, TetBuilder};
+use super::numeric::{decode_f64, decode_i64, NumType};
+use super::read_bytes;
+use crate::data::{Field, TetMesh};
+use crate::error::{Error, Result};
+
+/// Reads a VTK XML unstructured grid from `path`.
+pub fn read(path: &Path) -> Result<TetMesh> {
+    let data = read_bytes(path)?;
+    parse(&data, path)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Binary,
+    Appended,
+}
+
+/// One `<DataArray>` as declared, with its inline text.
+#[derive(Debug, Clone)]
+struct ArrayDesc {
+    name: String,
+    parent: String,
+    ty: NumType,
+    ncomp: usize,
+    format: Format,
+    offset: usize,
+    text: Vec<u8>,
+}
+
+impl ArrayDesc {
+    fn loc(&self) -> String {
+        format!("<DataArray Name=\"{}\"> in <{}>", self.name, self.parent)
+    }
+}
+
+#[derive(Debug, Default)]
+struct PieceDesc {
+    npoints: usize,
+    ncells: usize,
+    points: Option<ArrayDesc>,
+    conn: Option<ArrayDesc>,
+    offsets: Option<ArrayDesc>,
+    types: Option<ArrayDesc>,
+    point_data: Vec<ArrayDesc>,
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    big_endian: bool,
+    header_u64: bool,
+    zlib: bool,
+    /// The bytes after the `_` of `<AppendedData>`, and whether they are base64.
+    appended: Option<(&'a [u8], bool)>,
+    /// Sorted offsets of all appended arrays, to delimit base64 runs.
+    appended_offsets: Vec<usize>,
+}
+
+fn attr_map(e: &quick_xml::events::BytesStart) -> Vec<(String, String)> {
+    e.attributes()
+        .flatten()
+        .map(|a| {
+            (
+                String::from_utf8_lossy(a.key.local_name().as_ref()).into_owned(),
+                String::from_utf8_lossy(&a.value).into_owned(),
+            )
+        })
+        .collect()
+}
+
+fn get<'v>(attrs: &'v [(String, String)], key: &str) -> Option<&'v str> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.as_str())
+}
+
+fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
+    hay.windows(needle.len()).position(|w| w == needle)
+}
+
+/// Parses the bytes of a `.vtu` file; `path` is only used in errors.
+pub fn parse(d: &[u8], path: &Path) -> Result<TetMesh> {
+    // Raw appended data is not XML: parse the XML only up to its start tag.
+    let app_tag = find(d, b"<AppendedData");
+    let (xml, app_start) = match app_tag {
+        Some(t) => {
+            let gt = d[t..]
+                .iter()
+                .position(|&b| b == b'>')
+                .map(|i| t + i)
+                .ok_or_else(|| {
+                    Error::data(path, format!("byte {t}"), "unterminated <AppendedData> tag")
+                })?;
+            let mut s = gt + 1;
+            while s < d.len() && d[s].is_ascii_whitespace() {
+                s += 1;
+            }
+            if d.get(s) != Some(&b'_') {
+                return Err(Error::data(
+                    path,
+                    "<AppendedData>",
+                    format!("expected the \"_\" marker before the appended data at byte {s}"),
+                ));
+            }
+            (&d[..=gt], Some(s + 1))
+        }
+        None => (d, None),
+    };
+
+    let mut reader = quick_xml::Reader::from_reader(xml);
+    reader.config_mut().trim_text(true);
+    let mut stack: Vec<String> = Vec::new();
+    let mut pieces: Vec<PieceDesc> = Vec::new();
+    let mut current: Option<ArrayDesc> = None;
+    let mut seen_vtkfile = false;
+    let mut ctx = Ctx {
+        path,
+        big_endian: false,
+        header_u64: false,
+        zlib: false,
+        appended: None,
+        appended_offsets: Vec::new(),
+    };
+    let mut appended_base64 = false;
+
+    loop {
+        let pos = reader.buffer_position();
+        let ev = reader.read_event().map_err(|e| {
+            Error::data(
+                path,
+                format!("byte {pos}"),
+                format!("XML syntax error: {e}"),
+            )
+        })?;
+        use quick_xml::events::Event;
+        let (e, empty) = match ev {
+            Event::Eof => break,
+            Event::Start(e) => (e, false),
+            Event::Empty(e) => (e, true),
+            Event::End(_) => {
+                if stack.pop().as_deref() == Some("DataArray") {
+                    if let Some(a) = current.take() {
+                        place(a, &stack, &mut pieces, path)?;
+                    }
+                }
+                continue;
+            }
+            Event::Text(t) => {
+                if let Some(a) = current.as_mut() {
+                    a.text.extend_from_slice(&t);
+                    a.text.push(b' ');
+                }
+                continue;
+            }
+            Event::CData(t) => {
+                if let Some(a) = current.as_mut() {
+                    a.text.extend_from_slice(&t);
+                }
+                continue;
+            }
+            _ => continue,
+        };
+        let name = String::from_utf8_lossy(e.local_name().as_ref()).into_owned();
+        let attrs = attr_map(&e);
+        match name.as_str() {
+            "VTKFile" => {
+                seen_vtkfile = true;
+                let ty = get(&attrs, "type").unwrap_or("");
+                if ty != "UnstructuredGrid" {
+                    return Err(Error::data(path, "<VTKFile>", format!("type=\"{ty}\" is not supported: pvrsim reads UnstructuredGrid (.vtu) files")));
+                }
+                ctx.big_endian = match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
+                    "LittleEndian" => false,
+                    "BigEndian" => true,
+                    o => {
+                        return Err(Error::data(
+                            path,
+                            "<VTKFile>",
+                            format!("byte_order=\"{o}\" must be LittleEndian or BigEndian"),
+                        ))
+                    }
+                };
+                ctx.header_u64 = match get(&attrs, "header_type").unwrap_or("UInt32") {
+                    "UInt32" => false,
+                    "UInt64" => true,
+                    o => {
+                        return Err(Error::data(
+                            path,
+                            "<VTKFile>",
+                            format!("header_type=\"{o}\" must be UInt32 or UInt64"),
+                        ))
+                    }
+                };
+                ctx.zlib = match get(&attrs, "compressor").unwrap_or("") {
+                    "" => false,
+                    "vtkZLibDataCompressor" => true,
+                    o => return Err(Error::data(path, "<VTKFile>", format!("compressor=\"{o}\" is not supported (only vtkZLibDataCompressor; re-save without compression or with zlib)"))),
+                };
+            }
+            "Piece" => {
+                let count = |k: &str| -> Result<usize> {
+                    let v = get(&attrs, k).ok_or_else(|| {
+                        Error::data(
+                            path,
+                            format!("<Piece> {}", pieces.len()),
+                            format!("missing attribute {k}"),
+                        )
+                    })?;
+                    v.trim().parse().map_err(|_| {
+                        Error::data(
+                            path,
+                            format!("<Piece> {}", pieces.len()),
+                            format!("{k}=\"{v}\" is not a non-negative integer"),
+                        )
+                    })
+                };
+                pieces.push(PieceDesc {
+                    npoints: count("NumberOfPoints")?,
+                    ncells: count("NumberOfCells")?,
+                    ..Default::default()
+                });
+            }
+            "DataArray" => {
+                let parent = stack.last().cloned().unwrap_or_default();
+                let aname = get(&attrs, "Name").unwrap_or("").to_string();
+                let loc = format!("<DataArray Name=\"{aname}\"> in <{parent}>");
+                let tyname = get(&attrs, "type").unwrap_or("");
+                let ty = match NumType::from_vtk_xml(tyname) {
+                    Some(t) => Some(t),
+                    // String and bit arrays only matter where we read them.
+                    None if matches!(parent.as_str(), "PointData" | "Points" | "Cells") => {
+                        return Err(Error::data(path, loc, format!("type=\"{tyname}\" is not supported (Int8..Int64, UInt8..UInt64, Float32, Float64)")));
+                    }
+                    None => None,
+                };
+                let ncomp = match get(&attrs, "NumberOfComponents") {
+                    None => 1,
+                    Some(v) => v
+                        .trim()
+                        .parse::<usize>()
+                        .ok()
+                        .filter(|&n| n > 0)
+                        .ok_or_else(|| {
+                            Error::data(
+                                path,
+                                &loc,
+                                format!("NumberOfComponents=\"{v}\" is not a positive integer"),
+                            )
+                        })?,
+                };
+                let format = match get(&attrs, "format").unwrap_or("ascii") {
+                    "ascii" => Format::Ascii,
+                    "binary" => Format::Binary,
+                    "appended" => Format::Appended,
+                    o => {
+                        return Err(Error::data(
+                            path,
+                            loc,
+                            format!("format=\"{o}\" must be ascii, binary or appended"),
+                        ))
+                    }
+                };
+                let offset = match (format, get(&attrs, "offset")) {
+                    (Format::Appended, Some(v)) => v.trim().parse::<usize>().map_err(|_| {
+                        Error::data(
+                            path,
+                            &loc,
+                            format!("offset=\"{v}\" is not a non-negative integer"),
+                        )
+                    })?,
+                    (Format::Appended, None) => {
+                        return Err(Error::data(
+                            path,
+                            loc,
+                            "format=\"appended\" needs an offset attribute",
+                        ))
+                    }
+                    _ => 0,
+                };
+                if format == Format::Appended {
+                    ctx.appended_offsets.push(offset);
+                }
+                if let Some(ty) = ty {
+                    let a = ArrayDesc {
+                        name: aname,
+                        parent,
+                        ty,
+                        ncomp,
+                        format,
+                        offset,
+                        text: Vec::new(),
+                    };
+                    if empty {
+                        place(a, &stack, &mut pieces, path)?;
+                    } else {
+                        current = Some(a);
+                    }
+                }
+            }
+            "AppendedData" => {
+                appended_base64 = match get(&attrs, "encoding").unwrap_or("raw") {
+                    "raw" => false,
+                    "base64" => true,
+                    o => {
+                        return Err(Error::data(
+                            path,
+                            "<AppendedData>",
+                            format!("encoding=\"{o}\" must be raw or base64"),
+                        ))
+                    }
+                };
+            }
+            _ => {}
+        }
+        if !empty {
+            stack.push(name);
+        }
+    }
+    if !seen_vtkfile {
+        return Err(Error::data(
+            path,
+            "byte 0",
+            "not a VTK XML file: no <VTKFile> element",
+        ));
+    }
+    if let Some(s) = app_start {
+        let rest = &d[s..];
+        let body = if appended_base64 {
+            &rest[..find(rest, b"</AppendedData>").unwrap_or(rest.len())]
+        } else {
+            rest
+        };
+        ctx.appended = Some((body, appended_base64));
+    }
+    ctx.appended_offsets.sort_unstable();
+    ctx.appended_offsets.dedup();
+    if pieces.is_empty() {
+        return Err(Error::data(
+            path,
+            "<UnstructuredGrid>",
+            "no <Piece> element",
+        ));
+    }
+    assemble(&ctx, pieces)
+}
+
+/// Files a finished `<DataArray>` under its piece.
+fn place(a: ArrayDesc, stack: &[String], pieces: &mut [PieceDesc], path: &Path) -> Result<()> {
+    let Some(piece) = pieces.last_mut() else {
+        return Ok(());
+    };
+    if !stack.iter().any(|s| s == "Piece") {
+        return Ok(());
+    }
+    match a.parent.as_str() {
+        "Points" => piece.points = Some(a),
+        "Cells" => match a.name.as_str() {
+            "connectivity" => piece.conn = Some(a),
+            "offsets" => piece.offsets = Some(a),
+            "types" => piece.types = Some(a),
+            "faces" | "faceoffsets" => {
+                return Err(Error::data(
+                    path,
+                    a.loc(),
+                    "polyhedron cells are not supported",
+                ))
+            }
+            _ => {}
+        },
+        "PointData" => piece.point_data.push(a),
+        _ => {}
+    }
+    Ok(())
+}
+
+impl Ctx<'_> {
+    fn err(&self, a: &ArrayDesc, msg: impl Into<String>) -> Error {
+        Error::data(self.path, a.loc(), msg)
+    }
+
+    fn uint(&self, b: &[u8]) -> u64 {
+        if self.header_u64 {
+            decode_i64(b, NumType::U64, self.big_endian)
+                .and_then(|v| v.first().copied())
+                .unwrap_or(0) as u64
+        } else {
+            decode_i64(b, NumType::U32, self.big_endian)
+                .and_then(|v| v.first().copied())
+                .unwrap_or(0) as u64
+        }
+    }
+
+    /// Base64 text that may be several separately padded runs (VTK encodes
+    /// the header and the data separately).
+    fn base64(&self, a: &ArrayDesc, text: &[u8]) -> Result<Vec<u8>> {
+        let clean: Vec<u8> = text
+            .iter()
+            .copied()
+            .filter(|b| !b.is_ascii_whitespace())
+            .collect();
+        let mut out = Vec::with_capacity(clean.len() / 4 * 3);
+        let mut start = 0;
+        let mut i = 0;
+        while i < clean.len() {
+            if clean[i] == b'=' {
+                while i < clean.len() && clean[i] == b'=' {
+                    i += 1;
+                }
+                self.decode_run(a, &clean[start..i], start, &mut out)?;
+                start = i;
+            } else {
+                i += 1;
+            }
+        }
+        self.decode_run(a, &clean[start..], start, &mut out)?;
+        Ok(out)
+    }
+
+    fn decode_run(&self, a: &ArrayDesc, run: &[u8], at: usize, out: &mut Vec<u8>) -> Result<()> {
+        if run.is_empty() {
+            return Ok(());
+        }
+        base64::engine::general_purpose::STANDARD
+            .decode_vec(run, out)
+            .map_err(|e| {
+                self.err(
+                    a,
+                    format!("invalid base64 data (at character {at} of the array's text): {e}"),
+                )
+            })
+    }
+
+    /// The data bytes of a binary or appended array, after its header and
+    /// decompression. `raw` starts at the array's header.
+    fn payload(&self, a: &ArrayDesc, raw: &[u8]) -> Result<Vec<u8>> {
+        let hs = if self.header_u64 { 8 } else { 4 };
+        let trunc = |need: u64, what: &str| {
+            self.err(
+                a,
+                format!(
+                    "data is truncated: {what} needs {need} bytes, only {} are present",
+                    raw.len()
+                ),
+            )
+        };
+        if raw.len() < hs {
+            return Err(trunc(hs as u64, "the length header"));
+        }
+        if !self.zlib {
+            let n = self.uint(&raw[..hs]);
+            if n > (raw.len() - hs) as u64 {
+                return Err(trunc(n + hs as u64, &format!("the header (\"{n} bytes\")")));
+            }
+            return Ok(raw[hs..hs + n as usize].to_vec());
+        }
+        if raw.len() < 3 * hs {
+            return Err(trunc(3 * hs as u64, "the compression header"));
+        }
+        let nblocks = self.uint(&raw[..hs]);
+        let bs = self.uint(&raw[hs..2 * hs]);
+        let last = self.uint(&raw[2 * hs..3 * hs]);
+        let head = (3 + nblocks as u128) * hs as u128;
+        if head > raw.len() as u128 {
+            return Err(trunc(
+                head as u64,
+                &format!("the compression header of {nblocks} blocks"),
+            ));
+        }
+        let sizes: Vec<u64> = (0..nblocks as usize)
+            .map(|k| self.uint(&raw[(3 + k) * hs..(4 + k) * hs]))
+            .collect();
+        let total: u128 = sizes.iter().map(|&s| s as u128).sum();
+        if head + total > raw.len() as u128 {
+            return Err(trunc(
+                (head + total) as u64,
+                &format!("{nblocks} compressed block(s)"),
+            ));
+        }
+        let expected_total = if nblocks == 0 {
+            0
+        } else {
+            (nblocks as u128 - 1) * bs as u128 + if last == 0 { bs } else { last } as u128
+        };
+        if expected_total > 1 << 40 {
+            return Err(self.err(
+                a,
+                format!("compression header claims {expected_total} bytes of data"),
+            ));
+        }
+        let mut out = Vec::with_capacity(expected_total.min(raw.len() as u128 * 8) as usize);
+        let mut p = head as usize;
+        for (k, &cs) in sizes.iter().enumerate() {
+            let want = if k + 1 == sizes.len() && last != 0 {
+                last
+            } else {
+                bs
+            };
+            let block = &raw[p..p + cs as usize];
+            p += cs as usize;
+            let before = out.len();
+            flate2::read::ZlibDecoder::new(block)
+                .take(want)
+                .read_to_end(&mut out)
+                .map_err(|e| self.err(a, format!("zlib block {k} of {nblocks}: {e}")))?;
+            if (out.len() - before) as u64 != want {
+                return Err(self.err(
+                    a,
+                    format!(
+                        "zlib block {k} of {nblocks} inflates to {} bytes, the header says {want}",
+                        out.len() - before
+                    ),
+                ));
+            }
+        }
+        Ok(out)
+    }
+
+    fn bytes(&self, a: &ArrayDesc) -> Result<Vec<u8>> {
+        match a.format {
+            Format::Binary => {
+                let raw = self.base64(a, &a.text)?;
+                self.payload(a, &raw)
+            }
+            Format::Appended => {
+                let (body, b64) = self.appended.ok_or_else(|| {
+                    self.err(a, "format=\"appended\" but the file has no <AppendedData>")
+                })?;
+                if a.offset > body.len() {
+                    return Err(self.err(
+                        a,
+                        format!(
+                            "offset {} is past the end of the appended data ({} bytes)",
+                            a.offset,
+                            body.len()
+                        ),
+                    ));
+                }
+                if b64 {
+                    let end = self
+                        .appended_offsets
+                        .iter()
+                        .copied()
+                        .find(|&o| o > a.offset)
+                        .unwrap_or(body.len())
+                        .min(body.len());
+                    let raw = self.base64(a, &body[a.offset..end])?;
+                    self.payload(a, &raw)
+                } else {
+                    self.payload(a, &body[a.offset..])
+                }
+            }
+            Format::Ascii => Ok(Vec::new()),
+        }
+    }
+
+    fn ascii<T: std::str::FromStr>(&self, a: &ArrayDesc, what: &str) -> Result<Vec<T>> {
+        let text =
+            std::str::from_utf8(&a.text).map_err(|_| self.err(a, "ascii data is not text"))?;
+        text.split_ascii_whitespace()
+            .enumerate()
+            .map(|(i, t)| {
+                t.parse::<T>().map_err(|_| {
+                    self.err(
+                        a,
+                        format!(
+                            "value {i}: \"{}\" is not a valid {what}",
+                            t.chars().take(40).collect::<String>()
+                        ),
+                    )
+                })
+            })
+            .collect()
+    }
+
+    fn f64s(&self, a: &ArrayDesc, expected: usize) -> Result<Vec<f64>> {
+        let v = match a.format {
+            Format::Ascii => {
+                let v: Vec<f64> = self.ascii(a, "number")?;
+                if a.ty == NumType::F32 {
+                    v.into_iter().map(|x| x as f32 as f64).collect()
+                } else {
+                    v
+                }
+            }
+            _ => {
+                let b = self.bytes(a)?;
+                self.check_len(a, b.len())?;
+                decode_f64(&b, a.ty, self.big_endian)
+            }
+        };
+        self.check_count(a, v.len(), expected)?;
+        Ok(v)
+    }
+
+    fn i64s(&self, a: &ArrayDesc, expected: usize) -> Result<Vec<i64>> {
+        if a.ty.is_float() {
+            return Err(self.err(
+                a,
+                format!("must be an integer array, found type {:?}", a.ty),
+            ));
+        }
+        let v = match a.format {
+            Format::Ascii => self.ascii(a, "integer")?,
+            _ => {
+                let b = self.bytes(a)?;
+                self.check_len(a, b.len())?;
+                decode_i64(&b, a.ty, self.big_endian).unwrap_or_default()
+            }
+        };
+        self.check_count(a, v.len(), expected)?;
+        Ok(v)
+    }
+
+    fn check_len(&self, a: &ArrayDesc, n: usize) -> Result<()> {
+        if !n.is_multiple_of(a.ty.size()) {
+            return Err(self.err(
+                a,
+                format!(
+                    "{n} bytes of data is not a whole number of {:?} values",
+                    a.ty
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_count(&self, a: &ArrayDesc, got: usize, expected: usize) -> Result<()> {
+        if got != expected {
+            return Err(self.err(
+                a,
+                format!("has {got} values, expected {expected} (counts disagree with the data)"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
+    let path = ctx.path;
+    let mut points: Vec<[f64; 3]> = Vec::new();
+    let mut fields: Vec<Field> = Vec::new();
+    let mut cells: Vec<(i64, Vec<i64>)> = Vec::new();
+    for (pi, p) in pieces.iter().enumerate() {
+        let where_ = |what: &str| format!("<Piece> {pi} <{what}>");
+        let base = points.len() as i64;
+        if p.npoints > 0 {
+            let pa = p
+                .points
+                .as_ref()
+                .ok_or_else(|| Error::data(path, where_("Points"), "no points array"))?;
+            if pa.ncomp != 3 {
+                return Err(ctx.err(
+                    pa,
+                    format!("points need NumberOfComponents=\"3\", found {}", pa.ncomp),
+                ));
+            }
+            let v = ctx.f64s(pa, p.npoints.saturating_mul(3))?;
+            points.extend(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        }
+        for a in &p.point_data {
+            let v = ctx.f64s(a, p.npoints.saturating_mul(a.ncomp))?;
+            if pi == 0 {
+                fields.push(Field {
+                    name: a.name.clone(),
+                    components: a.ncomp,
+                    values: v,
+                });
+            } else if let Some(f) = fields
+                .iter_mut()
+                .find(|f| f.name == a.name && f.components == a.ncomp)
+            {
+                f.values.extend(v);
+            }
+        }
+        if p.ncells > 0 {
+            let missing = |n: &str| Error::data(path, where_("Cells"), format!("no \"{n}\" array"));
+            let oa = p.offsets.as_ref().ok_or_else(|| missing("offsets"))?;
+            let ta = p.types.as_ref().ok_or_else(|| missing("types"))?;
+            let ca = p.conn.as_ref().ok_or_else(|| missing("connectivity"))?;
+            let offs = ctx.i64s(oa, p.ncells)?;
+            let types = ctx.i64s(ta, p.ncells)?;
+            let nconn = *offs.last().unwrap_or(&0);
+            if nconn < 0 || offs.windows(2).any(|w| w[1] < w[0]) || offs[0] < 0 {
+                return Err(ctx.err(oa, "offsets must be non-negative and non-decreasing"));
+            }
+            let conn = ctx.i64s(ca, nconn as usize)?;
+            let mut s = 0usize;
+            for (&e, &t) in offs.iter().zip(&types) {
+                let e = e as usize;
+                cells.push((
+                    t,
+                    conn[s..e]
+                        .iter()
+                        .map(|&v| if v < 0 { v } else { v + base })
+                        .collect(),
+                ));
+                s = e;
+            }
+        }
+    }
+    if let Some(f) = fields
+        .iter()
+        .find(|f| f.values.len() != f.components * points.len())
+    {
+        return Err(Error::data(
+            path,
+            format!("<DataArray Name=\"{}\"> in <PointData>", f.name),
+            "the array is missing from some pieces",
+        ));
+    }
+    let mut b = TetBuilder::new(&points, cells.len());
+    for (c, (t, verts)) in cells.iter().enumerate() {
+        let shape = CellShape::from_vtk(*t).ok_or_else(|| {
+            Error::data(path, format!("cell {c}"), format!("cell type {t} ({}) is not supported; pvrsim reads tetrahedra, hexahedra, voxels, wedges and pyramids, and skips lower-dimensional cells", vtk_type_name(*t)))
+        })?;
+        b.add(shape, verts)
+            .map_err(|m| Error::data(path, format!("cell {c}"), m))?;
+    }
+    let tets = b.finish(path);
+    Ok(TetMesh {
+        points,
+        tets,
+        fields,
+    })
+}
