@@ -44,9 +44,10 @@ fn assert_smooth(what: &str, img: &Image, want: &[[f64; 4]], covered: &[bool], t
             if n >= img.pixels.len() || (n == k + 1 && n % w == 0) || !covered[k] || !covered[n] {
                 continue;
             }
-            for c in 0..4 {
-                let got = img.pixels[n][c] as f64 - img.pixels[k][c] as f64;
-                let exp = want[n][c] - want[k][c];
+            let (pn, pk) = (img.pixels[n], img.pixels[k]);
+            for (c, (wn, wk)) in want[n].iter().zip(&want[k]).enumerate() {
+                let got = pn[c] as f64 - pk[c] as f64;
+                let exp = wn - wk;
                 let e = (got - exp).abs();
                 worst = worst.max(e);
                 assert!(
@@ -230,6 +231,9 @@ fn vertices_exactly_on_pixel_centres() {
 
 // ---------------------------------------------- 4. degenerate and slivers
 
+/// A scalar field given by position.
+type FieldFn = fn([f64; 3]) -> f64;
+
 /// A smooth, gently varying field (linear, so subdividing a tet reproduces
 /// it exactly).
 fn linear_field(p: [f64; 3]) -> f64 {
@@ -327,8 +331,7 @@ fn reaches_scan(view: &pvrsim::scene::View, mesh: &TetMesh, tet: [u32; 4]) -> (b
 /// midpoint image of the split mesh is only checked for finiteness.
 #[test]
 fn degenerate_and_sliver_tets_change_nothing() {
-    let fields: [(&str, fn([f64; 3]) -> f64); 2] =
-        [("linear", linear_field), ("constant", |_| 0.45)];
+    let fields: [(&str, FieldFn); 2] = [("linear", linear_field), ("constant", |_| 0.45)];
     let look = Look::varied(80, 80, 1.5);
     let cams = [
         // Axis-aligned, dyadic: f32 coordinates exact, so zero volume stays exactly zero.
@@ -758,8 +761,24 @@ fn flat_mesh_renders_as_background() {
 
 /// Tets whose four points lie on one line (a zero-volume "needle"), in the
 /// same oblique plane: still no volume, so still the background.
+///
+/// Open bug. Failing case: points `(3 (i - 2.5), 3 (j - 2.5), 0.3)` of the
+/// 6 x 6 grid, tet `[(2,2), (3,3), (0,0), (5,5)]` (four points on the
+/// diagonal), orthographic, eye `(23, 17, 11)`, target 0, up `+z`, height 20,
+/// 61 x 61: expected the background everywhere (alpha 0); got, for that tet
+/// alone, 101 pixels with alpha > 1e-3 and up to 0.99971 (with the whole mesh
+/// of this test, pixel (34, 40) has alpha 0.99979). Cause: rounded to f32 screen
+/// space the four points are no longer exactly collinear, so `setup_tet`
+/// (which only rejects exactly zero volume) accepts the tet, but every face
+/// normal is rounding noise (|n| ~ 1e-5 where a real face of that size has
+/// ~1e2), so the four half-spaces point in arbitrary directions and their
+/// intersection spans many pixels and the tet's whole depth range. Coplanar
+/// tets without three collinear points are fine (previous test). A fix needs
+/// a degeneracy threshold relative to the f32 rounding of the coordinates
+/// (e.g. reject a face whose height is below a few ulps of its coordinates),
+/// which changes which thin cells are drawn, so it is not done here.
 #[test]
-#[ignore = "bug: a tet whose 4 vertices are collinear in f64 is not degenerate after rounding to f32, and its face planes are rounding noise: whole pixels reach alpha 0.9998 (see the report)"]
+#[ignore = "bug: a tet with 4 collinear vertices is not degenerate after rounding to f32 and its face planes are rounding noise: ~100 pixels reach alpha up to 0.9998 (see the doc comment)"]
 fn collinear_tets_render_as_background() {
     let look = Look::constant(61, 61, [0.9, 0.5, 0.2], 0.5, 0.5);
     let mesh = flat_mesh(&|a, b| [3.0 * a, 3.0 * b, 0.3], true);

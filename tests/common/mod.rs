@@ -318,7 +318,7 @@ pub fn max_err(img: &Image, want: &[[f64; 4]]) -> (f64, usize) {
     for (k, (p, w)) in img.pixels.iter().zip(want).enumerate() {
         for c in 0..4 {
             let e = (p[c] as f64 - w[c]).abs();
-            if !(e <= worst.0) {
+            if e > worst.0 || e.is_nan() {
                 worst = (e, k);
             }
         }
