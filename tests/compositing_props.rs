@@ -226,7 +226,8 @@ proptest! {
     fn batch_matches_scalar_integration(lanes in prop::collection::vec(lane(), 1..=BATCH)) {
         let tf = PreparedTf::new(&test_tf());
         for integ in INTEGRATORS {
-            let mut b = Batch { n: lanes.len(), ..Batch::default() };
+            let mut b = Batch::default();
+            b.n = lanes.len();
             for (l, &(s_in, s_out, len)) in lanes.iter().enumerate() {
                 b.s_in[l] = s_in;
                 b.s_out[l] = s_out;

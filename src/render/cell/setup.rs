@@ -87,7 +87,13 @@ pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetS
     let (e1, e2, e3) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0]));
     let (c23, c31, c12) = (cross(e2, e3), cross(e3, e1), cross(e1, e2));
     let det = dot(e1, c23);
-    if det == 0.0 || !det.is_finite() {
+    // Six times the volume. Rounding to f32 leaves a flat tet (e.g. four
+    // collinear points) a volume of a few ulps of |e1||e2||e3| with face
+    // normals that are pure noise; such a tet is treated as what it is,
+    // degenerate. Its true thickness is below ~1e-6 of its edges, so nothing
+    // visible is lost, and no neighbour depends on it to close a crack.
+    let scale = (dot(e1, e1) * dot(e2, e2) * dot(e3, e3)).sqrt();
+    if !(det.abs() > 1e-6 * scale) || !det.is_finite() {
         return None;
     }
     let (d1, d2, d3) = (sv[1] - sv[0], sv[2] - sv[0], sv[3] - sv[0]);
