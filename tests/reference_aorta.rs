@@ -18,13 +18,18 @@ fn data_dir(scene: &str) -> PathBuf {
     if scene.starts_with("aorta-small") {
         return root.join("tests/data");
     }
-    std::env::var("PVRSIM_DATA").map(PathBuf::from).unwrap_or_else(|_| root.join("../shared/data"))
+    std::env::var("PVRSIM_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| root.join("../shared/data"))
 }
 
 fn load(scene: &str) -> Option<(RenderInput, pvrsim::data::Adjacency)> {
     let path = data_dir(scene).join(scene);
     if !path.exists() {
-        eprintln!("skipping: {} not found (the shared data folder is not next to this checkout)", path.display());
+        eprintln!(
+            "skipping: {} not found (the shared data folder is not next to this checkout)",
+            path.display()
+        );
         return None;
     }
     let (input, _) = RenderInput::load(&path).unwrap_or_else(|e| panic!("{e}"));

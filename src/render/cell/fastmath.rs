@@ -48,39 +48,6 @@ pub fn exp_neg(x: f32) -> f32 {
     p * f32::from_bits(biased << 23)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ln_matches_f64() {
-        let mut worst = 0.0f64;
-        let mut x = 1e-6f32;
-        while x <= 1.0 {
-            let want = (x as f64).ln();
-            let err = ((ln(x) as f64 - want) / want.abs().max(1e-3)).abs();
-            worst = worst.max(err);
-            x *= 1.0001;
-        }
-        assert_eq!(ln(1.0), 0.0);
-        assert!(worst < 2e-7, "worst relative error {worst:e}");
-    }
-
-    #[test]
-    fn exp_neg_matches_f64() {
-        let mut worst = 0.0f64;
-        let mut x = 0.0f32;
-        while x > -80.0 {
-            let want = (x as f64).exp();
-            worst = worst.max(((exp_neg(x) as f64 - want) / want).abs());
-            x -= 0.00137;
-        }
-        assert_eq!(exp_neg(0.0), 1.0);
-        assert!(exp_neg(-1000.0) < 1e-37);
-        assert!(worst < 2e-7, "worst relative error {worst:e}");
-    }
-}
-
 /// `min` without NaN handling (one `minss`); the scan converter's inputs are
 /// never NaN (infinities are fine).
 #[inline(always)]
@@ -120,4 +87,37 @@ pub fn floor_i(x: f32) -> i64 {
 pub fn ceil_i(x: f32) -> i64 {
     let t = x as i64;
     t + ((x > t as f32) as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ln_matches_f64() {
+        let mut worst = 0.0f64;
+        let mut x = 1e-6f32;
+        while x <= 1.0 {
+            let want = (x as f64).ln();
+            let err = ((ln(x) as f64 - want) / want.abs().max(1e-3)).abs();
+            worst = worst.max(err);
+            x *= 1.0001;
+        }
+        assert_eq!(ln(1.0), 0.0);
+        assert!(worst < 2e-7, "worst relative error {worst:e}");
+    }
+
+    #[test]
+    fn exp_neg_matches_f64() {
+        let mut worst = 0.0f64;
+        let mut x = 0.0f32;
+        while x > -80.0 {
+            let want = (x as f64).exp();
+            worst = worst.max(((exp_neg(x) as f64 - want) / want).abs());
+            x -= 0.00137;
+        }
+        assert_eq!(exp_neg(0.0), 1.0);
+        assert!(exp_neg(-1000.0) < 1e-37);
+        assert!(worst < 2e-7, "worst relative error {worst:e}");
+    }
 }

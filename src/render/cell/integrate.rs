@@ -122,9 +122,23 @@ impl PreparedTf {
         let lut_scale = if hi > lo { LUT as f32 / (hi - lo) } else { 0.0 };
         let count = |s: f32| breaks.iter().take_while(|&&b| b <= s).count();
         let lut = (0..LUT)
-            .map(|k| if lut_scale > 0.0 { count(lo + k as f32 / lut_scale).min(breaks.len()) as u16 } else { 0 })
+            .map(|k| {
+                if lut_scale > 0.0 {
+                    count(lo + k as f32 / lut_scale).min(breaks.len()) as u16
+                } else {
+                    0
+                }
+            })
             .collect();
-        PreparedTf { breaks, breaks_inf, lut, lut_lo: lo, lut_scale, pieces, inv_unit_distance: (1.0 / tf.unit_distance) as f32 }
+        PreparedTf {
+            breaks,
+            breaks_inf,
+            lut,
+            lut_lo: lo,
+            lut_scale,
+            pieces,
+            inv_unit_distance: (1.0 / tf.unit_distance) as f32,
+        }
     }
 
     /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).
@@ -438,8 +452,16 @@ fn math_lanes(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
             let d_est = k * fmax(l0, l1);
             let rel = (u1 - u0).abs() / fmin(u0, u1);
             g.split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
-            let c0 = [g.c0[0][l] + g.d_c[0][l] * w0, g.c0[1][l] + g.d_c[1][l] * w0, g.c0[2][l] + g.d_c[2][l] * w0];
-            let c1 = [g.c0[0][l] + g.d_c[0][l] * w1, g.c0[1][l] + g.d_c[1][l] * w1, g.c0[2][l] + g.d_c[2][l] * w1];
+            let c0 = [
+                g.c0[0][l] + g.d_c[0][l] * w0,
+                g.c0[1][l] + g.d_c[1][l] * w0,
+                g.c0[2][l] + g.d_c[2][l] * w0,
+            ];
+            let c1 = [
+                g.c0[0][l] + g.d_c[0][l] * w1,
+                g.c0[1][l] + g.d_c[1][l] * w1,
+                g.c0[2][l] + g.d_c[2][l] * w1,
+            ];
             let v = sub_step(u0, u1, l0, l1, c0, c1, k);
             b.rgba[0][l] = v.rgb[0];
             b.rgba[1][l] = v.rgb[1];
@@ -449,7 +471,11 @@ fn math_lanes(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
     } else {
         for l in 0..lanes {
             let k = b.len[l] * inv_ud;
-            let w = fclamp((0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
+            let w = fclamp(
+                (0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l],
+                0.0,
+                1.0,
+            );
             let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
             let a = 1.0 - exp_neg(k * ln(1.0 - o));
             for c in 0..3 {

@@ -105,6 +105,7 @@ impl<'a> ScanTarget<'a> {
 
     /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn emit(&mut self, i: u32, j: u32, z_in: f32, z_out: f32, s_in: f32, s_out: f32, length: f32) {
         let n = self.batch.n;
         self.batch.s_in[n] = s_in;
@@ -293,7 +294,10 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             if !(z_in < z_out) {
                 continue;
             }
-            if edge[..nedge].iter().any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1])) {
+            if edge[..nedge]
+                .iter()
+                .any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1]))
+            {
                 continue;
             }
             let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
