@@ -78,7 +78,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 thread_counts.push(cores);
             }
             for &threads in &thread_counts {
-                let opts = CellOptions { integrator, ..Default::default() };
+                let opts = CellOptions { integrator, ert: cell::ErtOptions::OFF, ..Default::default() };
                 let mut total = Vec::new();
                 let mut scan = Vec::new();
                 let mut last = None;
