@@ -15,6 +15,8 @@
 //! Rebuilding is incremental: the blocks of pixels whose depth changed are
 //! recomputed, and a parent only when a child's value changed.
 
+use super::table::in_front;
+
 /// A max-pyramid over one tile.
 #[derive(Debug, Clone)]
 pub struct Pyramid {
@@ -186,7 +188,7 @@ impl Pyramid {
         let l = &self.levels[k as usize];
         for y in b[2] >> k..=b[3] >> k {
             for x in b[0] >> k..=b[1] >> k {
-                if !(l.v[(y * l.w + x) as usize] < near) {
+                if !in_front(l.v[(y * l.w + x) as usize], near) {
                     return false;
                 }
             }

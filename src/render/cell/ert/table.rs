@@ -34,6 +34,12 @@ pub fn entry_deepest(depth: &[f32], width: u32, x0: u32, x1: u32, y0: u32, y1: u
     m
 }
 
+/// `depth < near`; false if either is NaN (so a NaN never skips a cell).
+#[inline(always)]
+pub fn in_front(depth: f32, near: f32) -> bool {
+    depth < near
+}
+
 impl FlatTable {
     /// A table over a `width x height` tile with `ex x ey`-pixel entries
     /// (the last row and column may be narrower). Nothing is terminated.
@@ -117,7 +123,7 @@ impl FlatTable {
         let [x0, x1, y0, y1] = range;
         for f in y0 / self.entry.1..=y1 / self.entry.1 {
             for e in x0 / self.entry.0..=x1 / self.entry.0 {
-                if !(self.deepest[(f * self.n.0 + e) as usize] < near) {
+                if !in_front(self.deepest[(f * self.n.0 + e) as usize], near) {
                     return false;
                 }
             }
