@@ -12,7 +12,9 @@ use proptest::prelude::*;
 use pvrsim::data::{Field, TetMesh};
 use pvrsim::image::Image;
 use pvrsim::render::cell::ert::EntrySize;
-use pvrsim::render::cell::{self, CellOptions, CellOrder, CellStats, ErtOptions, ErtSpan, ErtStructure};
+use pvrsim::render::cell::{
+    self, CellOptions, CellOrder, CellStats, ErtOptions, ErtSpan, ErtStructure,
+};
 use pvrsim::render::{reference, RenderInput};
 use pvrsim::scene::Scene;
 
@@ -22,9 +24,13 @@ const EPS: f32 = 2e-4;
 /// A jittered `n^3` grid of cubes, each cut into the 6 Kuhn tetrahedra
 /// (conforming), with a random scalar per vertex.
 fn random_mesh(n: usize, seed: u64) -> TetMesh {
-    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     let mut rnd = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((state >> 33) as f64) / (1u64 << 31) as f64
     };
     let m = n + 1;
@@ -34,14 +40,27 @@ fn random_mesh(n: usize, seed: u64) -> TetMesh {
     for k in 0..m {
         for j in 0..m {
             for i in 0..m {
-                let jit = |v: usize, r: f64| if v == 0 || v == n { v as f64 } else { v as f64 + 0.3 * (r - 0.5) };
+                let jit = |v: usize, r: f64| {
+                    if v == 0 || v == n {
+                        v as f64
+                    } else {
+                        v as f64 + 0.3 * (r - 0.5)
+                    }
+                };
                 points.push([jit(i, rnd()), jit(j, rnd()), jit(k, rnd())]);
                 values.push(rnd());
             }
         }
     }
     let mut tets = Vec::new();
-    let perms = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    let perms = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
     for k in 0..n {
         for j in 0..n {
             for i in 0..n {
@@ -57,15 +76,45 @@ fn random_mesh(n: usize, seed: u64) -> TetMesh {
             }
         }
     }
-    TetMesh { points, tets, fields: vec![Field { name: "f".into(), components: 1, values }] }
+    TetMesh {
+        points,
+        tets,
+        fields: vec![Field {
+            name: "f".into(),
+            components: 1,
+            values,
+        }],
+    }
 }
 
-fn scene(n: usize, dir: [f64; 3], perspective: bool, tf: &[[f64; 5]], unit: f64, size: u32) -> Scene {
+fn scene(
+    n: usize,
+    dir: [f64; 3],
+    perspective: bool,
+    tf: &[[f64; 5]],
+    unit: f64,
+    size: u32,
+) -> Scene {
     let c = n as f64 / 2.0;
-    let eye = [c + 3.0 * n as f64 * dir[0], c + 3.0 * n as f64 * dir[1], c + 3.0 * n as f64 * dir[2]];
-    let up = if dir[2].abs() > 0.9 { [0.0, 1.0, 0.0] } else { [0.0, 0.0, 1.0] };
-    let proj = if perspective { "projection = \"perspective\"\nfov_y_deg = 30.0" } else { "projection = \"orthographic\"" };
-    let points: Vec<String> = tf.iter().map(|p| format!("[{}, {}, {}, {}, {}]", p[0], p[1], p[2], p[3], p[4])).collect();
+    let eye = [
+        c + 3.0 * n as f64 * dir[0],
+        c + 3.0 * n as f64 * dir[1],
+        c + 3.0 * n as f64 * dir[2],
+    ];
+    let up = if dir[2].abs() > 0.9 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let proj = if perspective {
+        "projection = \"perspective\"\nfov_y_deg = 30.0"
+    } else {
+        "projection = \"orthographic\""
+    };
+    let points: Vec<String> = tf
+        .iter()
+        .map(|p| format!("[{}, {}, {}, {}, {}]", p[0], p[1], p[2], p[3], p[4]))
+        .collect();
     let text = format!(
         "[data]\npath = \"x.vtk\"\nfield = \"f\"\nrange = [0.0, 1.0]\n[camera]\neye = [{}, {}, {}]\ntarget = [{c}, {c}, {c}]\nup = [{}, {}, {}]\n{proj}\nheight = {}\n[image]\nwidth = {size}\nheight = {size}\nbackground = [0.0, 0.0, 0.0]\n[transfer]\nunit_distance = {unit}\npoints = [{}]\n",
         eye[0],
@@ -81,19 +130,42 @@ fn scene(n: usize, dir: [f64; 3], perspective: bool, tf: &[[f64; 5]], unit: f64,
 }
 
 fn max_diff(a: &Image, b: &Image) -> f32 {
-    a.pixels.iter().zip(&b.pixels).map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs()).fold(0.0, f32::max)).fold(0.0, f32::max)
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs()).fold(0.0, f32::max))
+        .fold(0.0, f32::max)
 }
 
 fn render(input: &RenderInput, opts: &CellOptions, threads: usize) -> (Image, CellStats) {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| cell::render(input, opts))
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| cell::render(input, opts))
 }
 
-fn ert(threshold: f32, structure: ErtStructure, span: ErtSpan, entry: Option<EntrySize>, c: u32) -> ErtOptions {
-    ErtOptions { threshold, entry, update_c: c, span, structure }
+fn ert(
+    threshold: f32,
+    structure: ErtStructure,
+    span: ErtSpan,
+    entry: Option<EntrySize>,
+    c: u32,
+) -> ErtOptions {
+    ErtOptions {
+        threshold,
+        entry,
+        update_c: c,
+        span,
+        structure,
+    }
 }
 
 fn off() -> CellOptions {
-    CellOptions { ert: ErtOptions::OFF, ..Default::default() }
+    CellOptions {
+        ert: ErtOptions::OFF,
+        ..Default::default()
+    }
 }
 
 proptest! {
@@ -147,16 +219,33 @@ proptest! {
 #[test]
 fn dense_scene_skips_cells_within_the_bound() {
     let pts = [[0.0, 1.0, 1.0, 1.0, 0.9], [1.0, 0.2, 0.5, 1.0, 0.9]];
-    let input = RenderInput::new(scene(8, [0.3, 0.2, 0.93], false, &pts, 0.3, 64), Arc::new(random_mesh(8, 7))).unwrap();
+    let input = RenderInput::new(
+        scene(8, [0.3, 0.2, 0.93], false, &pts, 0.3, 64),
+        Arc::new(random_mesh(8, 7)),
+    )
+    .unwrap();
     let (full, _) = render(&input, &off(), 1);
     for structure in [ErtStructure::Flat, ErtStructure::Pyramid] {
         for threshold in [0.5, 0.9, 0.99] {
-            let opts = CellOptions { ert: ert(threshold, structure, ErtSpan::Multi, None, 100), ..Default::default() };
+            let opts = CellOptions {
+                ert: ert(threshold, structure, ErtSpan::Multi, None, 100),
+                ..Default::default()
+            };
             let (img, stats) = render(&input, &opts, 1);
-            assert!(stats.cells_skipped_ert > 0, "{structure} at {threshold} skipped nothing");
+            assert!(
+                stats.cells_skipped_ert > 0,
+                "{structure} at {threshold} skipped nothing"
+            );
             let d = max_diff(&img, &full);
-            assert!(d <= stats.ert_error_bound as f32 + EPS, "{structure} at {threshold}: {d} > {}", stats.ert_error_bound);
-            assert!(d > 0.0 || threshold > 0.95, "ERT changed nothing at {threshold}: suspicious");
+            assert!(
+                d <= stats.ert_error_bound as f32 + EPS,
+                "{structure} at {threshold}: {d} > {}",
+                stats.ert_error_bound
+            );
+            assert!(
+                d > 0.0 || threshold > 0.95,
+                "ERT changed nothing at {threshold}: suspicious"
+            );
         }
     }
 }
@@ -164,14 +253,28 @@ fn dense_scene_skips_cells_within_the_bound() {
 #[test]
 fn ert_off_runs_nothing() {
     let pts = [[0.0, 1.0, 1.0, 1.0, 0.9], [1.0, 0.2, 0.5, 1.0, 0.9]];
-    let input = RenderInput::new(scene(4, [0.3, 0.2, 0.93], false, &pts, 0.3, 32), Arc::new(random_mesh(4, 3))).unwrap();
+    let input = RenderInput::new(
+        scene(4, [0.3, 0.2, 0.93], false, &pts, 0.3, 32),
+        Arc::new(random_mesh(4, 3)),
+    )
+    .unwrap();
     let (_, s) = render(&input, &off(), 1);
-    assert_eq!((s.ert_updates, s.ert_tests, s.cells_skipped_ert, s.ert_error_bound), (0, 0, 0, 0.0));
+    assert_eq!(
+        (
+            s.ert_updates,
+            s.ert_tests,
+            s.cells_skipped_ert,
+            s.ert_error_bound
+        ),
+        (0, 0, 0, 0.0)
+    );
     assert_eq!(s.time_scan_s, s.time_scan_phase_s);
 }
 
 fn small(view: &str) -> RenderInput {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(format!("aorta-small-view-{view}.toml"));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(format!("aorta-small-view-{view}.toml"));
     RenderInput::load(&path).unwrap().0
 }
 
@@ -180,7 +283,10 @@ fn small(view: &str) -> RenderInput {
 fn ert_image_is_independent_of_threads() {
     let input = small("b");
     for structure in [ErtStructure::Flat, ErtStructure::Pyramid] {
-        let opts = CellOptions { ert: ert(0.9, structure, ErtSpan::Multi, None, 100), ..Default::default() };
+        let opts = CellOptions {
+            ert: ert(0.9, structure, ErtSpan::Multi, None, 100),
+            ..Default::default()
+        };
         let (a, sa) = render(&input, &opts, 1);
         let (b, sb) = render(&input, &opts, 3);
         assert_eq!(a.pixels, b.pixels, "{structure}");
@@ -199,30 +305,56 @@ fn aorta_small_against_reference_and_oracle() {
         let (reference, _) = reference::render(&input, &adjacency, &Default::default());
         let (full, _) = render(&input, &off(), 2);
         let modes = [
-            ert(0.9, ErtStructure::Flat, ErtSpan::Single, Some(EntrySize::Pixels(5)), 100),
-            ert(0.9, ErtStructure::Flat, ErtSpan::Multi, Some(EntrySize::Pixels(5)), 100),
+            ert(
+                0.9,
+                ErtStructure::Flat,
+                ErtSpan::Single,
+                Some(EntrySize::Pixels(5)),
+                100,
+            ),
+            ert(
+                0.9,
+                ErtStructure::Flat,
+                ErtSpan::Multi,
+                Some(EntrySize::Pixels(5)),
+                100,
+            ),
             ert(0.9, ErtStructure::Pyramid, ErtSpan::Multi, None, 100),
             ert(0.99, ErtStructure::Pyramid, ErtSpan::Multi, None, 100),
         ];
         let mut skipped = Vec::new();
         for m in modes {
-            let opts = CellOptions { ert: m, oracle: true, ..Default::default() };
+            let opts = CellOptions {
+                ert: m,
+                oracle: true,
+                ..Default::default()
+            };
             let (img, s) = render(&input, &opts, 2);
             let bound = s.ert_error_bound as f32;
             assert!(max_diff(&img, &full) <= bound + EPS, "view {view} {m:?}");
             for ((p, q), r) in img.pixels.iter().zip(&full.pixels).zip(&reference.pixels) {
                 for c in 0..3 {
-                    assert!((p[c] - r[c]).abs() <= (q[c] - r[c]).abs() + bound + EPS, "view {view} {m:?}");
+                    assert!(
+                        (p[c] - r[c]).abs() <= (q[c] - r[c]).abs() + bound + EPS,
+                        "view {view} {m:?}"
+                    );
                 }
             }
             let oracle = s.oracle_cells_skippable.unwrap();
-            assert!(s.cells_skipped_ert <= oracle, "view {view} {m:?}: {} > oracle {oracle}", s.cells_skipped_ert);
+            assert!(
+                s.cells_skipped_ert <= oracle,
+                "view {view} {m:?}: {} > oracle {oracle}",
+                s.cells_skipped_ert
+            );
             if m.threshold < 0.95 {
                 assert!(oracle > 0 && s.cells_skipped_ert > 0, "view {view} {m:?}");
             }
             skipped.push(s.cells_skipped_ert);
         }
         // Multi-entry tests include the single-entry ones; the pyramid beats the flat table here.
-        assert!(skipped[1] >= skipped[0] && skipped[2] >= skipped[1], "view {view}: {skipped:?}");
+        assert!(
+            skipped[1] >= skipped[0] && skipped[2] >= skipped[1],
+            "view {view}: {skipped:?}"
+        );
     }
 }

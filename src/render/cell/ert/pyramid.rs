@@ -179,7 +179,8 @@ impl Pyramid {
         let (bw, bh) = self.block;
         let [x0, x1, y0, y1] = [range[0] / bw, range[1] / bw, range[2] / bh, range[3] / bh];
         let k = test_level(x0, x1, y0, y1);
-        self.all_in_front(k, [x0, x1, y0, y1], near) || (k > 0 && self.all_in_front(k - 1, [x0, x1, y0, y1], near))
+        self.all_in_front(k, [x0, x1, y0, y1], near)
+            || (k > 0 && self.all_in_front(k - 1, [x0, x1, y0, y1], near))
     }
 
     /// Whether every level-`k` entry over the level-0 block range `b` has a value `< near`.
