@@ -90,6 +90,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             for &threads in &thread_counts {
                 let opts = CellOptions {
                     integrator,
+                    ert: cell::ErtOptions::OFF,
                     ..Default::default()
                 };
                 let mut total = Vec::new();

@@ -5,7 +5,10 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
-use crate::render::cell::{self, CellOptions, CellOrder, Integrator};
+use crate::render::cell::ert::EntrySize;
+use crate::render::cell::{
+    self, CellOptions, CellOrder, ErtOptions, ErtSpan, ErtStructure, Integrator,
+};
 use crate::render::{reference, RenderInput};
 
 /// Which renderer draws the image.
@@ -38,9 +41,44 @@ pub struct RenderArgs {
     /// Store every segment instead of merging touching ones on insertion.
     #[arg(long)]
     pub no_partial_composition: bool,
-    /// Screen tile edge in pixels (work unit of the threads; the image does not depend on it).
+    /// Screen tile edge in pixels (work unit of the threads). Without ERT the
+    /// image does not depend on it; with ERT each tile has its own ERT table
+    /// (or pyramid), the tile is rounded to whole entries, and the image may
+    /// change with it (within the ERT error bound). Never with the thread count.
     #[arg(long, default_value_t = 32)]
     pub tile: u32,
+    /// Early ray termination threshold: a pixel terminates where the alpha of
+    /// the segments known in front reaches it. 1.0 turns ERT off (no test, no
+    /// update). The paper's experiments use 0.9. The per-pixel error bound
+    /// (1 - THRESHOLD) x max emitted radiance is reported in the stats.
+    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    pub ert: f32,
+    /// ERT table of D x D entries (flat structure; entries of ceil(W/D) x
+    /// ceil(H/D) pixels; for the pyramid: its level-0 blocks). Default: 20 for
+    /// `flat` (the paper's best), 1-pixel blocks for `pyramid`.
+    #[arg(long, value_name = "D", conflicts_with = "ert_entry_px")]
+    pub ert_table: Option<u32>,
+    /// ERT entry (pyramid: level-0 block) size in pixels, N x N; alternative to --ert-table.
+    #[arg(long, value_name = "N")]
+    pub ert_entry_px: Option<u32>,
+    /// ERT update constant C: rebuild the ERT structure after every
+    /// (remaining cells)/C cells of a tile (the paper's best: 100).
+    #[arg(long, value_name = "C", default_value_t = 100)]
+    pub ert_update: u32,
+    /// Flat ERT table: test only cells inside one entry (`single`, the paper)
+    /// or also cells spanning entries (`multi`: all covered entries terminated
+    /// with max deepest < nearest). Ignored by the pyramid.
+    #[arg(long, value_enum, default_value_t = ErtSpan::Multi)]
+    pub ert_span: ErtSpan,
+    /// ERT structure: the paper's `flat` D x D table, or a max-`pyramid` over
+    /// per-pixel termination depths (each cell tested on at most 2 x 2 entries).
+    #[arg(long, value_enum, default_value_t = ErtStructure::Pyramid)]
+    pub ert_structure: ErtStructure,
+    /// Also run the ERT oracle (a second pass, ERT and partial composition
+    /// off): cells and segments behind the final termination depths, and the
+    /// share of the oracle's cells that ERT skipped.
+    #[arg(long)]
+    pub oracle: bool,
     /// Worker threads; 0 = all cores. `--threads 1` gives the same image.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -83,7 +121,22 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         partial_composition: !a.no_partial_composition,
         tile_size: a.tile.max(1),
         cell_order: a.cell_order,
+        ert: ErtOptions {
+            threshold: a.ert,
+            entry: a
+                .ert_entry_px
+                .map(EntrySize::Pixels)
+                .or(a.ert_table.map(EntrySize::Divisions)),
+            update_c: a.ert_update.max(1),
+            span: a.ert_span,
+            structure: a.ert_structure,
+        },
+        oracle: a.oracle,
     };
+    anyhow::ensure!(
+        a.ert > 0.0 && a.ert.is_finite(),
+        "--ert must be in (0, 1] (1 = off)"
+    );
     let (image, mut stats) = match a.renderer {
         RendererKind::Cell => {
             let (image, mut stats) =
@@ -193,4 +246,39 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
         s.time_composite_s,
         s.time_total_s
     );
+    if s.ert_threshold < 1.0 {
+        println!(
+            "  ERT: threshold {}, {} {}{}x{} px entries, C {}: {} cells skipped ({} cell-tile pairs), {} updates {:.3} s, {} tests {:.3} s, overhead {:.1} % of scan (phase {:.3} s), error bound {:.4}",
+            s.ert_threshold,
+            s.ert_structure,
+            if s.ert_span.is_empty() { String::new() } else { format!("{} ", s.ert_span) },
+            s.ert_entry_px[0],
+            s.ert_entry_px[1],
+            s.ert_update_c,
+            s.cells_skipped_ert,
+            s.cell_tile_pairs_skipped_ert,
+            s.ert_updates,
+            s.ert_update_s,
+            s.ert_tests,
+            s.ert_tests_s,
+            100.0 * s.ert_overhead_share,
+            s.time_scan_phase_s,
+            s.ert_error_bound
+        );
+    }
+    if let (Some(sk), Some(n), Some(sb)) = (
+        s.oracle_cells_skippable,
+        s.oracle_cells_considered,
+        s.oracle_segments_behind_share,
+    ) {
+        println!(
+            "  oracle: {} of {} cells skippable ({:.1} %), {:.1} % of segments behind termination; ERT skipped {:.1} % of the oracle's cells ({:.2} s)",
+            sk,
+            n,
+            100.0 * sk as f64 / n.max(1) as f64,
+            100.0 * sb,
+            100.0 * s.ert_share_of_oracle.unwrap_or(0.0),
+            s.oracle_time_s.unwrap_or(0.0)
+        );
+    }
 }

@@ -238,6 +238,8 @@ pub fn opts(integrator: Integrator, cell_order: CellOrder) -> CellOptions {
         partial_composition: true,
         tile_size: 32,
         cell_order,
+        ert: pvrsim::render::cell::ErtOptions::OFF,
+        oracle: false,
     }
 }
 

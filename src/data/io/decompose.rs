@@ -376,8 +376,8 @@ mod tests {
             );
         }
         // ...and one cube of side 2 as six pyramids around its centre.
-        let perm7 = permutation(7);
-        let (pts, id) = grid(&perm7);
+        let perm = permutation(7);
+        let (pts, id) = grid(&perm);
         let c = id(1, 1, 1);
         let corner = |i: usize, j: usize, k: usize| id(2 * i, 2 * j, 2 * k);
         let faces = [

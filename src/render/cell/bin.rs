@@ -65,14 +65,20 @@ pub struct Binning {
 
 /// Splits a `width x height` image into `tile x tile` rectangles, row-major.
 pub fn tiles(width: u32, height: u32, tile: u32) -> Vec<Rect> {
+    tiles_rect(width, height, tile, tile)
+}
+
+/// Splits a `width x height` image into `tw x th` rectangles, row-major
+/// (early ray termination aligns tiles to its table entries).
+pub fn tiles_rect(width: u32, height: u32, tw: u32, th: u32) -> Vec<Rect> {
     let mut out = Vec::new();
-    for y0 in (0..height).step_by(tile as usize) {
-        for x0 in (0..width).step_by(tile as usize) {
+    for y0 in (0..height).step_by(th as usize) {
+        for x0 in (0..width).step_by(tw as usize) {
             out.push(Rect {
                 x0,
                 y0,
-                x1: (x0 + tile).min(width),
-                y1: (y0 + tile).min(height),
+                x1: (x0 + tw).min(width),
+                y1: (y0 + th).min(height),
             });
         }
     }
@@ -81,9 +87,20 @@ pub fn tiles(width: u32, height: u32, tile: u32) -> Vec<Rect> {
 
 /// Culls `tets` and bins the rest into `tile x tile` tiles.
 pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, tile: u32) -> Binning {
+    bin_cells_rect(tets, pv, tf, tile, tile)
+}
+
+/// Culls `tets` and bins the rest into `tw x th` tiles.
+pub fn bin_cells_rect(
+    tets: &[[u32; 4]],
+    pv: &ProjectedVertices,
+    tf: &PreparedTf,
+    tw: u32,
+    th: u32,
+) -> Binning {
     let (w, h) = pv.size;
-    let rects = tiles(w, h, tile);
-    let tiles_x = w.div_ceil(tile);
+    let rects = tiles_rect(w, h, tw, th);
+    let tiles_x = w.div_ceil(tw);
     let full = Rect {
         x0: 0,
         y0: 0,
@@ -160,8 +177,8 @@ pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, til
                     pos,
                     s,
                 };
-                for ty in j0 / tile..=j1 / tile {
-                    for tx in i0 / tile..=i1 / tile {
+                for ty in j0 / th..=j1 / th {
+                    for tx in i0 / tw..=i1 / tw {
                         part.pairs.push((ty * tiles_x + tx, rec));
                     }
                 }

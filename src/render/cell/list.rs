@@ -17,6 +17,12 @@ pub struct SegmentLists {
     /// Height of the rectangle in pixels.
     pub height: u32,
     lists: Vec<Vec<Segment>>,
+    /// Whether insertions record the pixels they change (early ray termination).
+    track: bool,
+    /// Per pixel: changed since the last [`SegmentLists::drain_changed`].
+    changed_flag: Vec<bool>,
+    /// The changed pixels, each once.
+    changed: Vec<u32>,
 }
 
 /// What one insertion did.
@@ -37,6 +43,34 @@ impl SegmentLists {
             width,
             height,
             lists: vec![Vec::new(); width as usize * height as usize],
+            ..Default::default()
+        }
+    }
+
+    /// From now on, record which pixels' lists change (for the incremental
+    /// rebuild of the early-ray-termination structures). Off by default, so a
+    /// render without ERT pays one predictable branch per insertion.
+    pub fn track_changes(&mut self) {
+        self.track = true;
+        self.changed_flag = vec![false; self.lists.len()];
+    }
+
+    /// Calls `f(idx, list)` for every pixel whose list changed since the last
+    /// call (or since tracking began), then forgets them.
+    pub fn drain_changed(&mut self, mut f: impl FnMut(usize, &[Segment])) {
+        for &idx in &self.changed {
+            let idx = idx as usize;
+            self.changed_flag[idx] = false;
+            f(idx, &self.lists[idx]);
+        }
+        self.changed.clear();
+    }
+
+    #[inline(always)]
+    fn note_change(&mut self, idx: usize) {
+        if !self.changed_flag[idx] {
+            self.changed_flag[idx] = true;
+            self.changed.push(idx as u32);
         }
     }
 
@@ -55,6 +89,9 @@ impl SegmentLists {
     /// neighbours when `partial` is on.
     #[inline]
     pub fn insert(&mut self, idx: usize, seg: Segment, partial: bool) -> Inserted {
+        if self.track {
+            self.note_change(idx);
+        }
         insert_sorted(&mut self.lists[idx], seg, partial)
     }
 }

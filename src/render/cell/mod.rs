@@ -22,6 +22,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bin;
+pub mod ert;
 pub mod fastmath;
 pub mod integrate;
 pub mod list;
@@ -35,6 +36,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+pub use ert::{ErtOptions, ErtSpan, ErtStructure};
 pub use integrate::{Integrator, PreparedTf};
 pub use list::SegmentLists;
 pub use order::CellOrder;
@@ -51,10 +53,16 @@ pub struct CellOptions {
     pub integrator: Integrator,
     /// Merge touching segments on insertion (the paper's partial composition).
     pub partial_composition: bool,
-    /// Edge of the square screen tiles, pixels. Does not change the image.
+    /// Edge of the square screen tiles, pixels. Does not change the image
+    /// without ERT; with ERT it is rounded to whole entries
+    /// ([`ErtOptions::tile_dims`]) and the image may depend on it.
     pub tile_size: u32,
     /// Order of scan conversion.
     pub cell_order: CellOrder,
+    /// Early ray termination.
+    pub ert: ErtOptions,
+    /// Also run the oracle pass ([`ert::oracle`]) and report it in the stats.
+    pub oracle: bool,
 }
 
 impl Default for CellOptions {
@@ -64,6 +72,8 @@ impl Default for CellOptions {
             partial_composition: true,
             tile_size: 32,
             cell_order: CellOrder::FrontToBack,
+            ert: ErtOptions::DEFAULT,
+            oracle: false,
         }
     }
 }
@@ -104,8 +114,12 @@ pub struct CellStats {
     pub time_load_s: f64,
     /// Vertex transform, culling and binning.
     pub time_project_s: f64,
-    /// Scan conversion, integration and list insertion.
+    /// Scan conversion, integration and list insertion, without ERT's own
+    /// work: `time_scan_phase_s - (ert_update_s + ert_tests_s) / threads`
+    /// (exact with one thread). This is the paper's Tsc.
     pub time_scan_s: f64,
+    /// Wall time of the whole scan phase, ERT updates and tests included.
+    pub time_scan_phase_s: f64,
     /// Final composition.
     pub time_composite_s: f64,
     /// Everything from projection to the finished image (plus load if set).
@@ -120,6 +134,49 @@ pub struct CellStats {
     pub tile_size: u32,
     /// Cell order.
     pub cell_order: String,
+    /// Tile width and height actually used (ERT aligns tiles to its entries).
+    pub tile_dims: [u32; 2],
+    /// ERT threshold (1 = off).
+    pub ert_threshold: f64,
+    /// ERT structure (`flat` / `pyramid`), empty when off.
+    pub ert_structure: String,
+    /// Flat table: cells tested (`single` / `multi`), empty otherwise.
+    pub ert_span: String,
+    /// Entry (pyramid: level-0 block) width and height in pixels.
+    pub ert_entry_px: [u32; 2],
+    /// Update constant C.
+    pub ert_update_c: u32,
+    /// The per-pixel, per-channel error bound ERT guarantees:
+    /// `(1 - threshold) * max(max_radiance, background)` (0 when off).
+    pub ert_error_bound: f64,
+    /// Cells skipped by ERT in every tile they touch.
+    pub cells_skipped_ert: u64,
+    /// (cell, tile) pairs skipped by ERT.
+    pub cell_tile_pairs_skipped_ert: u64,
+    /// Rebuilds of the ERT structures (summed over tiles).
+    pub ert_updates: u64,
+    /// Time rebuilding the ERT structures, summed over tiles (T_update).
+    pub ert_update_s: f64,
+    /// Cell tests done.
+    pub ert_tests: u64,
+    /// Time testing cells, summed over tiles.
+    pub ert_tests_s: f64,
+    /// `(ert_update_s + ert_tests_s) / threads / time_scan_s`.
+    pub ert_overhead_share: f64,
+    /// Oracle (with `--oracle`): cells that have a pixel range.
+    pub oracle_cells_considered: Option<u64>,
+    /// Oracle: cells whose whole pixel range lies behind the final termination depth of every pixel in it.
+    pub oracle_cells_skippable: Option<u64>,
+    /// Oracle: ray segments (no partial composition) behind their pixel's termination depth.
+    pub oracle_segments_behind: Option<u64>,
+    /// Oracle: all ray segments (no partial composition).
+    pub oracle_segments_total: Option<u64>,
+    /// Oracle: `oracle_segments_behind / oracle_segments_total`.
+    pub oracle_segments_behind_share: Option<f64>,
+    /// `cells_skipped_ert / oracle_cells_skippable`.
+    pub ert_share_of_oracle: Option<f64>,
+    /// Oracle pass time.
+    pub oracle_time_s: Option<f64>,
 }
 
 /// The per-tile result of scan conversion.
@@ -132,17 +189,46 @@ pub struct TileResult {
     pub degenerate: u64,
 }
 
-/// Renders `input` by cell projection. Uses the current rayon pool.
-pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
+/// The scan phase's result: binning, per-tile lists and ERT statistics.
+pub struct Frame {
+    /// Culling and binning.
+    pub binning: bin::Binning,
+    /// Per tile, its lists.
+    pub tiles: Vec<TileResult>,
+    /// Per tile, what ERT did (empty when off).
+    pub ert: Vec<ert::ErtTileStats>,
+    /// Tile width and height used.
+    pub tile_dims: (u32, u32),
+    /// Entry size used by ERT.
+    pub entry_px: (u32, u32),
+    /// Seconds: projection and binning.
+    pub time_project_s: f64,
+    /// Seconds: the scan phase (wall).
+    pub time_scan_s: f64,
+}
+
+/// Projects, bins and scan-converts `input` into per-tile lists (phases 1 and 2).
+pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     let t0 = Instant::now();
     let scene = &input.scene;
     let view = scene.view();
     let tf = PreparedTf::new(&scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
-    let mut binning = bin::bin_cells(&input.mesh.tets, &pv, &tf, opts.tile_size.max(1));
+    let ert_on = opts.ert.enabled();
+    let tile = opts.tile_size.max(1);
+    let (tile_dims, entry_px) = if ert_on {
+        (
+            opts.ert.tile_dims(tile, view.width, view.height),
+            opts.ert.entry_px(view.width, view.height),
+        )
+    } else {
+        ((tile, tile), (0, 0))
+    };
+    let mut binning = bin::bin_cells_rect(&input.mesh.tets, &pv, &tf, tile_dims.0, tile_dims.1);
     let t1 = Instant::now();
 
-    let tiles: Vec<TileResult> = binning
+    let persp = pv.perspective.then(|| pv.rays());
+    let results: Vec<(TileResult, Option<ert::ErtTileStats>)> = binning
         .tiles
         .par_iter()
         .zip(&mut binning.bins)
@@ -157,9 +243,40 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
                 keys.sort_unstable();
                 *cells = keys.iter().map(|&(_, i)| cells[i as usize]).collect();
             }
-            scan_tile(pv.perspective.then(|| pv.rays()), &tf, opts, *rect, cells)
+            if ert_on {
+                let (t, e) =
+                    ert::scan_tile_ert(persp, &tf, opts, *rect, cells, entry_px, tile_dims);
+                (t, Some(e))
+            } else {
+                (scan_tile(persp, &tf, opts, *rect, cells), None)
+            }
         })
         .collect();
+    let t2 = Instant::now();
+    let mut tiles = Vec::with_capacity(results.len());
+    let mut ert_stats = Vec::new();
+    for (t, e) in results {
+        tiles.push(t);
+        ert_stats.extend(e);
+    }
+    Frame {
+        binning,
+        tiles,
+        ert: ert_stats,
+        tile_dims,
+        entry_px,
+        time_project_s: (t1 - t0).as_secs_f64(),
+        time_scan_s: (t2 - t1).as_secs_f64(),
+    }
+}
+
+/// Renders `input` by cell projection. Uses the current rayon pool.
+pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
+    let t0 = Instant::now();
+    let scene = &input.scene;
+    let view = scene.view();
+    let frame = scan_frame(input, opts);
+    let (binning, tiles) = (&frame.binning, &frame.tiles);
     let t2 = Instant::now();
 
     let mut image = Image::new(view.width, view.height);
@@ -196,22 +313,29 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     let t3 = Instant::now();
 
     let mut counts = ScanCounts::default();
+    let threads = rayon::current_num_threads();
     let mut stats = CellStats {
         cells_total: input.mesh.tets.len() as u64,
         cells_culled_empty: binning.culled_empty,
         cells_culled_offscreen: binning.culled_offscreen,
         cells_no_pixel_centre: binning.no_pixel_centre,
         cell_tile_pairs: binning.bins.iter().map(|b| b.len() as u64).sum(),
-        threads: rayon::current_num_threads(),
+        threads,
         integrator: opts.integrator.to_string(),
         partial_composition: opts.partial_composition,
         tile_size: opts.tile_size,
         cell_order: opts.cell_order.to_string(),
+        tile_dims: [frame.tile_dims.0, frame.tile_dims.1],
+        ert_threshold: if opts.ert.enabled() {
+            f32_to_f64_short(opts.ert.threshold)
+        } else {
+            1.0
+        },
         ..Default::default()
     };
     stats.cells_projected =
         stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
-    for t in &tiles {
+    for t in tiles {
         counts.add(&t.counts);
         stats.cells_degenerate += t.degenerate;
         for l in t.lists.lists() {
@@ -230,10 +354,23 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     } else {
         0.0
     };
-    stats.time_project_s = (t1 - t0).as_secs_f64();
-    stats.time_scan_s = (t2 - t1).as_secs_f64();
+    stats.time_project_s = frame.time_project_s;
+    stats.time_scan_phase_s = frame.time_scan_s;
+    stats.time_scan_s = frame.time_scan_s;
     stats.time_composite_s = (t3 - t2).as_secs_f64();
     stats.time_total_s = (t3 - t0).as_secs_f64();
+    if opts.ert.enabled() {
+        ert::fill_stats(
+            &mut stats,
+            &frame,
+            opts,
+            &scene.transfer,
+            scene.image.background,
+        );
+    }
+    if opts.oracle {
+        ert::oracle::fill_stats(&mut stats, input, opts);
+    }
     (image, stats)
 }
 
@@ -258,24 +395,7 @@ pub fn scan_tile(
             &mut counts,
         );
         for c in cells {
-            let [i0, i1, j0, j1] = c.range;
-            let range = (
-                i0.max(rect.x0),
-                i1.min(rect.x1 - 1),
-                j0.max(rect.y0),
-                j1.min(rect.y1 - 1),
-            );
-            let Some(setup) = setup::setup_tet(c.ids, &c.pos, &c.s) else {
-                // Counted once, in the tile holding the cell's first pixel.
-                degenerate +=
-                    u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
-                continue;
-            };
-            if let Some(rays) = &perspective {
-                scan::scan_persp(&setup, rays, range, &mut target);
-            } else {
-                scan::scan_ortho(&setup, range, &mut target);
-            }
+            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
         }
         // Segments are integrated in batches that span cells: finish the last one.
         target.flush();
@@ -285,4 +405,37 @@ pub fn scan_tile(
         counts,
         degenerate,
     }
+}
+
+/// Scan-converts cell `c` over its pixels in tile `rect`. Returns 1 if the
+/// cell is degenerate and this tile holds its first pixel (so that it is
+/// counted once), else 0.
+#[inline]
+pub fn scan_cell(
+    c: &bin::CellRecord,
+    rect: scan::Rect,
+    perspective: Option<&project::PerspRays>,
+    target: &mut ScanTarget,
+) -> u64 {
+    let [i0, i1, j0, j1] = c.range;
+    let range = (
+        i0.max(rect.x0),
+        i1.min(rect.x1 - 1),
+        j0.max(rect.y0),
+        j1.min(rect.y1 - 1),
+    );
+    let Some(setup) = setup::setup_tet(c.ids, &c.pos, &c.s) else {
+        return u64::from(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1);
+    };
+    if let Some(rays) = perspective {
+        scan::scan_persp(&setup, rays, range, target);
+    } else {
+        scan::scan_ortho(&setup, range, target);
+    }
+    0
+}
+
+/// `x` as the f64 with the same shortest decimal form (0.9f32 -> 0.9, not 0.8999999761581421).
+fn f32_to_f64_short(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
 }

@@ -1,0 +1,76 @@
+//! The termination depth of one pixel, and the error bound it implies.
+//!
+//! A pixel's list holds the segments known so far, sorted by `z_front`, with
+//! gaps where cells have not been scan-converted yet. Walking it front to back
+//! and compositing only the alphas, `A_k = A_{k-1} + (1 - A_{k-1}) a_k`, gives
+//! after segment `k` a *lower bound* of the true opacity in front of that
+//! segment's `z_back`: the unknown segments in the gaps can only add opacity
+//! ("over" never lowers alpha). The first `k` with `A_k >= threshold` makes
+//! the pixel terminated; its termination depth is that segment's `z_back`
+//! (conservative: the threshold is crossed somewhere inside the segment, and
+//! nothing in the list tells where — with partial composition a segment may be
+//! a long merged stretch). Everything whose `z_front` is at or behind this depth
+//! is attenuated by at least `1 - threshold`.
+
+use crate::render::cell::segment::Segment;
+
+/// Termination depth of a pixel whose list is `list` (sorted by `z_front`):
+/// the `z_back` of the first segment at which the alpha accumulated front to
+/// back over the listed segments reaches `threshold`; `+inf` if it never does
+/// (not terminated).
+#[inline]
+pub fn termination_depth(list: &[Segment], threshold: f32) -> f32 {
+    let mut acc = 0.0f32;
+    for s in list {
+        acc += (1.0 - acc) * s.rgba.a;
+        if acc >= threshold {
+            return s.z_back;
+        }
+    }
+    f32::INFINITY
+}
+
+/// The largest change ERT can make to one channel of one pixel:
+/// `(1 - threshold) * max(max_radiance, background)`.
+///
+/// Behind the depth `z` where the pixel terminates, the full image adds
+/// `T(z) (C_b + (1 - A_b) bg)` and the ERT image the same with fewer segments;
+/// both brackets lie in `[0, max(R, bg)]` because a premultiplied colour is at
+/// most `R` times its alpha. With `T(z) <= 1 - threshold` the difference is at
+/// most `(1 - threshold) max(R, bg)`. On a black background (every scene of the
+/// project) this is scene.md's `(1 - threshold) R`. `threshold >= 1` gives 0.
+pub fn error_bound(threshold: f64, max_radiance: f64, background: [f64; 3]) -> f64 {
+    let bg = background.iter().cloned().fold(0.0, f64::max);
+    (1.0 - threshold.min(1.0)).max(0.0) * max_radiance.max(bg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::cell::segment::Rgba;
+
+    fn seg(zf: f32, zb: f32, a: f32) -> Segment {
+        Segment {
+            z_front: zf,
+            z_back: zb,
+            rgba: Rgba { rgb: [a; 3], a },
+        }
+    }
+
+    #[test]
+    fn crosses_inside_the_segment_that_reaches_the_threshold() {
+        let l = [seg(0.0, 1.0, 0.5), seg(3.0, 4.0, 0.5), seg(5.0, 6.0, 0.8)];
+        // 0.5, 0.75, 0.95
+        assert_eq!(termination_depth(&l, 0.9), 6.0);
+        assert_eq!(termination_depth(&l, 0.75), 4.0);
+        assert_eq!(termination_depth(&l, 0.99), f32::INFINITY);
+        assert_eq!(termination_depth(&[], 0.5), f32::INFINITY);
+    }
+
+    #[test]
+    fn bound_is_zero_when_off_and_scales_with_radiance() {
+        assert_eq!(error_bound(1.0, 1.0, [0.0; 3]), 0.0);
+        assert!((error_bound(0.9, 0.5, [0.0; 3]) - 0.05).abs() < 1e-12);
+        assert!((error_bound(0.9, 0.5, [1.0, 0.0, 0.0]) - 0.1).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,158 @@
+//! Scan conversion of one tile with early ray termination.
+
+use std::time::Instant;
+
+use super::pyramid::Pyramid;
+use super::schedule;
+use super::table::FlatTable;
+use super::termination::termination_depth;
+use super::{ErtSpan, ErtStructure};
+use crate::render::cell::bin::CellRecord;
+use crate::render::cell::integrate::PreparedTf;
+use crate::render::cell::list::SegmentLists;
+use crate::render::cell::project::PerspRays;
+use crate::render::cell::scan::{Rect, ScanCounts, ScanTarget};
+use crate::render::cell::{scan_cell, CellOptions, TileResult};
+
+/// What ERT did in one tile.
+#[derive(Debug, Clone, Default)]
+pub struct ErtTileStats {
+    /// Rebuilds of the structure.
+    pub updates: u64,
+    /// Seconds spent rebuilding (walking changed lists, updating entries).
+    pub update_s: f64,
+    /// Seconds spent testing cells.
+    pub tests_s: f64,
+    /// Cells tested.
+    pub tests: u64,
+    /// Cells skipped whose whole range lies in this tile.
+    pub skipped_whole: u64,
+    /// Cells skipped here whose range spans tiles: (cell id, tiles it touches).
+    pub skipped_spanning: Vec<(u32, u32)>,
+}
+
+enum Structure {
+    Flat(FlatTable, ErtSpan),
+    Pyramid(Pyramid),
+}
+
+impl Structure {
+    #[inline]
+    fn mark(&mut self, x: u32, y: u32) {
+        match self {
+            Structure::Flat(t, _) => t.mark(x, y),
+            Structure::Pyramid(p) => p.mark(x, y),
+        }
+    }
+
+    fn rebuild(&mut self, depth: &[f32]) {
+        match self {
+            Structure::Flat(t, _) => t.rebuild(depth),
+            Structure::Pyramid(p) => p.rebuild(depth),
+        }
+    }
+
+    /// Whether cell `c` can be skipped in tile `rect`.
+    #[inline]
+    fn skip(&self, c: &CellRecord, rect: Rect) -> bool {
+        let [i0, i1, j0, j1] = c.range;
+        let local = [
+            i0.max(rect.x0) - rect.x0,
+            i1.min(rect.x1 - 1) - rect.x0,
+            j0.max(rect.y0) - rect.y0,
+            j1.min(rect.y1 - 1) - rect.y0,
+        ];
+        match self {
+            Structure::Flat(t, ErtSpan::Single) => {
+                // The whole projection must fit one entry; entries never straddle
+                // tiles, so a cell leaving the tile spans several.
+                let inside = rect.x0 <= i0 && i1 < rect.x1 && rect.y0 <= j0 && j1 < rect.y1;
+                inside && t.skip_single(local, c.near)
+            }
+            Structure::Flat(t, ErtSpan::Multi) => t.skip_multi(local, c.near),
+            Structure::Pyramid(p) => p.skip(local, c.near),
+        }
+    }
+}
+
+/// Scan-converts the cells of tile `rect` in order, skipping those that ERT
+/// proves invisible. `entry` is the entry (or level-0 block) size in pixels,
+/// `tile` the nominal tile size (for counting cells that span tiles).
+pub fn scan_tile_ert(
+    perspective: Option<PerspRays>,
+    tf: &PreparedTf,
+    opts: &CellOptions,
+    rect: Rect,
+    cells: &[CellRecord],
+    entry: (u32, u32),
+    tile: (u32, u32),
+) -> (TileResult, ErtTileStats) {
+    let (w, h) = (rect.width(), rect.height());
+    let ert = &opts.ert;
+    let mut lists = SegmentLists::new(w, h);
+    lists.track_changes();
+    let mut counts = ScanCounts::default();
+    let mut degenerate = 0;
+    let mut depth = vec![f32::INFINITY; (w * h) as usize];
+    let mut st = match ert.structure {
+        ErtStructure::Flat => Structure::Flat(FlatTable::new(w, h, entry.0, entry.1), ert.span),
+        ErtStructure::Pyramid => Structure::Pyramid(Pyramid::new(w, h, entry.0, entry.1)),
+    };
+    let mut stats = ErtTileStats::default();
+    let mut skip: Vec<bool> = Vec::new();
+    for (b, range) in schedule::batches(cells.len(), ert.update_c)
+        .into_iter()
+        .enumerate()
+    {
+        let batch = &cells[range];
+        skip.clear();
+        if b > 0 {
+            let t0 = Instant::now();
+            lists.drain_changed(|idx, list| {
+                let d = termination_depth(list, ert.threshold);
+                if d < depth[idx] {
+                    depth[idx] = d;
+                    st.mark(idx as u32 % w, idx as u32 / w);
+                }
+            });
+            st.rebuild(&depth);
+            let t1 = Instant::now();
+            skip.extend(batch.iter().map(|c| st.skip(c, rect)));
+            let t2 = Instant::now();
+            stats.update_s += (t1 - t0).as_secs_f64();
+            stats.tests_s += (t2 - t1).as_secs_f64();
+            stats.updates += 1;
+            stats.tests += batch.len() as u64;
+        }
+        let mut target = ScanTarget::new(
+            &mut lists,
+            rect,
+            tf,
+            opts.integrator,
+            opts.partial_composition,
+            &mut counts,
+        );
+        for (k, c) in batch.iter().enumerate() {
+            if skip.get(k) == Some(&true) {
+                let [i0, i1, j0, j1] = c.range;
+                let tiles = (i1 / tile.0 - i0 / tile.0 + 1) * (j1 / tile.1 - j0 / tile.1 + 1);
+                if tiles == 1 {
+                    stats.skipped_whole += 1;
+                } else {
+                    stats.skipped_spanning.push((c.cell, tiles));
+                }
+                continue;
+            }
+            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+        }
+        target.flush();
+    }
+    (
+        TileResult {
+            lists,
+            counts,
+            degenerate,
+        },
+        stats,
+    )
+}
