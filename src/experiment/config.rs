@@ -306,7 +306,11 @@ impl Plan {
                     }
                     s
                 }
-                None => varied.iter().filter(|n| **n != p.x && !y.contains(n)).cloned().collect(),
+                None => {
+                    // Every varied parameter except x, its zip partners (they move with x) and y.
+                    let with_x: Vec<&String> = grid.dims.iter().filter(|d| d.names.contains(&p.x)).flat_map(|d| d.names.iter()).collect();
+                    varied.iter().filter(|n| **n != p.x && !with_x.contains(n) && !y.contains(n)).cloned().collect()
+                }
             };
             let file = p.file.unwrap_or_else(|| format!("{}-vs-{}.png", y[0], p.x).replace(|c: char| !(c.is_ascii_alphanumeric() || "-_.".contains(c)), "_"));
             if !file.ends_with(".png") || file.contains(['/', '\\']) || file.starts_with('.') {
@@ -418,6 +422,9 @@ height = [30, 40]
 [[plot]]
 x = "ert_table"
 y = ["time_scan_s"]
+[[plot]]
+x = "width"
+y = "time_scan_s"
 [summary]
 columns = ["time_scan_s"]
 "#,
@@ -428,6 +435,7 @@ columns = ["time_scan_s"]
         assert_eq!(p.points().len(), 12);
         assert_eq!(p.param_names(), ["tile", "ert_table", "width", "height", "scene", "threads", "compare"]);
         assert_eq!(p.plots[0].series, ["tile", "width", "height"]);
+        assert_eq!(p.plots[1].series, ["tile", "ert_table"], "zip partners of x are not series");
         assert_eq!(p.plots[0].file, "time_scan_s-vs-ert_table.png");
         assert_eq!(p.requires, [PathBuf::from("configs/data.vtk")]);
         assert_eq!(p.origin("width"), "zip[0].width");
