@@ -46,7 +46,11 @@ pub fn run(a: SweepArgs) -> anyhow::Result<()> {
     let r = run_sweep(&opts)?;
     if !r.missing.is_empty() {
         let list: Vec<String> = r.missing.iter().map(|p| p.display().to_string()).collect();
-        println!("skipped sweep {}: required file(s) not found: {}", a.config.display(), list.join(", "));
+        println!(
+            "skipped sweep {}: required file(s) not found: {}",
+            a.config.display(),
+            list.join(", ")
+        );
         return Ok(());
     }
     if opts.dry_run {
@@ -62,7 +66,14 @@ pub fn run(a: SweepArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    print!("{}", r.summary_text.lines().skip_while(|l| !l.starts_with('|')).map(|l| format!("{l}\n")).collect::<String>());
+    print!(
+        "{}",
+        r.summary_text
+            .lines()
+            .skip_while(|l| !l.starts_with('|'))
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()
+    );
     println!(
         "\n{} runs: {} run now ({} failed), {} already done",
         r.runs_selected, r.runs_executed, r.runs_failed, r.runs_skipped

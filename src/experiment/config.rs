@@ -168,7 +168,8 @@ pub const RESERVED: [&str; 4] = ["repetition", "status", "wall_s", "error"];
 impl Plan {
     /// Reads and validates a config file.
     pub fn load(path: &Path) -> anyhow::Result<Plan> {
-        let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("cannot read sweep config {}: {e}", path.display()))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("cannot read sweep config {}: {e}", path.display()))?;
         Self::parse(&text, path)
     }
 
@@ -187,16 +188,28 @@ impl Plan {
             err(format!("{}{at}", e.message().trim()))
         })?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let base_dir = if base_dir.as_os_str().is_empty() { PathBuf::from(".") } else { base_dir };
+        let base_dir = if base_dir.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            base_dir
+        };
 
         let name = raw.name.trim().to_string();
-        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) || name.starts_with('.') {
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            || name.starts_with('.')
+        {
             return Err(err(format!("name: `{}` must be non-empty letters, digits, `-`, `_`, `.` (it names the results folder)", raw.name)));
         }
         let command = raw.command.unwrap_or_else(|| "render".into());
         let executor = executor(&command).ok_or_else(|| {
             let known: Vec<&str> = executors().iter().map(|e| e.command).collect();
-            err(format!("command: unknown command `{command}`; sweepable commands: {}", known.join(", ")))
+            err(format!(
+                "command: unknown command `{command}`; sweepable commands: {}",
+                known.join(", ")
+            ))
         })?;
         let repetitions = match raw.repetitions {
             None => 1,
@@ -207,14 +220,18 @@ impl Plan {
         let mut origins: Vec<(String, String)> = Vec::new();
         let mut claim = |name: &str, origin: String| -> anyhow::Result<()> {
             if !valid_param(name) {
-                return Err(err(format!("{origin}: `{name}` is not a parameter name (letters, digits, `_`, `-`)")));
+                return Err(err(format!(
+                    "{origin}: `{name}` is not a parameter name (letters, digits, `_`, `-`)"
+                )));
             }
             if RESERVED.contains(&name) {
                 return Err(err(format!("{origin}: `{name}` is a column the sweep writes itself; it cannot be a parameter")));
             }
             let canon = canonical(name);
             if let Some((_, first)) = origins.iter().find(|(n, _)| canonical(n) == canon) {
-                return Err(err(format!("{origin}: parameter `{name}` is already set by {first}")));
+                return Err(err(format!(
+                    "{origin}: parameter `{name}` is already set by {first}"
+                )));
             }
             origins.push((name.to_string(), origin));
             Ok(())
@@ -242,7 +259,10 @@ impl Plan {
             let origin = format!("vary.{k}");
             claim(k, origin.clone())?;
             let values = values_of(v, &origin).map_err(err)?;
-            grid.dims.push(Dimension { names: vec![k.clone()], tuples: values.into_iter().map(|v| vec![v]).collect() });
+            grid.dims.push(Dimension {
+                names: vec![k.clone()],
+                tuples: values.into_iter().map(|v| vec![v]).collect(),
+            });
         }
         for (i, group) in raw.zip.iter().enumerate() {
             if group.is_empty() {
@@ -268,11 +288,16 @@ impl Plan {
                 columns.push(values);
             }
             let n = columns[0].len();
-            let tuples = (0..n).map(|j| columns.iter().map(|c| c[j].clone()).collect()).collect();
+            let tuples = (0..n)
+                .map(|j| columns.iter().map(|c| c[j].clone()).collect())
+                .collect();
             grid.dims.push(Dimension { names, tuples });
         }
         if grid.len() > 1_000_000 {
-            return Err(err(format!("vary: {} points; that is more than a sweep should have", grid.len())));
+            return Err(err(format!(
+                "vary: {} points; that is more than a sweep should have",
+                grid.len()
+            )));
         }
         for p in executor.positional {
             if !origins.iter().any(|(n, _)| n == p) {
@@ -294,7 +319,11 @@ impl Plan {
             let kind = match p.kind.as_deref() {
                 None | Some("line") => PlotKind::Line,
                 Some("scatter") => PlotKind::Scatter,
-                Some(other) => return Err(err(format!("{key}.kind: `{other}`; expected `line` or `scatter`"))),
+                Some(other) => {
+                    return Err(err(format!(
+                        "{key}.kind: `{other}`; expected `line` or `scatter`"
+                    )))
+                }
             };
             let series = match p.series {
                 Some(s) => {
@@ -308,20 +337,48 @@ impl Plan {
                 }
                 None => {
                     // Every varied parameter except x, its zip partners (they move with x) and y.
-                    let with_x: Vec<&String> = grid.dims.iter().filter(|d| d.names.contains(&p.x)).flat_map(|d| d.names.iter()).collect();
-                    varied.iter().filter(|n| **n != p.x && !with_x.contains(n) && !y.contains(n)).cloned().collect()
+                    let with_x: Vec<&String> = grid
+                        .dims
+                        .iter()
+                        .filter(|d| d.names.contains(&p.x))
+                        .flat_map(|d| d.names.iter())
+                        .collect();
+                    varied
+                        .iter()
+                        .filter(|n| **n != p.x && !with_x.contains(n) && !y.contains(n))
+                        .cloned()
+                        .collect()
                 }
             };
-            let file = p.file.unwrap_or_else(|| format!("{}-vs-{}.png", y[0], p.x).replace(|c: char| !(c.is_ascii_alphanumeric() || "-_.".contains(c)), "_"));
+            let file = p.file.unwrap_or_else(|| {
+                format!("{}-vs-{}.png", y[0], p.x).replace(
+                    |c: char| !(c.is_ascii_alphanumeric() || "-_.".contains(c)),
+                    "_",
+                )
+            });
             if !file.ends_with(".png") || file.contains(['/', '\\']) || file.starts_with('.') {
-                return Err(err(format!("{key}.file: `{file}` must be a file name ending in .png (no folders)")));
+                return Err(err(format!(
+                    "{key}.file: `{file}` must be a file name ending in .png (no folders)"
+                )));
             }
             if files.contains(&file) {
-                return Err(err(format!("{key}.file: `{file}` is already written by another plot")));
+                return Err(err(format!(
+                    "{key}.file: `{file}` is already written by another plot"
+                )));
             }
             files.push(file.clone());
             let title = p.title.unwrap_or_else(|| name.clone());
-            plots.push(PlotSpec { x: p.x, y, series, file, kind, log_x: p.log_x, log_y: p.log_y, title, key });
+            plots.push(PlotSpec {
+                x: p.x,
+                y,
+                series,
+                file,
+                kind,
+                log_x: p.log_x,
+                log_y: p.log_y,
+                title,
+                key,
+            });
         }
         let summary_columns = match raw.summary {
             Some(s) if !s.columns.is_empty() => s.columns,
@@ -346,7 +403,11 @@ impl Plan {
 
     /// Where a parameter was set, e.g. `vary.ert_table`.
     pub fn origin<'a>(&'a self, name: &'a str) -> &'a str {
-        self.origins.iter().find(|(n, _)| n == name).map(|(_, o)| o.as_str()).unwrap_or(name)
+        self.origins
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, o)| o.as_str())
+            .unwrap_or(name)
     }
 
     /// Every point, each with the varied parameters first, then the fixed ones.
@@ -370,10 +431,17 @@ impl Plan {
 
     /// Required files (and files named by path parameters such as `scene`) that do not exist.
     pub fn missing_files(&self) -> Vec<PathBuf> {
-        let mut missing: Vec<PathBuf> = self.requires.iter().filter(|p| !p.exists()).cloned().collect();
+        let mut missing: Vec<PathBuf> = self
+            .requires
+            .iter()
+            .filter(|p| !p.exists())
+            .cloned()
+            .collect();
         for point in self.points() {
             for (k, v) in &point {
-                if let (true, ParamValue::Str(s)) = (self.executor.path_keys.contains(&k.as_str()), v) {
+                if let (true, ParamValue::Str(s)) =
+                    (self.executor.path_keys.contains(&k.as_str()), v)
+                {
                     let p = self.base_dir.join(s);
                     if !p.exists() && !missing.contains(&p) {
                         missing.push(p);
@@ -386,7 +454,11 @@ impl Plan {
 }
 
 fn valid_param(name: &str) -> bool {
-    !name.is_empty() && !name.starts_with('-') && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !name.is_empty()
+        && !name.starts_with('-')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 /// `ert_table` and `ert-table` are the same option.
@@ -433,9 +505,24 @@ columns = ["time_scan_s"]
         assert_eq!(p.repetitions, 3);
         assert_eq!(p.grid.len(), 2 * 3 * 2);
         assert_eq!(p.points().len(), 12);
-        assert_eq!(p.param_names(), ["tile", "ert_table", "width", "height", "scene", "threads", "compare"]);
+        assert_eq!(
+            p.param_names(),
+            [
+                "tile",
+                "ert_table",
+                "width",
+                "height",
+                "scene",
+                "threads",
+                "compare"
+            ]
+        );
         assert_eq!(p.plots[0].series, ["tile", "width", "height"]);
-        assert_eq!(p.plots[1].series, ["tile", "ert_table"], "zip partners of x are not series");
+        assert_eq!(
+            p.plots[1].series,
+            ["tile", "ert_table"],
+            "zip partners of x are not series"
+        );
         assert_eq!(p.plots[0].file, "time_scan_s-vs-ert_table.png");
         assert_eq!(p.requires, [PathBuf::from("configs/data.vtk")]);
         assert_eq!(p.origin("width"), "zip[0].width");
@@ -446,18 +533,39 @@ columns = ["time_scan_s"]
         for (text, key) in [
             ("name = \"t\"\nscene = \"s\"\nrepetitons = 2", "repetitons"),
             ("name = \"t\"\nscene = \"s\"\n[vary]\ntile = 3", "vary.tile"),
-            ("name = \"t\"\nscene = \"s\"\n[fixed]\ntile = [1, 2]", "fixed.tile"),
-            ("name = \"t\"\nscene = \"s\"\n[fixed]\ntile = 1\n[vary]\ntile = [1]", "vary.tile"),
-            ("name = \"t\"\nscene = \"s\"\n[[zip]]\nwidth = [1]\nheight = [1, 2]", "zip[0].height"),
-            ("name = \"t\"\nscene = \"s\"\ncommand = \"paint\"", "command"),
-            ("name = \"t\"\nscene = \"s\"\n[[plot]]\nx = \"a\"\ny = \"b\"\nkind = \"pie\"", "plot[0].kind"),
-            ("name = \"t\"\nscene = \"s\"\n[[plot]]\nx = \"a\"\ny = \"b\"\nseries = \"zz\"", "plot[0].series"),
+            (
+                "name = \"t\"\nscene = \"s\"\n[fixed]\ntile = [1, 2]",
+                "fixed.tile",
+            ),
+            (
+                "name = \"t\"\nscene = \"s\"\n[fixed]\ntile = 1\n[vary]\ntile = [1]",
+                "vary.tile",
+            ),
+            (
+                "name = \"t\"\nscene = \"s\"\n[[zip]]\nwidth = [1]\nheight = [1, 2]",
+                "zip[0].height",
+            ),
+            (
+                "name = \"t\"\nscene = \"s\"\ncommand = \"paint\"",
+                "command",
+            ),
+            (
+                "name = \"t\"\nscene = \"s\"\n[[plot]]\nx = \"a\"\ny = \"b\"\nkind = \"pie\"",
+                "plot[0].kind",
+            ),
+            (
+                "name = \"t\"\nscene = \"s\"\n[[plot]]\nx = \"a\"\ny = \"b\"\nseries = \"zz\"",
+                "plot[0].series",
+            ),
             ("name = \"t\"\nscene = \"s\"\n[fixed]\nstatus = 1", "status"),
             ("name = \"t\"", "scene"),
             ("name = \"t/..\"\nscene = \"s\"", "name"),
         ] {
             let e = parse(text).unwrap_err().to_string();
-            assert!(e.starts_with("configs/t.toml: ") && e.contains(key), "{text}\n=> {e}");
+            assert!(
+                e.starts_with("configs/t.toml: ") && e.contains(key),
+                "{text}\n=> {e}"
+            );
         }
     }
 }

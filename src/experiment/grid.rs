@@ -95,8 +95,14 @@ impl RawRange {
         let ints = matches!((&from, &to), (ParamValue::Int(_), ParamValue::Int(_)));
         let (a, b) = (from.as_f64().unwrap_or(0.0), to.as_f64().unwrap_or(0.0));
         let out = match (&self.step, self.count) {
-            (Some(_), Some(_)) => return Err(format!("{key}: give either `step` or `count`, not both")),
-            (None, None) => return Err(format!("{key}: a range needs `step` or `count` (e.g. {{ from = 1, to = 10, step = 1 }})")),
+            (Some(_), Some(_)) => {
+                return Err(format!("{key}: give either `step` or `count`, not both"))
+            }
+            (None, None) => {
+                return Err(format!(
+                "{key}: a range needs `step` or `count` (e.g. {{ from = 1, to = 10, step = 1 }})"
+            ))
+            }
             (Some(step), None) => {
                 if self.log {
                     return Err(format!("{key}: `log = true` needs `count`, not `step`"));
@@ -108,23 +114,45 @@ impl RawRange {
                 }
                 let n = ((b - a) / s + 1e-9).floor() + 1.0;
                 if n > MAX_VALUES as f64 {
-                    return Err(format!("{key}: {n} values (more than {MAX_VALUES}); check `step`"));
+                    return Err(format!(
+                        "{key}: {n} values (more than {MAX_VALUES}); check `step`"
+                    ));
                 }
                 let n = n as i64;
                 match (&from, &step) {
-                    (ParamValue::Int(f), ParamValue::Int(st)) if ints => (0..n).map(|i| ParamValue::Int(f + i * st)).collect(),
-                    _ => (0..n).map(|i| ParamValue::Float(tidy(a + i as f64 * s))).collect(),
+                    (ParamValue::Int(f), ParamValue::Int(st)) if ints => {
+                        (0..n).map(|i| ParamValue::Int(f + i * st)).collect()
+                    }
+                    _ => (0..n)
+                        .map(|i| ParamValue::Float(tidy(a + i as f64 * s)))
+                        .collect(),
                 }
             }
             (None, Some(count)) => {
                 if count < 1 || count as usize > MAX_VALUES {
-                    return Err(format!("{key}.count: must be 1..={MAX_VALUES}, found {count}"));
+                    return Err(format!(
+                        "{key}.count: must be 1..={MAX_VALUES}, found {count}"
+                    ));
                 }
                 if self.log && (a <= 0.0 || b <= 0.0) {
                     return Err(format!("{key}: `log = true` needs `from` and `to` > 0"));
                 }
-                let t = |i: i64| if count == 1 { 0.0 } else { i as f64 / (count - 1) as f64 };
-                let xs: Vec<f64> = (0..count).map(|i| if self.log { a * (b / a).powf(t(i)) } else { a + (b - a) * t(i) }).collect();
+                let t = |i: i64| {
+                    if count == 1 {
+                        0.0
+                    } else {
+                        i as f64 / (count - 1) as f64
+                    }
+                };
+                let xs: Vec<f64> = (0..count)
+                    .map(|i| {
+                        if self.log {
+                            a * (b / a).powf(t(i))
+                        } else {
+                            a + (b - a) * t(i)
+                        }
+                    })
+                    .collect();
                 if ints {
                     // Integer ends give integers: rounded, duplicates dropped.
                     let mut out: Vec<ParamValue> = Vec::new();
@@ -185,7 +213,10 @@ pub struct Grid {
 impl Grid {
     /// Names of all varying parameters, in order.
     pub fn names(&self) -> Vec<String> {
-        self.dims.iter().flat_map(|d| d.names.iter().cloned()).collect()
+        self.dims
+            .iter()
+            .flat_map(|d| d.names.iter().cloned())
+            .collect()
     }
 
     /// Number of points (1 for an empty grid).
@@ -221,20 +252,45 @@ mod tests {
     use super::*;
 
     fn range(s: &str) -> Result<Vec<String>, String> {
-        let v: toml::Value = toml::from_str::<toml::Table>(&format!("r = {s}")).unwrap()["r"].clone();
+        let v: toml::Value =
+            toml::from_str::<toml::Table>(&format!("r = {s}")).unwrap()["r"].clone();
         values_of(&v, "vary.r").map(|v| v.iter().map(|x| x.to_string()).collect())
     }
 
     #[test]
     fn ranges() {
-        assert_eq!(range("{ from = 5, to = 20, step = 5 }").unwrap(), ["5", "10", "15", "20"]);
-        assert_eq!(range("{ from = 5, to = 22, step = 5 }").unwrap(), ["5", "10", "15", "20"]);
-        assert_eq!(range("{ from = 0.1, to = 0.5, step = 0.1 }").unwrap(), ["0.1", "0.2", "0.3", "0.4", "0.5"]);
-        assert_eq!(range("{ from = 10, to = 1, step = -3 }").unwrap(), ["10", "7", "4", "1"]);
-        assert_eq!(range("{ from = 1, to = 1000, count = 4, log = true }").unwrap(), ["1", "10", "100", "1000"]);
-        assert_eq!(range("{ from = 1, to = 4, count = 8, log = true }").unwrap(), ["1", "2", "3", "4"]);
-        assert_eq!(range("{ from = 0.0, to = 1.0, count = 3 }").unwrap(), ["0", "0.5", "1"]);
-        assert_eq!(range("[\"exact\", \"midpoint\"]").unwrap(), ["exact", "midpoint"]);
+        assert_eq!(
+            range("{ from = 5, to = 20, step = 5 }").unwrap(),
+            ["5", "10", "15", "20"]
+        );
+        assert_eq!(
+            range("{ from = 5, to = 22, step = 5 }").unwrap(),
+            ["5", "10", "15", "20"]
+        );
+        assert_eq!(
+            range("{ from = 0.1, to = 0.5, step = 0.1 }").unwrap(),
+            ["0.1", "0.2", "0.3", "0.4", "0.5"]
+        );
+        assert_eq!(
+            range("{ from = 10, to = 1, step = -3 }").unwrap(),
+            ["10", "7", "4", "1"]
+        );
+        assert_eq!(
+            range("{ from = 1, to = 1000, count = 4, log = true }").unwrap(),
+            ["1", "10", "100", "1000"]
+        );
+        assert_eq!(
+            range("{ from = 1, to = 4, count = 8, log = true }").unwrap(),
+            ["1", "2", "3", "4"]
+        );
+        assert_eq!(
+            range("{ from = 0.0, to = 1.0, count = 3 }").unwrap(),
+            ["0", "0.5", "1"]
+        );
+        assert_eq!(
+            range("[\"exact\", \"midpoint\"]").unwrap(),
+            ["exact", "midpoint"]
+        );
     }
 
     #[test]
@@ -259,15 +315,33 @@ mod tests {
     fn product_order() {
         let g = Grid {
             dims: vec![
-                Dimension { names: vec!["a".into()], tuples: vec![vec![ParamValue::Int(1)], vec![ParamValue::Int(2)]] },
+                Dimension {
+                    names: vec!["a".into()],
+                    tuples: vec![vec![ParamValue::Int(1)], vec![ParamValue::Int(2)]],
+                },
                 Dimension {
                     names: vec!["b".into(), "c".into()],
-                    tuples: vec![vec![ParamValue::Int(3), ParamValue::Int(4)], vec![ParamValue::Int(5), ParamValue::Int(6)]],
+                    tuples: vec![
+                        vec![ParamValue::Int(3), ParamValue::Int(4)],
+                        vec![ParamValue::Int(5), ParamValue::Int(6)],
+                    ],
                 },
             ],
         };
-        let p: Vec<String> = g.points().iter().map(|p| p.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(",")).collect();
-        assert_eq!(p, ["a=1,b=3,c=4", "a=1,b=5,c=6", "a=2,b=3,c=4", "a=2,b=5,c=6"]);
+        let p: Vec<String> = g
+            .points()
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            })
+            .collect();
+        assert_eq!(
+            p,
+            ["a=1,b=3,c=4", "a=1,b=5,c=6", "a=2,b=3,c=4", "a=2,b=5,c=6"]
+        );
         assert_eq!(Grid::default().points().len(), 1);
     }
 }

@@ -81,7 +81,11 @@ pub fn parse_only(s: &str) -> Result<(String, String), String> {
 }
 
 fn describe(point: &Point, n: usize) -> String {
-    let v: Vec<String> = point.iter().take(n).map(|(k, v)| format!("{k}={v}")).collect();
+    let v: Vec<String> = point
+        .iter()
+        .take(n)
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
     if v.is_empty() {
         "(single point)".into()
     } else {
@@ -90,18 +94,39 @@ fn describe(point: &Point, n: usize) -> String {
 }
 
 /// Selects the points matching `--only`; errors name unknown keys and list the values.
-fn select(plan: &Plan, points: Vec<Point>, only: &[(String, String)]) -> anyhow::Result<Vec<Point>> {
+fn select(
+    plan: &Plan,
+    points: Vec<Point>,
+    only: &[(String, String)],
+) -> anyhow::Result<Vec<Point>> {
     let names = plan.param_names();
     for (k, v) in only {
         let Some(name) = names.iter().find(|n| canonical(n) == canonical(k)) else {
-            anyhow::bail!("--only {k}={v}: `{k}` is not a parameter of {} (parameters: {})", plan.path.display(), names.join(", "));
+            anyhow::bail!(
+                "--only {k}={v}: `{k}` is not a parameter of {} (parameters: {})",
+                plan.path.display(),
+                names.join(", ")
+            );
         };
-        if !points.iter().any(|p| p.iter().any(|(n, x)| n == name && x.to_string() == *v)) {
-            let mut values: Vec<String> = points.iter().filter_map(|p| p.iter().find(|(n, _)| n == name).map(|(_, x)| x.to_string())).collect();
+        if !points
+            .iter()
+            .any(|p| p.iter().any(|(n, x)| n == name && x.to_string() == *v))
+        {
+            let mut values: Vec<String> = points
+                .iter()
+                .filter_map(|p| {
+                    p.iter()
+                        .find(|(n, _)| n == name)
+                        .map(|(_, x)| x.to_string())
+                })
+                .collect();
             values.dedup();
             values.sort();
             values.dedup();
-            anyhow::bail!("--only {k}={v}: no point has {name}={v} (values: {})", values.join(", "));
+            anyhow::bail!(
+                "--only {k}={v}: no point has {name}={v} (values: {})",
+                values.join(", ")
+            );
         }
     }
     Ok(points
@@ -110,8 +135,13 @@ fn select(plan: &Plan, points: Vec<Point>, only: &[(String, String)]) -> anyhow:
             let mut keys: Vec<String> = only.iter().map(|(k, _)| canonical(k)).collect();
             keys.dedup();
             keys.iter().all(|key| {
-                let value = p.iter().find(|(n, _)| canonical(n) == *key).map(|(_, x)| x.to_string());
-                only.iter().filter(|(k, _)| canonical(k) == *key).any(|(_, v)| value.as_deref() == Some(v.as_str()))
+                let value = p
+                    .iter()
+                    .find(|(n, _)| canonical(n) == *key)
+                    .map(|(_, x)| x.to_string());
+                only.iter()
+                    .filter(|(k, _)| canonical(k) == *key)
+                    .any(|(_, v)| value.as_deref() == Some(v.as_str()))
             })
         })
         .collect())
@@ -124,7 +154,10 @@ fn select(plan: &Plan, points: Vec<Point>, only: &[(String, String)]) -> anyhow:
 pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     let plan = Plan::load(&opts.config)?;
     let file = plan.path.display().to_string();
-    let mut report = SweepReport { out_dir: opts.out.join(&plan.name), ..Default::default() };
+    let mut report = SweepReport {
+        out_dir: opts.out.join(&plan.name),
+        ..Default::default()
+    };
     report.csv = report.out_dir.join("results.csv");
 
     let missing = plan.missing_files();
@@ -139,7 +172,10 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
 
     let points = select(&plan, plan.points(), &opts.only)?;
     for p in &points {
-        run::check_point(plan.executor, &plan.base_dir, p, |k| plan.origin(k).to_string()).map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
+        run::check_point(plan.executor, &plan.base_dir, p, |k| {
+            plan.origin(k).to_string()
+        })
+        .map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
     }
     let mut results = Results::load(&report.csv)?;
     let n_varied = plan.grid.names().len();
@@ -147,16 +183,25 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     for p in &points {
         for rep in 0..plan.repetitions {
             report.runs_selected += 1;
-            let done = results.find(p, rep).is_some_and(|i| results.rows[i].get("status").map(String::as_str) == Some(results::OK));
+            let done = results.find(p, rep).is_some_and(|i| {
+                results.rows[i].get("status").map(String::as_str) == Some(results::OK)
+            });
             if done && !opts.force {
                 report.runs_skipped += 1;
                 if opts.dry_run {
-                    report.listing.push(format!("done  {} rep {rep}", describe(p, n_varied)));
+                    report
+                        .listing
+                        .push(format!("done  {} rep {rep}", describe(p, n_varied)));
                 }
             } else {
                 if opts.dry_run {
                     let argv = run::command_line(plan.executor, &plan.base_dir, p);
-                    report.listing.push(format!("run   {} rep {rep}: pvrsim {} {}", describe(p, n_varied), plan.executor.command, argv.join(" ")));
+                    report.listing.push(format!(
+                        "run   {} rep {rep}: pvrsim {} {}",
+                        describe(p, n_varied),
+                        plan.executor.command,
+                        argv.join(" ")
+                    ));
                 }
                 todo.push((p, rep));
             }
@@ -166,9 +211,14 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
         return Ok(report);
     }
 
-    std::fs::create_dir_all(&report.out_dir).with_context(|| format!("cannot create {}", report.out_dir.display()))?;
+    std::fs::create_dir_all(&report.out_dir)
+        .with_context(|| format!("cannot create {}", report.out_dir.display()))?;
     let _ = std::fs::copy(&plan.path, report.out_dir.join("config.toml"));
-    let pb = if opts.progress { indicatif::ProgressBar::new(todo.len() as u64) } else { indicatif::ProgressBar::hidden() };
+    let pb = if opts.progress {
+        indicatif::ProgressBar::new(todo.len() as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
     pb.set_style(
         indicatif::ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} runs, {elapsed_precise} elapsed, ETA {eta_precise}  {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
@@ -194,7 +244,8 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     let (text, warnings) = results::summary(&plan, &results);
     report.warnings.extend(warnings);
     let summary = report.out_dir.join("summary.md");
-    std::fs::write(&summary, &text).with_context(|| format!("cannot write {}", summary.display()))?;
+    std::fs::write(&summary, &text)
+        .with_context(|| format!("cannot write {}", summary.display()))?;
     report.summary = Some(summary);
     report.summary_text = text;
     for spec in &plan.plots {
@@ -208,4 +259,3 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     }
     Ok(report)
 }
-

@@ -35,7 +35,11 @@ fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bytes are a valid TTF shipped by the crate; a failure would only lose text.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
         let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
     });
 }
@@ -49,7 +53,12 @@ struct Series {
 
 /// Draws one plot into `out_dir`; returns warnings (skipped points,
 /// unknown columns). An error means the plot could not be drawn at all.
-pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> Result<Vec<String>, String> {
+pub fn draw(
+    plan: &Plan,
+    spec: &PlotSpec,
+    results: &Results,
+    out_dir: &Path,
+) -> Result<Vec<String>, String> {
     let mut warnings = Vec::new();
     let file = plan.path.display();
     let known: Vec<String> = results.known_columns();
@@ -57,12 +66,20 @@ pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> 
     for c in std::iter::once(&spec.x).chain(&spec.y) {
         if !known.contains(c) && !params.contains(c) {
             let key = if *c == spec.x { "x" } else { "y" };
-            return Err(format!("{file}: {}.{key}: no run has a column `{c}`{}", spec.key, suggest(c, &known)));
+            return Err(format!(
+                "{file}: {}.{key}: no run has a column `{c}`{}",
+                spec.key,
+                suggest(c, &known)
+            ));
         }
     }
     // Successful rows of the plan's points, in sweep order.
     let points = plan.points();
-    let rows: Vec<&Row> = points.iter().flat_map(|p| results.rows_of(p)).filter(|r| r.get("status").map(String::as_str) == Some(OK)).collect();
+    let rows: Vec<&Row> = points
+        .iter()
+        .flat_map(|p| results.rows_of(p))
+        .filter(|r| r.get("status").map(String::as_str) == Some(OK))
+        .collect();
     if rows.is_empty() {
         return Err(format!("{file}: {}: no successful run to plot", spec.key));
     }
@@ -86,7 +103,9 @@ pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> 
             v.parse().ok()
         }
     };
-    let mut series: Vec<(String, Vec<(f64, Vec<f64>)>)> = Vec::new();
+    // Per series label: (x, the y values at that x).
+    type Raw = (String, Vec<(f64, Vec<f64>)>);
+    let mut series: Vec<Raw> = Vec::new();
     let mut dropped = 0usize;
     for y in &spec.y {
         for r in &rows {
@@ -100,7 +119,11 @@ pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> 
                 dropped += 1;
                 continue;
             };
-            if (spec.log_x && !categorical && x <= 0.0) || (spec.log_y && yv <= 0.0) || !x.is_finite() || !yv.is_finite() {
+            if (spec.log_x && !categorical && x <= 0.0)
+                || (spec.log_y && yv <= 0.0)
+                || !x.is_finite()
+                || !yv.is_finite()
+            {
                 dropped += 1;
                 continue;
             }
@@ -119,13 +142,29 @@ pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> 
         }
     }
     if dropped > 0 {
-        let why = if spec.log_x || spec.log_y { "missing, not numeric, or not > 0 on a log axis" } else { "missing or not numeric" };
-        warnings.push(format!("{file}: {}: {dropped} value(s) left out ({why})", spec.key));
+        let why = if spec.log_x || spec.log_y {
+            "missing, not numeric, or not > 0 on a log axis"
+        } else {
+            "missing or not numeric"
+        };
+        warnings.push(format!(
+            "{file}: {}: {dropped} value(s) left out ({why})",
+            spec.key
+        ));
     }
     let series: Vec<Series> = series
         .into_iter()
         .map(|(label, pts)| {
-            let mut points: Vec<(f64, f64)> = pts.into_iter().flat_map(|(x, ys)| if spec.kind == PlotKind::Line { vec![(x, median(&ys).unwrap_or(0.0))] } else { ys.into_iter().map(|y| (x, y)).collect() }).collect();
+            let mut points: Vec<(f64, f64)> = pts
+                .into_iter()
+                .flat_map(|(x, ys)| {
+                    if spec.kind == PlotKind::Line {
+                        vec![(x, median(&ys).unwrap_or(0.0))]
+                    } else {
+                        ys.into_iter().map(|y| (x, y)).collect()
+                    }
+                })
+                .collect();
             if spec.kind == PlotKind::Line {
                 points.sort_by(|a, b| a.0.total_cmp(&b.0));
             }
@@ -136,13 +175,20 @@ pub fn draw(plan: &Plan, spec: &PlotSpec, results: &Results, out_dir: &Path) -> 
         return Err(format!("{file}: {}: nothing to plot", spec.key));
     }
     let path = out_dir.join(&spec.file);
-    render(spec, &series, &categories, &path).map_err(|e| format!("{file}: {}: cannot draw {}: {e}", spec.key, path.display()))?;
+    render(spec, &series, &categories, &path)
+        .map_err(|e| format!("{file}: {}: cannot draw {}: {e}", spec.key, path.display()))?;
     Ok(warnings)
 }
 
 /// An axis label: the shortest text for a tick value (0.18, 2500, 1e-5).
 fn tick(x: f64) -> String {
-    let trim = |s: String| if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s };
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
     if x == 0.0 {
         "0".into()
     } else if x.abs() >= 1e6 || x.abs() < 1e-3 {
@@ -155,7 +201,9 @@ fn tick(x: f64) -> String {
 }
 
 fn bounds(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
-    let (mut lo, mut hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    let (mut lo, mut hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
     if log {
         if lo == hi {
             return (lo / 2.0, hi * 2.0);
@@ -173,7 +221,12 @@ fn bounds(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn render(spec: &PlotSpec, series: &[Series], categories: &[String], path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+fn render(
+    spec: &PlotSpec,
+    series: &[Series],
+    categories: &[String],
+    path: &Path,
+) -> Result<(), Box<dyn std::error::Error>> {
     register_fonts();
     let all = || series.iter().flat_map(|s| s.points.iter());
     let (mut x0, mut x1) = bounds(all().map(|p| p.0), spec.log_x);
@@ -186,11 +239,25 @@ fn render(spec: &PlotSpec, series: &[Series], categories: &[String], path: &Path
         (false, false) => chart(spec, series, categories, path, x0..x1, y0..y1),
         (true, false) => chart(spec, series, categories, path, (x0..x1).log_scale(), y0..y1),
         (false, true) => chart(spec, series, categories, path, x0..x1, (y0..y1).log_scale()),
-        (true, true) => chart(spec, series, categories, path, (x0..x1).log_scale(), (y0..y1).log_scale()),
+        (true, true) => chart(
+            spec,
+            series,
+            categories,
+            path,
+            (x0..x1).log_scale(),
+            (y0..y1).log_scale(),
+        ),
     }
 }
 
-fn chart<XR, YR>(spec: &PlotSpec, series: &[Series], categories: &[String], path: &Path, xr: XR, yr: YR) -> Result<(), Box<dyn std::error::Error>>
+fn chart<XR, YR>(
+    spec: &PlotSpec,
+    series: &[Series],
+    categories: &[String],
+    path: &Path,
+    xr: XR,
+    yr: YR,
+) -> Result<(), Box<dyn std::error::Error>>
 where
     XR: AsRangedCoord<Value = f64>,
     YR: AsRangedCoord<Value = f64>,
@@ -209,19 +276,34 @@ where
         if categories.is_empty() {
             tick(*v)
         } else if (v - v.round()).abs() < 1e-6 && v.round() >= 0.0 {
-            categories.get(v.round() as usize).cloned().unwrap_or_default()
+            categories
+                .get(v.round() as usize)
+                .cloned()
+                .unwrap_or_default()
         } else {
             String::new()
         }
     };
     let y_fmt = |v: &f64| tick(*v);
     let mut mesh = chart.configure_mesh();
-    mesh.x_desc(format!("{}{}", spec.x, if spec.log_x && categories.is_empty() { " (log)" } else { "" }))
-        .y_desc(format!("{}{}", spec.y.join(", "), if spec.log_y { " (log)" } else { "" }))
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 18))
-        .x_label_formatter(&x_fmt)
-        .y_label_formatter(&y_fmt);
+    mesh.x_desc(format!(
+        "{}{}",
+        spec.x,
+        if spec.log_x && categories.is_empty() {
+            " (log)"
+        } else {
+            ""
+        }
+    ))
+    .y_desc(format!(
+        "{}{}",
+        spec.y.join(", "),
+        if spec.log_y { " (log)" } else { "" }
+    ))
+    .label_style(("sans-serif", 15))
+    .axis_desc_style(("sans-serif", 18))
+    .x_label_formatter(&x_fmt)
+    .y_label_formatter(&y_fmt);
     if !categories.is_empty() {
         mesh.x_labels(categories.len() * 2 + 1).disable_x_mesh();
     }
@@ -233,12 +315,19 @@ where
         let anno = match spec.kind {
             PlotKind::Line => {
                 chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 4, style)))?;
-                chart.draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))?
+                chart.draw_series(LineSeries::new(
+                    s.points.iter().copied(),
+                    color.stroke_width(2),
+                ))?
             }
-            PlotKind::Scatter => chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 5, style)))?,
+            PlotKind::Scatter => {
+                chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 5, style)))?
+            }
         };
         if labelled {
-            anno.label(s.label.clone()).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], color.filled()));
+            anno.label(s.label.clone()).legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 14, y + 5)], color.filled())
+            });
         }
     }
     if labelled {

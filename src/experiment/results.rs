@@ -33,15 +33,39 @@ pub const FAILED: &str = "failed";
 impl Results {
     /// Reads `path` if it exists (an empty table otherwise).
     pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let mut r = Results { path: path.to_path_buf(), ..Default::default() };
+        let mut r = Results {
+            path: path.to_path_buf(),
+            ..Default::default()
+        };
         if !path.exists() {
             return Ok(r);
         }
-        let mut rd = csv::ReaderBuilder::new().flexible(false).from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
-        r.columns = rd.headers().with_context(|| format!("{}: bad header", path.display()))?.iter().map(String::from).collect();
+        let mut rd = csv::ReaderBuilder::new()
+            .flexible(false)
+            .from_path(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        r.columns = rd
+            .headers()
+            .with_context(|| format!("{}: bad header", path.display()))?
+            .iter()
+            .map(String::from)
+            .collect();
         for (i, rec) in rd.records().enumerate() {
-            let rec = rec.with_context(|| format!("{}: bad row {} (delete the file or use --force)", path.display(), i + 2))?;
-            r.rows.push(r.columns.iter().cloned().zip(rec.iter().map(String::from)).filter(|(_, v)| !v.is_empty()).collect());
+            let rec = rec.with_context(|| {
+                format!(
+                    "{}: bad row {} (delete the file or use --force)",
+                    path.display(),
+                    i + 2
+                )
+            })?;
+            r.rows.push(
+                r.columns
+                    .iter()
+                    .cloned()
+                    .zip(rec.iter().map(String::from))
+                    .filter(|(_, v)| !v.is_empty())
+                    .collect(),
+            );
         }
         Ok(r)
     }
@@ -49,7 +73,9 @@ impl Results {
     /// Index of the row of this point and repetition, if recorded.
     pub fn find(&self, point: &Point, repetition: usize) -> Option<usize> {
         let rep = repetition.to_string();
-        self.rows.iter().position(|row| row.get("repetition") == Some(&rep) && matches(row, point))
+        self.rows
+            .iter()
+            .position(|row| row.get("repetition") == Some(&rep) && matches(row, point))
     }
 
     /// Rows of this point (every repetition).
@@ -58,7 +84,13 @@ impl Results {
     }
 
     /// Records a run, replacing an earlier row of the same point and repetition.
-    pub fn record(&mut self, point: &Point, repetition: usize, wall_s: f64, outcome: &Result<serde_json::Value, String>) {
+    pub fn record(
+        &mut self,
+        point: &Point,
+        repetition: usize,
+        wall_s: f64,
+        outcome: &Result<serde_json::Value, String>,
+    ) {
         let mut row = Row::new();
         let mut order: Vec<String> = Vec::new();
         let mut put = |row: &mut Row, k: String, v: String| {
@@ -69,15 +101,33 @@ impl Results {
             put(&mut row, k.clone(), v.to_string());
         }
         put(&mut row, "repetition".into(), repetition.to_string());
-        put(&mut row, "status".into(), if outcome.is_ok() { OK } else { FAILED }.into());
+        put(
+            &mut row,
+            "status".into(),
+            if outcome.is_ok() { OK } else { FAILED }.into(),
+        );
         put(&mut row, "wall_s".into(), format!("{wall_s:.6}"));
-        put(&mut row, "error".into(), outcome.as_ref().err().map(|e| e.replace(['\n', '\r'], " ")).unwrap_or_default());
+        put(
+            &mut row,
+            "error".into(),
+            outcome
+                .as_ref()
+                .err()
+                .map(|e| e.replace(['\n', '\r'], " "))
+                .unwrap_or_default(),
+        );
         if let Ok(stats) = outcome {
             let mut flat = Vec::new();
             flatten("", stats, &mut flat);
             for (k, v) in flat {
                 // A statistic named like a parameter (e.g. `threads`) keeps its value under `stats.NAME`.
-                let k = if point.iter().any(|(p, _)| *p == k) || ["repetition", "status", "wall_s", "error"].contains(&k.as_str()) { format!("stats.{k}") } else { k };
+                let k = if point.iter().any(|(p, _)| *p == k)
+                    || ["repetition", "status", "wall_s", "error"].contains(&k.as_str())
+                {
+                    format!("stats.{k}")
+                } else {
+                    k
+                };
                 put(&mut row, k, v);
             }
         }
@@ -97,21 +147,30 @@ impl Results {
     /// never loses earlier runs). The plan's parameters come first.
     pub fn save(&self, plan: &Plan) -> anyhow::Result<()> {
         let mut cols = plan.param_names();
-        for c in ["repetition", "status", "wall_s", "error"].iter().map(|s| s.to_string()).chain(self.columns.iter().cloned()) {
+        for c in ["repetition", "status", "wall_s", "error"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain(self.columns.iter().cloned())
+        {
             if !cols.contains(&c) {
                 cols.push(c);
             }
         }
         let tmp = self.path.with_extension("csv.tmp");
         {
-            let mut w = csv::Writer::from_path(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+            let mut w = csv::Writer::from_path(&tmp)
+                .with_context(|| format!("cannot write {}", tmp.display()))?;
             w.write_record(&cols)?;
             for row in &self.rows {
-                w.write_record(cols.iter().map(|c| row.get(c).map(String::as_str).unwrap_or("")))?;
+                w.write_record(
+                    cols.iter()
+                        .map(|c| row.get(c).map(String::as_str).unwrap_or("")),
+                )?;
             }
             w.flush()?;
         }
-        std::fs::rename(&tmp, &self.path).with_context(|| format!("cannot write {}", self.path.display()))?;
+        std::fs::rename(&tmp, &self.path)
+            .with_context(|| format!("cannot write {}", self.path.display()))?;
         Ok(())
     }
 
@@ -122,7 +181,9 @@ impl Results {
 }
 
 fn matches(row: &Row, point: &Point) -> bool {
-    point.iter().all(|(k, v)| row.get(k).map(String::as_str).unwrap_or("") == v.to_string())
+    point
+        .iter()
+        .all(|(k, v)| row.get(k).map(String::as_str).unwrap_or("") == v.to_string())
 }
 
 /// Flattens JSON: nested objects become `a.b` keys; arrays are kept as JSON text.
@@ -130,7 +191,11 @@ pub fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, Strin
     match v {
         serde_json::Value::Object(map) => {
             for (k, x) in map {
-                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
                 flatten(&key, x, out);
             }
         }
@@ -148,7 +213,11 @@ pub fn median(v: &[f64]) -> Option<f64> {
     let mut s = v.to_vec();
     s.sort_by(|a, b| a.total_cmp(b));
     let n = s.len();
-    Some(if n % 2 == 1 { s[n / 2] } else { (s[n / 2 - 1] + s[n / 2]) / 2.0 })
+    Some(if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    })
 }
 
 /// A number for a table: 4 significant digits, scientific when tiny or huge.
@@ -166,7 +235,10 @@ pub fn fmt_num(x: f64) -> String {
 /// The median over a point's successful runs of one column, as text: a
 /// number, the common text of a non-numeric column, or empty.
 fn cell(rows: &[&Row], col: &str) -> String {
-    let vals: Vec<&str> = rows.iter().filter_map(|r| r.get(col).map(String::as_str)).collect();
+    let vals: Vec<&str> = rows
+        .iter()
+        .filter_map(|r| r.get(col).map(String::as_str))
+        .collect();
     if vals.is_empty() {
         return String::new();
     }
@@ -188,7 +260,11 @@ pub fn summary(plan: &Plan, results: &Results) -> (String, Vec<String>) {
     let mut warnings = Vec::new();
     for c in &plan.summary_columns {
         if !results.columns.contains(c) && !plan.param_names().contains(c) {
-            warnings.push(format!("{}: summary.columns: no run has a column `{c}`{}", plan.path.display(), suggest(c, &results.known_columns())));
+            warnings.push(format!(
+                "{}: summary.columns: no run has a column `{c}`{}",
+                plan.path.display(),
+                suggest(c, &results.known_columns())
+            ));
         }
     }
     let mut md = String::new();
@@ -196,9 +272,19 @@ pub fn summary(plan: &Plan, results: &Results) -> (String, Vec<String>) {
     if let Some(d) = &plan.description {
         let _ = writeln!(md, "{}\n", d.trim());
     }
-    let _ = writeln!(md, "Config: `{}`; command: `pvrsim {}`; {} repetition(s) per point.\n", plan.path.display(), plan.executor.command, plan.repetitions);
+    let _ = writeln!(
+        md,
+        "Config: `{}`; command: `pvrsim {}`; {} repetition(s) per point.\n",
+        plan.path.display(),
+        plan.executor.command,
+        plan.repetitions
+    );
     if !plan.fixed.is_empty() {
-        let fixed: Vec<String> = plan.fixed.iter().map(|(k, v)| format!("`{k} = {v}`")).collect();
+        let fixed: Vec<String> = plan
+            .fixed
+            .iter()
+            .map(|(k, v)| format!("`{k} = {v}`"))
+            .collect();
         let _ = writeln!(md, "Fixed: {}.\n", fixed.join(", "));
     }
     let _ = writeln!(md, "Values are medians over the successful repetitions; `ok` counts successful runs out of those recorded.\n");
@@ -206,22 +292,46 @@ pub fn summary(plan: &Plan, results: &Results) -> (String, Vec<String>) {
     let mut header: Vec<String> = varied.clone();
     header.push("ok".into());
     header.extend(plan.summary_columns.iter().cloned());
-    let table = render_table(&header, plan.points().iter().map(|p| {
-        let rows: Vec<&Row> = results.rows_of(p);
-        let ok: Vec<&Row> = rows.iter().copied().filter(|r| r.get("status").map(String::as_str) == Some(OK)).collect();
-        let mut line: Vec<String> = p.iter().take(varied.len()).map(|(_, v)| v.to_string()).collect();
-        line.push(format!("{}/{}", ok.len(), rows.len()));
-        line.extend(plan.summary_columns.iter().map(|c| cell(&ok, c)));
-        line
-    }));
+    let table = render_table(
+        &header,
+        plan.points().iter().map(|p| {
+            let rows: Vec<&Row> = results.rows_of(p);
+            let ok: Vec<&Row> = rows
+                .iter()
+                .copied()
+                .filter(|r| r.get("status").map(String::as_str) == Some(OK))
+                .collect();
+            let mut line: Vec<String> = p
+                .iter()
+                .take(varied.len())
+                .map(|(_, v)| v.to_string())
+                .collect();
+            line.push(format!("{}/{}", ok.len(), rows.len()));
+            line.extend(plan.summary_columns.iter().map(|c| cell(&ok, c)));
+            line
+        }),
+    );
     md.push_str(&table);
     let failed: Vec<String> = plan
         .points()
         .iter()
-        .flat_map(|p| results.rows_of(p).into_iter().filter(|r| r.get("status").map(String::as_str) == Some(FAILED)))
+        .flat_map(|p| {
+            results
+                .rows_of(p)
+                .into_iter()
+                .filter(|r| r.get("status").map(String::as_str) == Some(FAILED))
+        })
         .map(|r| {
-            let params: Vec<String> = varied.iter().map(|k| format!("{k}={}", r.get(k).map(String::as_str).unwrap_or(""))).collect();
-            format!("- {} (repetition {}): {}", params.join(", "), r.get("repetition").map(String::as_str).unwrap_or("?"), r.get("error").map(String::as_str).unwrap_or(""))
+            let params: Vec<String> = varied
+                .iter()
+                .map(|k| format!("{k}={}", r.get(k).map(String::as_str).unwrap_or("")))
+                .collect();
+            format!(
+                "- {} (repetition {}): {}",
+                params.join(", "),
+                r.get("repetition").map(String::as_str).unwrap_or("?"),
+                r.get("error").map(String::as_str).unwrap_or("")
+            )
         })
         .collect();
     if !failed.is_empty() {
@@ -233,13 +343,27 @@ pub fn summary(plan: &Plan, results: &Results) -> (String, Vec<String>) {
 /// A Markdown table with aligned columns.
 pub fn render_table(header: &[String], rows: impl Iterator<Item = Vec<String>>) -> String {
     let rows: Vec<Vec<String>> = rows.collect();
-    let width: Vec<usize> = (0..header.len()).map(|i| rows.iter().map(|r| r[i].chars().count()).chain([header[i].chars().count(), 3]).max().unwrap_or(3)).collect();
+    let width: Vec<usize> = (0..header.len())
+        .map(|i| {
+            rows.iter()
+                .map(|r| r[i].chars().count())
+                .chain([header[i].chars().count(), 3])
+                .max()
+                .unwrap_or(3)
+        })
+        .collect();
     let line = |cells: &[String]| {
-        let c: Vec<String> = cells.iter().zip(&width).map(|(c, w)| format!("{c:<w$}")).collect();
+        let c: Vec<String> = cells
+            .iter()
+            .zip(&width)
+            .map(|(c, w)| format!("{c:<w$}"))
+            .collect();
         format!("| {} |\n", c.join(" | "))
     };
     let mut s = line(header);
-    s.push_str(&line(&width.iter().map(|w| "-".repeat(*w)).collect::<Vec<_>>()));
+    s.push_str(&line(
+        &width.iter().map(|w| "-".repeat(*w)).collect::<Vec<_>>(),
+    ));
     for r in &rows {
         s.push_str(&line(r));
     }
@@ -262,7 +386,11 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for (i, ca) in a.chars().enumerate() {
         let mut cur = vec![i + 1];
         for (j, cb) in b.iter().enumerate() {
-            cur.push((prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1));
+            cur.push(
+                (prev[j] + usize::from(ca != *cb))
+                    .min(prev[j + 1] + 1)
+                    .min(cur[j] + 1),
+            );
         }
         prev = cur;
     }
@@ -275,7 +403,8 @@ mod tests {
 
     #[test]
     fn flattens_nested_objects() {
-        let v = serde_json::json!({"a": 1, "e": {"max_abs": 2.5, "n": null}, "s": "x", "l": [1, 2]});
+        let v =
+            serde_json::json!({"a": 1, "e": {"max_abs": 2.5, "n": null}, "s": "x", "l": [1, 2]});
         let mut out = Vec::new();
         flatten("", &v, &mut out);
         let m: BTreeMap<_, _> = out.into_iter().collect();
@@ -294,6 +423,9 @@ mod tests {
         assert_eq!(fmt_num(0.012345), "0.01235");
         assert_eq!(fmt_num(123.456), "123.5");
         assert_eq!(fmt_num(0.0001234), "1.234e-4");
-        assert_eq!(suggest("time_scan", &["time_scan_s".into(), "wall_s".into()]), "; did you mean `time_scan_s`?");
+        assert_eq!(
+            suggest("time_scan", &["time_scan_s".into(), "wall_s".into()]),
+            "; did you mean `time_scan_s`?"
+        );
     }
 }

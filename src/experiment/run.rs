@@ -27,7 +27,9 @@ pub struct Executor {
 
 impl std::fmt::Debug for Executor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Executor").field("command", &self.command).finish_non_exhaustive()
+        f.debug_struct("Executor")
+            .field("command", &self.command)
+            .finish_non_exhaustive()
     }
 }
 
@@ -49,7 +51,13 @@ fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
 }
 
 /// The sweepable subcommands. A new one (e.g. `cluster`) is one more entry.
-static EXECUTORS: [Executor; 1] = [Executor { command: "render", positional: &["scene"], path_keys: &["scene"], check: render_check, run: render_run }];
+static EXECUTORS: [Executor; 1] = [Executor {
+    command: "render",
+    positional: &["scene"],
+    path_keys: &["scene"],
+    check: render_check,
+    run: render_run,
+}];
 
 /// All sweepable subcommands.
 pub fn executors() -> &'static [Executor] {
@@ -96,20 +104,38 @@ pub fn command_line(exec: &Executor, base_dir: &Path, point: &Point) -> Vec<Stri
 
 /// Checks a point's command line with clap; the error names the parameter
 /// clap complained about (and where the config sets it), or the whole point.
-pub fn check_point(exec: &Executor, base_dir: &Path, point: &Point, origin: impl Fn(&str) -> String) -> Result<(), String> {
+pub fn check_point(
+    exec: &Executor,
+    base_dir: &Path,
+    point: &Point,
+    origin: impl Fn(&str) -> String,
+) -> Result<(), String> {
     let argv = command_line(exec, base_dir, point);
-    let Err(e) = (exec.check)(&argv) else { return Ok(()) };
+    let Err(e) = (exec.check)(&argv) else {
+        return Ok(());
+    };
     let msg = clap_message(&e);
-    let arg = e.get(clap::error::ContextKind::InvalidArg).map(|v| v.to_string()).unwrap_or_default();
+    let arg = e
+        .get(clap::error::ContextKind::InvalidArg)
+        .map(|v| v.to_string())
+        .unwrap_or_default();
     let culprit = point.iter().find(|(k, _)| {
         let f = flag(k);
         arg == f || arg.starts_with(&format!("{f} ")) || arg.starts_with(&format!("{f}="))
     });
     Err(match culprit {
-        Some((k, v)) => format!("parameter `{k}` (set by {}, `{k} = {v}`) is not accepted by `pvrsim {}`: {msg}", origin(k), exec.command),
+        Some((k, v)) => format!(
+            "parameter `{k}` (set by {}, `{k} = {v}`) is not accepted by `pvrsim {}`: {msg}",
+            origin(k),
+            exec.command
+        ),
         None => {
             let params: Vec<String> = point.iter().map(|(k, v)| format!("{k}={v}")).collect();
-            format!("the run with {} is not accepted by `pvrsim {}`: {msg}", params.join(", "), exec.command)
+            format!(
+                "the run with {} is not accepted by `pvrsim {}`: {msg}",
+                params.join(", "),
+                exec.command
+            )
         }
     })
 }
@@ -119,7 +145,17 @@ pub fn clap_message(e: &clap::Error) -> String {
     let text = e.render().to_string();
     let text = text.split("\nUsage:").next().unwrap_or(&text);
     let text = text.trim().trim_start_matches("error:").trim();
-    text.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join("; ")
+    let mut out = String::new();
+    let lines = text.lines().map(str::trim).filter(|l| {
+        !l.is_empty() && !l.starts_with("For more information") && !l.starts_with("tip: to pass")
+    });
+    for l in lines {
+        if !out.is_empty() {
+            out.push_str(if out.ends_with(':') { " " } else { "; " });
+        }
+        out.push_str(l);
+    }
+    out
 }
 
 /// What one run produced.
@@ -139,9 +175,17 @@ pub fn run_point(exec: &Executor, base_dir: &Path, point: &Point) -> RunResult {
     let wall_s = t.elapsed().as_secs_f64();
     let outcome = match outcome {
         Ok(Ok(stats)) => Ok(stats),
-        Ok(Err(e)) => Err(e.chain().map(|c| c.to_string()).collect::<Vec<_>>().join(": ")),
+        Ok(Err(e)) => Err(e
+            .chain()
+            .map(|c| c.to_string())
+            .collect::<Vec<_>>()
+            .join(": ")),
         Err(panic) => {
-            let what = panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default();
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
             Err(format!("panicked: {what}"))
         }
     };
@@ -153,7 +197,10 @@ mod tests {
     use super::*;
 
     fn point(items: &[(&str, ParamValue)]) -> Point {
-        items.iter().map(|(k, v)| (k.to_string(), v.clone())).collect()
+        items
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.clone()))
+            .collect()
     }
 
     #[test]
@@ -167,20 +214,41 @@ mod tests {
             ("cell_order", ParamValue::Str("input".into())),
         ]);
         let argv = command_line(exec, Path::new("cfg"), &p);
-        assert_eq!(argv, ["cfg/s.toml", "--threads=1", "--compare", "--cell-order=input"]);
+        assert_eq!(
+            argv,
+            [
+                "cfg/s.toml",
+                "--threads=1",
+                "--compare",
+                "--cell-order=input"
+            ]
+        );
     }
 
     #[test]
     fn clap_errors_name_the_parameter() {
         let exec = executor("render").unwrap();
         let origin = |k: &str| format!("vary.{k}");
-        let bad = point(&[("scene", ParamValue::Str("s.toml".into())), ("ert_tabel", ParamValue::Int(3))]);
+        let bad = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("ert_tabel", ParamValue::Int(3)),
+        ]);
         let e = check_point(exec, Path::new("."), &bad, origin).unwrap_err();
-        assert!(e.contains("`ert_tabel`") && e.contains("vary.ert_tabel") && e.contains("--ert-tabel"), "{e}");
-        let bad = point(&[("scene", ParamValue::Str("s.toml".into())), ("integrator", ParamValue::Str("simpson".into()))]);
+        assert!(
+            e.contains("`ert_tabel`") && e.contains("vary.ert_tabel") && e.contains("--ert-tabel"),
+            "{e}"
+        );
+        let bad = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("integrator", ParamValue::Str("simpson".into())),
+        ]);
         let e = check_point(exec, Path::new("."), &bad, origin).unwrap_err();
         assert!(e.contains("`integrator`") && e.contains("simpson"), "{e}");
-        let ok = point(&[("scene", ParamValue::Str("s.toml".into())), ("width", ParamValue::Int(3)), ("height", ParamValue::Int(3))]);
+        let ok = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("width", ParamValue::Int(3)),
+            ("height", ParamValue::Int(3)),
+        ]);
         check_point(exec, Path::new("."), &ok, origin).unwrap();
     }
 }
