@@ -120,9 +120,12 @@ fn select(
                         .map(|(_, x)| x.to_string())
                 })
                 .collect();
-            values.dedup();
-            values.sort();
-            values.dedup();
+            let mut seen = Vec::new();
+            values.retain(|v| {
+                let new = !seen.contains(v);
+                seen.push(v.clone());
+                new
+            });
             anyhow::bail!(
                 "--only {k}={v}: no point has {name}={v} (values: {})",
                 values.join(", ")
@@ -215,7 +218,9 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
         .with_context(|| format!("cannot create {}", report.out_dir.display()))?;
     let _ = std::fs::copy(&plan.path, report.out_dir.join("config.toml"));
     let pb = if opts.progress {
-        indicatif::ProgressBar::new(todo.len() as u64)
+        let pb = indicatif::ProgressBar::new(todo.len() as u64);
+        pb.enable_steady_tick(std::time::Duration::from_millis(250));
+        pb
     } else {
         indicatif::ProgressBar::hidden()
     };

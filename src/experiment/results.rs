@@ -23,6 +23,10 @@ pub struct Results {
     pub columns: Vec<String>,
     /// Rows.
     pub rows: Vec<Row>,
+    /// Columns of the file as last written (empty: not written by us yet).
+    saved_columns: Vec<String>,
+    /// Rows `..saved_rows` are in the file unchanged since the last write.
+    saved_rows: usize,
 }
 
 /// Status text of a successful run.
@@ -138,14 +142,38 @@ impl Results {
         }
         row.retain(|_, v| !v.is_empty());
         match self.find(point, repetition) {
-            Some(i) => self.rows[i] = row,
+            Some(i) => {
+                self.rows[i] = row;
+                // The file holds the old row: the next save rewrites it.
+                self.saved_columns.clear();
+            }
             None => self.rows.push(row),
         }
     }
 
-    /// Writes the CSV (to a temporary file first, so an interrupted write
-    /// never loses earlier runs). The plan's parameters come first.
-    pub fn save(&self, plan: &Plan) -> anyhow::Result<()> {
+    /// Writes the CSV: appends the new rows when that is enough, else
+    /// rewrites it (to a temporary file first, so an interrupted write never
+    /// loses earlier runs) with the plan's parameters first.
+    pub fn save(&mut self, plan: &Plan) -> anyhow::Result<()> {
+        // Appending is enough when earlier rows are unchanged and no column is new.
+        let fits = |row: &Row| row.keys().all(|k| self.saved_columns.contains(k));
+        if !self.saved_columns.is_empty() && self.rows[self.saved_rows..].iter().all(fits) {
+            let f = std::fs::OpenOptions::new()
+                .append(true)
+                .open(&self.path)
+                .with_context(|| format!("cannot append to {}", self.path.display()))?;
+            let mut w = csv::Writer::from_writer(f);
+            for row in &self.rows[self.saved_rows..] {
+                w.write_record(
+                    self.saved_columns
+                        .iter()
+                        .map(|c| row.get(c).map(String::as_str).unwrap_or("")),
+                )?;
+            }
+            w.flush()?;
+            self.saved_rows = self.rows.len();
+            return Ok(());
+        }
         let mut cols = plan.param_names();
         for c in ["repetition", "status", "wall_s", "error"]
             .iter()
@@ -171,6 +199,8 @@ impl Results {
         }
         std::fs::rename(&tmp, &self.path)
             .with_context(|| format!("cannot write {}", self.path.display()))?;
+        self.saved_columns = cols;
+        self.saved_rows = self.rows.len();
         Ok(())
     }
 
