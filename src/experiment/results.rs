@@ -446,6 +446,43 @@ mod tests {
     }
 
     #[test]
+    fn save_appends_and_rewrites_consistently() {
+        use crate::experiment::grid::ParamValue;
+        let dir = std::env::temp_dir().join(format!("pvrsim-results-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let plan = Plan::parse(
+            "name = \"t\"\nscene = \"s\"\n[vary]\ntile = [1, 2, 3]",
+            &dir.join("t.toml"),
+        )
+        .unwrap();
+        let points = plan.points();
+        let path = dir.join("results.csv");
+        let _ = std::fs::remove_file(&path);
+        let mut r = Results::load(&path).unwrap();
+        let stats = |v: i64| Ok(serde_json::json!({ "n": v, "e": { "max": v * 2 } }));
+        r.record(&points[0], 0, 0.5, &Err("boom".into()));
+        r.save(&plan).unwrap();
+        r.record(&points[1], 0, 0.5, &stats(1));
+        r.save(&plan).unwrap(); // new columns: rewrite
+        r.record(&points[2], 0, 0.5, &stats(2));
+        r.save(&plan).unwrap(); // append
+        r.record(&points[0], 0, 0.5, &stats(3));
+        r.save(&plan).unwrap(); // replacement: rewrite
+        let back = Results::load(&path).unwrap();
+        assert_eq!(back.rows.len(), 3);
+        assert_eq!(back.columns[..2], ["tile".to_string(), "scene".to_string()]);
+        let get = |i: usize, c: &str| back.rows[i].get(c).cloned().unwrap_or_default();
+        assert_eq!(
+            (get(0, "status"), get(0, "n"), get(0, "e.max")),
+            ("ok".into(), "3".into(), "6".into())
+        );
+        assert_eq!((get(2, "tile"), get(2, "n")), ("3".into(), "2".into()));
+        assert_eq!(back.find(&points[1], 0), Some(1));
+        assert_eq!(points[1][0], ("tile".to_string(), ParamValue::Int(2)));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn numbers_and_medians() {
         assert_eq!(median(&[3.0, 1.0, 2.0]), Some(2.0));
         assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), Some(2.5));
