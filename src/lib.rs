@@ -9,6 +9,7 @@
 pub mod cli;
 pub mod data;
 pub mod error;
+pub mod experiment;
 pub mod image;
 pub mod render;
 pub mod scene;

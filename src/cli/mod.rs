@@ -5,6 +5,7 @@ pub mod bench;
 pub mod demo;
 pub mod info;
 pub mod render;
+pub mod sweep;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +38,8 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Time the renderers on the shared aorta scenes (needs ../shared/data).
     Bench(bench::BenchArgs),
+    /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md).
+    Sweep(sweep::SweepArgs),
 }
 
 /// Runs the parsed command line.
@@ -46,6 +49,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Sweep(a) => sweep::run(a),
     }
 }
 

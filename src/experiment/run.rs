@@ -1,0 +1,254 @@
+//! Running the points of a sweep: each point's parameters become a command
+//! line of a pvrsim subcommand, parsed by that subcommand's own clap
+//! definition, so the sweep never needs to know the options: whatever
+//! `render` accepts, a sweep can vary, under the same name.
+
+use std::path::Path;
+use std::time::Instant;
+
+use clap::Parser;
+
+use super::grid::{ParamValue, Point};
+use crate::cli::render::{execute, RenderArgs};
+
+/// A subcommand that sweeps can run.
+pub struct Executor {
+    /// Subcommand name (the config's `command`).
+    pub command: &'static str,
+    /// Parameters passed as positional arguments, in this order (e.g. `scene`).
+    pub positional: &'static [&'static str],
+    /// Parameters holding paths, resolved against the config file's folder.
+    pub path_keys: &'static [&'static str],
+    /// Parses a command line (without the program name) and reports clap's error.
+    pub check: fn(&[String]) -> Result<(), clap::Error>,
+    /// Parses and executes a command line, returning the run's statistics.
+    pub run: fn(&[String]) -> anyhow::Result<serde_json::Value>,
+}
+
+impl std::fmt::Debug for Executor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Executor")
+            .field("command", &self.command)
+            .finish_non_exhaustive()
+    }
+}
+
+/// `pvrsim render`'s options as a stand-alone parser.
+#[derive(Debug, Parser)]
+#[command(name = "pvrsim render", no_binary_name = true)]
+struct RenderCommand {
+    #[command(flatten)]
+    args: RenderArgs,
+}
+
+fn render_check(argv: &[String]) -> Result<(), clap::Error> {
+    RenderCommand::try_parse_from(argv).map(|_| ())
+}
+
+fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
+    let cmd = RenderCommand::try_parse_from(argv)?;
+    Ok(execute(&cmd.args, true)?.stats)
+}
+
+/// The sweepable subcommands. A new one (e.g. `cluster`) is one more entry.
+static EXECUTORS: [Executor; 1] = [Executor {
+    command: "render",
+    positional: &["scene"],
+    path_keys: &["scene"],
+    check: render_check,
+    run: render_run,
+}];
+
+/// All sweepable subcommands.
+pub fn executors() -> &'static [Executor] {
+    &EXECUTORS
+}
+
+/// The executor of a subcommand, if it is sweepable.
+pub fn executor(command: &str) -> Option<&'static Executor> {
+    EXECUTORS.iter().find(|e| e.command == command)
+}
+
+/// The option a parameter becomes: `ert_table` -> `--ert-table`.
+pub fn flag(name: &str) -> String {
+    format!("--{}", name.replace('_', "-"))
+}
+
+/// The command line (without the program and subcommand names) of one
+/// point: positional parameters first, then `--name=value` per parameter,
+/// a bare `--name` for `true`, nothing for `false`. Path parameters are
+/// resolved against `base_dir`.
+pub fn command_line(exec: &Executor, base_dir: &Path, point: &Point) -> Vec<String> {
+    let text = |k: &str, v: &ParamValue| match v {
+        ParamValue::Str(s) if exec.path_keys.contains(&k) => base_dir.join(s).display().to_string(),
+        other => other.to_string(),
+    };
+    let mut argv = Vec::new();
+    for p in exec.positional {
+        if let Some((k, v)) = point.iter().find(|(k, _)| k == p) {
+            argv.push(text(k, v));
+        }
+    }
+    for (k, v) in point {
+        if exec.positional.contains(&k.as_str()) {
+            continue;
+        }
+        match v {
+            ParamValue::Bool(true) => argv.push(flag(k)),
+            ParamValue::Bool(false) => {}
+            _ => argv.push(format!("{}={}", flag(k), text(k, v))),
+        }
+    }
+    argv
+}
+
+/// Checks a point's command line with clap; the error names the parameter
+/// clap complained about (and where the config sets it), or the whole point.
+pub fn check_point(
+    exec: &Executor,
+    base_dir: &Path,
+    point: &Point,
+    origin: impl Fn(&str) -> String,
+) -> Result<(), String> {
+    let argv = command_line(exec, base_dir, point);
+    let Err(e) = (exec.check)(&argv) else {
+        return Ok(());
+    };
+    let msg = clap_message(&e);
+    let arg = e
+        .get(clap::error::ContextKind::InvalidArg)
+        .map(|v| v.to_string())
+        .unwrap_or_default();
+    let culprit = point.iter().find(|(k, _)| {
+        let f = flag(k);
+        arg == f || arg.starts_with(&format!("{f} ")) || arg.starts_with(&format!("{f}="))
+    });
+    Err(match culprit {
+        Some((k, v)) => format!(
+            "parameter `{k}` (set by {}, `{k} = {v}`) is not accepted by `pvrsim {}`: {msg}",
+            origin(k),
+            exec.command
+        ),
+        None => {
+            let params: Vec<String> = point.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            format!(
+                "the run with {} is not accepted by `pvrsim {}`: {msg}",
+                params.join(", "),
+                exec.command
+            )
+        }
+    })
+}
+
+/// Clap's message without the usage block, on one line.
+pub fn clap_message(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let text = text.split("\nUsage:").next().unwrap_or(&text);
+    let text = text.trim().trim_start_matches("error:").trim();
+    let mut out = String::new();
+    let lines = text.lines().map(str::trim).filter(|l| {
+        !l.is_empty() && !l.starts_with("For more information") && !l.starts_with("tip: to pass")
+    });
+    for l in lines {
+        if !out.is_empty() {
+            out.push_str(if out.ends_with(':') { " " } else { "; " });
+        }
+        out.push_str(l);
+    }
+    out
+}
+
+/// What one run produced.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    /// Wall time of the whole run (parse, load, render), seconds.
+    pub wall_s: f64,
+    /// The statistics, or the error message.
+    pub outcome: Result<serde_json::Value, String>,
+}
+
+/// Executes one run; an error or a panic is recorded, never propagated.
+pub fn run_point(exec: &Executor, base_dir: &Path, point: &Point) -> RunResult {
+    let argv = command_line(exec, base_dir, point);
+    let t = Instant::now();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (exec.run)(&argv)));
+    let wall_s = t.elapsed().as_secs_f64();
+    let outcome = match outcome {
+        Ok(Ok(stats)) => Ok(stats),
+        Ok(Err(e)) => Err(e
+            .chain()
+            .map(|c| c.to_string())
+            .collect::<Vec<_>>()
+            .join(": ")),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(format!("panicked: {what}"))
+        }
+    };
+    RunResult { wall_s, outcome }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(items: &[(&str, ParamValue)]) -> Point {
+        items
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn command_lines() {
+        let exec = executor("render").unwrap();
+        let p = point(&[
+            ("threads", ParamValue::Int(1)),
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("compare", ParamValue::Bool(true)),
+            ("no_partial_composition", ParamValue::Bool(false)),
+            ("cell_order", ParamValue::Str("input".into())),
+        ]);
+        let argv = command_line(exec, Path::new("cfg"), &p);
+        assert_eq!(
+            argv,
+            [
+                "cfg/s.toml",
+                "--threads=1",
+                "--compare",
+                "--cell-order=input"
+            ]
+        );
+    }
+
+    #[test]
+    fn clap_errors_name_the_parameter() {
+        let exec = executor("render").unwrap();
+        let origin = |k: &str| format!("vary.{k}");
+        let bad = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("ert_tabel", ParamValue::Int(3)),
+        ]);
+        let e = check_point(exec, Path::new("."), &bad, origin).unwrap_err();
+        assert!(
+            e.contains("`ert_tabel`") && e.contains("vary.ert_tabel") && e.contains("--ert-tabel"),
+            "{e}"
+        );
+        let bad = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("integrator", ParamValue::Str("simpson".into())),
+        ]);
+        let e = check_point(exec, Path::new("."), &bad, origin).unwrap_err();
+        assert!(e.contains("`integrator`") && e.contains("simpson"), "{e}");
+        let ok = point(&[
+            ("scene", ParamValue::Str("s.toml".into())),
+            ("width", ParamValue::Int(3)),
+            ("height", ParamValue::Int(3)),
+        ]);
+        check_point(exec, Path::new("."), &ok, origin).unwrap();
+    }
+}
