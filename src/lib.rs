@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod compositor;
 pub mod data;
 pub mod error;
 pub mod image;
