@@ -99,6 +99,6 @@ mod tests {
                 }
             }
         }
-        assert!(from_name("nope").unwrap_err().contains("binary-swap"));
+        assert!(from_name("nope").err().unwrap().contains("binary-swap"));
     }
 }
