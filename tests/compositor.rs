@@ -221,3 +221,34 @@ fn insertion_order_merging_differs_only_by_rounding() {
     }
     assert!(worst < 1e-3, "rounding differences should stay far below 1/255, got {worst}");
 }
+
+#[test]
+fn memory_cost_of_the_canonical_form() {
+    // Partial composition's savings: segments stored without merging, with
+    // the renderer's insertion-order merging, and with canonical merging.
+    for scene in ["aorta-small-view-b.toml", "aorta-small-view-a.toml"] {
+        let input = load(scene);
+        let (w, h) = (input.scene.image.width, input.scene.image.height);
+        let (_, stats) = cell::render(&input, &CellOptions::default());
+        let raw = node_lists(&input, 1, &|_| 0, false).pop().unwrap();
+        let generated: usize = raw.iter().map(Vec::len).sum();
+        let canon = RegionLists::canonical(screen(w, h), &raw, true);
+        let ncells = input.mesh.tets.len() as u64;
+        let n = 8;
+        let block = move |c: u32| (c as u64 * n as u64 / ncells) as usize;
+        let per_node: usize = node_lists(&input, n, &block, false)
+            .iter()
+            .map(|l| RegionLists::canonical(screen(w, h), l, true).segments().len())
+            .sum();
+        let per_node_legacy: usize = node_lists(&input, n, &block, true).iter().flatten().map(Vec::len).sum();
+        eprintln!(
+            "{scene}: segments generated {generated}; stored with insertion-order partial composition {}; with canonical partial composition {} (one node), {} (summed over 8 nodes; insertion-order: {})",
+            stats.segments_stored,
+            canon.segments().len(),
+            per_node,
+            per_node_legacy
+        );
+        assert_eq!(stats.segments_generated as usize, generated);
+        assert!(canon.segments().len() < generated);
+    }
+}
