@@ -149,13 +149,21 @@ pub struct LocalRun<'a> {
 impl<'a> LocalRun<'a> {
     /// Prepares to run `strategy` over `node_lists` (one per node, each for
     /// the whole image `node_lists[0].rect()`).
-    pub fn new(strategy: &dyn Strategy, codec: &'a dyn Codec, node_lists: Vec<RegionLists>, opts: ExecOptions) -> Result<Self, ExecError> {
+    pub fn new(
+        strategy: &dyn Strategy,
+        codec: &'a dyn Codec,
+        node_lists: Vec<RegionLists>,
+        opts: ExecOptions,
+    ) -> Result<Self, ExecError> {
         let Some(first) = node_lists.first() else {
             return Err(ExecError::Input("no nodes".into()));
         };
         let image = first.rect();
         if let Some(l) = node_lists.iter().find(|l| l.rect() != image) {
-            return Err(ExecError::Input(format!("node lists for {:?} and {image:?}", l.rect())));
+            return Err(ExecError::Input(format!(
+                "node lists for {:?} and {image:?}",
+                l.rect()
+            )));
         }
         let schedule = strategy.schedule(node_lists.len(), image);
         schedule.validate().map_err(ExecError::Schedule)?;
@@ -194,14 +202,19 @@ impl<'a> LocalRun<'a> {
 
     /// Encodes the messages of the next round, from the senders' current state.
     pub fn outgoing(&self) -> Result<Vec<Message>, ExecError> {
-        let round = self.next_round().ok_or(ExecError::Sequence("no round left"))?;
+        let round = self
+            .next_round()
+            .ok_or(ExecError::Sequence("no round left"))?;
         let mut out = Vec::with_capacity(round.sends.len());
         for e in &round.sends {
             let node = &self.nodes[e.from];
             let mut bytes = Vec::new();
             let raw_bytes = match e.what {
                 Payload::Lists(r) => {
-                    let held = node.lists.as_ref().ok_or(ExecError::Sequence("sender holds no lists"))?;
+                    let held = node
+                        .lists
+                        .as_ref()
+                        .ok_or(ExecError::Sequence("sender holds no lists"))?;
                     let part = held.sub(r);
                     self.codec.encode_lists(&part, &mut bytes);
                     raw_lists_bytes(&part)
@@ -230,7 +243,12 @@ impl<'a> LocalRun<'a> {
     /// Decodes `messages` (those of [`outgoing`](Self::outgoing), possibly
     /// after a trip over a network), applies the round, and returns its counters.
     pub fn deliver(&mut self, mut messages: Vec<Message>) -> Result<RoundStats, ExecError> {
-        let round = self.schedule.rounds.get(self.next).ok_or(ExecError::Sequence("no round left"))?.clone();
+        let round = self
+            .schedule
+            .rounds
+            .get(self.next)
+            .ok_or(ExecError::Sequence("no round left"))?
+            .clone();
         let mut st = RoundStats {
             label: round.label.clone(),
             messages: messages.len(),
@@ -254,15 +272,24 @@ impl<'a> LocalRun<'a> {
                     let got = self
                         .codec
                         .decode_lists(&m.bytes, &self.opts.limits)
-                        .map_err(|source| ExecError::Decode { from: m.from, to: m.to, source })?;
+                        .map_err(|source| ExecError::Decode {
+                            from: m.from,
+                            to: m.to,
+                            source,
+                        })?;
                     st.segments += got.segments().len() as u64;
                     let mine = self.nodes[m.to]
                         .lists
                         .as_mut()
                         .ok_or(ExecError::Sequence("receiver keeps no lists"))?;
-                    let (merges, removed) = mine
-                        .merge(&got, self.opts.partial)
-                        .map_err(|source| ExecError::Region { from: m.from, to: m.to, source })?;
+                    let (merges, removed) =
+                        mine.merge(&got, self.opts.partial).map_err(|source| {
+                            ExecError::Region {
+                                from: m.from,
+                                to: m.to,
+                                source,
+                            }
+                        })?;
                     st.merges += merges;
                     st.segments_merged += removed;
                 }
@@ -281,7 +308,11 @@ impl<'a> LocalRun<'a> {
                     let got = self
                         .codec
                         .decode_pixels(&m.bytes, &self.opts.limits)
-                        .map_err(|source| ExecError::Decode { from: m.from, to: m.to, source })?;
+                        .map_err(|source| ExecError::Decode {
+                            from: m.from,
+                            to: m.to,
+                            source,
+                        })?;
                     if got.rect != m.what.rect() {
                         return Err(ExecError::Region {
                             from: m.from,
@@ -322,14 +353,19 @@ impl<'a> LocalRun<'a> {
         for p in &self.nodes[self.schedule.root].pixels {
             let w = p.rect.width() as usize;
             for (k, c) in p.px.iter().enumerate() {
-                let (x, y) = (p.rect.x0 as usize + k % w.max(1), p.rect.y0 as usize + k / w.max(1));
+                let (x, y) = (
+                    p.rect.x0 as usize + k % w.max(1),
+                    p.rect.y0 as usize + k / w.max(1),
+                );
                 image.pixels[(y - img.y0 as usize) * img.width() as usize + x - img.x0 as usize] =
                     over_background(*c, self.opts.background);
             }
             covered += area(&p.rect);
         }
         if covered != area(&img) {
-            return Err(ExecError::Sequence("the root did not receive the whole image"));
+            return Err(ExecError::Sequence(
+                "the root did not receive the whole image",
+            ));
         }
         Ok((image, self.stats))
     }
@@ -337,7 +373,12 @@ impl<'a> LocalRun<'a> {
 
 /// Runs `strategy` with `codec` over the nodes' lists in-process: the final
 /// image at the root and the counters.
-pub fn run_local(strategy: &dyn Strategy, codec: &dyn Codec, node_lists: Vec<RegionLists>, opts: ExecOptions) -> Result<(Image, CompositeStats), ExecError> {
+pub fn run_local(
+    strategy: &dyn Strategy,
+    codec: &dyn Codec,
+    node_lists: Vec<RegionLists>,
+    opts: ExecOptions,
+) -> Result<(Image, CompositeStats), ExecError> {
     let mut run = LocalRun::new(strategy, codec, node_lists, opts)?;
     while run.next_round().is_some() {
         run.step()?;

@@ -37,7 +37,10 @@ impl RegionLists {
 
     /// Builds the lists of `rect` from `pixel(x, y)` (screen coordinates),
     /// which must already be canonical (e.g. produced by [`canonical::insert`]).
-    pub fn from_canonical_fn<'a>(rect: Rect, mut pixel: impl FnMut(u32, u32) -> &'a [Segment]) -> RegionLists {
+    pub fn from_canonical_fn<'a>(
+        rect: Rect,
+        mut pixel: impl FnMut(u32, u32) -> &'a [Segment],
+    ) -> RegionLists {
         let mut out = RegionLists {
             rect,
             start: Vec::with_capacity(area(&rect) + 1),
@@ -106,7 +109,11 @@ impl RegionLists {
     /// # Panics
     /// If `sub` is not inside the region.
     pub fn sub(&self, sub: Rect) -> RegionLists {
-        assert!(contains(&self.rect, &sub), "{sub:?} not inside {:?}", self.rect);
+        assert!(
+            contains(&self.rect, &sub),
+            "{sub:?} not inside {:?}",
+            self.rect
+        );
         let w = self.rect.width() as usize;
         Self::from_canonical_fn(sub, |x, y| {
             self.list((y - self.rect.y0) as usize * w + (x - self.rect.x0) as usize)
@@ -116,7 +123,11 @@ impl RegionLists {
     /// Merges `other` (same region) into these lists, pixel by pixel, with
     /// [`canonical::merge`]. Returns `(pixel merges, entries removed by
     /// partial composition)`.
-    pub fn merge(&mut self, other: &RegionLists, partial: bool) -> Result<(u64, u64), RegionMismatch> {
+    pub fn merge(
+        &mut self,
+        other: &RegionLists,
+        partial: bool,
+    ) -> Result<(u64, u64), RegionMismatch> {
         if other.rect != self.rect {
             return Err(RegionMismatch(other.rect, self.rect));
         }
@@ -180,6 +191,9 @@ impl RegionPixels {
     /// collapses into runs.
     #[inline]
     pub fn is_clear(p: &Rgba) -> bool {
-        p.rgb[0].to_bits() == 0 && p.rgb[1].to_bits() == 0 && p.rgb[2].to_bits() == 0 && p.a.to_bits() == 0
+        p.rgb[0].to_bits() == 0
+            && p.rgb[1].to_bits() == 0
+            && p.rgb[2].to_bits() == 0
+            && p.a.to_bits() == 0
     }
 }

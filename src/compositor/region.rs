@@ -12,7 +12,10 @@ pub fn area(r: &Rect) -> usize {
 /// Whether `inner` lies inside `outer` (an empty `inner` lies anywhere inside).
 pub fn contains(outer: &Rect, inner: &Rect) -> bool {
     area(inner) == 0
-        || (outer.x0 <= inner.x0 && inner.x1 <= outer.x1 && outer.y0 <= inner.y0 && inner.y1 <= outer.y1)
+        || (outer.x0 <= inner.x0
+            && inner.x1 <= outer.x1
+            && outer.y0 <= inner.y0
+            && inner.y1 <= outer.y1)
 }
 
 /// Whether `a` and `b` share a pixel.
@@ -90,7 +93,12 @@ mod tests {
 
     #[test]
     fn halves_and_strips_cover_exactly() {
-        let r = Rect { x0: 3, y0: 5, x1: 104, y1: 40 };
+        let r = Rect {
+            x0: 3,
+            y0: 5,
+            x1: 104,
+            y1: 40,
+        };
         let (a, b) = halves(&r);
         assert_eq!(area(&a) + area(&b), area(&r));
         assert!(!overlaps(&a, &b) && contains(&r, &a) && contains(&r, &b));

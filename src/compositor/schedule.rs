@@ -111,13 +111,18 @@ impl Schedule {
                             return Err(at(format!("{} sends {r:?} it does not hold", e.from)));
                         }
                         if round.keep[e.to] != Some(r) {
-                            return Err(at(format!("{} receives {r:?} but keeps {:?}", e.to, round.keep[e.to])));
+                            return Err(at(format!(
+                                "{} receives {r:?} but keeps {:?}",
+                                e.to, round.keep[e.to]
+                            )));
                         }
                     }
                     for (node, keep) in round.keep.iter().enumerate() {
                         if let Some(kr) = keep {
                             if !lists[node].is_some_and(|h| contains(&h, kr)) {
-                                return Err(at(format!("{node} keeps {kr:?} outside what it holds")));
+                                return Err(at(format!(
+                                    "{node} keeps {kr:?} outside what it holds"
+                                )));
                             }
                         }
                     }
@@ -129,7 +134,12 @@ impl Schedule {
                             pixels[node].push(r);
                         }
                     }
-                    let all: Vec<Rect> = pixels.iter().flatten().copied().filter(|r| area(r) > 0).collect();
+                    let all: Vec<Rect> = pixels
+                        .iter()
+                        .flatten()
+                        .copied()
+                        .filter(|r| area(r) > 0)
+                        .collect();
                     if all.iter().map(area).sum::<usize>() != area(&self.image) {
                         return Err(at("composited regions do not cover the screen".into()));
                     }
@@ -154,7 +164,12 @@ impl Schedule {
             }
         }
         let at_root: usize = pixels[self.root].iter().map(area).sum();
-        if at_root != area(&self.image) || pixels.iter().enumerate().any(|(i, p)| i != self.root && p.iter().any(|r| area(r) > 0)) {
+        if at_root != area(&self.image)
+            || pixels
+                .iter()
+                .enumerate()
+                .any(|(i, p)| i != self.root && p.iter().any(|r| area(r) > 0))
+        {
             return Err("the root does not end with the whole image".into());
         }
         Ok(())

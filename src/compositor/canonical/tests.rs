@@ -17,26 +17,37 @@ fn seg(zf: f32, zb: f32, a: f32, c: f32) -> Segment {
 }
 
 fn bits(c: Rgba) -> [u32; 4] {
-    [c.rgb[0].to_bits(), c.rgb[1].to_bits(), c.rgb[2].to_bits(), c.a.to_bits()]
+    [
+        c.rgb[0].to_bits(),
+        c.rgb[1].to_bits(),
+        c.rgb[2].to_bits(),
+        c.a.to_bits(),
+    ]
 }
 
 /// A pixel's segments: a few chains of joined segments separated by gaps,
 /// with alphas spread over many orders of magnitude (so rounding differs).
 fn pixel() -> impl Strategy<Value = Vec<Segment>> {
-    prop::collection::vec((1usize..12, 0.0f32..2.0, prop::collection::vec((0.01f32..1.0, 1e-4f32..0.9, 0.0f32..1.0), 12)), 1..5).prop_map(
-        |chains| {
-            let mut out = Vec::new();
-            let mut z = 1.0f32;
-            for (len, gap, vals) in chains {
-                z += gap;
-                for &(dz, a, c) in vals.iter().take(len) {
-                    out.push(seg(z, z + dz, a, c));
-                    z += dz;
-                }
-            }
-            out
-        },
+    prop::collection::vec(
+        (
+            1usize..12,
+            0.0f32..2.0,
+            prop::collection::vec((0.01f32..1.0, 1e-4f32..0.9, 0.0f32..1.0), 12),
+        ),
+        1..5,
     )
+    .prop_map(|chains| {
+        let mut out = Vec::new();
+        let mut z = 1.0f32;
+        for (len, gap, vals) in chains {
+            z += gap;
+            for &(dz, a, c) in vals.iter().take(len) {
+                out.push(seg(z, z + dz, a, c));
+                z += dz;
+            }
+        }
+        out
+    })
 }
 
 fn build(segs: &[Segment], order: &[usize], partial: bool) -> Vec<Segment> {
@@ -94,7 +105,11 @@ fn one_chain_collapses_when_its_ends_are_known_keys() {
     let mut l = Vec::new();
     let mut z = 1.0f32;
     for k in 0..64 {
-        insert(&mut l, seg(z, z + 0.01, 0.05 + 0.01 * (k % 7) as f32, 0.3), true);
+        insert(
+            &mut l,
+            seg(z, z + 0.01, 0.05 + 0.01 * (k % 7) as f32, 0.3),
+            true,
+        );
         z += 0.01;
     }
     assert!(l.len() < 16, "{} pieces for 64 segments", l.len());
@@ -121,8 +136,14 @@ fn tree_evaluation_matches_recursive_definition() {
         let i = keys.iter().position(|&k| k == m).unwrap();
         rec(&run[..=i], &keys[..i]).merged_with(rec(&run[i + 1..], &keys[i + 1..]))
     }
-    let run: Vec<Segment> = (0..9).map(|k| seg(k as f32, k as f32 + 1.0, 0.1 * (k + 1) as f32 / 1.3, 0.4)).collect();
-    for keys in [[5, 3, 5, 3, 9, 1, 1, 7], [1, 1, 1, 1, 1, 1, 1, 1], [8, 7, 6, 5, 4, 3, 2, 1]] {
+    let run: Vec<Segment> = (0..9)
+        .map(|k| seg(k as f32, k as f32 + 1.0, 0.1 * (k + 1) as f32 / 1.3, 0.4))
+        .collect();
+    for keys in [
+        [5, 3, 5, 3, 9, 1, 1, 7],
+        [1, 1, 1, 1, 1, 1, 1, 1],
+        [8, 7, 6, 5, 4, 3, 2, 1],
+    ] {
         assert_eq!(evaluate(&run, &keys), rec(&run, &keys));
     }
 }

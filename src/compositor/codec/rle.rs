@@ -20,7 +20,12 @@ pub struct Rle;
 
 /// Emits runs of `n` pixels where `empty(k)` holds, and calls `literal(range)`
 /// for the maximal stretches in between.
-fn runs(n: usize, empty: impl Fn(usize) -> bool, out: &mut Vec<u8>, mut literal: impl FnMut(&mut Vec<u8>, usize, usize)) {
+fn runs(
+    n: usize,
+    empty: impl Fn(usize) -> bool,
+    out: &mut Vec<u8>,
+    mut literal: impl FnMut(&mut Vec<u8>, usize, usize),
+) {
     let mut k = 0;
     while k < n {
         let mut e = k;
@@ -56,15 +61,20 @@ impl Codec for Rle {
 
     fn encode_lists(&self, lists: &RegionLists, out: &mut Vec<u8>) {
         put_header(out, b'L', b'R', &lists.rect());
-        runs(lists.pixels(), |p| lists.list(p).is_empty(), out, |out, a, b| {
-            for p in a..b {
-                let l = lists.list(p);
-                put_u32(out, l.len() as u32);
-                for s in l {
-                    put_segment(out, s);
+        runs(
+            lists.pixels(),
+            |p| lists.list(p).is_empty(),
+            out,
+            |out, a, b| {
+                for p in a..b {
+                    let l = lists.list(p);
+                    put_u32(out, l.len() as u32);
+                    for s in l {
+                        put_segment(out, s);
+                    }
                 }
-            }
-        });
+            },
+        );
     }
 
     fn decode_lists(&self, bytes: &[u8], limits: &Limits) -> Result<RegionLists, DecodeError> {
@@ -93,12 +103,17 @@ impl Codec for Rle {
     fn encode_pixels(&self, pixels: &RegionPixels, out: &mut Vec<u8>) {
         put_header(out, b'P', b'R', &pixels.rect);
         let px = &pixels.px;
-        runs(px.len(), |k| RegionPixels::is_clear(&px[k]), out, |out, a, b| {
-            put_u32(out, (b - a) as u32);
-            for p in &px[a..b] {
-                put_pixel(out, p);
-            }
-        });
+        runs(
+            px.len(),
+            |k| RegionPixels::is_clear(&px[k]),
+            out,
+            |out, a, b| {
+                put_u32(out, (b - a) as u32);
+                for p in &px[a..b] {
+                    put_pixel(out, p);
+                }
+            },
+        );
     }
 
     fn decode_pixels(&self, bytes: &[u8], limits: &Limits) -> Result<RegionPixels, DecodeError> {

@@ -87,9 +87,22 @@ proptest! {
 
 #[test]
 fn errors_name_the_problem() {
-    let rect = Rect { x0: 0, y0: 0, x1: 2, y1: 1 };
-    let s = |zf: f32, zb: f32, a: f32| Segment { z_front: zf, z_back: zb, rgba: Rgba { rgb: [a; 3], a } };
-    let lists = RegionLists::canonical(rect, &[vec![s(1.0, 2.0, 0.5), s(3.0, 4.0, 0.5)], vec![]], true);
+    let rect = Rect {
+        x0: 0,
+        y0: 0,
+        x1: 2,
+        y1: 1,
+    };
+    let s = |zf: f32, zb: f32, a: f32| Segment {
+        z_front: zf,
+        z_back: zb,
+        rgba: Rgba { rgb: [a; 3], a },
+    };
+    let lists = RegionLists::canonical(
+        rect,
+        &[vec![s(1.0, 2.0, 0.5), s(3.0, 4.0, 0.5)], vec![]],
+        true,
+    );
     let mut bytes = Vec::new();
     Raw.encode_lists(&lists, &mut bytes);
     let lim = Limits::default();
@@ -99,37 +112,82 @@ fn errors_name_the_problem() {
     let first: Vec<u8> = b[p..q].to_vec();
     b.copy_within(q..q + SEGMENT_BYTES, p);
     b[q..q + SEGMENT_BYTES].copy_from_slice(&first);
-    assert!(Raw.decode_lists(&b, &lim).unwrap_err().to_string().contains("depth order"));
+    assert!(Raw
+        .decode_lists(&b, &lim)
+        .unwrap_err()
+        .to_string()
+        .contains("depth order"));
     // NaN depth.
     let mut b = bytes.clone();
     b[28..32].copy_from_slice(&f32::NAN.to_le_bytes());
-    assert!(Raw.decode_lists(&b, &lim).unwrap_err().to_string().contains("non-finite"));
+    assert!(Raw
+        .decode_lists(&b, &lim)
+        .unwrap_err()
+        .to_string()
+        .contains("non-finite"));
     // Inverted depths.
     let mut b = bytes.clone();
     b[28..32].copy_from_slice(&9.0f32.to_le_bytes());
-    assert!(Raw.decode_lists(&b, &lim).unwrap_err().to_string().contains("z_front"));
+    assert!(Raw
+        .decode_lists(&b, &lim)
+        .unwrap_err()
+        .to_string()
+        .contains("z_front"));
     // Truncated, trailing, wrong codec, huge region.
-    assert!(matches!(Raw.decode_lists(&bytes[..bytes.len() - 1], &lim), Err(DecodeError::Truncated { .. })));
+    assert!(matches!(
+        Raw.decode_lists(&bytes[..bytes.len() - 1], &lim),
+        Err(DecodeError::Truncated { .. })
+    ));
     let mut b = bytes.clone();
     b.push(0);
-    assert!(Raw.decode_lists(&b, &lim).unwrap_err().to_string().contains("trailing"));
-    assert!(Rle.decode_lists(&bytes, &lim).unwrap_err().to_string().contains("magic"));
+    assert!(Raw
+        .decode_lists(&b, &lim)
+        .unwrap_err()
+        .to_string()
+        .contains("trailing"));
+    assert!(Rle
+        .decode_lists(&bytes, &lim)
+        .unwrap_err()
+        .to_string()
+        .contains("magic"));
     let mut b = bytes.clone();
     b[16..24].copy_from_slice(&[0xff, 0xff, 0, 0, 0xff, 0xff, 0, 0]);
-    assert!(matches!(Raw.decode_lists(&b, &lim), Err(DecodeError::TooLarge { .. })));
+    assert!(matches!(
+        Raw.decode_lists(&b, &lim),
+        Err(DecodeError::TooLarge { .. })
+    ));
     // A huge segment count is refused before allocating.
     let mut b = bytes.clone();
     b[24..28].copy_from_slice(&60_000u32.to_le_bytes());
-    assert!(matches!(Raw.decode_lists(&b, &lim), Err(DecodeError::Truncated { .. })));
+    assert!(matches!(
+        Raw.decode_lists(&b, &lim),
+        Err(DecodeError::Truncated { .. })
+    ));
     assert!(canonical::is_clear(&s(1.0, 2.0, 0.0)));
 }
 
 #[test]
 fn rle_is_smaller_on_sparse_regions() {
-    let rect = Rect { x0: 0, y0: 0, x1: 100, y1: 100 };
+    let rect = Rect {
+        x0: 0,
+        y0: 0,
+        x1: 100,
+        y1: 100,
+    };
     let mut raw_lists = vec![Vec::new(); 10_000];
-    for (k, l) in raw_lists.iter_mut().enumerate().filter(|(k, _)| k % 37 == 0) {
-        l.push(Segment { z_front: k as f32, z_back: k as f32 + 1.0, rgba: Rgba { rgb: [0.1; 3], a: 0.2 } });
+    for (k, l) in raw_lists
+        .iter_mut()
+        .enumerate()
+        .filter(|(k, _)| k % 37 == 0)
+    {
+        l.push(Segment {
+            z_front: k as f32,
+            z_back: k as f32 + 1.0,
+            rgba: Rgba {
+                rgb: [0.1; 3],
+                a: 0.2,
+            },
+        });
     }
     let lists = RegionLists::canonical(rect, &raw_lists, true);
     let (mut a, mut b) = (Vec::new(), Vec::new());

@@ -76,7 +76,14 @@ pub fn put_u32(out: &mut Vec<u8>, v: u32) {
 /// Appends a segment (six `f32`, bit-exact).
 #[inline]
 pub fn put_segment(out: &mut Vec<u8>, s: &Segment) {
-    for v in [s.z_front, s.z_back, s.rgba.rgb[0], s.rgba.rgb[1], s.rgba.rgb[2], s.rgba.a] {
+    for v in [
+        s.z_front,
+        s.z_back,
+        s.rgba.rgb[0],
+        s.rgba.rgb[1],
+        s.rgba.rgb[2],
+        s.rgba.a,
+    ] {
         out.extend_from_slice(&v.to_le_bytes());
     }
 }
@@ -177,7 +184,9 @@ impl<'a> Reader<'a> {
         };
         let bad = |msg: String| DecodeError::Malformed { offset: at, msg };
         if z_front > z_back {
-            return Err(bad(format!("segment with z_front {z_front} > z_back {z_back}")));
+            return Err(bad(format!(
+                "segment with z_front {z_front} > z_back {z_back}"
+            )));
         }
         if !(0.0..=1.0).contains(&a) {
             return Err(bad(format!("segment alpha {a} outside [0, 1]")));
@@ -247,7 +256,12 @@ impl<'a> Reader<'a> {
 }
 
 /// Reads `count` segments of one pixel onto `segs`, checking canonical order.
-pub fn read_list(rd: &mut Reader, count: u32, limits: &Limits, segs: &mut Vec<Segment>) -> Result<(), DecodeError> {
+pub fn read_list(
+    rd: &mut Reader,
+    count: u32,
+    limits: &Limits,
+    segs: &mut Vec<Segment>,
+) -> Result<(), DecodeError> {
     if count as u64 > limits.max_list {
         return Err(DecodeError::TooLarge {
             what: "segments in one pixel",
@@ -260,7 +274,9 @@ pub fn read_list(rd: &mut Reader, count: u32, limits: &Limits, segs: &mut Vec<Se
     for _ in 0..count {
         let at = rd.offset();
         let s = rd.segment()?;
-        if segs.len() > first && canonical::order(&segs[segs.len() - 1], &s) == std::cmp::Ordering::Greater {
+        if segs.len() > first
+            && canonical::order(&segs[segs.len() - 1], &s) == std::cmp::Ordering::Greater
+        {
             return Err(DecodeError::Malformed {
                 offset: at,
                 msg: "segments of a pixel out of depth order".into(),

@@ -88,7 +88,11 @@ impl Strategy for BinarySwap {
             for r in 0..p {
                 let region = held[r].expect("power-of-two ranks hold a region");
                 let (first, second) = halves(&region);
-                let (mine, theirs) = if r & bit == 0 { (first, second) } else { (second, first) };
+                let (mine, theirs) = if r & bit == 0 {
+                    (first, second)
+                } else {
+                    (second, first)
+                };
                 keep[r] = Some(mine);
                 sends.push(Exchange {
                     from: r,
@@ -106,7 +110,17 @@ impl Strategy for BinarySwap {
             bit <<= 1;
         }
         rounds.push(super::composite());
-        let owned: Vec<Rect> = held.iter().map(|h| h.unwrap_or(Rect { x0: 0, y0: 0, x1: 0, y1: 0 })).collect();
+        let owned: Vec<Rect> = held
+            .iter()
+            .map(|h| {
+                h.unwrap_or(Rect {
+                    x0: 0,
+                    y0: 0,
+                    x1: 0,
+                    y1: 0,
+                })
+            })
+            .collect();
         rounds.push(super::gather(&owned, 0));
         Schedule {
             nodes,

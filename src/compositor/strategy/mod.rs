@@ -46,7 +46,11 @@ pub fn from_name(name: &str) -> Result<Box<dyn Strategy>, String> {
         "binary-swap" | "bswap" => Ok(Box::new(BinarySwap)),
         _ => Err(format!(
             "unknown compositing strategy `{name}`; choose one of: {}",
-            list().iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+            list()
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", ")
         )),
     }
 }
@@ -93,9 +97,15 @@ mod tests {
             let s = from_name(name).unwrap();
             assert!(s.preserves_order());
             for n in 1..=20 {
-                for img in [screen(100, 100), screen(900, 300), screen(3, 2), screen(1, 1)] {
+                for img in [
+                    screen(100, 100),
+                    screen(900, 300),
+                    screen(3, 2),
+                    screen(1, 1),
+                ] {
                     let sch = s.schedule(n, img);
-                    sch.validate().unwrap_or_else(|e| panic!("{name} n={n} {img:?}: {e}"));
+                    sch.validate()
+                        .unwrap_or_else(|e| panic!("{name} n={n} {img:?}: {e}"));
                 }
             }
         }
