@@ -3,10 +3,12 @@
 //! Cell-projection parallel volume rendering of tetrahedral meshes with early
 //! ray termination, and a simulator of the PC cluster that runs it.
 //!
-//! Module dependencies flow one way: `cli -> render -> {scene, data, image}`.
+//! Module dependencies flow one way: `cli -> render -> {scene, data, image}`,
+//! `compositor -> {render::cell segments, image}`.
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod compositor;
 pub mod data;
 pub mod error;
 pub mod experiment;

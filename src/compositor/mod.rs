@@ -1,0 +1,29 @@
+//! Phase 2 of the parallel renderer: compositing the nodes' ray-segment
+//! lists into one image.
+//!
+//! Everything here is a pure function over data: no threads, no transport.
+//!
+//! - [`canonical`]: the canonical composition that makes the image
+//!   bit-for-bit independent of how segments were spread and merged.
+//! - [`lists`]: a node's lists for a region, merging, final composition.
+//! - [`codec`]: compression as its own layer (`raw`, `rle`), strict decoding.
+//! - [`strategy`]: strategies as schedules of rounds (`direct-send`,
+//!   `binary-swap`), selected by name.
+//! - [`schedule`]: the schedule data type and its validity check.
+//! - [`exec`]: runs a schedule in-process, round by round, with real bytes.
+//!
+//! The protocol is described in `src/compositor/README.md`.
+#![warn(missing_docs)]
+
+pub mod canonical;
+pub mod codec;
+pub mod exec;
+pub mod lists;
+pub mod region;
+pub mod schedule;
+pub mod strategy;
+
+pub use exec::{run_local, CompositeStats, ExecError, ExecOptions, LocalRun, Message, RoundStats};
+pub use lists::{RegionLists, RegionPixels};
+pub use schedule::{Exchange, Payload, Round, RoundKind, Schedule};
+pub use strategy::Strategy;
