@@ -19,7 +19,18 @@ use pvrsim::compositor::strategy::{self, Strategy};
 use pvrsim::compositor::{run_local, ExecOptions, LocalRun, RegionLists};
 use pvrsim::image::Image;
 use pvrsim::render::cell::list::{composite as legacy_composite, insert_sorted};
-use pvrsim::render::cell::{self, bin, project, scan_tile, CellOptions, PreparedTf, Segment};
+use pvrsim::render::cell::{
+    self, bin, project, scan_tile, CellOptions, ErtOptions, PreparedTf, Segment,
+};
+
+/// The renderer's defaults with early ray termination off: these tests
+/// compare exact compositions, which ERT would change within its bound.
+fn no_ert() -> CellOptions {
+    CellOptions {
+        ert: ErtOptions::OFF,
+        ..CellOptions::default()
+    }
+}
 use pvrsim::render::RenderInput;
 
 fn load(scene: &str) -> RenderInput {
@@ -43,7 +54,7 @@ fn node_lists(
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
     let opts = CellOptions {
         partial_composition: partial,
-        ..Default::default()
+        ..no_ert()
     };
     let mut binning = bin::bin_cells(&input.mesh.tets, &pv, &tf, opts.tile_size);
     let (w, h) = (view.width as usize, view.height as usize);
@@ -127,7 +138,7 @@ struct Row {
 fn check_scene(scene: &'static str, counts: &[usize], rows: &mut Vec<Row>) {
     let input = load(scene);
     let want = canonical_reference(&input);
-    let (legacy, _) = cell::render(&input, &CellOptions::default());
+    let (legacy, _) = cell::render(&input, &no_ert());
     eprintln!(
         "{scene}: canonical vs current renderer (insertion-order merges): {} of {} pixels differ in bits, max-abs {:.2e}/255",
         same_bits(&want, &legacy),
@@ -260,7 +271,7 @@ fn insertion_order_merging_differs_only_by_rounding() {
     // every node, then the nodes' lists inserted at the owner), the image
     // depends on the node count in the last bits. Measure how much.
     let input = load("aorta-small-view-b.toml");
-    let (seq, _) = cell::render(&input, &CellOptions::default());
+    let (seq, _) = cell::render(&input, &no_ert());
     let ncells = input.mesh.tets.len() as u64;
     let bg = input.scene.image.background.map(|c| c as f32);
     let mut worst: f64 = 0.0;
@@ -300,7 +311,7 @@ fn memory_cost_of_the_canonical_form() {
     for scene in ["aorta-small-view-b.toml", "aorta-small-view-a.toml"] {
         let input = load(scene);
         let (w, h) = (input.scene.image.width, input.scene.image.height);
-        let (_, stats) = cell::render(&input, &CellOptions::default());
+        let (_, stats) = cell::render(&input, &no_ert());
         let raw = node_lists(&input, 1, &|_| 0, false).pop().unwrap();
         let generated: usize = raw.iter().map(Vec::len).sum();
         let canon = RegionLists::canonical(screen(w, h), &raw, true);
