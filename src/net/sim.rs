@@ -120,22 +120,24 @@ pub struct Simulation<'a> {
 }
 
 impl<'a> Simulation<'a> {
-    /// A simulation of `actors` (actor `i` has rank `i`) on `model`.
-    pub fn new(model: NetworkModel, actors: Vec<Box<dyn Actor + 'a>>) -> Self {
-        let n = actors.len();
+    /// A simulation of `actors` (the `i`-th has rank `i`) on `model`.
+    /// Mix actor types with `Box<dyn Actor>`; pass `&mut actor` to keep
+    /// access to an actor's state after the run.
+    pub fn new<A: Actor + 'a>(model: NetworkModel, actors: impl IntoIterator<Item = A>) -> Self {
+        let slots: Vec<Slot<'a>> = actors
+            .into_iter()
+            .map(|actor| Slot {
+                actor: Box::new(actor),
+                inbox: VecDeque::new(),
+                busy_until: 0.0,
+                waiting_ready: false,
+                stopped_at: None,
+            })
+            .collect();
         Simulation {
             model,
-            net: NetState::new(n),
-            slots: actors
-                .into_iter()
-                .map(|actor| Slot {
-                    actor,
-                    inbox: VecDeque::new(),
-                    busy_until: 0.0,
-                    waiting_ready: false,
-                    stopped_at: None,
-                })
-                .collect(),
+            net: NetState::new(slots.len()),
+            slots,
             queue: EventQueue::new(),
             clock: VirtualClock::new(),
             options: SimOptions::default(),

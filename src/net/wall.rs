@@ -70,14 +70,16 @@ pub struct WallReport {
 /// every actor has stopped. `transports` stay alive for the whole run, so a
 /// send to a stopped actor succeeds (and is never read), as in the
 /// simulator.
-pub fn run_threads<'a, T>(
+pub fn run_threads<T, A>(
     transports: &[T],
-    actors: Vec<Box<dyn Actor + Send + 'a>>,
+    actors: impl IntoIterator<Item = A>,
     options: WallOptions,
 ) -> NetResult<WallReport>
 where
     T: Transport + Sync,
+    A: Actor + Send,
 {
+    let actors: Vec<A> = actors.into_iter().collect();
     if transports.len() != actors.len() {
         return Err(NetError::Sim(format!(
             "{} actors for {} transports; give one actor per rank",
@@ -119,9 +121,9 @@ where
 }
 
 /// One actor's thread loop; returns its stop time, trace and traffic.
-fn run_one<T: Transport>(
+fn run_one<T: Transport, A: Actor>(
     t: &T,
-    mut actor: Box<dyn Actor + Send + '_>,
+    mut actor: A,
     clock: WallClock,
     options: WallOptions,
 ) -> NetResult<(f64, SimTrace, TrafficStats)> {

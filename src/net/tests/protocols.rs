@@ -160,7 +160,10 @@ fn ping_pong_in_the_simulator_matches_the_formula() {
     let mut ponger = Ponger { rounds, codec };
     let report = Simulation::new(
         gbe.clone(),
-        vec![Box::new(&mut pinger), Box::new(&mut ponger)],
+        vec![
+            Box::new(&mut pinger) as Box<dyn Actor + '_>,
+            Box::new(&mut ponger),
+        ],
     )
     .run()
     .unwrap();
@@ -194,7 +197,10 @@ fn ping_pong_over_channels_in_threads() {
     let net = ChannelNetwork::new(2);
     let report = run_threads(
         &net,
-        vec![Box::new(&mut pinger), Box::new(&mut ponger)],
+        vec![
+            Box::new(&mut pinger) as Box<dyn Actor + Send + '_>,
+            Box::new(&mut ponger),
+        ],
         WallOptions {
             compute: ComputeMode::Skip,
             recv_timeout: Duration::from_secs(20),

@@ -117,7 +117,7 @@ fn a_deadlock_is_reported_not_hung() {
     };
     let report = Simulation::new(
         NetworkModel::ideal(),
-        vec![Box::new(&mut root), Box::new(&mut w)],
+        vec![Box::new(&mut root) as Box<dyn Actor + '_>, Box::new(&mut w)],
     )
     .run()
     .unwrap();
@@ -174,7 +174,7 @@ fn idle_time_is_traced() {
     };
     let report = Simulation::new(
         NetworkModel::ideal(),
-        vec![Box::new(&mut root), Box::new(&mut w)],
+        vec![Box::new(&mut root) as Box<dyn Actor + '_>, Box::new(&mut w)],
     )
     .run()
     .unwrap();
