@@ -13,6 +13,7 @@ pub mod data;
 pub mod error;
 pub mod experiment;
 pub mod image;
+pub mod net;
 pub mod render;
 pub mod scene;
 

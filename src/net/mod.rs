@@ -1,0 +1,47 @@
+//! The communication substrate: typed messages, a transport interface, a
+//! network cost model and a deterministic discrete-event simulator.
+//!
+//! | file | job |
+//! |---|---|
+//! | [`message`] | ranks, message kinds, envelopes, size-limited bincode codec |
+//! | [`transport`] | the [`Transport`] trait (send / recv / try_recv, rank, size) and selective receive |
+//! | [`channel`] | in-process transport on crossbeam channels |
+//! | [`metered`] | counts messages and bytes per kind and destination at the boundary |
+//! | [`cost`] | the network cost model (alpha-beta + NIC serialisation + bisection) and presets |
+//! | [`clock`] | virtual and wall clocks, the (time, seq) event queue |
+//! | [`actor`] | the [`Actor`] state-machine interface shared by both drivers |
+//! | [`sim`] | the discrete-event driver (virtual time, one thread) |
+//! | [`wall`] | the thread driver (wall time, real transports) |
+//! | [`trace`] | typed timeline and Chrome trace JSON |
+//!
+//! Node and manager logic is written once against [`Actor`]; the design
+//! notes are in `src/net/README.md`.
+
+pub mod actor;
+pub mod channel;
+pub mod clock;
+pub mod cost;
+pub mod error;
+pub mod message;
+pub mod metered;
+pub mod sim;
+pub mod trace;
+pub mod transport;
+pub mod wall;
+
+#[cfg(test)]
+mod tests;
+
+pub use actor::{Action, Activity, Actor, Event};
+pub use channel::{ChannelNetwork, ChannelTransport};
+pub use clock::{Clock, EventQueue, VirtualClock, WallClock};
+pub use cost::{NetState, NetworkModel, Transfer};
+pub use error::{NetError, NetResult};
+pub use message::{
+    Codec, Envelope, Message, MessageKind, NodeId, DEFAULT_MAX_MESSAGE_BYTES, FRAME_HEADER_BYTES,
+};
+pub use metered::{Counter, Metered, TrafficStats};
+pub use sim::{SimOptions, SimReport, Simulation};
+pub use trace::{SimTrace, TraceEvent, TraceKind};
+pub use transport::{Mailbox, Transport};
+pub use wall::{run_threads, ComputeMode, WallOptions, WallReport};
