@@ -10,6 +10,7 @@ pub mod cli;
 pub mod data;
 pub mod error;
 pub mod image;
+pub mod node;
 pub mod render;
 pub mod scene;
 
