@@ -2,6 +2,7 @@
 //! option documents its default; `pvrsim help COMMAND` shows it all.
 
 pub mod bench;
+pub mod calibrate;
 pub mod demo;
 pub mod info;
 pub mod render;
@@ -37,6 +38,8 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Time the renderers on the shared aorta scenes (needs ../shared/data).
     Bench(bench::BenchArgs),
+    /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Runs the parsed command line.
@@ -46,6 +49,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     }
 }
 

@@ -18,6 +18,7 @@
 //! - [`union`]: a reference composition of all nodes' lists (for tests and
 //!   checks; the real compositor is `src/compositor/`).
 
+pub mod calibration;
 pub mod cost;
 pub mod lsq;
 pub mod manager_table;
