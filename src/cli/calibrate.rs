@@ -13,7 +13,9 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 
-use crate::node::calibration::{fit_profile, fit_table1, FitQuality, Sample, SampleKind, Table1Row};
+use crate::node::calibration::{
+    fit_profile, fit_table1, FitQuality, Sample, SampleKind, Table1Row,
+};
 use crate::node::cost::{CostProfile, ProfileFile};
 use crate::node::renderer::NodeErt;
 use crate::node::{NodeOptions, NodeRenderer, OpCounts, Placement, PlacementMethod, WorkUnit};
@@ -171,7 +173,10 @@ fn write_profile(path: &Path, header: &str, file: &ProfileFile) -> anyhow::Resul
 /// Our operation counts for the paper's four Table 1 runs.
 pub fn table1_rows(data_dir: &Path) -> anyhow::Result<Vec<Table1Row>> {
     let mut rows = Vec::new();
-    for (view, w, h, paper) in [("a", 300, 100, [49.34, 39.06]), ("b", 300, 300, [169.87, 43.99])] {
+    for (view, w, h, paper) in [
+        ("a", 300, 100, [49.34, 39.06]),
+        ("b", 300, 300, [169.87, 43.99]),
+    ] {
         let path = data_dir.join(format!("aorta-view-{view}.toml"));
         let (input, _) =
             RenderInput::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
@@ -181,8 +186,11 @@ pub fn table1_rows(data_dir: &Path) -> anyhow::Result<Vec<Table1Row>> {
                 ert: if ert_on { NodeErt::PAPER } else { NodeErt::OFF },
                 ..Default::default()
             };
-            let mut node =
-                NodeRenderer::new(input.scene.view(), PreparedTf::new(&input.scene.transfer), opts);
+            let mut node = NodeRenderer::new(
+                input.scene.view(),
+                PreparedTf::new(&input.scene.transfer),
+                opts,
+            );
             let all: Vec<u32> = (0..input.mesh.tets.len() as u32).collect();
             let mut ops = node.add_work(&WorkUnit::from_mesh(&input.mesh, &input.s_norm, &all))?;
             ops.add(&node.run_to_end());
@@ -327,7 +335,8 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
             &text,
             &ProfileFile {
                 name: "pentium4".into(),
-                description: "paper's Pentium 4: calibrated base scaled to Table 1 (no-ERT rows)".into(),
+                description: "paper's Pentium 4: calibrated base scaled to Table 1 (no-ERT rows)"
+                    .into(),
                 costs: base.scaled_split(fit.k_cell, fit.k_pixel),
             },
         )?;

@@ -114,7 +114,11 @@ fn quality(kind: SampleKind, s: &[&Sample], f: &Fit) -> FitQuality {
         kind,
         samples: s.len(),
         r2_weighted: f.r2,
-        r2: if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { 1.0 },
+        r2: if ss_tot > 0.0 {
+            1.0 - ss_res / ss_tot
+        } else {
+            1.0
+        },
         rel_rms: rel.sqrt(),
         total_measured_s: total,
         total_model_s: total - f.residuals.iter().sum::<f64>(),
@@ -214,7 +218,10 @@ pub fn cell_pixel_parts(ops: &OpCounts, p: &CostProfile) -> (f64, f64) {
 /// them), predicts the others, and also fits all rows by relative least
 /// squares. `None` if the two fitted rows do not determine the scales.
 pub fn fit_table1(base: &CostProfile, rows: &[Table1Row]) -> Option<Table1Fit> {
-    let parts: Vec<(f64, f64)> = rows.iter().map(|r| cell_pixel_parts(&r.ops, base)).collect();
+    let parts: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| cell_pixel_parts(&r.ops, base))
+        .collect();
     let fitted: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].fitted).collect();
     let [a, b] = fitted[..] else { return None };
     let (c1, p1, t1) = (parts[a].0, parts[a].1, rows[a].paper_s);
@@ -225,7 +232,8 @@ pub fn fit_table1(base: &CostProfile, rows: &[Table1Row]) -> Option<Table1Fit> {
     }
     let k_cell = (t1 * p2 - t2 * p1) / det;
     let k_pixel = (c1 * t2 - c2 * t1) / det;
-    let model = |kc: f64, kp: f64| -> Vec<f64> { parts.iter().map(|(c, p)| kc * c + kp * p).collect() };
+    let model =
+        |kc: f64, kp: f64| -> Vec<f64> { parts.iter().map(|(c, p)| kc * c + kp * p).collect() };
     let m = model(k_cell, k_pixel);
     let x: Vec<Vec<f64>> = parts.iter().map(|&(c, p)| vec![c, p]).collect();
     let y: Vec<f64> = rows.iter().map(|r| r.paper_s).collect();

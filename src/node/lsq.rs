@@ -28,12 +28,14 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
         }
         a.swap(k, p);
         b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
+        let (top, rest) = a.split_at_mut(k + 1);
+        let pivot = &top[k];
+        for (off, row) in rest.iter_mut().enumerate() {
+            let f = row[k] / pivot[k];
+            for (x, p) in row[k..].iter_mut().zip(&pivot[k..]) {
+                *x -= f * p;
             }
-            b[i] -= f * b[k];
+            b[k + 1 + off] -= f * b[k];
         }
     }
     let mut x = vec![0.0; n];
@@ -127,11 +129,11 @@ mod tests {
             .map(|i| vec![i as f64, (i * i % 7) as f64, 1.0])
             .collect();
         let y: Vec<f64> = x.iter().map(|r| 2e-6 * r[0] + 5e-7 * r[1] + 1e-5).collect();
-        let f = nnls(&x, &y, &vec![1.0; 20]);
+        let f = nnls(&x, &y, &[1.0; 20]);
         assert!((f.coef[0] - 2e-6).abs() < 1e-15 && (f.coef[1] - 5e-7).abs() < 1e-15);
         assert!(f.r2 > 0.999999);
         let y2: Vec<f64> = x.iter().map(|r| 2e-6 * r[0] - 5e-7 * r[1]).collect();
-        let f2 = nnls(&x, &y2, &vec![1.0; 20]);
+        let f2 = nnls(&x, &y2, &[1.0; 20]);
         assert!(f2.coef.iter().all(|&c| c >= 0.0));
         assert_eq!(f2.coef[1], 0.0);
     }

@@ -234,9 +234,9 @@ impl Placement {
                 for &cell in p {
                     for &v in &mesh.tets[cell as usize] {
                         let q = mesh.points[v as usize];
-                        for a in 0..3 {
-                            w.min[a] = w.min[a].min(q[a]);
-                            w.max[a] = w.max[a].max(q[a]);
+                        for (a, &qa) in q.iter().enumerate() {
+                            w.min[a] = w.min[a].min(qa);
+                            w.max[a] = w.max[a].max(qa);
                         }
                     }
                 }
@@ -281,7 +281,13 @@ impl Placement {
         let mut on = Vec::with_capacity(n);
         for p in 0..(w * h) as usize {
             on.clear();
-            on.extend((0..n).filter(|&k| masks[k][p]));
+            on.extend(
+                masks
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, m)| m[p])
+                    .map(|(k, _)| k),
+            );
             if on.is_empty() {
                 continue;
             }

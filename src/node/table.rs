@@ -159,7 +159,7 @@ impl SharedTable {
         if bytes.len() != 4 + nb + 4 * terminated
             || bits.iter().enumerate().any(|(i, &b)| {
                 // Padding bits past the last entry must be zero.
-                i == nb - 1 && n % 8 != 0 && b >> (n % 8) != 0
+                i == nb - 1 && !n.is_multiple_of(8) && b >> (n % 8) != 0
             })
         {
             return Err(bad());
@@ -308,7 +308,12 @@ impl NodeTable {
         let [x0, x1, y0, y1] = range;
         for f in y0 / self.entry.1..=y1 / self.entry.1 {
             for e in x0 / self.entry.0..=x1 / self.entry.0 {
-                if !(self.effective((f * self.n.0 + e) as usize) < near) {
+                // NaN-safe: a NaN depth or near never skips.
+                if self
+                    .effective((f * self.n.0 + e) as usize)
+                    .partial_cmp(&near)
+                    != Some(std::cmp::Ordering::Less)
+                {
                     return false;
                 }
             }
