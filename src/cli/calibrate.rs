@@ -319,6 +319,12 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
                 ops_line(&r.ops)
             );
         }
+        text.push_str(
+            "# The ERT rows are far off because our data lets ERT skip far fewer cells than the paper's:\n\
+             # the paper skips about 2/3 of the cells in view B (3.86x); on our synthetic aorta the same\n\
+             # test skips 17 % (the single-machine renderer agrees: 52,160), and even a perfect per-pixel\n\
+             # test could skip only 55 % (oracle: 168,686 cells). Per-operation costs cannot fix that.\n",
+        );
         let _ = writeln!(
             text,
             "# Least squares over all four rows instead: k_cell {:.3}, k_pixel {:.3}, model {:?} s.",
