@@ -14,6 +14,7 @@ pub mod error;
 pub mod experiment;
 pub mod image;
 pub mod net;
+pub mod node;
 pub mod render;
 pub mod scene;
 

@@ -48,7 +48,10 @@ fn shared_aorta() -> std::path::PathBuf {
 fn aorta_full_load_time() {
     let p = &shared_aorta();
     if !p.exists() {
-        eprintln!("skipping: {} not found (the shared data folder is not next to this checkout)", p.display());
+        eprintln!(
+            "skipping: {} not found (the shared data folder is not next to this checkout)",
+            p.display()
+        );
         return;
     }
     let t = std::time::Instant::now();
@@ -66,7 +69,10 @@ fn aorta_full_load_time() {
 fn aorta_full_load_time_repeat() {
     let p = &shared_aorta();
     if !p.exists() {
-        eprintln!("skipping: {} not found (the shared data folder is not next to this checkout)", p.display());
+        eprintln!(
+            "skipping: {} not found (the shared data folder is not next to this checkout)",
+            p.display()
+        );
         return;
     }
     for _ in 0..3 {
@@ -224,7 +230,10 @@ fn every_vtu_fixture_equals_meshio_view() {
 fn aorta_quality_report_matches_the_data_readme() {
     let p = &shared_aorta();
     if !p.exists() {
-        eprintln!("skipping: {} not found (the shared data folder is not next to this checkout)", p.display());
+        eprintln!(
+            "skipping: {} not found (the shared data folder is not next to this checkout)",
+            p.display()
+        );
         return;
     }
     let m = read_mesh(p).unwrap();

@@ -2,6 +2,7 @@
 //! option documents its default; `pvrsim help COMMAND` shows it all.
 
 pub mod bench;
+pub mod calibrate;
 pub mod demo;
 pub mod info;
 pub mod render;
@@ -40,6 +41,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md).
     Sweep(sweep::SweepArgs),
+    /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Runs the parsed command line.
@@ -50,6 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     }
 }
 

@@ -125,62 +125,18 @@ pub fn bin_cells_rect(
             };
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
-                let s = ids.map(|v| pv.s[v as usize]);
-                let (lo, hi) = (
-                    s.iter().cloned().fold(f32::INFINITY, f32::min),
-                    s.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
-                );
-                if tf.is_transparent(lo, hi) {
-                    part.empty += 1;
-                    continue;
-                }
-                let pos = ids.map(|v| pv.pos[v as usize]);
-                if pos.iter().all(|p| p[2] <= 0.0) {
-                    part.off += 1; // behind the eye
-                    continue;
-                }
-                let px = ids.map(|v| pv.pixel[v as usize]);
-                let range = if px.iter().any(|p| p[0].is_nan()) {
-                    // Straddles the eye plane (perspective): bound by the screen.
-                    Some((0, w - 1, 0, h - 1))
-                } else {
-                    let (xl, xh) = (
-                        px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min),
-                        px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max),
-                    );
-                    let (yl, yh) = (
-                        px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min),
-                        px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max),
-                    );
-                    if xh < 0.0 || yh < 0.0 || xl > w as f32 || yl > h as f32 {
-                        part.off += 1;
-                        continue;
+                match cell_record(cell, ids, pv, tf, full) {
+                    Ok(rec) => {
+                        let [i0, i1, j0, j1] = rec.range;
+                        for ty in j0 / th..=j1 / th {
+                            for tx in i0 / tw..=i1 / tw {
+                                part.pairs.push((ty * tiles_x + tx, rec));
+                            }
+                        }
                     }
-                    covered_pixels(&px, full)
-                };
-                let Some((i0, i1, j0, j1)) = range else {
-                    part.none += 1;
-                    continue;
-                };
-                let near = if pv.perspective {
-                    pos.iter()
-                        .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
-                        .fold(f32::INFINITY, f32::min)
-                } else {
-                    pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
-                };
-                let rec = CellRecord {
-                    near,
-                    cell,
-                    range: [i0, i1, j0, j1],
-                    ids,
-                    pos,
-                    s,
-                };
-                for ty in j0 / th..=j1 / th {
-                    for tx in i0 / tw..=i1 / tw {
-                        part.pairs.push((ty * tiles_x + tx, rec));
-                    }
+                    Err(Culled::Empty) => part.empty += 1,
+                    Err(Culled::Offscreen) => part.off += 1,
+                    Err(Culled::NoPixelCentre) => part.none += 1,
                 }
             }
             part
@@ -207,4 +163,77 @@ pub fn bin_cells_rect(
     }
     out.bins = bins;
     out
+}
+
+/// Why a cell was not turned into a [`CellRecord`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Culled {
+    /// Its scalar interval has zero opacity.
+    Empty,
+    /// Outside the image or behind the eye.
+    Offscreen,
+    /// Inside the image, but its bounding box holds no pixel centre.
+    NoPixelCentre,
+}
+
+/// Culls cell `cell` with vertex ids `ids` (indices into `pv`) or gathers
+/// its [`CellRecord`]; `full` is the whole image. The record's `ids` are the
+/// indices given.
+#[inline]
+pub fn cell_record(
+    cell: u32,
+    ids: [u32; 4],
+    pv: &ProjectedVertices,
+    tf: &PreparedTf,
+    full: Rect,
+) -> Result<CellRecord, Culled> {
+    let (w, h) = pv.size;
+    let s = ids.map(|v| pv.s[v as usize]);
+    let (lo, hi) = (
+        s.iter().cloned().fold(f32::INFINITY, f32::min),
+        s.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+    );
+    if tf.is_transparent(lo, hi) {
+        return Err(Culled::Empty);
+    }
+    let pos = ids.map(|v| pv.pos[v as usize]);
+    if pos.iter().all(|p| p[2] <= 0.0) {
+        return Err(Culled::Offscreen); // behind the eye
+    }
+    let px = ids.map(|v| pv.pixel[v as usize]);
+    let range = if px.iter().any(|p| p[0].is_nan()) {
+        // Straddles the eye plane (perspective): bound by the screen.
+        Some((0, w - 1, 0, h - 1))
+    } else {
+        let (xl, xh) = (
+            px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min),
+            px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max),
+        );
+        let (yl, yh) = (
+            px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min),
+            px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max),
+        );
+        if xh < 0.0 || yh < 0.0 || xl > w as f32 || yl > h as f32 {
+            return Err(Culled::Offscreen);
+        }
+        covered_pixels(&px, full)
+    };
+    let Some((i0, i1, j0, j1)) = range else {
+        return Err(Culled::NoPixelCentre);
+    };
+    let near = if pv.perspective {
+        pos.iter()
+            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+            .fold(f32::INFINITY, f32::min)
+    } else {
+        pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
+    };
+    Ok(CellRecord {
+        near,
+        cell,
+        range: [i0, i1, j0, j1],
+        ids,
+        pos,
+        s,
+    })
 }

@@ -35,24 +35,24 @@ impl ProjectedVertices {
     /// Transforms `points` (world) for `view` and rounds the scalars to f32.
     pub fn new(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
         let perspective = matches!(view.projection, Projection::Perspective { .. });
-        let (pos, pixel): (Vec<[f32; 3]>, Vec<[f32; 2]>) = points
-            .par_iter()
-            .map(|&p| {
-                let c = view.to_camera(p);
-                let px = view
-                    .camera_to_pixel(c)
-                    .map(|q| [q[0] as f32, q[1] as f32])
-                    .unwrap_or([f32::NAN; 2]);
-                let pos = if perspective {
-                    c.map(|v| v as f32)
-                } else {
-                    [px[0], px[1], c[2] as f32]
-                };
-                (pos, px)
-            })
-            .unzip();
+        let (pos, pixel): (Vec<[f32; 3]>, Vec<[f32; 2]>) =
+            points.par_iter().map(|&p| project_vertex(view, p)).unzip();
         ProjectedVertices {
             perspective,
+            pos,
+            pixel,
+            s: s_norm.iter().map(|&s| s as f32).collect(),
+            size: (view.width, view.height),
+            pixel_size: view.pixel_size as f32,
+        }
+    }
+
+    /// Like [`ProjectedVertices::new`], on the calling thread only (the
+    /// result is identical: every vertex is transformed independently).
+    pub fn new_sequential(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
+        let (pos, pixel) = points.iter().map(|&p| project_vertex(view, p)).unzip();
+        ProjectedVertices {
+            perspective: matches!(view.projection, Projection::Perspective { .. }),
             pos,
             pixel,
             s: s_norm.iter().map(|&s| s as f32).collect(),
@@ -89,4 +89,22 @@ impl PerspRays {
             1.0,
         ]
     }
+}
+
+/// One world point in the scan converter's space: `(position, pixel)` as
+/// stored in [`ProjectedVertices`].
+#[inline]
+pub fn project_vertex(view: &View, p: [f64; 3]) -> ([f32; 3], [f32; 2]) {
+    let perspective = matches!(view.projection, Projection::Perspective { .. });
+    let c = view.to_camera(p);
+    let px = view
+        .camera_to_pixel(c)
+        .map(|q| [q[0] as f32, q[1] as f32])
+        .unwrap_or([f32::NAN; 2]);
+    let pos = if perspective {
+        c.map(|v| v as f32)
+    } else {
+        [px[0], px[1], c[2] as f32]
+    };
+    (pos, px)
 }

@@ -1,0 +1,233 @@
+//! The compute-time cost model: operation counts ([`OpCounts`]) times unit
+//! costs ([`CostProfile`], seconds per operation) gives the simulated compute
+//! time of a node, the input of the cluster's virtual clock:
+//!
+//! `t = Σ_k count_k · cost_k`
+//!
+//! The model is linear on purpose: every counter is an amount of work of one
+//! kind whose time does not depend on the others to first order (cache
+//! effects are folded into the unit costs of the machine they were measured
+//! on). Where counts are always proportional (every generated segment is
+//! integrated and inserted once) one unit cost covers both.
+//!
+//! Profiles come from two places (see `docs/cost-model.md`):
+//!
+//! - `pvrsim calibrate`: unit costs measured on this machine by timing the
+//!   node renderer's steps and updates and fitting by non-negative least
+//!   squares ([`super::lsq`]); written to `configs/profiles/calibrated.toml`.
+//! - `pentium4` ([`CostProfile::named`]): the calibrated profile scaled, cell
+//!   costs and pixel costs separately, so that the paper's sequential
+//!   Table 1 times are reproduced from our operation counts on `aorta.vtk`.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::ops::OpCounts;
+
+/// Seconds per operation, one per [`OpCounts`] counter (defaults 0).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CostProfile {
+    /// Per vertex transformed to screen space.
+    pub per_vertex_project: f64,
+    /// Per cell received (record built or culled).
+    pub per_cell_receive: f64,
+    /// Per cell tested against the ERT table.
+    pub per_cell_test: f64,
+    /// Per cell scan-converted: face set-up and pixel-range set-up.
+    pub per_cell_setup: f64,
+    /// Per pixel centre tested against a cell.
+    pub per_pixel_test: f64,
+    /// Per ray segment generated: integration and insertion into its list.
+    pub per_segment: f64,
+    /// Per merge by partial composition.
+    pub per_merge: f64,
+    /// ERT update: per pixel list walked.
+    pub per_list_walked: f64,
+    /// ERT update: per list entry visited.
+    pub per_list_entry_walked: f64,
+    /// ERT update: per table entry recomputed.
+    pub per_table_entry: f64,
+    /// ERT update: per pixel depth read while recomputing entries.
+    pub per_table_pixel: f64,
+    /// Per shared-table entry merged.
+    pub per_shared_entry: f64,
+    /// Per cell packed into or unpacked from a work unit.
+    pub per_work_cell: f64,
+}
+
+/// A profile file: a name, notes, and the unit costs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileFile {
+    /// Profile name.
+    pub name: String,
+    /// How it was obtained.
+    #[serde(default)]
+    pub description: String,
+    /// Unit costs, seconds per operation.
+    pub costs: CostProfile,
+}
+
+/// The compute time of `ops` under profile `p`, seconds.
+pub fn compute_time(ops: &OpCounts, p: &CostProfile) -> f64 {
+    let b = breakdown(ops, p);
+    b.receive + b.ert_test + b.scan + b.ert_update + b.share + b.work
+}
+
+/// [`compute_time`] split by phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Breakdown {
+    /// Receiving cells: vertex transform and records.
+    pub receive: f64,
+    /// ERT cell tests.
+    pub ert_test: f64,
+    /// Scan conversion proper: set-up, pixel tests, segments, merges (the paper's Tsc without ERT's own work).
+    pub scan: f64,
+    /// ERT table updates.
+    pub ert_update: f64,
+    /// Merging shared tables.
+    pub share: f64,
+    /// Packing and unpacking work units.
+    pub work: f64,
+}
+
+/// [`compute_time`] by phase.
+pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
+    let f = |n: u64, c: f64| n as f64 * c;
+    Breakdown {
+        receive: f(o.vertices_projected, p.per_vertex_project)
+            + f(o.cells_received, p.per_cell_receive),
+        ert_test: f(o.cells_tested, p.per_cell_test),
+        scan: f(o.cells_projected, p.per_cell_setup)
+            + f(o.pixels_tested, p.per_pixel_test)
+            + f(o.segments_generated, p.per_segment)
+            + f(o.segments_merged, p.per_merge),
+        ert_update: f(o.lists_walked, p.per_list_walked)
+            + f(o.list_entries_walked, p.per_list_entry_walked)
+            + f(o.table_entries_updated, p.per_table_entry)
+            + f(o.table_pixels_read, p.per_table_pixel),
+        share: f(o.shared_entries_merged, p.per_shared_entry),
+        work: f(o.work_cells_moved, p.per_work_cell),
+    }
+}
+
+/// The `pentium4` profile file, built in.
+pub const PENTIUM4_TOML: &str = include_str!("../../configs/profiles/pentium4.toml");
+
+impl CostProfile {
+    /// Every cost multiplied by `k`.
+    pub fn scaled(&self, k: f64) -> CostProfile {
+        self.scaled_split(k, k)
+    }
+
+    /// Per-cell costs (vertex transform, receive, test, set-up, work
+    /// packing) multiplied by `k_cell`, all others (per pixel, segment,
+    /// merge, ERT update, sharing) by `k_pixel`.
+    pub fn scaled_split(&self, k_cell: f64, k_pixel: f64) -> CostProfile {
+        CostProfile {
+            per_vertex_project: self.per_vertex_project * k_cell,
+            per_cell_receive: self.per_cell_receive * k_cell,
+            per_cell_test: self.per_cell_test * k_cell,
+            per_cell_setup: self.per_cell_setup * k_cell,
+            per_work_cell: self.per_work_cell * k_cell,
+            per_pixel_test: self.per_pixel_test * k_pixel,
+            per_segment: self.per_segment * k_pixel,
+            per_merge: self.per_merge * k_pixel,
+            per_list_walked: self.per_list_walked * k_pixel,
+            per_list_entry_walked: self.per_list_entry_walked * k_pixel,
+            per_table_entry: self.per_table_entry * k_pixel,
+            per_table_pixel: self.per_table_pixel * k_pixel,
+            per_shared_entry: self.per_shared_entry * k_pixel,
+        }
+    }
+
+    /// Parses a profile file's text.
+    pub fn parse(text: &str) -> anyhow::Result<ProfileFile> {
+        let f: ProfileFile = toml::from_str(text)?;
+        let c = f.costs;
+        let all = [
+            c.per_vertex_project,
+            c.per_cell_receive,
+            c.per_cell_test,
+            c.per_cell_setup,
+            c.per_pixel_test,
+            c.per_segment,
+            c.per_merge,
+            c.per_list_walked,
+            c.per_list_entry_walked,
+            c.per_table_entry,
+            c.per_table_pixel,
+            c.per_shared_entry,
+            c.per_work_cell,
+        ];
+        anyhow::ensure!(
+            all.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "profile {}: unit costs must be finite and non-negative",
+            f.name
+        );
+        Ok(f)
+    }
+
+    /// Reads a profile file.
+    pub fn load(path: &Path) -> anyhow::Result<ProfileFile> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("reading {}: {e}", path.display()))?;
+        CostProfile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+
+    /// A built-in profile by name: `pentium4`.
+    pub fn named(name: &str) -> anyhow::Result<CostProfile> {
+        match name {
+            "pentium4" => Ok(CostProfile::parse(PENTIUM4_TOML)?.costs),
+            _ => anyhow::bail!("unknown profile {name:?} (built in: pentium4)"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_is_the_dot_product() {
+        let ops = OpCounts {
+            cells_projected: 10,
+            pixels_tested: 100,
+            segments_generated: 50,
+            segments_merged: 20,
+            list_entries_walked: 7,
+            work_cells_moved: 3,
+            ..Default::default()
+        };
+        let p = CostProfile {
+            per_cell_setup: 1e-6,
+            per_pixel_test: 1e-8,
+            per_segment: 1e-7,
+            per_merge: 2e-8,
+            per_list_entry_walked: 1e-9,
+            per_work_cell: 1e-6,
+            ..Default::default()
+        };
+        let want = 10e-6 + 100e-8 + 50e-7 + 20.0 * 2e-8 + 7e-9 + 3e-6;
+        assert!((compute_time(&ops, &p) - want).abs() < 1e-18);
+        let b = breakdown(&ops, &p);
+        assert!((b.scan - (10e-6 + 100e-8 + 50e-7 + 40e-8)).abs() < 1e-18);
+        assert!((compute_time(&ops, &p.scaled(3.0)) - 3.0 * want).abs() < 1e-15);
+        let s = p.scaled_split(2.0, 1.0);
+        assert_eq!(s.per_cell_setup, 2e-6);
+        assert_eq!(s.per_pixel_test, 1e-8);
+    }
+
+    #[test]
+    fn pentium4_loads_and_rejects_negative_costs() {
+        let p = CostProfile::named("pentium4").unwrap();
+        assert!(p.per_cell_setup > 0.0 && p.per_pixel_test >= 0.0);
+        assert!(CostProfile::named("cray").is_err());
+        let bad = "name = \"x\"\n[costs]\nper_pixel_test = -1.0\n";
+        assert!(CostProfile::parse(bad).is_err());
+        let unknown = "name = \"x\"\n[costs]\nper_pixel = 1.0\n";
+        assert!(CostProfile::parse(unknown).is_err());
+    }
+}

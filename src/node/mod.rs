@@ -1,0 +1,38 @@
+//! The computational core of one cluster node (paper §2.2, §3.2, §4.3), with
+//! no network, no clock, no threads and no I/O: everything here is a pure
+//! state machine that a discrete-event simulator, a thread or a TCP server
+//! can drive the same way.
+//!
+//! - [`placement`]: the initial placement of cells on `N` nodes (recursive
+//!   coordinate bisection or a Morton-curve cut), and its screen footprints.
+//! - [`work`]: the [`WorkUnit`] that travels (initial placement and dynamic
+//!   load balancing): cells with the vertex data they need, encoded with
+//!   bincode and validated strictly when decoded.
+//! - [`renderer`]: the [`NodeRenderer`], scan conversion in steps with early
+//!   ray termination on the paper's global `D x D` table, reporting
+//!   operation counts ([`ops`]).
+//! - [`table`]: the [`SharedTable`] that travels between a node and the
+//!   manager (1 bit + one depth per entry), and [`manager_table`]: the
+//!   manager's merge rule.
+//! - [`cost`]: the compute-time cost model, operation counts → seconds.
+//! - [`union`]: a reference composition of all nodes' lists (for tests and
+//!   checks; the real compositor is `src/compositor/`).
+
+pub mod calibration;
+pub mod cost;
+pub mod lsq;
+pub mod manager_table;
+pub mod ops;
+pub mod placement;
+pub mod renderer;
+pub mod table;
+pub mod union;
+pub mod work;
+
+pub use cost::{compute_time, CostProfile};
+pub use manager_table::merge_tables;
+pub use ops::OpCounts;
+pub use placement::{Placement, PlacementMethod};
+pub use renderer::{NodeOptions, NodeRenderer, StepReport};
+pub use table::SharedTable;
+pub use work::{WorkError, WorkUnit};

@@ -1,0 +1,346 @@
+//! Initial placement: the cells cut into `N` parts of equal count (±1),
+//! spatially coherent, like the paper's Fig. 8 where each node holds a
+//! contiguous piece of the vessel (§4.1: "about equal cell counts, nearby
+//! cells on the same processor").
+//!
+//! Two deterministic methods, both on cell centroids:
+//!
+//! - **Recursive coordinate bisection** ([`PlacementMethod::Rcb`]): the
+//!   parts `0..N` are given target counts `floor(M / N)` or `ceil(M / N)`
+//!   (the first `M mod N` get one more). A group of `n` parts is split into
+//!   `floor(n / 2)` and `ceil(n / 2)` parts; its cells are split along the
+//!   longest axis of their centroids' bounding box at the position that
+//!   leaves the left group exactly the sum of its parts' targets (a
+//!   selection, `O(M)` per level, with ties broken by cell id so the result
+//!   never depends on the input order). This handles any `N`, not just
+//!   powers of two: the cut is proportional to the parts on each side.
+//! - **Morton curve** ([`PlacementMethod::Morton`]): centroids quantised to
+//!   21 bits per axis over their bounding box, bits interleaved into a
+//!   63-bit Z-order key, cells sorted by `(key, id)` and cut into `N`
+//!   consecutive runs of the target counts.
+//!
+//! [`Placement::footprints`] reports for a view where each node's cells land
+//! on screen: the bounding box in pixels and the number of pixels covered by
+//! the union of its cells' pixel ranges (each visible cell's bounding
+//! rectangle of pixel centres: a slight over-estimate of the exact coverage,
+//! by the part of each small rectangle the tet does not cover), and how much
+//! the nodes overlap: `sum of covered / union of covered` (1 = no overlap,
+//! `N` = every node covers the same pixels) and the pairwise matrix of shared
+//! pixels. Overlap is what makes ERT sharing pay (the paper's view A vs B).
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::data::TetMesh;
+use crate::render::cell::bin::cell_record;
+use crate::render::cell::project::ProjectedVertices;
+use crate::render::cell::scan::Rect;
+use crate::render::cell::PreparedTf;
+use crate::render::RenderInput;
+
+/// How to cut the mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlacementMethod {
+    /// Recursive coordinate bisection of centroids.
+    Rcb,
+    /// Morton (Z-order) curve of centroids, cut into equal runs.
+    Morton,
+}
+
+/// Cells per node.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Placement {
+    /// Per node, its cells' global ids, ascending.
+    pub parts: Vec<Vec<u32>>,
+}
+
+/// A node's piece in world space.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeWorld {
+    /// Cells held.
+    pub cells: usize,
+    /// Bounding box of its cells' vertices: min corner (`+inf` if empty).
+    pub min: [f64; 3],
+    /// Max corner (`-inf` if empty).
+    pub max: [f64; 3],
+}
+
+impl NodeWorld {
+    /// Volume of the bounding box (0 if empty).
+    pub fn volume(&self) -> f64 {
+        (0..3)
+            .map(|a| (self.max[a] - self.min[a]).max(0.0))
+            .product()
+    }
+}
+
+/// A node's piece on screen.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Footprint {
+    /// Bounding box of covered pixels `[i0, i1, j0, j1]` inclusive, if any.
+    pub bbox: Option<[u32; 4]>,
+    /// Pixels covered by the union of its visible cells' pixel ranges.
+    pub covered: u64,
+}
+
+/// All nodes' footprints and their overlap.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FootprintReport {
+    /// Per node.
+    pub nodes: Vec<Footprint>,
+    /// Sum over nodes of covered pixels.
+    pub sum_covered: u64,
+    /// Pixels covered by at least one node.
+    pub union_covered: u64,
+    /// `sum_covered / union_covered` (1: disjoint; N: all the same).
+    pub overlap: f64,
+    /// `pairwise[a][b]`: pixels covered by both `a` and `b` (diagonal: `covered`).
+    pub pairwise: Vec<Vec<u64>>,
+}
+
+/// Per cell, the centroid of its vertices.
+pub fn centroids(mesh: &TetMesh) -> Vec<[f64; 3]> {
+    mesh.tets
+        .iter()
+        .map(|t| {
+            let mut c = [0.0; 3];
+            for &v in t {
+                for (a, ca) in c.iter_mut().enumerate() {
+                    *ca += mesh.points[v as usize][a];
+                }
+            }
+            c.map(|x| x * 0.25)
+        })
+        .collect()
+}
+
+/// Target counts: `m` cells over `n` parts, the first `m mod n` one larger.
+pub fn targets(m: usize, n: usize) -> Vec<usize> {
+    (0..n).map(|i| m / n + usize::from(i < m % n)).collect()
+}
+
+fn bbox(ids: &[u32], c: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &i in ids {
+        for a in 0..3 {
+            lo[a] = lo[a].min(c[i as usize][a]);
+            hi[a] = hi[a].max(c[i as usize][a]);
+        }
+    }
+    (lo, hi)
+}
+
+fn rcb(ids: &mut [u32], c: &[[f64; 3]], targets: &[usize], out: &mut Vec<Vec<u32>>) {
+    if targets.len() <= 1 {
+        let mut part = ids.to_vec();
+        part.sort_unstable();
+        out.push(part);
+        return;
+    }
+    let (lo, hi) = bbox(ids, c);
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])).then(b.cmp(&a)))
+        .unwrap_or(0);
+    let half = targets.len() / 2;
+    let k: usize = targets[..half].iter().sum();
+    if k > 0 && k < ids.len() {
+        ids.select_nth_unstable_by(k, |&x, &y| {
+            c[x as usize][axis]
+                .total_cmp(&c[y as usize][axis])
+                .then(x.cmp(&y))
+        });
+    }
+    let (l, r) = ids.split_at_mut(k);
+    rcb(l, c, &targets[..half], out);
+    rcb(r, c, &targets[half..], out);
+}
+
+/// Interleaves the low 21 bits of `x`, `y`, `z` (x lowest).
+fn morton3(x: u64, y: u64, z: u64) -> u64 {
+    fn spread(mut v: u64) -> u64 {
+        v &= 0x1f_ffff;
+        v = (v | v << 32) & 0x1f00000000ffff;
+        v = (v | v << 16) & 0x1f0000ff0000ff;
+        v = (v | v << 8) & 0x100f00f00f00f00f;
+        v = (v | v << 4) & 0x10c30c30c30c30c3;
+        (v | v << 2) & 0x1249249249249249
+    }
+    spread(x) | spread(y) << 1 | spread(z) << 2
+}
+
+impl Placement {
+    /// Places the cells of `mesh` on `n >= 1` nodes.
+    pub fn new(mesh: &TetMesh, n: usize, method: PlacementMethod) -> Placement {
+        let n = n.max(1);
+        let c = centroids(mesh);
+        let t = targets(c.len(), n);
+        let mut ids: Vec<u32> = (0..c.len() as u32).collect();
+        let mut parts = Vec::with_capacity(n);
+        match method {
+            PlacementMethod::Rcb => rcb(&mut ids, &c, &t, &mut parts),
+            PlacementMethod::Morton => {
+                let (lo, hi) = bbox(&ids, &c);
+                let q = |v: f64, a: usize| {
+                    let span = hi[a] - lo[a];
+                    if span > 0.0 {
+                        (((v - lo[a]) / span) * ((1u64 << 21) - 1) as f64).round() as u64
+                    } else {
+                        0
+                    }
+                };
+                let mut keyed: Vec<(u64, u32)> = ids
+                    .iter()
+                    .map(|&i| {
+                        let p = c[i as usize];
+                        (morton3(q(p[0], 0), q(p[1], 1), q(p[2], 2)), i)
+                    })
+                    .collect();
+                keyed.sort_unstable();
+                let mut start = 0;
+                for len in t {
+                    let mut part: Vec<u32> =
+                        keyed[start..start + len].iter().map(|&(_, i)| i).collect();
+                    part.sort_unstable();
+                    parts.push(part);
+                    start += len;
+                }
+            }
+        }
+        Placement { parts }
+    }
+
+    /// A placement from explicit parts (e.g. random, for comparison).
+    pub fn from_parts(parts: Vec<Vec<u32>>) -> Placement {
+        Placement { parts }
+    }
+
+    /// Number of nodes.
+    pub fn nodes(&self) -> usize {
+        self.parts.len()
+    }
+
+    /// Per node: cell count and world bounding box.
+    pub fn world(&self, mesh: &TetMesh) -> Vec<NodeWorld> {
+        self.parts
+            .iter()
+            .map(|p| {
+                let mut w = NodeWorld {
+                    cells: p.len(),
+                    min: [f64::INFINITY; 3],
+                    max: [f64::NEG_INFINITY; 3],
+                };
+                for &cell in p {
+                    for &v in &mesh.tets[cell as usize] {
+                        let q = mesh.points[v as usize];
+                        for (a, &qa) in q.iter().enumerate() {
+                            w.min[a] = w.min[a].min(qa);
+                            w.max[a] = w.max[a].max(qa);
+                        }
+                    }
+                }
+                w
+            })
+            .collect()
+    }
+
+    /// Screen footprints and overlap for the view of `input` (see the module docs).
+    pub fn footprints(&self, input: &RenderInput) -> FootprintReport {
+        let view = input.scene.view();
+        let (w, h) = (view.width, view.height);
+        let tf = PreparedTf::new(&input.scene.transfer);
+        let pv = ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
+        let full = Rect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        };
+        let masks: Vec<Vec<bool>> = self
+            .parts
+            .par_iter()
+            .map(|part| {
+                let mut m = vec![false; (w * h) as usize];
+                for &cell in part {
+                    let ids = input.mesh.tets[cell as usize];
+                    if let Ok(rec) = cell_record(cell, ids, &pv, &tf, full) {
+                        let [i0, i1, j0, j1] = rec.range;
+                        for j in j0..=j1 {
+                            m[(j * w + i0) as usize..=(j * w + i1) as usize].fill(true);
+                        }
+                    }
+                }
+                m
+            })
+            .collect();
+        let n = masks.len();
+        let mut pairwise = vec![vec![0u64; n]; n];
+        let mut union = 0u64;
+        let mut bboxes: Vec<Option<[u32; 4]>> = vec![None; n];
+        let mut on = Vec::with_capacity(n);
+        for p in 0..(w * h) as usize {
+            on.clear();
+            on.extend(
+                masks
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, m)| m[p])
+                    .map(|(k, _)| k),
+            );
+            if on.is_empty() {
+                continue;
+            }
+            union += 1;
+            let (i, j) = (p as u32 % w, p as u32 / w);
+            for &a in &on {
+                let b = bboxes[a].get_or_insert([i, i, j, j]);
+                *b = [b[0].min(i), b[1].max(i), b[2].min(j), b[3].max(j)];
+                for &c in &on {
+                    pairwise[a][c] += 1;
+                }
+            }
+        }
+        let nodes: Vec<Footprint> = (0..n)
+            .map(|k| Footprint {
+                bbox: bboxes[k],
+                covered: pairwise[k][k],
+            })
+            .collect();
+        let sum: u64 = nodes.iter().map(|f| f.covered).sum();
+        FootprintReport {
+            overlap: if union > 0 {
+                sum as f64 / union as f64
+            } else {
+                0.0
+            },
+            nodes,
+            sum_covered: sum,
+            union_covered: union,
+            pairwise,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_interleaves() {
+        assert_eq!(morton3(1, 0, 0), 1);
+        assert_eq!(morton3(0, 1, 0), 2);
+        assert_eq!(morton3(0, 0, 1), 4);
+        assert_eq!(morton3(3, 0, 0), 0b1001);
+        assert_eq!(morton3(0x1f_ffff, 0x1f_ffff, 0x1f_ffff), (1u64 << 63) - 1);
+    }
+
+    #[test]
+    fn targets_sum_and_differ_by_at_most_one() {
+        for (m, n) in [(10, 3), (7, 7), (3, 5), (100, 8)] {
+            let t = targets(m, n);
+            assert_eq!(t.iter().sum::<usize>(), m);
+            assert!(t.iter().max().unwrap() - t.iter().min().unwrap() <= 1);
+        }
+    }
+}

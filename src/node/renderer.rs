@@ -1,0 +1,492 @@
+//! [`NodeRenderer`]: the scan-conversion phase of one cluster node, in
+//! steps, with early ray termination on the paper's global `D x D` table.
+//!
+//! ## Model
+//!
+//! The node owns its cells as [`CellRecord`]s (built when a [`WorkUnit`]
+//! arrives: vertices projected, empty and off-screen cells culled, exactly as
+//! the single-machine binning does — the same function, [`cell_record`]),
+//! kept in processing order: front to back by `(nearest depth, cell id)` by
+//! default, the order every tile of the single-machine renderer uses, or by
+//! cell id ("stored"). Cells `[0, next)` are processed, `[next, len)` are not.
+//! It owns whole-screen ray-segment lists (one list per pixel of the image).
+//!
+//! [`NodeRenderer::step`] processes cells in order: with ERT on, each cell is
+//! first tested against the table (the paper tests only cells whose pixel
+//! range fits in one entry, [`ErtSpan::Single`]; [`ErtSpan::Multi`] tests
+//! all cells against every entry they cover; a local max-pyramid can be added
+//! on top), then scan-converted into the lists. A step stops after
+//! `max_cells` cells or at the next update point, whichever comes first.
+//!
+//! ## Update schedule and tables
+//!
+//! As on one machine ([`schedule`]): the table is rebuilt after every
+//! `remaining / C` processed cells (at least one), `remaining` counted at
+//! the previous update (or at the first step). [`NodeRenderer::update_point_reached`]
+//! says when; the driver then calls [`NodeRenderer::update_table`] and, with
+//! weak sharing, sends [`NodeRenderer::local_table`] to the manager and
+//! applies its answer with [`NodeRenderer::apply_shared`]. The update walks
+//! only the lists that changed since the last one (per-pixel termination
+//! depths are cached and only ever decrease, so the paper's "temporarily
+//! deeper `deepest`" cannot happen) and recomputes only the entries whose
+//! pixels changed. Why merging the manager's table is safe: [`super::table`].
+//!
+//! ## Dynamic load balancing: which cells are given
+//!
+//! [`NodeRenderer::give_work`] gives the **last** `floor(remaining * fraction)`
+//! unprocessed cells in processing order — with front-to-back order, the
+//! farthest ones. Reasons: (1) the donor's own order stays intact, so its
+//! ERT sees its front cells first, as without DLB; (2) the far cells are the
+//! ones most likely to be skipped, and with weak sharing the receiver can
+//! skip them against the donor's (and everyone's) terminated entries — the
+//! donor has already scanned the front part of its piece when it gives;
+//! (3) it is O(k) and needs no geometry. The cost: the receiver starts on
+//! cells behind segments it does not hold, so without sharing it skips fewer
+//! of them than the donor would have. A receiver merges the cells into its
+//! own unprocessed cells, in its processing order.
+//!
+//! ## Costs
+//!
+//! Every method that works returns or records [`OpCounts`]; the driver turns
+//! them into simulated seconds with [`super::cost`]. Nothing here reads a
+//! clock, spawns a thread or does I/O.
+
+use std::collections::HashMap;
+
+use super::ops::OpCounts;
+use super::table::{NodeTable, SharedTable, TableError};
+use super::work::{WorkError, WorkUnit};
+use crate::render::cell::bin::{cell_record, CellRecord, Culled};
+use crate::render::cell::ert::pyramid::Pyramid;
+use crate::render::cell::ert::schedule;
+use crate::render::cell::ert::ErtSpan;
+use crate::render::cell::list::SegmentLists;
+use crate::render::cell::project::{PerspRays, ProjectedVertices};
+use crate::render::cell::scan::{Rect, ScanCounts, ScanTarget};
+use crate::render::cell::segment::Segment;
+use crate::render::cell::{scan_cell, CellOrder, Integrator, PreparedTf};
+use crate::scene::View;
+
+/// Early ray termination on a node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeErt {
+    /// Opacity at which a pixel terminates; `>= 1` turns ERT off.
+    pub threshold: f32,
+    /// `D`: the table has `D x D` entries over the whole image.
+    pub divisions: u32,
+    /// Update constant `C`.
+    pub update_c: u32,
+    /// Which cells the table tests (`Single`: the paper).
+    pub span: ErtSpan,
+    /// Also keep a local per-pixel max-pyramid and skip a cell if either says so.
+    pub local_pyramid: bool,
+}
+
+impl NodeErt {
+    /// ERT off.
+    pub const OFF: NodeErt = NodeErt {
+        threshold: 1.0,
+        ..NodeErt::PAPER
+    };
+
+    /// The paper's setting: threshold 0.9, `D = 20`, `C = 100`, single-entry test.
+    pub const PAPER: NodeErt = NodeErt {
+        threshold: 0.9,
+        divisions: 20,
+        update_c: 100,
+        span: ErtSpan::Single,
+        local_pyramid: false,
+    };
+
+    /// Whether ERT runs.
+    pub fn enabled(&self) -> bool {
+        self.threshold < 1.0
+    }
+}
+
+/// Options of a node renderer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeOptions {
+    /// Segment integrator.
+    pub integrator: Integrator,
+    /// Partial composition on insertion.
+    pub partial_composition: bool,
+    /// Processing order.
+    pub cell_order: CellOrder,
+    /// Early ray termination.
+    pub ert: NodeErt,
+}
+
+impl Default for NodeOptions {
+    fn default() -> Self {
+        NodeOptions {
+            integrator: Integrator::Exact,
+            partial_composition: true,
+            cell_order: CellOrder::FrontToBack,
+            ert: NodeErt::PAPER,
+        }
+    }
+}
+
+/// What one [`NodeRenderer::step`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepReport {
+    /// Operation counts.
+    pub ops: OpCounts,
+    /// Cells taken from the queue (tested, skipped or scanned).
+    pub processed: usize,
+    /// Unprocessed cells left.
+    pub remaining: usize,
+    /// Whether an update point has been reached (call `update_table`).
+    pub update_due: bool,
+}
+
+/// One node's scan conversion. See the module docs.
+#[derive(Debug, Clone)]
+pub struct NodeRenderer {
+    view: View,
+    tf: PreparedTf,
+    opts: NodeOptions,
+    full: Rect,
+    persp: Option<PerspRays>,
+    /// Cells, processed ones first.
+    records: Vec<CellRecord>,
+    next: usize,
+    /// Global vertex id → (world position, normalised scalar), for giving work away.
+    vertices: HashMap<u32, ([f64; 3], f32)>,
+    lists: SegmentLists,
+    /// Per pixel, cached termination depth (`+inf`: not terminated).
+    depth: Vec<f32>,
+    table: NodeTable,
+    pyramid: Option<Pyramid>,
+    since_update: usize,
+    interval: Option<usize>,
+    totals: OpCounts,
+}
+
+impl NodeRenderer {
+    /// A node rendering `view` with transfer function `tf`, no cells yet.
+    pub fn new(view: View, tf: PreparedTf, opts: NodeOptions) -> NodeRenderer {
+        let (w, h) = (view.width, view.height);
+        let mut lists = SegmentLists::new(w, h);
+        let ert = opts.ert.enabled();
+        if ert {
+            lists.track_changes();
+        }
+        let persp = ProjectedVertices::new_sequential(&view, &[], &[]);
+        NodeRenderer {
+            view,
+            tf,
+            opts,
+            full: Rect {
+                x0: 0,
+                y0: 0,
+                x1: w,
+                y1: h,
+            },
+            persp: persp.perspective.then(|| persp.rays()),
+            records: Vec::new(),
+            next: 0,
+            vertices: HashMap::new(),
+            lists,
+            depth: if ert {
+                vec![f32::INFINITY; (w * h) as usize]
+            } else {
+                Vec::new()
+            },
+            table: NodeTable::new(w, h, opts.ert.divisions),
+            pyramid: (ert && opts.ert.local_pyramid).then(|| Pyramid::new(w, h, 1, 1)),
+            since_update: 0,
+            interval: None,
+            totals: OpCounts::default(),
+        }
+    }
+
+    /// The options.
+    pub fn options(&self) -> &NodeOptions {
+        &self.opts
+    }
+
+    /// The view.
+    pub fn view(&self) -> &View {
+        &self.view
+    }
+
+    /// Adds a unit of cells (initial placement); validates it first.
+    pub fn add_work(&mut self, unit: &WorkUnit) -> Result<OpCounts, WorkError> {
+        unit.validate()?;
+        let mut ops = OpCounts::default();
+        let s: Vec<f64> = unit.scalars.iter().map(|&s| s as f64).collect();
+        let pv = ProjectedVertices::new_sequential(&self.view, &unit.positions, &s);
+        ops.vertices_projected = unit.vertex_ids.len() as u64;
+        ops.cells_received = unit.len() as u64;
+        for (k, &g) in unit.vertex_ids.iter().enumerate() {
+            self.vertices
+                .insert(g, (unit.positions[k], unit.scalars[k]));
+        }
+        for c in &unit.cells {
+            match cell_record(c.id, c.v, &pv, &self.tf, self.full) {
+                Ok(mut rec) => {
+                    rec.ids = c.v.map(|l| unit.vertex_ids[l as usize]);
+                    self.records.push(rec);
+                }
+                Err(Culled::Empty | Culled::Offscreen | Culled::NoPixelCentre) => {
+                    ops.cells_culled += 1
+                }
+            }
+        }
+        let order = self.opts.cell_order;
+        let rest = &mut self.records[self.next..];
+        match order {
+            CellOrder::FrontToBack => rest.sort_unstable_by_key(|c| c.order_key()),
+            CellOrder::Stored => rest.sort_unstable_by_key(|c| c.cell),
+        }
+        self.totals.add(&ops);
+        Ok(ops)
+    }
+
+    /// Takes a unit given by another node (DLB): [`NodeRenderer::add_work`],
+    /// with the unpacking counted in `work_cells_moved`.
+    pub fn take_work(&mut self, unit: &WorkUnit) -> Result<OpCounts, WorkError> {
+        let mut ops = self.add_work(unit)?;
+        ops.work_cells_moved = unit.len() as u64;
+        self.totals.work_cells_moved += ops.work_cells_moved;
+        Ok(ops)
+    }
+
+    /// Gives away the last `floor(remaining * fraction)` unprocessed cells
+    /// (see the module docs). The packing cost is `work_cells_moved =
+    /// unit.len()`, also added to [`NodeRenderer::totals`].
+    pub fn give_work(&mut self, fraction: f64) -> WorkUnit {
+        let rem = self.remaining();
+        let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
+        let given = self.records.split_off(self.records.len() - k);
+        let vertices = &self.vertices;
+        let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
+        self.totals.work_cells_moved += k as u64;
+        unit
+    }
+
+    /// Unprocessed cells.
+    pub fn remaining(&self) -> usize {
+        self.records.len() - self.next
+    }
+
+    /// Cells processed so far (tested, skipped or scanned).
+    pub fn processed(&self) -> usize {
+        self.next
+    }
+
+    /// Everything counted so far.
+    pub fn totals(&self) -> OpCounts {
+        self.totals
+    }
+
+    /// Cells to process before the next update point (`usize::MAX` without ERT).
+    pub fn cells_until_update(&self) -> usize {
+        if !self.opts.ert.enabled() {
+            return usize::MAX;
+        }
+        let interval = self
+            .interval
+            .unwrap_or_else(|| schedule::interval(self.remaining(), self.opts.ert.update_c));
+        interval.saturating_sub(self.since_update)
+    }
+
+    /// Whether the node should update its table now: ERT is on, cells are
+    /// left, and `remaining / C` cells have been processed since the last update.
+    pub fn update_point_reached(&self) -> bool {
+        self.opts.ert.enabled() && self.remaining() > 0 && self.cells_until_update() == 0
+    }
+
+    /// Processes up to `max_cells` cells, stopping early at an update point.
+    pub fn step(&mut self, max_cells: usize) -> StepReport {
+        let ert = self.opts.ert;
+        if ert.enabled() && self.interval.is_none() {
+            self.interval = Some(schedule::interval(self.remaining(), ert.update_c));
+        }
+        let limit = max_cells.min(self.cells_until_update());
+        let end = self.next + limit.min(self.remaining());
+        let mut ops = OpCounts::default();
+        let mut counts = ScanCounts::default();
+        {
+            let Self {
+                records,
+                lists,
+                table,
+                pyramid,
+                tf,
+                opts,
+                full,
+                persp,
+                ..
+            } = self;
+            let mut target = ScanTarget::new(
+                lists,
+                *full,
+                tf,
+                opts.integrator,
+                opts.partial_composition,
+                &mut counts,
+            );
+            for c in &records[self.next..end] {
+                if ert.enabled() {
+                    ops.cells_tested += 1;
+                    let skip = match ert.span {
+                        ErtSpan::Single => table.skip_single(c.range, c.near),
+                        ErtSpan::Multi => table.skip_multi(c.range, c.near),
+                    } || pyramid.as_ref().is_some_and(|p| p.skip(c.range, c.near));
+                    if skip {
+                        ops.cells_skipped_ert += 1;
+                        continue;
+                    }
+                }
+                ops.cells_projected += 1;
+                ops.cells_degenerate += scan_cell(c, *full, persp.as_ref(), &mut target);
+            }
+            target.flush();
+        }
+        ops.pixels_tested = counts.pixels_tested;
+        ops.segments_generated = counts.segments_generated;
+        ops.segments_merged = counts.segments_merged;
+        let processed = end - self.next;
+        self.next = end;
+        self.since_update += processed;
+        self.totals.add(&ops);
+        StepReport {
+            ops,
+            processed,
+            remaining: self.remaining(),
+            update_due: self.update_point_reached(),
+        }
+    }
+
+    /// Rebuilds the local table (and pyramid) from the lists that changed
+    /// since the last update, and restarts the schedule.
+    pub fn update_table(&mut self) -> OpCounts {
+        let mut ops = OpCounts::default();
+        if !self.opts.ert.enabled() {
+            return ops;
+        }
+        let thr = self.opts.ert.threshold;
+        let w = self.view.width;
+        let Self {
+            lists,
+            depth,
+            table,
+            pyramid,
+            ..
+        } = self;
+        lists.drain_changed(|idx, list| {
+            let (d, walked) = termination_depth_counted(list, thr);
+            ops.lists_walked += 1;
+            ops.list_entries_walked += walked as u64;
+            if d < depth[idx] {
+                depth[idx] = d;
+                let (x, y) = (idx as u32 % w, idx as u32 / w);
+                table.mark(x, y);
+                if let Some(p) = pyramid.as_mut() {
+                    p.mark(x, y);
+                }
+            }
+        });
+        table.rebuild(depth, &mut ops);
+        if let Some(p) = pyramid.as_mut() {
+            p.rebuild(depth);
+        }
+        self.since_update = 0;
+        self.interval = None;
+        self.totals.add(&ops);
+        ops
+    }
+
+    /// The node's own ERT information, to send to the manager.
+    pub fn local_table(&self) -> SharedTable {
+        self.table.local_table()
+    }
+
+    /// Entries per row and column of the ERT table.
+    pub fn table_dims(&self) -> (u32, u32) {
+        self.table.dims()
+    }
+
+    /// Merges the manager's table: per entry the min of everything received
+    /// (safe: see [`super::table`]). Cells are tested against
+    /// `min(local, shared)` from the next step on.
+    pub fn apply_shared(&mut self, t: &SharedTable) -> Result<OpCounts, TableError> {
+        let n = self.table.apply_shared(t)?;
+        let ops = OpCounts {
+            shared_entries_merged: n,
+            ..Default::default()
+        };
+        self.totals.add(&ops);
+        Ok(ops)
+    }
+
+    /// The whole-screen segment lists (row-major over the image), for compositing.
+    pub fn lists(&self) -> &SegmentLists {
+        &self.lists
+    }
+
+    /// The list of pixel `(i, j)`.
+    pub fn list(&self, i: u32, j: u32) -> &[Segment] {
+        self.lists.list((j * self.view.width + i) as usize)
+    }
+
+    /// Global ids of the unprocessed cells, in processing order.
+    pub fn unprocessed_cells(&self) -> impl Iterator<Item = u32> + '_ {
+        self.records[self.next..].iter().map(|c| c.cell)
+    }
+
+    /// Runs the node to completion alone: steps, and updates at every update
+    /// point (no sharing). Returns the total counts of this call.
+    pub fn run_to_end(&mut self) -> OpCounts {
+        let mut ops = OpCounts::default();
+        while self.remaining() > 0 {
+            let r = self.step(usize::MAX);
+            ops.add(&r.ops);
+            if r.update_due {
+                ops.add(&self.update_table());
+            }
+        }
+        ops
+    }
+}
+
+/// [`crate::render::cell::ert::termination_depth`], and the number of list
+/// entries visited.
+pub fn termination_depth_counted(list: &[Segment], threshold: f32) -> (f32, usize) {
+    let mut acc = 0.0f32;
+    for (k, s) in list.iter().enumerate() {
+        acc += (1.0 - acc) * s.rgba.a;
+        if acc >= threshold {
+            return (s.z_back, k + 1);
+        }
+    }
+    (f32::INFINITY, list.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::cell::ert::termination_depth;
+    use crate::render::cell::segment::Rgba;
+
+    #[test]
+    fn counted_depth_agrees() {
+        let seg = |zf: f32, a: f32| Segment {
+            z_front: zf,
+            z_back: zf + 1.0,
+            rgba: Rgba { rgb: [a; 3], a },
+        };
+        let l = [seg(0.0, 0.5), seg(2.0, 0.5), seg(4.0, 0.8)];
+        for thr in [0.3, 0.6, 0.9, 0.99] {
+            assert_eq!(
+                termination_depth_counted(&l, thr).0,
+                termination_depth(&l, thr)
+            );
+        }
+        assert_eq!(termination_depth_counted(&l, 0.6), (3.0, 2));
+        assert_eq!(termination_depth_counted(&l, 0.99).1, 3);
+    }
+}
