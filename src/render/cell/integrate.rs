@@ -176,6 +176,17 @@ impl PreparedTf {
         )
     }
 
+    /// The piece holding the whole scalar interval `[lo, hi]`, if one does
+    /// (then no segment with scalars in it crosses a control point).
+    pub fn single_piece(&self, lo: f32, hi: f32) -> u16 {
+        let i = self.piece_index(lo);
+        if i == self.piece_index(hi) {
+            i as u16
+        } else {
+            NO_PIECE
+        }
+    }
+
     /// Whether the opacity is zero everywhere on `[lo, hi]` (cells whose
     /// scalar interval maps to zero opacity are skipped before projection).
     pub fn is_transparent(&self, lo: f32, hi: f32) -> bool {
@@ -294,6 +305,9 @@ impl PreparedTf {
 /// Lanes in an integration batch.
 pub const BATCH: usize = 32;
 
+/// `Batch::piece_hint` value meaning "look the piece up".
+pub const NO_PIECE: u16 = u16::MAX;
+
 /// Cells of the piece lookup table.
 const LUT: usize = 1024;
 
@@ -312,6 +326,10 @@ pub struct Batch {
     pub len: [f32; BATCH],
     /// Results: premultiplied red, green, blue and alpha.
     pub rgba: [[f32; BATCH]; 4],
+    /// Per lane, the transfer-function piece holding both ends if the caller
+    /// knows it (the whole cell's scalar range lies in one piece), else
+    /// [`NO_PIECE`].
+    pub piece_hint: [u16; BATCH],
     /// Scratch: each lane's transfer-function piece, gathered.
     lanes: Lanes,
 }
@@ -324,6 +342,7 @@ impl Default for Batch {
             s_out: [0.0; BATCH],
             len: [0.0; BATCH],
             rgba: [[0.0; BATCH]; 4],
+            piece_hint: [NO_PIECE; BATCH],
             lanes: Lanes {
                 split: [false; BATCH],
                 s0: [0.0; BATCH],
@@ -381,7 +400,9 @@ impl PreparedTf {
         // Pass 1 (scalar): each lane's piece; a lane whose ends lie in
         // different pieces crosses a control point and is split later.
         for l in 0..b.n {
+            let hint = b.piece_hint[l];
             let (i, split) = match integrator {
+                _ if hint != NO_PIECE => (hint as usize, false),
                 Integrator::Exact => {
                     let i = self.piece_index(b.s_in[l]);
                     (i, i != self.piece_index(b.s_out[l]))

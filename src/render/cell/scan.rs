@@ -11,7 +11,7 @@
 //! silhouette's shape, and no division by zero.
 
 use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
-use super::integrate::{Batch, Integrator, PreparedTf, BATCH};
+use super::integrate::{Batch, Integrator, PreparedTf, BATCH, NO_PIECE};
 use super::list::{Inserted, SegmentLists};
 use super::project::PerspRays;
 use super::segment::Segment;
@@ -79,6 +79,10 @@ pub struct ScanTarget<'a> {
     pub batch: Batch,
     /// Their local pixel index, `z_front` and `z_back`.
     pub pending: [(u32, f32, f32); BATCH],
+    /// The transfer-function piece of the cell being scanned when its whole
+    /// scalar range lies in one piece ([`PreparedTf::single_piece`]), else
+    /// `NO_PIECE`: its segments then skip the per-segment piece look-up.
+    pub cell_piece: u16,
 }
 
 impl<'a> ScanTarget<'a> {
@@ -100,6 +104,7 @@ impl<'a> ScanTarget<'a> {
             counts,
             batch: Batch::default(),
             pending: [(0, 0.0, 0.0); BATCH],
+            cell_piece: NO_PIECE,
         }
     }
 
@@ -111,6 +116,7 @@ impl<'a> ScanTarget<'a> {
         self.batch.s_in[n] = s_in;
         self.batch.s_out[n] = s_out;
         self.batch.len[n] = length;
+        self.batch.piece_hint[n] = self.cell_piece;
         self.pending[n] = (
             (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0),
             z_in,
@@ -202,6 +208,9 @@ fn outside_edge_on(v: f32, a: f32, b: f32) -> bool {
 /// `range = (i0, i1, j0, j1)`.
 #[inline]
 pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarget) {
+    // Scalars are clamped to the cell's range: its segments stay in one
+    // transfer-function piece if the range does.
+    out.cell_piece = out.tf.single_piece(t.s_min, t.s_max);
     // Each non-edge-on face as a depth plane Z = a X + b Y + c. The
     // coefficients are odd/odd ratios of (n, h), so both tets sharing a face get
     // identical ones. Unused slots hold planes at -inf (entries) / +inf (exits).
@@ -276,9 +285,9 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
         }
         let dy = y - t.v0[1];
         let s_row = t.s0 + t.grad[1] * dy;
+        out.counts.pixels_tested += (last - first + 1) as u64;
         for i in first as u32..=last as u32 {
             let x = i as f32 + 0.5;
-            out.counts.pixels_tested += 1;
             // Depth is measured from the eye plane: nothing behind it is seen.
             let z_in = fmax(
                 fmax(
@@ -318,6 +327,9 @@ pub fn scan_persp(
     range: (u32, u32, u32, u32),
     out: &mut ScanTarget,
 ) {
+    // Scalars are clamped to the cell's range: its segments stay in one
+    // transfer-function piece if the range does.
+    out.cell_piece = out.tf.single_piece(t.s_min, t.s_max);
     let (i0, i1, j0, j1) = range;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
