@@ -207,7 +207,8 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
         println!("wrote {}", p.display());
     }
     if let Some(p) = &a.trace {
-        let f = std::fs::File::create(p).with_context(|| format!("cannot write {}", p.display()))?;
+        let f =
+            std::fs::File::create(p).with_context(|| format!("cannot write {}", p.display()))?;
         out.trace.write_chrome_json(std::io::BufWriter::new(f))?;
         println!("wrote {}", p.display());
     }

@@ -96,8 +96,8 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         "--nodes {} is more than this simulator supports (65536)",
         p1.nodes
     );
-    let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let strategy =
+        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
     let list_codec =
         crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let codec = Codec::default();

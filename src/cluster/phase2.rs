@@ -20,8 +20,8 @@
 use std::collections::BTreeMap;
 
 use crate::compositor::codec::Codec as ListCodec;
-use crate::compositor::{CompositeStats, ExecOptions, LocalRun, Payload, RegionLists, RoundKind};
 use crate::compositor::Strategy;
+use crate::compositor::{CompositeStats, ExecOptions, LocalRun, Payload, RegionLists, RoundKind};
 use crate::image::Image;
 use crate::net::{
     Action, Activity, Actor, Event, MessageKind, NetworkModel, NodeId, SimOptions, SimReport,

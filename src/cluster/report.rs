@@ -439,10 +439,18 @@ pub fn summary(r: &ClusterReport) -> String {
         s,
         "cluster: {} nodes + manager, {} clock, network {}, profile {}, ERT {}{}{}, {} / {}",
         r.n_nodes,
-        if r.clock == ClockKind::Virtual { "virtual" } else { "wall" },
+        if r.clock == ClockKind::Virtual {
+            "virtual"
+        } else {
+            "wall"
+        },
         r.network,
         r.profile,
-        if r.ert_threshold < 1.0 { format!("{}", r.ert_threshold) } else { "off".into() },
+        if r.ert_threshold < 1.0 {
+            format!("{}", r.ert_threshold)
+        } else {
+            "off".into()
+        },
         if r.share { " +SHARE" } else { "" },
         if r.dlb { " +DLB" } else { "" },
         r.compositor,
@@ -451,7 +459,18 @@ pub fn summary(r: &ClusterReport) -> String {
     let _ = writeln!(
         s,
         "{:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
-        "node", "Tsc s", "scan s", "share s", "steal s", "idle s", "initial", "done", "skipped", "given", "taken", "bytes sent"
+        "node",
+        "Tsc s",
+        "scan s",
+        "share s",
+        "steal s",
+        "idle s",
+        "initial",
+        "done",
+        "skipped",
+        "given",
+        "taken",
+        "bytes sent"
     );
     for x in r.nodes.iter().take(32) {
         let _ = writeln!(

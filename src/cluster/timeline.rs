@@ -33,7 +33,11 @@ pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
         .max()
         .unwrap_or(nodes)
         .max(nodes);
-    let row_h = if ranks > 40 { (880 / ranks as u32).max(2) } else { ROW_H };
+    let row_h = if ranks > 40 {
+        (880 / ranks as u32).max(2)
+    } else {
+        ROW_H
+    };
     let height = (ranks as u32 * row_h + 130).max(300);
     let end = trace
         .events
@@ -51,16 +55,20 @@ pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d(0.0..end, 0.0..ranks as f64)?;
+        .build_cartesian_2d(0.0..end * 1.16, -0.5..ranks as f64 - 0.5)?;
     let label_every = (ranks / 20).max(1);
     chart
         .configure_mesh()
         .disable_y_mesh()
-        .x_desc("time (s)")
+        .x_desc("time (s); phase 1 (scan, ERT sharing, DLB), then phase 2 (compositing)")
         .y_labels(ranks.min(40) + 1)
         .y_label_formatter(&|y| {
-            let r = (ranks as f64 - y).floor() as usize;
-            if r < nodes && r % label_every == 0 {
+            let r = ranks as i64 - 1 - y.round() as i64;
+            if (y - y.round()).abs() > 1e-6 || r < 0 {
+                return String::new();
+            }
+            let r = r as usize;
+            if r < nodes && r.is_multiple_of(label_every) {
                 format!("node {r}")
             } else if r == nodes {
                 "manager".into()
@@ -83,8 +91,8 @@ pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
             .iter()
             .filter(|e| e.kind == kind && e.end > e.start)
             .map(|e| {
-                let top = ranks as f64 - e.node.index() as f64;
-                Rectangle::new([(e.start, top - 0.1), (e.end, top - 0.9)], c.filled())
+                let c_y = (ranks - 1 - e.node.index()) as f64;
+                Rectangle::new([(e.start, c_y + 0.4), (e.end, c_y - 0.4)], c.filled())
             });
         chart
             .draw_series(rects)?

@@ -92,6 +92,9 @@ pub struct NodeActor {
     done: bool,
     grants_taken: u32,
     chunks_since_progress: u32,
+    /// The latest reply received while out of cells, applied only if cells
+    /// arrive (the manager's table only improves, so the latest supersedes).
+    deferred: Option<SharedTable>,
     stats: NodeStats,
 }
 
@@ -113,6 +116,7 @@ impl NodeActor {
             done: false,
             grants_taken: 0,
             chunks_since_progress: 0,
+            deferred: None,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -162,7 +166,8 @@ impl NodeActor {
         }
         if !self.done {
             self.done = true;
-            if let Ok(a) = Action::send(&self.codec, NodeId::from(self.cfg.manager), &Control::Abort)
+            if let Ok(a) =
+                Action::send(&self.codec, NodeId::from(self.cfg.manager), &Control::Abort)
             {
                 out.push(a);
             }
@@ -233,6 +238,17 @@ impl NodeActor {
             MessageKind::ErtReply => {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
+                let (nx, ny) = self.renderer.table_dims();
+                if (t.nx as u32, t.ny as u32) != (nx, ny) {
+                    return Err(format!(
+                        "{} from {}: table of {}x{} entries, expected {nx}x{ny}",
+                        env.kind, env.from, t.nx, t.ny
+                    ));
+                }
+                if self.waiting {
+                    self.deferred = Some(t);
+                    return Ok(());
+                }
                 let ops = self.renderer.apply_shared(&t).map_err(|e| err(&e))?;
                 let s = self.secs(&ops);
                 self.stats.share_s += s;
@@ -279,7 +295,11 @@ impl NodeActor {
             MessageKind::WorkGrant => {
                 let m: WorkGrant = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let unit = WorkUnit::decode(&m.unit).map_err(|e| err(&e))?;
-                let ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
+                let mut ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
+                if let Some(t) = self.deferred.take() {
+                    ops.add(&self.renderer.apply_shared(&t).map_err(|e| err(&e))?);
+                    self.stats.replies_applied += 1;
+                }
                 let s = self.secs(&ops);
                 self.stats.steal_s += s;
                 self.stats.cells_taken += unit.len() as u64;
