@@ -8,11 +8,13 @@
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod cluster;
 pub mod compositor;
 pub mod data;
 pub mod error;
 pub mod experiment;
 pub mod image;
+pub mod manager;
 pub mod net;
 pub mod node;
 pub mod render;

@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod cluster;
 pub mod demo;
 pub mod info;
 pub mod render;
@@ -33,6 +34,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a PNG with the cell-projection or the reference renderer.
     Render(render::RenderArgs),
+    /// Render on a simulated PC cluster (N nodes + manager): ERT, weak sharing, DLB, compositing; image, report, timeline.
+    Cluster(cluster::ClusterArgs),
     /// Print a mesh file's counts, bounds, fields and mesh quality.
     Info(info::InfoArgs),
     /// Generate the built-in demo dataset, render it, write demo.png and a stats summary.
@@ -49,6 +52,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Cluster(a) => cluster::run(a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Bench(a) => bench::run(a),

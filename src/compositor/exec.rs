@@ -195,6 +195,13 @@ impl<'a> LocalRun<'a> {
         &self.schedule
     }
 
+    /// What `node` holds now: `(pixels, segments)` of its lists, if it
+    /// holds lists (for a simulator's compute-cost model).
+    pub fn held(&self, node: usize) -> Option<(usize, usize)> {
+        let l = self.nodes.get(node)?.lists.as_ref()?;
+        Some((l.pixels(), l.segments().len()))
+    }
+
     /// The round the next [`deliver`](Self::deliver) completes, if any.
     pub fn next_round(&self) -> Option<&Round> {
         self.schedule.rounds.get(self.next)

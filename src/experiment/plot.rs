@@ -31,7 +31,8 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-fn register_fonts() {
+/// Registers DejaVu Sans as plotters' `sans-serif` (once).
+pub fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bytes are a valid TTF shipped by the crate; a failure would only lose text.

@@ -50,14 +50,50 @@ fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
     Ok(execute(&cmd.args, true)?.stats)
 }
 
-/// The sweepable subcommands. A new one (e.g. `cluster`) is one more entry.
-static EXECUTORS: [Executor; 1] = [Executor {
-    command: "render",
-    positional: &["scene"],
-    path_keys: &["scene"],
-    check: render_check,
-    run: render_run,
-}];
+/// `pvrsim cluster`'s options as a stand-alone parser.
+#[derive(Debug, Parser)]
+#[command(name = "pvrsim cluster", no_binary_name = true)]
+struct ClusterCommand {
+    #[command(flatten)]
+    args: crate::cli::cluster::ClusterArgs,
+}
+
+fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
+    ClusterCommand::try_parse_from(argv).map(|_| ())
+}
+
+/// Runs a cluster point; the row's statistics are the report (without the
+/// per-node array and the per-exchange list, to keep rows flat and short).
+fn cluster_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
+    let cmd = ClusterCommand::try_parse_from(argv)?;
+    let out = crate::cli::cluster::execute(&cmd.args)?;
+    let mut v = serde_json::to_value(&out.report)?;
+    if let Some(o) = v.as_object_mut() {
+        o.remove("nodes");
+        if let Some(t) = o.get_mut("t_share").and_then(|t| t.as_object_mut()) {
+            t.remove("per_exchange_s");
+        }
+    }
+    Ok(v)
+}
+
+/// The sweepable subcommands. A new one is one more entry.
+static EXECUTORS: [Executor; 2] = [
+    Executor {
+        command: "render",
+        positional: &["scene"],
+        path_keys: &["scene"],
+        check: render_check,
+        run: render_run,
+    },
+    Executor {
+        command: "cluster",
+        positional: &["scene"],
+        path_keys: &["scene"],
+        check: cluster_check,
+        run: cluster_run,
+    },
+];
 
 /// All sweepable subcommands.
 pub fn executors() -> &'static [Executor] {

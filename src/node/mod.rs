@@ -14,10 +14,13 @@
 //! - [`table`]: the [`SharedTable`] that travels between a node and the
 //!   manager (1 bit + one depth per entry), and [`manager_table`]: the
 //!   manager's merge rule.
+//! - [`actor`]: the [`NodeActor`], phase 1 of a cluster node as a
+//!   [`crate::net::Actor`] (scan in chunks, weak ERT sharing, DLB).
 //! - [`cost`]: the compute-time cost model, operation counts → seconds.
 //! - [`union`]: a reference composition of all nodes' lists (for tests and
 //!   checks; the real compositor is `src/compositor/`).
 
+pub mod actor;
 pub mod calibration;
 pub mod cost;
 pub mod lsq;
@@ -29,6 +32,7 @@ pub mod table;
 pub mod union;
 pub mod work;
 
+pub use actor::{NodeActor, NodeConfig, NodeStats};
 pub use cost::{compute_time, CostProfile};
 pub use manager_table::merge_tables;
 pub use ops::OpCounts;

@@ -438,6 +438,12 @@ impl NodeRenderer {
         self.records[self.next..].iter().map(|c| c.cell)
     }
 
+    /// Global ids of the processed cells (tested, skipped or scanned), in
+    /// processing order.
+    pub fn processed_cells(&self) -> impl Iterator<Item = u32> + '_ {
+        self.records[..self.next].iter().map(|c| c.cell)
+    }
+
     /// Runs the node to completion alone: steps, and updates at every update
     /// point (no sharing). Returns the total counts of this call.
     pub fn run_to_end(&mut self) -> OpCounts {

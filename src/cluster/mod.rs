@@ -1,0 +1,213 @@
+//! The simulated PC cluster: phase 1 (scan conversion with ERT, weak
+//! sharing, DLB — [`phase1`]), phase 2 (compositing — [`phase2`]), the run
+//! report ([`report`]) and the per-node timeline ([`timeline`]).
+//!
+//! ```text
+//! placement ─► N × NodeActor + ManagerActor ─► DES (virtual) or threads (wall)
+//!          ─► per-node lists (canonical) ─► compositor schedule, every message
+//!             replayed through the network model ─► image at rank 0 + report
+//! ```
+//!
+//! [`run`] does it all for one configuration. With [`ClusterConfig::baselines`]
+//! it also runs the two reference points the report's ratios need: the
+//! sequential renderer (one [`crate::node::NodeRenderer`] holding every cell,
+//! same ERT mode, same cost model) and the `Base` cluster (same `N`, ERT,
+//! sharing and DLB off, phase 1 only).
+
+pub mod phase1;
+pub mod phase2;
+pub mod report;
+pub mod timeline;
+
+use crate::compositor::ExecOptions;
+use crate::image::Image;
+use crate::net::{Codec, NetworkModel, SimTrace};
+use crate::node::renderer::NodeErt;
+use crate::node::{CostProfile, NodeOptions, NodeRenderer, Placement, PlacementMethod, WorkUnit};
+use crate::render::cell::PreparedTf;
+use crate::render::RenderInput;
+
+pub use phase1::{ClockKind, Phase1, Phase1Config};
+pub use report::{ClusterReport, NodeReport};
+
+/// Everything a cluster run needs besides the scene.
+#[derive(Debug, Clone)]
+pub struct ClusterConfig {
+    /// Phase-1 protocol (nodes, ERT, sharing, DLB, chunking, clock).
+    pub phase1: Phase1Config,
+    /// Initial placement of cells.
+    pub placement: PlacementMethod,
+    /// Compositing strategy name (`binary-swap`, `direct-send`).
+    pub compositor: String,
+    /// List/pixel codec name (`rle`, `raw`).
+    pub codec: String,
+    /// Network model (and its name for the report).
+    pub network: NetworkModel,
+    /// Name of the network model.
+    pub network_name: String,
+    /// Compute cost profile.
+    pub profile: CostProfile,
+    /// Name of the profile.
+    pub profile_name: String,
+    /// Also run the sequential and Base references (for `share_efficiency`
+    /// and `ideal_speedup`).
+    pub baselines: bool,
+}
+
+/// The outcome of [`run`].
+#[derive(Debug)]
+pub struct ClusterOutcome {
+    /// The final image (rank 0, over the background).
+    pub image: Image,
+    /// The report.
+    pub report: ClusterReport,
+    /// The whole timeline: phase 1 (nodes and manager) and phase 2 (nodes),
+    /// phase 2 shifted to start at the end of phase 1.
+    pub trace: SimTrace,
+}
+
+/// The sequential reference: one node with every cell, same options, no
+/// network. Returns `(modelled seconds, cells skipped by ERT)`.
+pub fn sequential_reference(
+    input: &RenderInput,
+    opts: NodeOptions,
+    profile: &CostProfile,
+) -> anyhow::Result<(f64, u64)> {
+    let mut r = NodeRenderer::new(
+        input.scene.view(),
+        PreparedTf::new(&input.scene.transfer),
+        opts,
+    );
+    let all: Vec<u32> = (0..input.mesh.tets.len() as u32).collect();
+    r.add_work(&WorkUnit::from_mesh(&input.mesh, &input.s_norm, &all))?;
+    let ops = r.run_to_end();
+    Ok((
+        crate::node::compute_time(&ops, profile),
+        ops.cells_skipped_ert,
+    ))
+}
+
+/// Runs one cluster configuration on `input`.
+pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOutcome> {
+    let p1 = &cfg.phase1;
+    anyhow::ensure!(p1.nodes >= 1, "--nodes must be at least 1");
+    anyhow::ensure!(
+        p1.nodes <= 65_536,
+        "--nodes {} is more than this simulator supports (65536)",
+        p1.nodes
+    );
+    let strategy =
+        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
+    let list_codec =
+        crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let codec = Codec::default();
+    let placement = Placement::new(&input.mesh, p1.nodes, cfg.placement);
+    let nodes = phase1::build_nodes(input, &placement, p1, &cfg.profile, codec)?;
+    let ph1 = phase1::run(nodes, p1, &cfg.network, &cfg.profile, codec)?;
+
+    // References for the ratios.
+    let refs = if cfg.baselines {
+        let (seq_s, seq_skipped) = sequential_reference(input, p1.node, &cfg.profile)?;
+        let base_cfg = Phase1Config {
+            node: NodeOptions {
+                ert: NodeErt::OFF,
+                ..p1.node
+            },
+            share: false,
+            dlb: false,
+            clock: ClockKind::Virtual,
+            record_trace: false,
+            ..*p1
+        };
+        let base_tsc = if base_cfg == *p1 {
+            None
+        } else {
+            let nodes = phase1::build_nodes(input, &placement, &base_cfg, &cfg.profile, codec)?;
+            let b = phase1::run(nodes, &base_cfg, &cfg.network, &cfg.profile, codec)?;
+            Some(
+                b.nodes
+                    .iter()
+                    .map(|a| a.stats().tsc_s)
+                    .fold(0.0f64, f64::max),
+            )
+        };
+        Some(report::References {
+            seq_s,
+            seq_skipped,
+            base_tsc_max_s: base_tsc,
+        })
+    } else {
+        None
+    };
+
+    // Phase 2 on canonical lists.
+    let full = crate::render::cell::scan::Rect {
+        x0: 0,
+        y0: 0,
+        x1: input.scene.image.width,
+        y1: input.scene.image.height,
+    };
+    let partial = p1.node.partial_composition;
+    let t2 = std::time::Instant::now();
+    let mut node_stats = Vec::with_capacity(ph1.nodes.len());
+    let mut lists = Vec::with_capacity(ph1.nodes.len());
+    let Phase1 {
+        nodes,
+        manager,
+        end_s,
+        stopped_at,
+        trace: trace1,
+        traffic: traffic1,
+        host_s,
+    } = ph1;
+    for a in nodes {
+        node_stats.push(report::NodeRaw::from_actor(&a));
+        let r = a.into_renderer();
+        lists.push(crate::compositor::RegionLists::canonical(
+            full,
+            r.lists().lists(),
+            partial,
+        ));
+    }
+    let ph2 = phase2::run(
+        strategy.as_ref(),
+        list_codec.as_ref(),
+        lists,
+        ExecOptions {
+            partial,
+            background: input.scene.image.background.map(|c| c as f32),
+            ..Default::default()
+        },
+        &cfg.profile,
+        &cfg.network,
+        p1.record_trace,
+    )?;
+    let host2_s = t2.elapsed().as_secs_f64();
+    let mut trace = trace1;
+    if p1.record_trace {
+        for mut e in ph2.sim.trace.events.iter().cloned() {
+            e.start += end_s;
+            e.end += end_s;
+            trace.events.push(e);
+        }
+    }
+    let report = report::build(report::Inputs {
+        cfg,
+        input,
+        nodes: node_stats,
+        manager: manager.stats().clone(),
+        phase1_end_s: end_s,
+        stopped_at,
+        trace1: &trace,
+        traffic1: &traffic1,
+        phase2: &ph2,
+        refs,
+        host_phase1_s: host_s,
+        host_phase2_s: host2_s,
+    });
+    Ok(ClusterOutcome {
+        image: ph2.image,
+        report,
+        trace,
+    })
+}

@@ -1,0 +1,208 @@
+//! Phase 1 of a cluster run: `N` [`NodeActor`]s and a [`ManagerActor`]
+//! (rank `N`) under either driver — the discrete-event simulator (virtual
+//! clock, deterministic) or real threads over channels (wall clock, compute
+//! charged as the real work done, [`ComputeMode::Skip`]).
+
+use std::time::Instant;
+
+use crate::manager::{ManagerActor, ManagerConfig};
+use crate::net::{
+    run_threads, Action, Actor, ChannelNetwork, Codec, ComputeMode, Event, NetworkModel,
+    SimOptions, SimTrace, Simulation, TrafficStats, WallOptions,
+};
+use crate::node::{
+    CostProfile, NodeActor, NodeConfig, NodeOptions, NodeRenderer, Placement, WorkUnit,
+};
+use crate::render::cell::PreparedTf;
+use crate::render::RenderInput;
+
+/// Which clock drives the run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClockKind {
+    /// Discrete-event simulation on a virtual clock: deterministic, modelled
+    /// compute (cost profile) and network (network model).
+    Virtual,
+    /// Real threads over in-process channels: wall-clock times, compute
+    /// charged as the real work done.
+    Wall,
+}
+
+/// The protocol knobs of phase 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Phase1Config {
+    /// Nodes.
+    pub nodes: usize,
+    /// Node renderer options (ERT, order, partial composition).
+    pub node: NodeOptions,
+    /// Weak ERT sharing through the manager.
+    pub share: bool,
+    /// Dynamic load balancing.
+    pub dlb: bool,
+    /// Most cells per chunk.
+    pub chunk: usize,
+    /// Fraction a donor gives.
+    pub give_fraction: f64,
+    /// Fewest cells a donor gives from.
+    pub min_grant: usize,
+    /// Progress report period in chunks (DLB without sharing).
+    pub progress_every: u32,
+    /// Clock.
+    pub clock: ClockKind,
+    /// Record the timeline.
+    pub record_trace: bool,
+}
+
+/// What phase 1 produced.
+#[derive(Debug)]
+pub struct Phase1 {
+    /// The nodes after the run (renderers with their lists, stats).
+    pub nodes: Vec<NodeActor>,
+    /// The manager after the run.
+    pub manager: ManagerActor,
+    /// End of phase 1: the last node's `Finish` (seconds, virtual or wall).
+    pub end_s: f64,
+    /// Per rank, when it stopped.
+    pub stopped_at: Vec<Option<f64>>,
+    /// The timeline (ranks `0..N` nodes, `N` the manager).
+    pub trace: SimTrace,
+    /// Traffic per kind.
+    pub traffic: TrafficStats,
+    /// Host seconds the run took.
+    pub host_s: f64,
+}
+
+enum Rank<'a> {
+    Node(&'a mut NodeActor),
+    Manager(&'a mut ManagerActor),
+}
+
+impl Actor for Rank<'_> {
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Action> {
+        match self {
+            Rank::Node(a) => a.handle(now, event),
+            Rank::Manager(a) => a.handle(now, event),
+        }
+    }
+}
+
+/// Builds the nodes of a run: placement, one work unit per node (encoded and
+/// decoded, as on the wire), each loaded into its renderer.
+pub fn build_nodes(
+    input: &RenderInput,
+    placement: &Placement,
+    cfg: &Phase1Config,
+    profile: &CostProfile,
+    codec: Codec,
+) -> anyhow::Result<Vec<NodeActor>> {
+    let view = input.scene.view();
+    let tf = PreparedTf::new(&input.scene.transfer);
+    let n = cfg.nodes;
+    placement
+        .parts
+        .iter()
+        .enumerate()
+        .map(|(k, part)| {
+            let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
+            let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
+            let unit = WorkUnit::decode(&unit.encode())?;
+            r.add_work(&unit)?;
+            let nc = NodeConfig {
+                rank: k,
+                manager: n,
+                share: cfg.share && cfg.node.ert.enabled(),
+                dlb: cfg.dlb,
+                chunk: cfg.chunk,
+                give_fraction: cfg.give_fraction,
+                min_grant: cfg.min_grant,
+                progress_every: cfg.progress_every,
+            };
+            Ok(NodeActor::new(nc, r, *profile, codec, part.len() as u64))
+        })
+        .collect()
+}
+
+/// Runs phase 1 over `nodes` (from [`build_nodes`]).
+pub fn run(
+    mut nodes: Vec<NodeActor>,
+    cfg: &Phase1Config,
+    model: &NetworkModel,
+    profile: &CostProfile,
+    codec: Codec,
+) -> anyhow::Result<Phase1> {
+    let n = nodes.len();
+    anyhow::ensure!(n > 0, "a cluster needs at least one node");
+    let (nx, ny) = nodes[0].renderer().table_dims();
+    let mcfg = ManagerConfig {
+        nodes: n,
+        table_dims: (nx as u16, ny as u16),
+        dlb: cfg.dlb,
+        min_grant: cfg.min_grant as u64,
+    };
+    let initial = nodes
+        .iter()
+        .map(|a| a.renderer().remaining() as u64)
+        .collect();
+    let mut manager = ManagerActor::new(mcfg, initial, *profile, codec);
+    let t0 = Instant::now();
+    let (stopped_at, trace, traffic) = {
+        let mut ranks: Vec<Rank> = nodes.iter_mut().map(Rank::Node).collect();
+        ranks.push(Rank::Manager(&mut manager));
+        match cfg.clock {
+            ClockKind::Virtual => {
+                let rep = Simulation::new(model.clone(), ranks)
+                    .with_options(SimOptions {
+                        record_trace: cfg.record_trace,
+                        ..Default::default()
+                    })
+                    .run()?;
+                anyhow::ensure!(
+                    rep.unfinished().is_empty(),
+                    "phase 1 deadlocked: ranks {:?} never finished",
+                    rep.unfinished()
+                );
+                (rep.stopped_at, rep.trace, rep.traffic)
+            }
+            ClockKind::Wall => {
+                let transports = ChannelNetwork::new(n + 1);
+                let rep = run_threads(
+                    &transports,
+                    ranks,
+                    WallOptions {
+                        compute: ComputeMode::Skip,
+                        ..Default::default()
+                    },
+                )?;
+                (
+                    rep.stopped_at.into_iter().map(Some).collect(),
+                    rep.trace,
+                    rep.traffic,
+                )
+            }
+        }
+    };
+    let host_s = t0.elapsed().as_secs_f64();
+    if let Some(e) = &manager.stats().error {
+        anyhow::bail!("phase 1 failed at the manager: {e}");
+    }
+    if let Some((k, e)) = nodes
+        .iter()
+        .enumerate()
+        .find_map(|(k, a)| a.stats().error.as_ref().map(|e| (k, e)))
+    {
+        anyhow::bail!("phase 1 failed at node {k}: {e}");
+    }
+    let end_s = stopped_at[..n]
+        .iter()
+        .flatten()
+        .fold(0.0f64, |a, &b| a.max(b));
+    Ok(Phase1 {
+        nodes,
+        manager,
+        end_s,
+        stopped_at,
+        trace,
+        traffic,
+        host_s,
+    })
+}

@@ -1,0 +1,535 @@
+//! The run report (`--report run.json`). Keys scripts rely on: `frame_s`,
+//! `tsc_max_s`, `tsc_mean_s`, `imbalance`, `share_s_total`, `composite_s`,
+//! `bytes_total`, `bytes_by_kind`, `t_share`, `share_efficiency`,
+//! `ideal_speedup`, `nodes[]`. Host-time measurements, which vary from run
+//! to run, are under `wall` only; in virtual-clock mode everything else is a
+//! deterministic function of the inputs. In wall-clock mode the time keys
+//! hold wall measurements (phase 1 from the threads' timeline; phase 2 is
+//! the in-process compositor's host time, all nodes' work on one thread).
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::phase2::Phase2;
+use super::{ClockKind, ClusterConfig};
+use crate::compositor::CompositeStats;
+use crate::manager::ManagerStats;
+use crate::net::{MessageKind, NodeId, SimTrace, TraceKind, TrafficStats};
+use crate::node::{NodeActor, NodeStats};
+use crate::render::RenderInput;
+
+/// Reference runs for the ratios.
+#[derive(Debug, Clone, Copy)]
+pub struct References {
+    /// Modelled seconds of the sequential run (one node, every cell).
+    pub seq_s: f64,
+    /// Cells it skipped by ERT.
+    pub seq_skipped: u64,
+    /// `tsc_max_s` of the Base cluster (`None`: this run is Base).
+    pub base_tsc_max_s: Option<f64>,
+}
+
+/// A node's numbers taken from its actor before phase 2.
+#[derive(Debug, Clone)]
+pub struct NodeRaw {
+    stats: NodeStats,
+    processed: u64,
+    skipped: u64,
+    culled: u64,
+}
+
+impl NodeRaw {
+    /// Reads the actor.
+    pub fn from_actor(a: &NodeActor) -> NodeRaw {
+        let t = a.renderer().totals();
+        NodeRaw {
+            stats: a.stats().clone(),
+            processed: a.renderer().processed() as u64,
+            skipped: t.cells_skipped_ert,
+            culled: t.cells_culled,
+        }
+    }
+}
+
+/// One node's line of the report.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct NodeReport {
+    /// Rank.
+    pub rank: usize,
+    /// Scan-conversion time: end of the node's last scan chunk (s).
+    pub tsc_s: f64,
+    /// Busy seconds scanning (chunks + ERT updates).
+    pub scan_s: f64,
+    /// Of which ERT table updates.
+    pub update_s: f64,
+    /// Seconds applying shared tables.
+    pub share_s: f64,
+    /// Seconds packing/unpacking stolen cells.
+    pub steal_s: f64,
+    /// Phase-1 seconds with nothing to do (phase-1 end − busy).
+    pub idle_s: f64,
+    /// Phase-2 compute seconds (merging and compositing).
+    pub composite_s: f64,
+    /// Cells placed on the node.
+    pub cells_initial: u64,
+    /// Cells processed (tested, skipped or scanned), own and taken.
+    pub cells_processed: u64,
+    /// Of which skipped by ERT.
+    pub cells_skipped_ert: u64,
+    /// Cells culled on arrival (empty, off screen).
+    pub cells_culled: u64,
+    /// Cells given away (DLB).
+    pub cells_given: u64,
+    /// Cells taken from others (DLB).
+    pub cells_taken: u64,
+    /// ERT tables sent to the manager.
+    pub shares_sent: u64,
+    /// Work requests sent.
+    pub requests_sent: u64,
+    /// Payload bytes sent, phases 1 and 2.
+    pub bytes_sent: u64,
+    /// Of which phase 1.
+    pub bytes_sent_phase1: u64,
+}
+
+/// Cost of the ERT exchanges: per exchange, from the share leaving the
+/// node's NIC to the reply arriving at it (virtual clock; wall: between the
+/// zero-length send and receive marks).
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct TShare {
+    /// Exchanges.
+    pub exchanges: usize,
+    /// Mean seconds.
+    pub mean_s: f64,
+    /// Longest.
+    pub max_s: f64,
+    /// Every exchange, node by node (omitted above 20,000).
+    pub per_exchange_s: Vec<f64>,
+}
+
+/// Host-time measurements (vary from run to run).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct WallInfo {
+    /// Host seconds of phase 1 (simulation or threads).
+    pub host_phase1_s: f64,
+    /// Host seconds of phase 2 (real compositing plus its replay).
+    pub host_phase2_s: f64,
+}
+
+/// The report of one cluster run.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ClusterReport {
+    /// Scene image size.
+    pub image: [u32; 2],
+    /// Cells in the mesh.
+    pub cells_total: u64,
+    /// Number of nodes (the manager is extra).
+    pub n_nodes: usize,
+    /// `virtual` or `wall`.
+    pub clock: ClockKind,
+    /// Network model name.
+    pub network: String,
+    /// Cost profile name.
+    pub profile: String,
+    /// Placement method.
+    pub placement: String,
+    /// Compositing strategy.
+    pub compositor: String,
+    /// Codec.
+    pub codec: String,
+    /// ERT threshold (1 = off).
+    pub ert_threshold: f32,
+    /// ERT table divisions D.
+    pub ert_table: u32,
+    /// ERT update constant C.
+    pub ert_update: u32,
+    /// Weak sharing on (only with ERT).
+    pub share: bool,
+    /// DLB on.
+    pub dlb: bool,
+    /// Phase 1 + phase 2 (s).
+    pub frame_s: f64,
+    /// End of phase 1: the last node told to finish (s).
+    pub phase1_s: f64,
+    /// Slowest node's scan-conversion time (the paper's Table 2 figure).
+    pub tsc_max_s: f64,
+    /// Mean over nodes.
+    pub tsc_mean_s: f64,
+    /// Fastest node.
+    pub tsc_min_s: f64,
+    /// `tsc_max / tsc_mean − 1`.
+    pub imbalance: f64,
+    /// Sum over nodes of seconds applying shared tables.
+    pub share_s_total: f64,
+    /// Sum over nodes of DLB packing/unpacking seconds.
+    pub steal_s_total: f64,
+    /// Sum over nodes of phase-1 idle seconds.
+    pub idle_s_total: f64,
+    /// Phase 2 (compositing and gather to rank 0), seconds.
+    pub composite_s: f64,
+    /// Payload bytes of all messages, both phases.
+    pub bytes_total: u64,
+    /// Payload bytes per message kind (`ert-share`, `ert-reply`,
+    /// `work-request`, `work-grant`, `segments`, `image`, `control`).
+    pub bytes_by_kind: BTreeMap<String, u64>,
+    /// Messages per kind.
+    pub messages_by_kind: BTreeMap<String, u64>,
+    /// ERT exchange times.
+    pub t_share: TShare,
+    /// The manager.
+    pub manager: ManagerStats,
+    /// Cells processed by all nodes (a cell given away is counted once, by its taker).
+    pub cells_processed: u64,
+    /// Cells skipped by ERT on all nodes.
+    pub cells_skipped_ert: u64,
+    /// Cells moved by DLB.
+    pub cells_moved: u64,
+    /// Modelled seconds of the sequential run at the same settings.
+    pub sequential_s: Option<f64>,
+    /// Cells it skipped by ERT.
+    pub sequential_skipped: Option<u64>,
+    /// `tsc_max_s` of Base (ERT, sharing, DLB off) at the same N.
+    pub base_tsc_max_s: Option<f64>,
+    /// Cells skipped by all nodes ÷ cells skipped by the sequential run
+    /// (1: the cluster skips as much as one machine; `null` without ERT).
+    pub share_efficiency: Option<f64>,
+    /// Base `tsc_max_s` ÷ (sequential time / N).
+    pub ideal_speedup: Option<f64>,
+    /// Sequential time ÷ `tsc_max_s`.
+    pub speedup: Option<f64>,
+    /// `speedup / N`.
+    pub efficiency: Option<f64>,
+    /// The compositor's counters (bytes per round, raw vs encoded).
+    pub compositing: CompositeStats,
+    /// One line per node.
+    pub nodes: Vec<NodeReport>,
+    /// Host-time measurements.
+    pub wall: WallInfo,
+}
+
+/// What [`build`] needs.
+pub struct Inputs<'a> {
+    /// The configuration.
+    pub cfg: &'a ClusterConfig,
+    /// The scene.
+    pub input: &'a RenderInput,
+    /// Per node, from the actors.
+    pub nodes: Vec<NodeRaw>,
+    /// The manager's stats.
+    pub manager: ManagerStats,
+    /// End of phase 1.
+    pub phase1_end_s: f64,
+    /// Per rank, when it stopped in phase 1.
+    pub stopped_at: Vec<Option<f64>>,
+    /// Phase-1 timeline.
+    pub trace1: &'a SimTrace,
+    /// Phase-1 traffic.
+    pub traffic1: &'a TrafficStats,
+    /// Phase 2.
+    pub phase2: &'a Phase2,
+    /// References.
+    pub refs: Option<References>,
+    /// Host seconds, phase 1.
+    pub host_phase1_s: f64,
+    /// Host seconds, phase 2.
+    pub host_phase2_s: f64,
+}
+
+/// Per node, per kind, total seconds of distinct spans (the thread driver
+/// records one span per compute action of a handler, all equal).
+fn wall_busy(trace: &SimTrace, n: usize) -> (Vec<f64>, Vec<BTreeMap<TraceKind, f64>>) {
+    let mut last_scan = vec![0.0f64; n];
+    let mut busy = vec![BTreeMap::new(); n];
+    let mut prev: Vec<Option<(f64, f64, TraceKind)>> = vec![None; n];
+    for e in &trace.events {
+        let k = e.node.index();
+        if k >= n || matches!(e.kind, TraceKind::Send | TraceKind::Recv | TraceKind::Idle) {
+            continue;
+        }
+        if prev[k] == Some((e.start, e.end, e.kind)) {
+            continue;
+        }
+        prev[k] = Some((e.start, e.end, e.kind));
+        *busy[k].entry(e.kind).or_insert(0.0) += e.end - e.start;
+        if e.kind == TraceKind::Scan {
+            last_scan[k] = last_scan[k].max(e.end);
+        }
+    }
+    (last_scan, busy)
+}
+
+fn t_share(trace: &SimTrace, n: usize) -> TShare {
+    let manager = NodeId::from(n);
+    let mut sends: Vec<Vec<f64>> = vec![Vec::new(); n];
+    let mut replies: Vec<Vec<f64>> = vec![Vec::new(); n];
+    for e in &trace.events {
+        let k = e.node.index();
+        if k >= n || e.peer != Some(manager) {
+            continue;
+        }
+        match (e.kind, e.message) {
+            (TraceKind::Send, Some(MessageKind::ErtShare)) => sends[k].push(e.start),
+            (TraceKind::Recv, Some(MessageKind::ErtReply)) => replies[k].push(e.end),
+            _ => {}
+        }
+    }
+    let mut all = Vec::new();
+    for k in 0..n {
+        // FIFO per pair: the i-th reply answers the i-th share.
+        for (s, r) in sends[k].iter().zip(&replies[k]) {
+            all.push(r - s);
+        }
+    }
+    let m = all.len();
+    TShare {
+        exchanges: m,
+        mean_s: if m > 0 {
+            all.iter().sum::<f64>() / m as f64
+        } else {
+            0.0
+        },
+        max_s: all.iter().copied().fold(0.0, f64::max),
+        per_exchange_s: if m <= 20_000 { all } else { Vec::new() },
+    }
+}
+
+/// Builds the report.
+pub fn build(i: Inputs) -> ClusterReport {
+    let cfg = i.cfg;
+    let p1 = &cfg.phase1;
+    let n = i.nodes.len();
+    let wall = p1.clock == ClockKind::Wall;
+    let (wall_tsc, wall_busy) = if wall {
+        wall_busy(i.trace1, n)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let nodes: Vec<NodeReport> = i
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let s = &r.stats;
+            let (tsc, scan, share, steal) = if wall {
+                let b = &wall_busy[k];
+                let g = |t| b.get(&t).copied().unwrap_or(0.0);
+                (
+                    wall_tsc[k],
+                    g(TraceKind::Scan),
+                    g(TraceKind::Share),
+                    g(TraceKind::Steal),
+                )
+            } else {
+                (s.tsc_s, s.scan_s, s.share_s, s.steal_s)
+            };
+            NodeReport {
+                rank: k,
+                tsc_s: tsc,
+                scan_s: scan,
+                update_s: if wall { 0.0 } else { s.update_s },
+                share_s: share,
+                steal_s: steal,
+                idle_s: (i.phase1_end_s - scan - share - steal).max(0.0),
+                composite_s: i.phase2.busy_s[k],
+                cells_initial: s.cells_initial,
+                cells_processed: r.processed,
+                cells_skipped_ert: r.skipped,
+                cells_culled: r.culled,
+                cells_given: s.cells_given,
+                cells_taken: s.cells_taken,
+                shares_sent: s.shares_sent,
+                requests_sent: s.requests_sent,
+                bytes_sent: s.bytes_sent + i.phase2.bytes_sent[k],
+                bytes_sent_phase1: s.bytes_sent,
+            }
+        })
+        .collect();
+    let tsc: Vec<f64> = nodes.iter().map(|x| x.tsc_s).collect();
+    let tsc_max = tsc.iter().copied().fold(0.0, f64::max);
+    let tsc_min = tsc.iter().copied().fold(f64::INFINITY, f64::min);
+    let tsc_mean = tsc.iter().sum::<f64>() / n.max(1) as f64;
+    let mut traffic = i.traffic1.clone();
+    traffic.merge(&i.phase2.sim.traffic);
+    let bytes_by_kind = traffic
+        .sent_by_kind
+        .iter()
+        .map(|(k, c)| (k.name().to_string(), c.bytes))
+        .collect();
+    let messages_by_kind = traffic
+        .sent_by_kind
+        .iter()
+        .map(|(k, c)| (k.name().to_string(), c.messages))
+        .collect();
+    let composite_s = if wall {
+        i.host_phase2_s
+    } else {
+        i.phase2.sim.end_time
+    };
+    let skipped: u64 = nodes.iter().map(|x| x.cells_skipped_ert).sum();
+    let ert_on = p1.node.ert.enabled();
+    let refs = i.refs;
+    let seq_s = refs.map(|r| r.seq_s);
+    let base = refs.map(|r| r.base_tsc_max_s.unwrap_or(tsc_max));
+    let speedup = seq_s.filter(|_| tsc_max > 0.0).map(|s| s / tsc_max);
+    ClusterReport {
+        image: [i.input.scene.image.width, i.input.scene.image.height],
+        cells_total: i.input.mesh.tets.len() as u64,
+        n_nodes: n,
+        clock: p1.clock,
+        network: cfg.network_name.clone(),
+        profile: cfg.profile_name.clone(),
+        placement: format!("{:?}", cfg.placement).to_lowercase(),
+        compositor: cfg.compositor.clone(),
+        codec: cfg.codec.clone(),
+        ert_threshold: p1.node.ert.threshold,
+        ert_table: p1.node.ert.divisions,
+        ert_update: p1.node.ert.update_c,
+        share: p1.share && ert_on,
+        dlb: p1.dlb,
+        frame_s: i.phase1_end_s + composite_s,
+        phase1_s: i.phase1_end_s,
+        tsc_max_s: tsc_max,
+        tsc_mean_s: tsc_mean,
+        tsc_min_s: if n > 0 { tsc_min } else { 0.0 },
+        imbalance: if tsc_mean > 0.0 {
+            tsc_max / tsc_mean - 1.0
+        } else {
+            0.0
+        },
+        share_s_total: nodes.iter().map(|x| x.share_s).sum(),
+        steal_s_total: nodes.iter().map(|x| x.steal_s).sum(),
+        idle_s_total: nodes.iter().map(|x| x.idle_s).sum(),
+        composite_s,
+        bytes_total: traffic.total_sent().bytes,
+        bytes_by_kind,
+        messages_by_kind,
+        t_share: t_share(i.trace1, n),
+        manager: i.manager,
+        cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
+        cells_skipped_ert: skipped,
+        cells_moved: nodes.iter().map(|x| x.cells_taken).sum(),
+        sequential_s: seq_s,
+        sequential_skipped: refs.map(|r| r.seq_skipped),
+        base_tsc_max_s: base,
+        share_efficiency: refs
+            .filter(|r| ert_on && r.seq_skipped > 0)
+            .map(|r| skipped as f64 / r.seq_skipped as f64),
+        ideal_speedup: match (base, seq_s) {
+            (Some(b), Some(s)) if s > 0.0 => Some(b / (s / n as f64)),
+            _ => None,
+        },
+        speedup,
+        efficiency: speedup.map(|s| s / n as f64),
+        compositing: i.phase2.stats.clone(),
+        nodes,
+        wall: WallInfo {
+            host_phase1_s: i.host_phase1_s,
+            host_phase2_s: i.host_phase2_s,
+        },
+    }
+}
+
+/// The summary printed at the end of `pvrsim cluster`: one line per node
+/// (at most 32, then totals only) and the totals.
+pub fn summary(r: &ClusterReport) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "cluster: {} nodes + manager, {} clock, network {}, profile {}, ERT {}{}{}, {} / {}",
+        r.n_nodes,
+        if r.clock == ClockKind::Virtual {
+            "virtual"
+        } else {
+            "wall"
+        },
+        r.network,
+        r.profile,
+        if r.ert_threshold < 1.0 {
+            format!("{}", r.ert_threshold)
+        } else {
+            "off".into()
+        },
+        if r.share { " +SHARE" } else { "" },
+        if r.dlb { " +DLB" } else { "" },
+        r.compositor,
+        r.codec
+    );
+    let _ = writeln!(
+        s,
+        "{:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
+        "node",
+        "Tsc s",
+        "scan s",
+        "share s",
+        "steal s",
+        "idle s",
+        "initial",
+        "done",
+        "skipped",
+        "given",
+        "taken",
+        "bytes sent"
+    );
+    for x in r.nodes.iter().take(32) {
+        let _ = writeln!(
+            s,
+            "{:>5} {:>9.4} {:>9.4} {:>8.4} {:>8.4} {:>8.4} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
+            x.rank,
+            x.tsc_s,
+            x.scan_s,
+            x.share_s,
+            x.steal_s,
+            x.idle_s,
+            x.cells_initial,
+            x.cells_processed,
+            x.cells_skipped_ert,
+            x.cells_given,
+            x.cells_taken,
+            x.bytes_sent
+        );
+    }
+    if r.nodes.len() > 32 {
+        let _ = writeln!(s, "  ... ({} more nodes in the report)", r.nodes.len() - 32);
+    }
+    let _ = writeln!(
+        s,
+        "Tsc max {:.4} s, mean {:.4} s, imbalance {:.1} %; phase 1 {:.4} s, phase 2 {:.4} s, frame {:.4} s",
+        r.tsc_max_s,
+        r.tsc_mean_s,
+        100.0 * r.imbalance,
+        r.phase1_s,
+        r.composite_s,
+        r.frame_s
+    );
+    let _ = writeln!(
+        s,
+        "cells: {} processed, {} skipped by ERT, {} moved by DLB; ERT exchanges {} (T_share mean {:.2} ms, max {:.2} ms); manager busy {:.4} s",
+        r.cells_processed,
+        r.cells_skipped_ert,
+        r.cells_moved,
+        r.t_share.exchanges,
+        1e3 * r.t_share.mean_s,
+        1e3 * r.t_share.max_s,
+        r.manager.busy_s
+    );
+    let kinds: Vec<String> = r
+        .bytes_by_kind
+        .iter()
+        .map(|(k, b)| format!("{k} {b}"))
+        .collect();
+    let _ = writeln!(s, "bytes: {} total ({})", r.bytes_total, kinds.join(", "));
+    let opt = |v: Option<f64>, d: usize| v.map_or("n/a".to_string(), |v| format!("{v:.d$}"));
+    let _ = writeln!(
+        s,
+        "sequential {} s, Base Tsc max {} s; speed-up {} (efficiency {}), ideal speed-up {}, share efficiency {}",
+        opt(r.sequential_s, 4),
+        opt(r.base_tsc_max_s, 4),
+        opt(r.speedup, 2),
+        opt(r.efficiency, 3),
+        opt(r.ideal_speedup, 2),
+        opt(r.share_efficiency, 3)
+    );
+    s
+}

@@ -1,0 +1,283 @@
+//! [`ManagerActor`]: the manager rank of phase 1.
+//!
+//! - **Weak ERT sharing.** On an [`ErtShare`] it merges the node's table
+//!   into its own (per entry the minimum `deepest` among terminated entries,
+//!   [`merge_into`]) and answers with the merged table. It never waits for
+//!   anybody: each node exchanges at its own update points.
+//! - **Load information.** The manager keeps, per node, the last
+//!   unprocessed-cell count it heard: from [`ErtShare::remaining`], from
+//!   [`Control::Progress`] (sent by nodes with DLB but without sharing), from
+//!   [`Control::Gave`], and 0 on a [`WorkRequest`]. "The node with the most
+//!   unprocessed cells" is the maximum of these (ties: the lowest rank); the
+//!   counts may be stale, which costs at most a refused forward.
+//! - **Dynamic load balancing.** A [`WorkRequest`] queues the node; the
+//!   manager forwards the oldest waiting request to the busiest node that has
+//!   at least `min_grant` cells and no forward pending. The donor sends the
+//!   cells straight to the requester and reports [`Control::Gave`]; a donor
+//!   with too few cells reports 0 and the request is queued again.
+//! - **End of phase 1.** When every node is idle (its last request counted
+//!   every grant sent to it) and no forward is pending, no cell is left
+//!   anywhere: the manager sends [`Control::Finish`] to all nodes and stops.
+
+use std::collections::VecDeque;
+
+use super::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkRequest};
+use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, NodeId};
+use crate::node::manager_table::merge_into;
+use crate::node::{CostProfile, SharedTable};
+
+/// How the manager works.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ManagerConfig {
+    /// Number of nodes (ranks `0..nodes`; the manager is rank `nodes`).
+    pub nodes: usize,
+    /// ERT table shape `(nx, ny)`.
+    pub table_dims: (u16, u16),
+    /// Dynamic load balancing on.
+    pub dlb: bool,
+    /// Smallest remaining count (as last heard) for a node to be asked to give.
+    pub min_grant: u64,
+}
+
+/// What the manager did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct ManagerStats {
+    /// ERT tables merged.
+    pub shares_merged: u64,
+    /// Entries whose merged value got smaller.
+    pub entries_improved: u64,
+    /// Work requests received.
+    pub requests: u64,
+    /// Forwards sent to donors.
+    pub forwards: u64,
+    /// Forwards a donor refused (too few cells).
+    pub refused: u64,
+    /// Modelled seconds spent merging tables.
+    pub busy_s: f64,
+    /// When the manager sent `Finish` (end of phase 1).
+    pub finish_at: Option<f64>,
+    /// First protocol error seen, if any.
+    pub error: Option<String>,
+}
+
+/// The manager rank. See the module docs.
+#[derive(Debug)]
+pub struct ManagerActor {
+    cfg: ManagerConfig,
+    codec: Codec,
+    profile: CostProfile,
+    table: SharedTable,
+    remaining: Vec<u64>,
+    /// Per node, `grants_taken` of its latest request (`None`: none yet).
+    request_taken: Vec<Option<u32>>,
+    /// Per node, non-empty grants the manager knows were sent to it.
+    grants_to: Vec<u32>,
+    /// Per node, a forward to it as donor is pending.
+    asked: Vec<bool>,
+    /// Per node, a forward on its behalf is pending.
+    pending: Vec<bool>,
+    waiting: VecDeque<usize>,
+    finished: bool,
+    stats: ManagerStats,
+}
+
+impl ManagerActor {
+    /// A manager for `cfg.nodes` nodes whose initial unprocessed-cell counts
+    /// are `initial` (the placement is decided before the run, so the
+    /// manager knows it); merging costs `per_shared_entry` of `profile` per
+    /// entry.
+    pub fn new(
+        cfg: ManagerConfig,
+        initial: Vec<u64>,
+        profile: CostProfile,
+        codec: Codec,
+    ) -> ManagerActor {
+        let n = cfg.nodes;
+        let mut remaining = initial;
+        remaining.resize(n, 0);
+        ManagerActor {
+            table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
+            cfg,
+            codec,
+            profile,
+            remaining,
+            request_taken: vec![None; n],
+            grants_to: vec![0; n],
+            asked: vec![false; n],
+            pending: vec![false; n],
+            waiting: VecDeque::new(),
+            finished: false,
+            stats: ManagerStats::default(),
+        }
+    }
+
+    /// What the manager did.
+    pub fn stats(&self) -> &ManagerStats {
+        &self.stats
+    }
+
+    /// The merged table.
+    pub fn table(&self) -> &SharedTable {
+        &self.table
+    }
+
+    fn idle(&self, j: usize) -> bool {
+        self.request_taken[j] == Some(self.grants_to[j])
+    }
+
+    fn send<M: crate::net::Message>(&mut self, out: &mut Vec<Action>, to: usize, m: &M) {
+        match Action::send(&self.codec, NodeId::from(to), m) {
+            Ok(a) => out.push(a),
+            Err(e) => self.fail(format!("encoding a message to node {to}: {e}")),
+        }
+    }
+
+    fn fail(&mut self, e: String) {
+        if self.stats.error.is_none() {
+            self.stats.error = Some(e);
+        }
+    }
+
+    fn on_message(&mut self, env: Envelope, out: &mut Vec<Action>) -> Result<(), String> {
+        let j = env.from.index();
+        if j >= self.cfg.nodes {
+            return Err(format!("message from unknown rank {}", env.from));
+        }
+        match env.kind {
+            MessageKind::ErtShare => {
+                let m: ErtShare = env.decode(&self.codec).map_err(|e| e.to_string())?;
+                let t = SharedTable::decode(&m.table).map_err(|e| e.to_string())?;
+                let improved = merge_into(&mut self.table, &t).map_err(|e| e.to_string())?;
+                let secs = self.table.len() as f64 * self.profile.per_shared_entry;
+                self.stats.shares_merged += 1;
+                self.stats.entries_improved += improved as u64;
+                self.stats.busy_s += secs;
+                self.remaining[j] = m.remaining;
+                out.push(Action::Compute {
+                    seconds: secs,
+                    activity: Activity::Share,
+                });
+                let reply = ErtReply {
+                    table: self.table.encode(),
+                };
+                self.send(out, j, &reply);
+            }
+            MessageKind::WorkRequest => {
+                let m: WorkRequest = env.decode(&self.codec).map_err(|e| e.to_string())?;
+                self.stats.requests += 1;
+                self.request_taken[j] = Some(m.grants_taken);
+                self.remaining[j] = 0;
+                if self.idle(j) && !self.pending[j] && !self.waiting.contains(&j) {
+                    self.waiting.push_back(j);
+                }
+            }
+            MessageKind::Control => {
+                let m: Control = env.decode(&self.codec).map_err(|e| e.to_string())?;
+                match m {
+                    Control::Progress { remaining } => self.remaining[j] = remaining,
+                    Control::Gave {
+                        to,
+                        cells,
+                        remaining,
+                    } => {
+                        let to = to as usize;
+                        if to >= self.cfg.nodes {
+                            return Err(format!("grant report names unknown node {to}"));
+                        }
+                        self.asked[j] = false;
+                        self.pending[to] = false;
+                        self.remaining[j] = remaining;
+                        if cells > 0 {
+                            self.grants_to[to] += 1;
+                            self.remaining[to] = cells;
+                        } else {
+                            self.stats.refused += 1;
+                        }
+                        // Idle now: either refused, or its request counting
+                        // this grant overtook the report.
+                        if self.idle(to) && !self.waiting.contains(&to) {
+                            self.waiting.push_front(to);
+                        }
+                    }
+                    Control::Abort => {
+                        self.fail(format!("node {j} aborted"));
+                        self.finish(out);
+                    }
+                    Control::Finish => return Err(format!("node {j} sent Finish")),
+                }
+            }
+            other => return Err(format!("unexpected {other} message from node {j}")),
+        }
+        Ok(())
+    }
+
+    fn dispatch(&mut self, out: &mut Vec<Action>) {
+        if !self.cfg.dlb {
+            return;
+        }
+        while let Some(&r) = self.waiting.front() {
+            let donor = (0..self.cfg.nodes)
+                .filter(|&d| d != r && !self.idle(d) && !self.asked[d] && !self.pending[d])
+                .filter(|&d| self.remaining[d] >= self.cfg.min_grant)
+                .max_by_key(|&d| (self.remaining[d], std::cmp::Reverse(d)));
+            let Some(d) = donor else { break };
+            self.waiting.pop_front();
+            self.asked[d] = true;
+            self.pending[r] = true;
+            self.stats.forwards += 1;
+            // Until the donor reports, assume it gives a third.
+            self.remaining[d] -= self.remaining[d] / 3;
+            self.send(
+                out,
+                d,
+                &WorkForward {
+                    requester: r as u32,
+                },
+            );
+        }
+    }
+
+    fn finish(&mut self, out: &mut Vec<Action>) {
+        if self.finished {
+            return;
+        }
+        self.finished = true;
+        for k in 0..self.cfg.nodes {
+            self.send(out, k, &Control::Finish);
+        }
+        out.push(Action::Stop);
+    }
+}
+
+impl Actor for ManagerActor {
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Action> {
+        let mut out = Vec::new();
+        if self.finished {
+            return out;
+        }
+        match event {
+            Event::Start | Event::Wake(_) => {}
+            Event::Message(env) => {
+                if let Err(e) = self.on_message(env, &mut out) {
+                    self.fail(e);
+                    self.finish(&mut out);
+                    return out;
+                }
+            }
+        }
+        self.dispatch(&mut out);
+        let all_idle = (0..self.cfg.nodes).all(|j| self.idle(j));
+        if all_idle && !self.asked.iter().any(|&a| a) && !self.finished {
+            let t: f64 = out
+                .iter()
+                .map(|a| match a {
+                    Action::Compute { seconds, .. } => *seconds,
+                    _ => 0.0,
+                })
+                .sum();
+            self.stats.finish_at = Some(now + t);
+            self.finish(&mut out);
+        }
+        out
+    }
+}

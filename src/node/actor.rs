@@ -1,0 +1,353 @@
+//! [`NodeActor`]: phase 1 of one cluster node as a [`crate::net::Actor`].
+//!
+//! ```text
+//! Start / Wake(SCAN) → step(chunk) up to the next ERT update point     Compute(Scan)
+//!                      at an update point: update_table               Compute(Scan)
+//!                        with sharing: Send(ErtShare) and go on (weak sharing)
+//!                        with DLB, no sharing: Send(Progress) every few chunks
+//!                      cells left: Wake(SCAN); none: Send(WorkRequest), wait
+//! ErtReply           → apply_shared                                  Compute(Share)
+//! WorkForward        → give_work(1/3), Send(WorkGrant) to the requester,
+//!                      Send(Gave) to the manager                      Compute(Steal)
+//! WorkGrant          → take_work, resume scanning                     Compute(Steal)
+//! Finish             → Stop
+//! ```
+//!
+//! Messages are read between chunks only (the driver's inbox semantics), so
+//! a reply that arrives mid-chunk is applied before the next chunk. Every
+//! compute is charged by the [`CostProfile`] from the operation counts of the
+//! work really done. A message that fails to decode is recorded as an error
+//! ([`NodeStats::error`]), reported to the manager with [`Control::Abort`]
+//! (which ends phase 1 for everyone) and the node stops: no panic.
+
+use crate::manager::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkGrant, WorkRequest};
+use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, Message, MessageKind, NodeId};
+use crate::node::{compute_time, CostProfile, NodeRenderer, OpCounts, SharedTable, WorkUnit};
+
+const SCAN: u64 = 1;
+
+/// How a node works in phase 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeConfig {
+    /// The node's rank.
+    pub rank: usize,
+    /// The manager's rank.
+    pub manager: usize,
+    /// Weak sharing of ERT tables through the manager.
+    pub share: bool,
+    /// Dynamic load balancing.
+    pub dlb: bool,
+    /// Most cells per chunk (the inbox is polled between chunks; an ERT
+    /// update point also ends a chunk).
+    pub chunk: usize,
+    /// Fraction of its unprocessed cells a donor gives (the paper: 1/3).
+    pub give_fraction: f64,
+    /// Fewest unprocessed cells a donor keeps giving from (below: refuse).
+    pub min_grant: usize,
+    /// With DLB and no sharing: send a progress report every this many chunks.
+    pub progress_every: u32,
+}
+
+/// What a node did in phase 1 (times are the driver's: virtual or wall).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct NodeStats {
+    /// End of the node's last scan chunk: its scan-conversion time `Tsc`.
+    pub tsc_s: f64,
+    /// Seconds of scan conversion (chunks and ERT updates).
+    pub scan_s: f64,
+    /// Of which ERT table updates.
+    pub update_s: f64,
+    /// Seconds applying the manager's tables.
+    pub share_s: f64,
+    /// Seconds packing and unpacking stolen cells.
+    pub steal_s: f64,
+    /// Cells placed on the node at the start.
+    pub cells_initial: u64,
+    /// Cells given away (DLB).
+    pub cells_given: u64,
+    /// Cells taken from others (DLB).
+    pub cells_taken: u64,
+    /// Tables sent to the manager.
+    pub shares_sent: u64,
+    /// Replies applied.
+    pub replies_applied: u64,
+    /// Work requests sent.
+    pub requests_sent: u64,
+    /// Payload bytes sent, all kinds.
+    pub bytes_sent: u64,
+    /// Payload bytes sent per kind (`MessageKind::name`).
+    pub bytes_sent_by_kind: std::collections::BTreeMap<String, u64>,
+    /// The first error, if the node failed.
+    pub error: Option<String>,
+}
+
+/// One node of phase 1. See the module docs.
+#[derive(Debug)]
+pub struct NodeActor {
+    cfg: NodeConfig,
+    codec: Codec,
+    profile: CostProfile,
+    renderer: NodeRenderer,
+    waiting: bool,
+    done: bool,
+    grants_taken: u32,
+    chunks_since_progress: u32,
+    /// The latest reply received while out of cells, applied only if cells
+    /// arrive (the manager's table only improves, so the latest supersedes).
+    deferred: Option<SharedTable>,
+    stats: NodeStats,
+}
+
+impl NodeActor {
+    /// A node over `renderer`, which already holds its initial cells.
+    pub fn new(
+        cfg: NodeConfig,
+        renderer: NodeRenderer,
+        profile: CostProfile,
+        codec: Codec,
+        cells_initial: u64,
+    ) -> NodeActor {
+        NodeActor {
+            cfg,
+            codec,
+            profile,
+            renderer,
+            waiting: false,
+            done: false,
+            grants_taken: 0,
+            chunks_since_progress: 0,
+            deferred: None,
+            stats: NodeStats {
+                cells_initial,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// The renderer (lists, counters).
+    pub fn renderer(&self) -> &NodeRenderer {
+        &self.renderer
+    }
+
+    /// Takes the renderer out (for phase 2), leaving an empty one behind.
+    pub fn into_renderer(self) -> NodeRenderer {
+        self.renderer
+    }
+
+    /// What the node did.
+    pub fn stats(&self) -> &NodeStats {
+        &self.stats
+    }
+
+    fn secs(&self, ops: &OpCounts) -> f64 {
+        compute_time(ops, &self.profile)
+    }
+
+    fn send<M: Message>(&mut self, out: &mut Vec<Action>, to: usize, m: &M) {
+        match Action::send(&self.codec, NodeId::from(to), m) {
+            Ok(a) => {
+                if let Action::Send { payload, kind, .. } = &a {
+                    self.stats.bytes_sent += payload.len() as u64;
+                    *self
+                        .stats
+                        .bytes_sent_by_kind
+                        .entry(kind.name().to_string())
+                        .or_default() += payload.len() as u64;
+                }
+                out.push(a);
+            }
+            Err(e) => self.fail(out, format!("encoding a message to rank {to}: {e}")),
+        }
+    }
+
+    fn fail(&mut self, out: &mut Vec<Action>, e: String) {
+        if self.stats.error.is_none() {
+            self.stats.error = Some(e);
+        }
+        if !self.done {
+            self.done = true;
+            if let Ok(a) =
+                Action::send(&self.codec, NodeId::from(self.cfg.manager), &Control::Abort)
+            {
+                out.push(a);
+            }
+            out.push(Action::Stop);
+        }
+    }
+
+    /// One chunk of scan conversion, starting at local time `t`.
+    fn scan(&mut self, t: f64, out: &mut Vec<Action>) {
+        let mut t = t;
+        if self.renderer.remaining() > 0 {
+            let r = self.renderer.step(self.cfg.chunk.max(1));
+            let s = self.secs(&r.ops);
+            out.push(Action::Compute {
+                seconds: s,
+                activity: Activity::Scan,
+            });
+            t += s;
+            self.stats.scan_s += s;
+            if r.update_due {
+                let ops = self.renderer.update_table();
+                let s = self.secs(&ops);
+                out.push(Action::Compute {
+                    seconds: s,
+                    activity: Activity::Scan,
+                });
+                t += s;
+                self.stats.scan_s += s;
+                self.stats.update_s += s;
+                if self.cfg.share {
+                    let m = ErtShare {
+                        remaining: self.renderer.remaining() as u64,
+                        table: self.renderer.local_table().encode(),
+                    };
+                    self.stats.shares_sent += 1;
+                    self.send(out, self.cfg.manager, &m);
+                }
+            }
+            self.stats.tsc_s = t;
+            self.chunks_since_progress += 1;
+            if self.cfg.dlb
+                && !self.cfg.share
+                && self.renderer.remaining() > 0
+                && self.chunks_since_progress >= self.cfg.progress_every.max(1)
+            {
+                self.chunks_since_progress = 0;
+                let m = Control::Progress {
+                    remaining: self.renderer.remaining() as u64,
+                };
+                self.send(out, self.cfg.manager, &m);
+            }
+        }
+        if self.renderer.remaining() > 0 {
+            out.push(Action::Wake(SCAN));
+        } else if !self.waiting {
+            self.waiting = true;
+            self.stats.requests_sent += 1;
+            let m = WorkRequest {
+                grants_taken: self.grants_taken,
+            };
+            self.send(out, self.cfg.manager, &m);
+        }
+    }
+
+    fn on_message(&mut self, now: f64, env: Envelope, out: &mut Vec<Action>) -> Result<(), String> {
+        let err = |e: &dyn std::fmt::Display| format!("{} from {}: {e}", env.kind, env.from);
+        match env.kind {
+            MessageKind::ErtReply => {
+                let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
+                let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
+                let (nx, ny) = self.renderer.table_dims();
+                if (t.nx as u32, t.ny as u32) != (nx, ny) {
+                    return Err(format!(
+                        "{} from {}: table of {}x{} entries, expected {nx}x{ny}",
+                        env.kind, env.from, t.nx, t.ny
+                    ));
+                }
+                if self.waiting {
+                    self.deferred = Some(t);
+                    return Ok(());
+                }
+                let ops = self.renderer.apply_shared(&t).map_err(|e| err(&e))?;
+                let s = self.secs(&ops);
+                self.stats.share_s += s;
+                self.stats.replies_applied += 1;
+                out.push(Action::Compute {
+                    seconds: s,
+                    activity: Activity::Share,
+                });
+            }
+            MessageKind::WorkRequest => {
+                let m: WorkForward = env.decode(&self.codec).map_err(|e| err(&e))?;
+                let rem = self.renderer.remaining();
+                let k = (rem as f64 * self.cfg.give_fraction).floor() as usize;
+                let cells = if rem >= self.cfg.min_grant.max(1) && k > 0 {
+                    let before = self.renderer.totals().work_cells_moved;
+                    let unit = self.renderer.give_work(self.cfg.give_fraction);
+                    let ops = OpCounts {
+                        work_cells_moved: self.renderer.totals().work_cells_moved - before,
+                        ..Default::default()
+                    };
+                    let s = self.secs(&ops);
+                    self.stats.steal_s += s;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Steal,
+                    });
+                    let n = unit.len() as u64;
+                    self.stats.cells_given += n;
+                    let g = WorkGrant {
+                        unit: unit.encode(),
+                    };
+                    self.send(out, m.requester as usize, &g);
+                    n
+                } else {
+                    0
+                };
+                let report = Control::Gave {
+                    to: m.requester,
+                    cells,
+                    remaining: self.renderer.remaining() as u64,
+                };
+                self.send(out, self.cfg.manager, &report);
+            }
+            MessageKind::WorkGrant => {
+                let m: WorkGrant = env.decode(&self.codec).map_err(|e| err(&e))?;
+                let unit = WorkUnit::decode(&m.unit).map_err(|e| err(&e))?;
+                let mut ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
+                if let Some(t) = self.deferred.take() {
+                    ops.add(&self.renderer.apply_shared(&t).map_err(|e| err(&e))?);
+                    self.stats.replies_applied += 1;
+                }
+                let s = self.secs(&ops);
+                self.stats.steal_s += s;
+                self.stats.cells_taken += unit.len() as u64;
+                self.grants_taken += 1;
+                out.push(Action::Compute {
+                    seconds: s,
+                    activity: Activity::Steal,
+                });
+                if self.waiting {
+                    self.waiting = false;
+                    self.scan(now + s, out);
+                }
+            }
+            MessageKind::Control => {
+                let m: Control = env.decode(&self.codec).map_err(|e| err(&e))?;
+                match m {
+                    Control::Finish => {
+                        self.done = true;
+                        out.push(Action::Stop);
+                    }
+                    other => return Err(format!("unexpected {other:?} from {}", env.from)),
+                }
+            }
+            other => return Err(format!("unexpected {other} message from {}", env.from)),
+        }
+        Ok(())
+    }
+}
+
+impl Actor for NodeActor {
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Action> {
+        let mut out = Vec::new();
+        if self.done {
+            return out;
+        }
+        match event {
+            Event::Start | Event::Wake(SCAN) => {
+                if !self.waiting {
+                    self.scan(now, &mut out)
+                }
+            }
+            Event::Wake(_) => {}
+            Event::Message(env) => {
+                if let Err(e) = self.on_message(now, env, &mut out) {
+                    self.fail(&mut out, e);
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,375 @@
+//! The cluster: image equal to the sequential render, virtual-clock
+//! determinism, DLB conserves cells through the real protocol, malformed
+//! messages are errors, and the wall-clock driver agrees.
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use pvrsim::cluster::{self, phase1, ClockKind, ClusterConfig, Phase1Config};
+use pvrsim::image::Image;
+use pvrsim::manager::protocol::{Control, ErtReply, ErtShare, WorkGrant};
+use pvrsim::manager::{ManagerActor, ManagerConfig};
+use pvrsim::net::{Action, Actor, Codec, Envelope, Event, MessageKind, NetworkModel, NodeId};
+use pvrsim::node::renderer::NodeErt;
+use pvrsim::node::{CostProfile, NodeOptions, Placement, PlacementMethod};
+use pvrsim::render::cell::{self, CellOptions, ErtOptions};
+use pvrsim::render::RenderInput;
+
+fn small(view: &str) -> RenderInput {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(format!("aorta-small-view-{view}.toml"));
+    RenderInput::load(&path).unwrap().0
+}
+
+fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> ClusterConfig {
+    ClusterConfig {
+        phase1: Phase1Config {
+            nodes: n,
+            node: NodeOptions {
+                ert,
+                ..Default::default()
+            },
+            share,
+            dlb,
+            chunk: 100,
+            give_fraction: 1.0 / 3.0,
+            min_grant: 3,
+            progress_every: 1,
+            clock: ClockKind::Virtual,
+            record_trace: true,
+        },
+        placement: PlacementMethod::Rcb,
+        compositor: compositor.into(),
+        codec: "rle".into(),
+        network: NetworkModel::from_name("gbe").unwrap(),
+        network_name: "gbe".into(),
+        profile: CostProfile::named("pentium4").unwrap(),
+        profile_name: "pentium4".into(),
+        baselines: false,
+    }
+}
+
+fn max_diff(a: &Image, b: &Image) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0, f32::max)
+}
+
+/// ERT off: the cluster's image is the sequential image within rounding.
+/// Not bit for bit: nodes merge touching segments (partial composition) in
+/// their own insertion order before the canonical phase 2, so a run of
+/// touching segments spread over nodes is associated differently than on
+/// one machine. Measured on aorta-small: 0 for N = 1 (bit for bit), at
+/// most 3.0e-7 (view a) and 1.3e-6 (view b) for N = 2..8, both strategies;
+/// the bound is 4e-6 (about 30 ulps of 1.0, 1000 times below an 8-bit step).
+#[test]
+fn image_equals_sequential_without_ert() {
+    for view in ["a", "b"] {
+        let input = small(view);
+        let (seq, _) = cell::render(
+            &input,
+            &CellOptions {
+                ert: ErtOptions::OFF,
+                ..Default::default()
+            },
+        );
+        for n in [1, 2, 3, 5, 8] {
+            for comp in ["binary-swap", "direct-send"] {
+                let out =
+                    cluster::run(&input, &config(n, NodeErt::OFF, false, n > 2, comp)).unwrap();
+                let d = max_diff(&out.image, &seq);
+                eprintln!("view {view} N {n} {comp}: max |diff| = {d:e}");
+                if n == 1 {
+                    assert_eq!(d, 0.0, "view {view} N 1 {comp}");
+                }
+                assert!(d <= 4e-6, "view {view} N {n} {comp}: {d}");
+                assert_eq!(
+                    out.report.cells_processed
+                        + out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+                    input.mesh.tets.len() as u64
+                );
+            }
+        }
+    }
+}
+
+/// ERT on, with sharing and DLB: within the ERT error bound of the full image.
+#[test]
+fn image_within_ert_bound() {
+    for view in ["a", "b"] {
+        let input = small(view);
+        let (full, _) = cell::render(
+            &input,
+            &CellOptions {
+                ert: ErtOptions::OFF,
+                ..Default::default()
+            },
+        );
+        let bound = cell::ert::error_bound(
+            0.9,
+            input.scene.transfer.max_radiance(),
+            input.scene.image.background,
+        ) as f32;
+        for n in [1, 3, 8] {
+            for (share, dlb) in [(false, false), (true, true)] {
+                let out = cluster::run(
+                    &input,
+                    &config(n, NodeErt::PAPER, share, dlb, "binary-swap"),
+                )
+                .unwrap();
+                let d = max_diff(&out.image, &full);
+                eprintln!("view {view} N {n} share {share} dlb {dlb}: {d:.4} (bound {bound:.4})");
+                assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
+            }
+        }
+    }
+}
+
+/// Virtual clock: the same inputs give the same image and the same report
+/// (everything but `wall`), bit for bit.
+#[test]
+fn virtual_clock_is_deterministic() {
+    let input = small("b");
+    let mut cfg = config(5, NodeErt::PAPER, true, true, "binary-swap");
+    cfg.baselines = true;
+    let run = || {
+        let out = cluster::run(&input, &cfg).unwrap();
+        let mut v = serde_json::to_value(&out.report).unwrap();
+        v.as_object_mut().unwrap().remove("wall");
+        (out.image, serde_json::to_string(&v).unwrap(), out.trace)
+    };
+    let (i1, r1, t1) = run();
+    let (i2, r2, t2) = run();
+    assert_eq!(i1.pixels, i2.pixels);
+    assert_eq!(r1, r2);
+    assert_eq!(t1, t2);
+    let v: serde_json::Value = serde_json::from_str(&r1).unwrap();
+    for key in [
+        "frame_s",
+        "tsc_max_s",
+        "tsc_mean_s",
+        "imbalance",
+        "share_s_total",
+        "composite_s",
+        "bytes_total",
+        "share_efficiency",
+        "ideal_speedup",
+    ] {
+        assert!(v[key].is_number(), "report key {key}: {}", v[key]);
+    }
+    assert!(v["bytes_by_kind"]["ert-share"].as_u64().unwrap() > 0);
+    assert_eq!(v["nodes"].as_array().unwrap().len(), 5);
+}
+
+/// The wall-clock driver (real threads) gives the same image as the
+/// simulator when nothing depends on timing (ERT and DLB off).
+#[test]
+fn wall_clock_matches_virtual_without_dlb() {
+    let input = small("a");
+    let cfg = config(3, NodeErt::OFF, false, false, "direct-send");
+    let mut wall = cfg.clone();
+    wall.phase1.clock = ClockKind::Wall;
+    let v = cluster::run(&input, &cfg).unwrap();
+    let w = cluster::run(&input, &wall).unwrap();
+    assert_eq!(v.image.pixels, w.image.pixels);
+    assert!(w.report.tsc_max_s > 0.0);
+    // With DLB and sharing the protocol also terminates on threads.
+    let mut wall = config(4, NodeErt::PAPER, true, true, "binary-swap");
+    wall.phase1.clock = ClockKind::Wall;
+    let w = cluster::run(&input, &wall).unwrap();
+    assert_eq!(
+        w.report.cells_processed + w.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+        input.mesh.tets.len() as u64
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, .. ProptestConfig::default() })]
+
+    /// DLB through the actual protocol never loses or duplicates a cell,
+    /// whatever the initial loads (random cut points, empty nodes allowed).
+    #[test]
+    fn dlb_conserves_cells(cuts in proptest::collection::vec(0.0f64..1.0, 1..7), share in any::<bool>(), chunk in 20usize..400) {
+        let input = small("b");
+        let m = input.mesh.tets.len();
+        let mut pts: Vec<usize> = cuts.iter().map(|c| (c * c * m as f64) as usize).collect();
+        pts.sort_unstable();
+        let mut parts = Vec::new();
+        let mut prev = 0;
+        for p in pts.into_iter().chain([m]) {
+            parts.push((prev as u32..p as u32).collect::<Vec<u32>>());
+            prev = p;
+        }
+        let n = parts.len();
+        let placement = Placement::from_parts(parts);
+        let mut cfg = config(n, NodeErt::PAPER, share, true, "binary-swap").phase1;
+        cfg.chunk = chunk;
+        cfg.record_trace = false;
+        let profile = CostProfile::named("pentium4").unwrap();
+        let codec = Codec::default();
+        let nodes = phase1::build_nodes(&input, &placement, &cfg, &profile, codec).unwrap();
+        let model = NetworkModel::from_name("gbe").unwrap();
+        let p = phase1::run(nodes, &cfg, &model, &profile, codec).unwrap();
+        let mut seen = vec![false; m];
+        let mut culled = 0u64;
+        for a in &p.nodes {
+            prop_assert_eq!(a.renderer().remaining(), 0);
+            culled += a.renderer().totals().cells_culled;
+            for c in a.renderer().processed_cells() {
+                prop_assert!(!seen[c as usize], "cell {} processed twice", c);
+                seen[c as usize] = true;
+            }
+        }
+        let processed = seen.iter().filter(|&&s| s).count() as u64;
+        prop_assert_eq!(processed + culled, m as u64);
+        let given: u64 = p.nodes.iter().map(|a| a.stats().cells_given).sum();
+        let taken: u64 = p.nodes.iter().map(|a| a.stats().cells_taken).sum();
+        prop_assert_eq!(given, taken);
+    }
+}
+
+fn node_actor(input: &RenderInput) -> pvrsim::node::NodeActor {
+    let cfg = config(2, NodeErt::PAPER, true, true, "binary-swap").phase1;
+    let placement = Placement::new(&input.mesh, 2, PlacementMethod::Rcb);
+    phase1::build_nodes(
+        input,
+        &placement,
+        &cfg,
+        &CostProfile::default(),
+        Codec::default(),
+    )
+    .unwrap()
+    .remove(0)
+}
+
+fn env(kind: MessageKind, payload: Vec<u8>) -> Event {
+    Event::Message(Envelope {
+        from: NodeId(2),
+        to: NodeId(0),
+        kind,
+        payload,
+    })
+}
+
+/// A message that fails to decode is an error (recorded, reported to the
+/// manager, the node stops), never a panic; same at the manager.
+#[test]
+fn malformed_messages_are_errors() {
+    let input = small("a");
+    let codec = Codec::default();
+    let bad: Vec<(MessageKind, Vec<u8>)> = vec![
+        (MessageKind::ErtReply, vec![1, 2, 3]),
+        (
+            MessageKind::ErtReply,
+            codec.encode(&ErtReply { table: vec![9; 40] }).unwrap(),
+        ),
+        (
+            MessageKind::WorkGrant,
+            codec
+                .encode(&WorkGrant {
+                    unit: vec![0xff; 64],
+                })
+                .unwrap(),
+        ),
+        (MessageKind::WorkRequest, vec![]),
+        (MessageKind::Control, vec![200, 0, 0, 0]),
+        (MessageKind::Segments, vec![0; 30]),
+    ];
+    for (kind, payload) in bad {
+        let mut a = node_actor(&input);
+        let out = a.handle(0.0, env(kind, payload));
+        assert!(a.stats().error.is_some(), "{kind}: no error");
+        assert!(out.contains(&Action::Stop), "{kind}: did not stop");
+        assert!(out.iter().any(|x| matches!(
+            x,
+            Action::Send {
+                kind: MessageKind::Control,
+                ..
+            }
+        )));
+        // A stopped node ignores everything afterwards.
+        assert!(a.handle(0.0, Event::Start).is_empty());
+    }
+    // The manager: a forged table, and an unknown sender.
+    let mk = || {
+        ManagerActor::new(
+            ManagerConfig {
+                nodes: 2,
+                table_dims: (20, 20),
+                dlb: true,
+                min_grant: 3,
+            },
+            vec![10, 10],
+            CostProfile::default(),
+            codec,
+        )
+    };
+    let mut m = mk();
+    let share = codec
+        .encode(&ErtShare {
+            remaining: 5,
+            table: vec![20, 0, 20, 0, 1],
+        })
+        .unwrap();
+    let out = m.handle(
+        0.0,
+        Event::Message(Envelope {
+            from: NodeId(0),
+            to: NodeId(2),
+            kind: MessageKind::ErtShare,
+            payload: share,
+        }),
+    );
+    assert!(m.stats().error.is_some());
+    assert!(out.contains(&Action::Stop));
+    let mut m = mk();
+    let fin = codec.encode(&Control::Finish).unwrap();
+    m.handle(
+        0.0,
+        Event::Message(Envelope {
+            from: NodeId(7),
+            to: NodeId(2),
+            kind: MessageKind::Control,
+            payload: fin,
+        }),
+    );
+    assert!(m.stats().error.is_some());
+    // And the whole run reports it as an error: a node whose table shape is
+    // not the manager's is refused by the manager's merge.
+    let mut m = mk();
+    let other = pvrsim::node::SharedTable::empty(3, 3).encode();
+    let share = codec
+        .encode(&ErtShare {
+            remaining: 5,
+            table: other,
+        })
+        .unwrap();
+    m.handle(
+        0.0,
+        Event::Message(Envelope {
+            from: NodeId(1),
+            to: NodeId(2),
+            kind: MessageKind::ErtShare,
+            payload: share,
+        }),
+    );
+    assert!(m.stats().error.as_deref().unwrap_or("").contains("entries"));
+}
+
+/// 256 nodes on aorta-small (more nodes than the mesh has cells per node on
+/// some of them): the protocol finishes and conserves cells.
+#[test]
+fn many_nodes() {
+    let input = small("b");
+    let mut cfg = config(256, NodeErt::PAPER, true, true, "binary-swap");
+    cfg.phase1.record_trace = false;
+    let out = cluster::run(&input, &cfg).unwrap();
+    assert_eq!(out.report.nodes.len(), 256);
+    assert_eq!(
+        out.report.cells_processed + out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+        input.mesh.tets.len() as u64
+    );
+}
