@@ -72,6 +72,9 @@ pub struct RawPlot {
     /// Title (default: the sweep name).
     #[serde(default)]
     pub title: Option<String>,
+    /// Keep only runs whose parameters have these values (e.g. one view of a zip).
+    #[serde(default, rename = "where")]
+    pub filter: toml::Table,
 }
 
 /// A string or a list of strings.
@@ -129,6 +132,8 @@ pub struct PlotSpec {
     pub log_y: bool,
     /// Title.
     pub title: String,
+    /// Only runs whose parameter (first) has the value (second, as in the CSV).
+    pub filter: Vec<(String, String)>,
     /// `plot[i]`, for messages.
     pub key: String,
 }
@@ -368,6 +373,20 @@ impl Plan {
             }
             files.push(file.clone());
             let title = p.title.unwrap_or_else(|| name.clone());
+            let mut filter = Vec::new();
+            for (k, v) in &p.filter {
+                if !params.contains(k) {
+                    return Err(err(format!(
+                        "{key}.where: `{k}` is not a parameter of this sweep (parameters: {})",
+                        params.join(", ")
+                    )));
+                }
+                let v = match v {
+                    toml::Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                };
+                filter.push((k.clone(), v));
+            }
             plots.push(PlotSpec {
                 x: p.x,
                 y,
@@ -377,6 +396,7 @@ impl Plan {
                 log_x: p.log_x,
                 log_y: p.log_y,
                 title,
+                filter,
                 key,
             });
         }

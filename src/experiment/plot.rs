@@ -44,6 +44,18 @@ fn register_fonts() {
     });
 }
 
+/// A legend value: a path is shown by its file stem (`aorta-view-b`).
+fn short_value(v: &str) -> String {
+    if v.contains('/') {
+        Path::new(v)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| v.to_string())
+    } else {
+        v.to_string()
+    }
+}
+
 /// One series of points.
 #[derive(Debug, Clone)]
 struct Series {
@@ -79,6 +91,11 @@ pub fn draw(
         .iter()
         .flat_map(|p| results.rows_of(p))
         .filter(|r| r.get("status").map(String::as_str) == Some(OK))
+        .filter(|r| {
+            spec.filter
+                .iter()
+                .all(|(k, v)| r.get(k).map(String::as_str) == Some(v.as_str()))
+        })
         .collect();
     if rows.is_empty() {
         return Err(format!("{file}: {}: no successful run to plot", spec.key));
@@ -113,7 +130,11 @@ pub fn draw(
             if spec.y.len() > 1 {
                 parts.push(y.clone());
             }
-            parts.extend(spec.series.iter().map(|s| format!("{s}={}", get(r, s))));
+            parts.extend(
+                spec.series
+                    .iter()
+                    .map(|s| format!("{s}={}", short_value(&get(r, s)))),
+            );
             let label = parts.join(", ");
             let (Some(x), Ok(yv)) = (x_of(r), get(r, y).parse::<f64>()) else {
                 dropped += 1;
