@@ -75,6 +75,10 @@ pub struct RawPlot {
     /// Keep only runs whose parameters have these values (e.g. one view of a zip).
     #[serde(default, rename = "where")]
     pub filter: toml::Table,
+    /// Legend corner: `upper-right` (default), `upper-left`, `lower-left`,
+    /// `lower-right`, `upper-middle`, `lower-middle`, `middle-left`, `middle-right`.
+    #[serde(default)]
+    pub legend: Option<String>,
 }
 
 /// A string or a list of strings.
@@ -113,6 +117,18 @@ pub enum PlotKind {
     Scatter,
 }
 
+/// Accepted values of a plot's `legend`.
+pub const LEGEND_POSITIONS: [&str; 8] = [
+    "upper-right",
+    "upper-left",
+    "lower-left",
+    "lower-right",
+    "upper-middle",
+    "lower-middle",
+    "middle-left",
+    "middle-right",
+];
+
 /// A validated plot.
 #[derive(Debug, Clone)]
 pub struct PlotSpec {
@@ -134,6 +150,8 @@ pub struct PlotSpec {
     pub title: String,
     /// Only runs whose parameter (first) has the value (second, as in the CSV).
     pub filter: Vec<(String, String)>,
+    /// Legend corner (one of [`LEGEND_POSITIONS`]).
+    pub legend: String,
     /// `plot[i]`, for messages.
     pub key: String,
 }
@@ -387,6 +405,13 @@ impl Plan {
                 };
                 filter.push((k.clone(), v));
             }
+            let legend = p.legend.unwrap_or_else(|| "upper-right".into());
+            if !LEGEND_POSITIONS.contains(&legend.as_str()) {
+                return Err(err(format!(
+                    "{key}.legend: `{legend}` is not one of {}",
+                    LEGEND_POSITIONS.join(", ")
+                )));
+            }
             plots.push(PlotSpec {
                 x: p.x,
                 y,
@@ -397,6 +422,7 @@ impl Plan {
                 log_y: p.log_y,
                 title,
                 filter,
+                legend,
                 key,
             });
         }

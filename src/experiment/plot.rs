@@ -354,7 +354,16 @@ where
     if labelled {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(match spec.legend.as_str() {
+                "upper-left" => SeriesLabelPosition::UpperLeft,
+                "lower-left" => SeriesLabelPosition::LowerLeft,
+                "lower-right" => SeriesLabelPosition::LowerRight,
+                "upper-middle" => SeriesLabelPosition::UpperMiddle,
+                "lower-middle" => SeriesLabelPosition::LowerMiddle,
+                "middle-left" => SeriesLabelPosition::MiddleLeft,
+                "middle-right" => SeriesLabelPosition::MiddleRight,
+                _ => SeriesLabelPosition::UpperRight,
+            })
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
             .label_font(("sans-serif", 15))
