@@ -110,7 +110,10 @@ fn tiny_sweep_runs_records_skips_and_forces() {
         };
         pvrsim::cli::render::execute(&a, true).unwrap().stats
     };
-    let n_stats = direct.as_object().unwrap().len();
+    // Nested objects (e.g. `cell_pixels_hist`) become one column per leaf.
+    let mut leaves = Vec::new();
+    pvrsim::experiment::results::flatten("", &direct, &mut leaves);
+    let n_stats = leaves.len();
     assert_eq!(header.len(), expected_first.len() + n_stats, "{header:?}");
     for c in [
         "time_scan_s",

@@ -44,6 +44,12 @@ fn register_fonts() {
     });
 }
 
+/// Whether a CSV value matches a `where` value: equal text, or equal numbers
+/// (`1` matches `1.0`).
+fn same_value(csv: &str, want: &str) -> bool {
+    csv == want || matches!((csv.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
+}
+
 /// A legend value: a path is shown by its file stem (`aorta-view-b`).
 fn short_value(v: &str) -> String {
     if v.contains('/') {
@@ -94,7 +100,7 @@ pub fn draw(
         .filter(|r| {
             spec.filter
                 .iter()
-                .all(|(k, v)| r.get(k).map(String::as_str) == Some(v.as_str()))
+                .all(|(k, v)| r.get(k).is_some_and(|x| same_value(x, v)))
         })
         .collect();
     if rows.is_empty() {
@@ -371,4 +377,27 @@ where
     }
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn where_values_match_as_text_or_number() {
+        assert!(same_value("1", "1.0"));
+        assert!(same_value("0.9", "0.9"));
+        assert!(same_value("flat", "flat"));
+        assert!(!same_value("0.9", "0.95"));
+        assert!(!same_value("flat", "pyramid"));
+    }
+
+    #[test]
+    fn legend_values_shorten_paths() {
+        assert_eq!(
+            short_value("../../shared/data/aorta-view-b.toml"),
+            "aorta-view-b"
+        );
+        assert_eq!(short_value("0.9"), "0.9");
+    }
 }
