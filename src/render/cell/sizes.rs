@@ -44,19 +44,68 @@ pub fn bin_key(v: u64) -> String {
     format!("{:05}-{:05}", lo, 2 * lo - 1)
 }
 
-/// The `q`-quantile (0..=1) of `v` (nearest rank); reorders `v`.
-fn quantile(v: &mut [u64], q: f64) -> u64 {
-    if v.is_empty() {
-        return 0;
+/// Counts per exact value (index = value), grown on demand: cell sizes are
+/// small integers, so this is one cheap pass with no sort.
+#[derive(Default)]
+struct Counts(Vec<u64>);
+
+impl Counts {
+    fn add(&mut self, v: u64) {
+        let v = v as usize;
+        if v >= self.0.len() {
+            self.0.resize(v + 1, 0);
+        }
+        self.0[v] += 1;
     }
-    let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    *v.select_nth_unstable(k).1
+
+    fn total(&self) -> u64 {
+        self.0.iter().sum()
+    }
+
+    /// Power-of-two histogram (value 0 counts as 1), keyed by [`bin_key`].
+    fn histogram(&self) -> BTreeMap<String, u64> {
+        let mut bins = [0u64; 64];
+        for (v, &n) in self.0.iter().enumerate() {
+            bins[63 - (v as u64).max(1).leading_zeros() as usize] += n;
+        }
+        bins.iter()
+            .enumerate()
+            .filter(|(_, &n)| n > 0)
+            .map(|(k, &n)| (bin_key(1 << k), n))
+            .collect()
+    }
+
+    /// The `q`-quantile (0..=1), nearest rank; 0 when empty.
+    fn quantile(&self, q: f64) -> u64 {
+        let total = self.total();
+        if total == 0 {
+            return 0;
+        }
+        let rank = ((q * total as f64).ceil() as u64).clamp(1, total);
+        let mut seen = 0;
+        for (v, &n) in self.0.iter().enumerate() {
+            seen += n;
+            if seen >= rank {
+                return v as u64;
+            }
+        }
+        (self.0.len() - 1) as u64
+    }
+
+    fn mean(&self) -> f64 {
+        let total = self.total();
+        if total == 0 {
+            return 0.0;
+        }
+        let sum: u64 = self.0.iter().enumerate().map(|(v, &n)| v as u64 * n).sum();
+        sum as f64 / total as f64
+    }
 }
 
 /// Size statistics of the cells in `binning`.
 pub fn cell_sizes(binning: &Binning) -> CellSizes {
-    let mut pixels = Vec::new();
-    let mut extents = Vec::new();
+    let mut pixels = Counts::default();
+    let mut extents = Counts::default();
     for (rect, cells) in binning.tiles.iter().zip(&binning.bins) {
         for c in cells {
             let [i0, i1, j0, j1] = c.range;
@@ -64,26 +113,20 @@ pub fn cell_sizes(binning: &Binning) -> CellSizes {
                 continue;
             }
             let (w, h) = ((i1 - i0 + 1) as u64, (j1 - j0 + 1) as u64);
-            pixels.push(w * h);
-            extents.push(w.max(h));
+            pixels.add(w * h);
+            extents.add(w.max(h));
         }
     }
-    let mut s = CellSizes::default();
-    for &p in &pixels {
-        *s.pixels_hist.entry(bin_key(p)).or_insert(0) += 1;
+    CellSizes {
+        pixels_hist: pixels.histogram(),
+        pixels_mean: pixels.mean(),
+        pixels_p50: pixels.quantile(0.5),
+        pixels_p90: pixels.quantile(0.9),
+        extent_hist: extents.histogram(),
+        extent_p50: extents.quantile(0.5),
+        extent_p90: extents.quantile(0.9),
+        extent_p99: extents.quantile(0.99),
     }
-    for &e in &extents {
-        *s.extent_hist.entry(bin_key(e)).or_insert(0) += 1;
-    }
-    if !pixels.is_empty() {
-        s.pixels_mean = pixels.iter().sum::<u64>() as f64 / pixels.len() as f64;
-    }
-    s.pixels_p50 = quantile(&mut pixels, 0.5);
-    s.pixels_p90 = quantile(&mut pixels, 0.9);
-    s.extent_p50 = quantile(&mut extents, 0.5);
-    s.extent_p90 = quantile(&mut extents, 0.9);
-    s.extent_p99 = quantile(&mut extents, 0.99);
-    s
 }
 
 #[cfg(test)]
@@ -100,11 +143,35 @@ mod tests {
     }
 
     #[test]
+    fn histogram_counts_per_bin() {
+        let mut c = Counts::default();
+        for v in [0, 1, 2, 3, 4, 15, 16] {
+            c.add(v);
+        }
+        let h = c.histogram();
+        let want: Vec<(&str, u64)> = vec![
+            ("00001-00001", 2),
+            ("00002-00003", 2),
+            ("00004-00007", 1),
+            ("00008-00015", 1),
+            ("00016-00031", 1),
+        ];
+        assert_eq!(
+            h.iter().map(|(k, &n)| (k.as_str(), n)).collect::<Vec<_>>(),
+            want
+        );
+    }
+
+    #[test]
     fn quantiles_by_nearest_rank() {
-        let mut v: Vec<u64> = (1..=10).collect();
-        assert_eq!(quantile(&mut v, 0.5), 5);
-        assert_eq!(quantile(&mut v, 0.9), 9);
-        assert_eq!(quantile(&mut v, 1.0), 10);
-        assert_eq!(quantile(&mut [], 0.5), 0);
+        let mut c = Counts::default();
+        for v in 1..=10 {
+            c.add(v);
+        }
+        assert_eq!(c.quantile(0.5), 5);
+        assert_eq!(c.quantile(0.9), 9);
+        assert_eq!(c.quantile(1.0), 10);
+        assert_eq!(c.mean(), 5.5);
+        assert_eq!(Counts::default().quantile(0.5), 0);
     }
 }
