@@ -72,6 +72,13 @@ pub struct RawPlot {
     /// Title (default: the sweep name).
     #[serde(default)]
     pub title: Option<String>,
+    /// Keep only runs whose parameters have these values (e.g. one view of a zip).
+    #[serde(default, rename = "where")]
+    pub filter: toml::Table,
+    /// Legend corner: `upper-right` (default), `upper-left`, `lower-left`,
+    /// `lower-right`, `upper-middle`, `lower-middle`, `middle-left`, `middle-right`.
+    #[serde(default)]
+    pub legend: Option<String>,
 }
 
 /// A string or a list of strings.
@@ -110,6 +117,18 @@ pub enum PlotKind {
     Scatter,
 }
 
+/// Accepted values of a plot's `legend`.
+pub const LEGEND_POSITIONS: [&str; 8] = [
+    "upper-right",
+    "upper-left",
+    "lower-left",
+    "lower-right",
+    "upper-middle",
+    "lower-middle",
+    "middle-left",
+    "middle-right",
+];
+
 /// A validated plot.
 #[derive(Debug, Clone)]
 pub struct PlotSpec {
@@ -129,6 +148,10 @@ pub struct PlotSpec {
     pub log_y: bool,
     /// Title.
     pub title: String,
+    /// Only runs whose parameter (first) has the value (second, as in the CSV).
+    pub filter: Vec<(String, String)>,
+    /// Legend corner (one of [`LEGEND_POSITIONS`]).
+    pub legend: String,
     /// `plot[i]`, for messages.
     pub key: String,
 }
@@ -368,6 +391,27 @@ impl Plan {
             }
             files.push(file.clone());
             let title = p.title.unwrap_or_else(|| name.clone());
+            let mut filter = Vec::new();
+            for (k, v) in &p.filter {
+                if !params.contains(k) {
+                    return Err(err(format!(
+                        "{key}.where: `{k}` is not a parameter of this sweep (parameters: {})",
+                        params.join(", ")
+                    )));
+                }
+                let v = match v {
+                    toml::Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                };
+                filter.push((k.clone(), v));
+            }
+            let legend = p.legend.unwrap_or_else(|| "upper-right".into());
+            if !LEGEND_POSITIONS.contains(&legend.as_str()) {
+                return Err(err(format!(
+                    "{key}.legend: `{legend}` is not one of {}",
+                    LEGEND_POSITIONS.join(", ")
+                )));
+            }
             plots.push(PlotSpec {
                 x: p.x,
                 y,
@@ -377,6 +421,8 @@ impl Plan {
                 log_x: p.log_x,
                 log_y: p.log_y,
                 title,
+                filter,
+                legend,
                 key,
             });
         }

@@ -45,6 +45,24 @@ pub fn register_fonts() {
     });
 }
 
+/// Whether a CSV value matches a `where` value: equal text, or equal numbers
+/// (`1` matches `1.0`).
+fn same_value(csv: &str, want: &str) -> bool {
+    csv == want || matches!((csv.parse::<f64>(), want.parse::<f64>()), (Ok(a), Ok(b)) if a == b)
+}
+
+/// A legend value: a path is shown by its file stem (`aorta-view-b`).
+fn short_value(v: &str) -> String {
+    if v.contains('/') {
+        Path::new(v)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| v.to_string())
+    } else {
+        v.to_string()
+    }
+}
+
 /// One series of points.
 #[derive(Debug, Clone)]
 struct Series {
@@ -80,6 +98,11 @@ pub fn draw(
         .iter()
         .flat_map(|p| results.rows_of(p))
         .filter(|r| r.get("status").map(String::as_str) == Some(OK))
+        .filter(|r| {
+            spec.filter
+                .iter()
+                .all(|(k, v)| r.get(k).is_some_and(|x| same_value(x, v)))
+        })
         .collect();
     if rows.is_empty() {
         return Err(format!("{file}: {}: no successful run to plot", spec.key));
@@ -114,7 +137,11 @@ pub fn draw(
             if spec.y.len() > 1 {
                 parts.push(y.clone());
             }
-            parts.extend(spec.series.iter().map(|s| format!("{s}={}", get(r, s))));
+            parts.extend(
+                spec.series
+                    .iter()
+                    .map(|s| format!("{s}={}", short_value(&get(r, s)))),
+            );
             let label = parts.join(", ");
             let (Some(x), Ok(yv)) = (x_of(r), get(r, y).parse::<f64>()) else {
                 dropped += 1;
@@ -334,7 +361,16 @@ where
     if labelled {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(match spec.legend.as_str() {
+                "upper-left" => SeriesLabelPosition::UpperLeft,
+                "lower-left" => SeriesLabelPosition::LowerLeft,
+                "lower-right" => SeriesLabelPosition::LowerRight,
+                "upper-middle" => SeriesLabelPosition::UpperMiddle,
+                "lower-middle" => SeriesLabelPosition::LowerMiddle,
+                "middle-left" => SeriesLabelPosition::MiddleLeft,
+                "middle-right" => SeriesLabelPosition::MiddleRight,
+                _ => SeriesLabelPosition::UpperRight,
+            })
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
             .label_font(("sans-serif", 15))
@@ -342,4 +378,27 @@ where
     }
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn where_values_match_as_text_or_number() {
+        assert!(same_value("1", "1.0"));
+        assert!(same_value("0.9", "0.9"));
+        assert!(same_value("flat", "flat"));
+        assert!(!same_value("0.9", "0.95"));
+        assert!(!same_value("flat", "pyramid"));
+    }
+
+    #[test]
+    fn legend_values_shorten_paths() {
+        assert_eq!(
+            short_value("../../shared/data/aorta-view-b.toml"),
+            "aorta-view-b"
+        );
+        assert_eq!(short_value("0.9"), "0.9");
+    }
 }

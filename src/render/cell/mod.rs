@@ -31,6 +31,7 @@ pub mod project;
 pub mod scan;
 pub mod segment;
 pub mod setup;
+pub mod sizes;
 
 use std::time::Instant;
 
@@ -177,6 +178,24 @@ pub struct CellStats {
     pub ert_share_of_oracle: Option<f64>,
     /// Oracle pass time.
     pub oracle_time_s: Option<f64>,
+    /// Projected cell sizes (Fig. 11(3)), from each cell's pixel bounding box
+    /// ([`sizes`]): power-of-two histogram of pixels in the box, keys
+    /// `"00004-00007"`.
+    pub cell_pixels_hist: std::collections::BTreeMap<String, u64>,
+    /// Mean pixels in a cell's bounding box.
+    pub cell_pixels_mean: f64,
+    /// Median pixels in a cell's bounding box.
+    pub cell_pixels_p50: u64,
+    /// 90th percentile of pixels in a cell's bounding box.
+    pub cell_pixels_p90: u64,
+    /// Histogram of the bounding box's larger side (the paper's measure).
+    pub cell_extent_hist: std::collections::BTreeMap<String, u64>,
+    /// Median larger side, pixels.
+    pub cell_extent_p50: u64,
+    /// 90th percentile of the larger side.
+    pub cell_extent_p90: u64,
+    /// 99th percentile of the larger side.
+    pub cell_extent_p99: u64,
 }
 
 /// The per-tile result of scan conversion.
@@ -359,6 +378,15 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     stats.time_scan_s = frame.time_scan_s;
     stats.time_composite_s = (t3 - t2).as_secs_f64();
     stats.time_total_s = (t3 - t0).as_secs_f64();
+    let sz = sizes::cell_sizes(binning);
+    stats.cell_pixels_hist = sz.pixels_hist;
+    stats.cell_pixels_mean = sz.pixels_mean;
+    stats.cell_pixels_p50 = sz.pixels_p50;
+    stats.cell_pixels_p90 = sz.pixels_p90;
+    stats.cell_extent_hist = sz.extent_hist;
+    stats.cell_extent_p50 = sz.extent_p50;
+    stats.cell_extent_p90 = sz.extent_p90;
+    stats.cell_extent_p99 = sz.extent_p99;
     if opts.ert.enabled() {
         ert::fill_stats(
             &mut stats,
