@@ -84,6 +84,13 @@ pub struct ClusterArgs {
     /// Store every segment instead of merging touching ones on insertion.
     #[arg(long)]
     pub no_partial_composition: bool,
+    /// Nodes merge touching segments in a canonical order so the image does
+    /// not depend on how cells are distributed: without ERT it is then bit
+    /// for bit `pvrsim render --canonical`'s, for any node count. Costs list
+    /// memory and phase-2 bytes (aorta-small view B, 8 nodes: 4.4x entries,
+    /// 3.5x bytes). Off: insertion order, within ~1e-6 of the sequential image.
+    #[arg(long)]
+    pub canonical: bool,
     /// Skip the reference runs (sequential, and Base at the same N); the
     /// report's `share_efficiency`, `ideal_speedup`, `speedup` become null.
     #[arg(long)]
@@ -163,6 +170,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                     span: a.ert_span,
                     local_pyramid: false,
                 },
+                canonical: a.canonical,
             },
             share: a.share,
             dlb: a.dlb,
