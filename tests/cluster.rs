@@ -31,6 +31,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
                 ..Default::default()
             },
             share,
+            overlap: false,
             dlb,
             chunk: 100,
             give_fraction: 1.0 / 3.0,
@@ -118,7 +119,7 @@ fn image_equals_sequential_without_ert() {
     }
 }
 
-/// ERT on, with sharing and DLB: within the ERT error bound of the full image.
+/// ERT on, with sharing (manager or overlap) and DLB: within the ERT error bound of the full image.
 #[test]
 fn image_within_ert_bound() {
     for view in ["a", "b"] {
@@ -146,6 +147,24 @@ fn image_within_ert_bound() {
                 eprintln!("view {view} N {n} share {share} dlb {dlb}: {d:.4} (bound {bound:.4})");
                 assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
             }
+            // Overlap sharing: tables go node to node, none to the manager.
+            let mut cfg = config(n, NodeErt::PAPER, false, true, "binary-swap");
+            cfg.phase1.overlap = true;
+            let out = cluster::run(&input, &cfg).unwrap();
+            let d = max_diff(&out.image, &full);
+            eprintln!(
+                "view {view} N {n} overlap: {d:.4} (bound {bound:.4}), skipped {}",
+                out.report.cells_skipped_ert
+            );
+            assert!(
+                d <= bound + 1e-5,
+                "view {view} N {n} overlap: {d} > {bound}"
+            );
+            assert_eq!(out.report.sharing, "overlap");
+            assert!(!out.report.bytes_by_kind.contains_key("ert-share"));
+            if n > 1 {
+                assert!(out.report.bytes_by_kind["ert-reply"] > 0);
+            }
         }
     }
 }
@@ -168,6 +187,15 @@ fn virtual_clock_is_deterministic() {
     assert_eq!(i1.pixels, i2.pixels);
     assert_eq!(r1, r2);
     assert_eq!(t1, t2);
+    // Overlap sharing too.
+    let mut ov = cfg.clone();
+    ov.phase1.share = false;
+    ov.phase1.overlap = true;
+    let a = cluster::run(&input, &ov).unwrap();
+    let b = cluster::run(&input, &ov).unwrap();
+    assert_eq!(a.image.pixels, b.image.pixels);
+    assert_eq!(a.trace, b.trace);
+    assert_eq!(a.report.frame_s, b.report.frame_s);
     let v: serde_json::Value = serde_json::from_str(&r1).unwrap();
     for key in [
         "frame_s",

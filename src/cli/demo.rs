@@ -100,6 +100,7 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
                 ..Default::default()
             },
             share: true,
+            overlap: false,
             dlb: true,
             chunk: 100,
             give_fraction: 1.0 / 3.0,

@@ -114,6 +114,7 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
                 ..p1.node
             },
             share: false,
+            overlap: false,
             dlb: false,
             clock: ClockKind::Virtual,
             record_trace: false,

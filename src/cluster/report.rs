@@ -155,8 +155,10 @@ pub struct ClusterReport {
     pub ert_table: u32,
     /// ERT update constant C.
     pub ert_update: u32,
-    /// Weak sharing on (only with ERT).
+    /// Weak sharing on (only with ERT), through the manager or overlap.
     pub share: bool,
+    /// ERT sharing mode: `off`, `manager` or `overlap`.
+    pub sharing: String,
     /// DLB on.
     pub dlb: bool,
     /// Nodes kept canonical lists (image independent of the distribution).
@@ -405,7 +407,17 @@ pub fn build(i: Inputs) -> ClusterReport {
         ert_threshold: p1.node.ert.threshold,
         ert_table: p1.node.ert.divisions,
         ert_update: p1.node.ert.update_c,
-        share: p1.share && ert_on,
+        share: (p1.share || p1.overlap) && ert_on,
+        sharing: if !ert_on {
+            "off"
+        } else if p1.share {
+            "manager"
+        } else if p1.overlap {
+            "overlap"
+        } else {
+            "off"
+        }
+        .to_string(),
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,
