@@ -15,6 +15,17 @@ use crate::node::{CostProfile, NodeOptions, PlacementMethod};
 use crate::render::cell::{CellOrder, ErtSpan, Integrator};
 use crate::render::RenderInput;
 
+/// How ERT tables are shared between nodes (`--sharing`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Sharing {
+    /// No sharing: each node tests against its own table.
+    Off,
+    /// Weak sharing through the manager (the paper).
+    Manager,
+    /// Weak sharing straight between nodes whose screen footprints overlap.
+    Overlap,
+}
+
 /// Options of `pvrsim cluster`.
 #[derive(Debug, Clone, Args)]
 pub struct ClusterArgs {
@@ -38,8 +49,14 @@ pub struct ClusterArgs {
     /// paper) or `multi` (every covered entry must be terminated in front).
     #[arg(long, value_enum, default_value_t = ErtSpan::Single)]
     pub ert_span: ErtSpan,
-    /// Weak sharing of ERT tables through the manager (needs --ert < 1).
-    #[arg(long)]
+    /// Weak sharing of ERT tables (needs --ert < 1): `manager` (every node
+    /// sends its table to the manager, which replies with the merged one),
+    /// `overlap` (no manager for ERT: each node sends its table straight to
+    /// the nodes whose screen footprints overlap its own) or `off`.
+    #[arg(long, value_enum, default_value_t = Sharing::Off)]
+    pub sharing: Sharing,
+    /// Shorthand for `--sharing manager`.
+    #[arg(long, conflicts_with = "sharing")]
     pub share: bool,
     /// Dynamic load balancing: an idle node gets 1/3 of the cells of the
     /// node with the most unprocessed cells.
@@ -84,6 +101,13 @@ pub struct ClusterArgs {
     /// Store every segment instead of merging touching ones on insertion.
     #[arg(long)]
     pub no_partial_composition: bool,
+    /// Nodes merge touching segments in a canonical order so the image does
+    /// not depend on how cells are distributed: without ERT it is then bit
+    /// for bit `pvrsim render --canonical`'s, for any node count. Costs list
+    /// memory and phase-2 bytes (aorta-small view B, 8 nodes: 4.4x entries,
+    /// 3.5x bytes). Off: insertion order, within ~1e-6 of the sequential image.
+    #[arg(long)]
+    pub canonical: bool,
     /// Skip the reference runs (sequential, and Base at the same N); the
     /// report's `share_efficiency`, `ideal_speedup`, `speedup` become null.
     #[arg(long)]
@@ -163,8 +187,10 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                     span: a.ert_span,
                     local_pyramid: false,
                 },
+                canonical: a.canonical,
             },
-            share: a.share,
+            share: a.share || a.sharing == Sharing::Manager,
+            overlap: !a.share && a.sharing == Sharing::Overlap,
             dlb: a.dlb,
             chunk: a.chunk,
             give_fraction: 1.0 / 3.0,

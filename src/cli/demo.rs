@@ -1,5 +1,7 @@
 //! `pvrsim demo`: the quick start. Generates the built-in bifurcation dataset,
-//! writes it with its scene, renders it, and prints what happened.
+//! writes it with its scene, renders it, then renders it again on the
+//! simulated 8-node cluster (ERT + SHARE + DLB, virtual clock, `gbe`,
+//! `pentium4`), and prints what happened.
 
 use std::path::PathBuf;
 
@@ -14,7 +16,8 @@ use crate::scene::Scene;
 /// Options of `pvrsim demo`.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Folder for demo.vtk, demo.toml, demo.png and demo-stats.json.
+    /// Folder for demo.vtk, demo.toml, demo.png, demo-stats.json, and the
+    /// cluster's cluster.png, timeline.png and cluster-report.json.
     #[arg(long, default_value = "demo")]
     pub out_dir: PathBuf,
     /// About how many tetrahedra to generate.
@@ -23,6 +26,9 @@ pub struct DemoArgs {
     /// Worker threads; 0 = all cores.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Nodes of the simulated cluster run; 0 skips it.
+    #[arg(long, default_value_t = 8)]
+    pub nodes: usize,
 }
 
 /// Runs `pvrsim demo`.
@@ -63,9 +69,90 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         image.width, image.height, stats.time_total_s, stats.threads, stats.segments_generated, stats.segments_merged
     );
     println!("wrote {} and {}", png.display(), stats_path.display());
+    if a.nodes > 0 {
+        run_cluster(&a, &input)?;
+    }
     println!(
         "next: pvrsim render {} -o out.png --compare",
         scene_path.display()
+    );
+    println!(
+        "      pvrsim cluster {} --nodes 16 --ert 0.9 --share --dlb --timeline t.png",
+        scene_path.display()
+    );
+    Ok(())
+}
+
+/// The cluster part: 8 nodes (by default) with ERT 0.9, weak sharing through
+/// the manager and DLB, virtual clock, gbe, pentium4; writes the image, the
+/// timeline and the report, and prints a short summary.
+fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
+    use crate::cluster::{self, timeline, ClockKind, ClusterConfig, Phase1Config};
+    use crate::net::NetworkModel;
+    use crate::node::renderer::NodeErt;
+    use crate::node::{CostProfile, NodeOptions, PlacementMethod};
+
+    let cfg = ClusterConfig {
+        phase1: Phase1Config {
+            nodes: a.nodes,
+            node: NodeOptions {
+                ert: NodeErt::PAPER,
+                ..Default::default()
+            },
+            share: true,
+            overlap: false,
+            dlb: true,
+            chunk: 100,
+            give_fraction: 1.0 / 3.0,
+            min_grant: 3,
+            progress_every: 1,
+            clock: ClockKind::Virtual,
+            record_trace: true,
+        },
+        placement: PlacementMethod::Rcb,
+        compositor: "binary-swap".into(),
+        codec: "rle".into(),
+        network: NetworkModel::from_name("gbe")?,
+        network_name: "gbe".into(),
+        profile: CostProfile::named("pentium4")?,
+        profile_name: "pentium4".into(),
+        baselines: true,
+    };
+    let t = std::time::Instant::now();
+    let out = super::with_threads(a.threads, || cluster::run(input, &cfg))??;
+    let host_s = t.elapsed().as_secs_f64();
+    let png = a.out_dir.join("cluster.png");
+    out.image.save_png(&png)?;
+    let tl = a.out_dir.join("timeline.png");
+    timeline::draw(&out.trace, out.report.n_nodes, &tl)?;
+    let rep = a.out_dir.join("cluster-report.json");
+    std::fs::write(&rep, serde_json::to_string_pretty(&out.report)?)
+        .with_context(|| format!("cannot write {}", rep.display()))?;
+    let r = &out.report;
+    println!(
+        "simulated cluster: {} nodes + manager, ERT {} + SHARE + DLB, gbe, pentium4 (virtual clock, {:.2} s on this machine)",
+        r.n_nodes, r.ert_threshold, host_s
+    );
+    println!(
+        "  frame {:.3} s (phase 1 {:.3} s, compositing {:.3} s); slowest node's Tsc {:.3} s, imbalance {:.1} %",
+        r.frame_s,
+        r.phase1_s,
+        r.composite_s,
+        r.tsc_max_s,
+        100.0 * r.imbalance
+    );
+    if let (Some(seq), Some(sp)) = (r.sequential_s, r.speedup) {
+        println!("  one modelled node: {seq:.3} s, speed-up {sp:.2}");
+    }
+    println!(
+        "  cells: {} skipped by ERT, {} moved by DLB; bytes on the wire: {} ({} in phase 2)",
+        r.cells_skipped_ert, r.cells_moved, r.bytes_total, r.compositing.bytes_total
+    );
+    println!(
+        "wrote {}, {} and {}",
+        png.display(),
+        tl.display(),
+        rep.display()
     );
     Ok(())
 }

@@ -41,6 +41,11 @@ pub struct RenderArgs {
     /// Store every segment instead of merging touching ones on insertion.
     #[arg(long)]
     pub no_partial_composition: bool,
+    /// Merge touching segments in a canonical order so the image does not
+    /// depend on how cells are distributed (tiles, cluster nodes); costs list
+    /// memory. Without ERT the image is then bit for bit `pvrsim cluster`'s.
+    #[arg(long)]
+    pub canonical: bool,
     /// Screen tile edge in pixels (work unit of the threads). Without ERT the
     /// image does not depend on it; with ERT each tile has its own ERT table
     /// (or pyramid), the tile is rounded to whole entries, and the image may
@@ -132,6 +137,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
             structure: a.ert_structure,
         },
         oracle: a.oracle,
+        canonical: a.canonical,
     };
     anyhow::ensure!(
         a.ert > 0.0 && a.ert.is_finite(),

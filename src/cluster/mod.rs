@@ -114,6 +114,7 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
                 ..p1.node
             },
             share: false,
+            overlap: false,
             dlb: false,
             clock: ClockKind::Virtual,
             record_trace: false,
@@ -163,11 +164,12 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
     for a in nodes {
         node_stats.push(report::NodeRaw::from_actor(&a));
         let r = a.into_renderer();
-        lists.push(crate::compositor::RegionLists::canonical(
-            full,
-            r.lists().lists(),
-            partial,
-        ));
+        lists.push(if p1.node.canonical {
+            // Already canonical: copied as they are.
+            crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
+        } else {
+            crate::compositor::RegionLists::canonical(full, r.lists().lists(), partial)
+        });
     }
     let ph2 = phase2::run(
         strategy.as_ref(),

@@ -35,8 +35,12 @@ pub struct Phase1Config {
     pub nodes: usize,
     /// Node renderer options (ERT, order, partial composition).
     pub node: NodeOptions,
-    /// Weak ERT sharing through the manager.
+    /// Weak ERT sharing through the manager (`--sharing manager`).
     pub share: bool,
+    /// Weak ERT sharing without the manager (`--sharing overlap`): each node
+    /// sends its table straight to the nodes whose initial screen footprints
+    /// ([`Placement::footprints`]) overlap its own. Ignored when `share` is set.
+    pub overlap: bool,
     /// Dynamic load balancing.
     pub dlb: bool,
     /// Most cells per chunk.
@@ -98,6 +102,12 @@ pub fn build_nodes(
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let n = cfg.nodes;
+    let overlap = cfg.overlap && !cfg.share && cfg.node.ert.enabled();
+    let pairwise = if overlap {
+        placement.footprints(input).pairwise
+    } else {
+        Vec::new()
+    };
     placement
         .parts
         .iter()
@@ -117,7 +127,15 @@ pub fn build_nodes(
                 min_grant: cfg.min_grant,
                 progress_every: cfg.progress_every,
             };
-            Ok(NodeActor::new(nc, r, *profile, codec, part.len() as u64))
+            let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
+            if overlap {
+                a.set_peers(
+                    (0..n)
+                        .filter(|&b| b != k && pairwise[k].get(b).is_some_and(|&p| p > 0))
+                        .collect(),
+                );
+            }
+            Ok(a)
         })
         .collect()
 }

@@ -37,6 +37,7 @@ pub struct NodeRaw {
     processed: u64,
     skipped: u64,
     culled: u64,
+    stored: u64,
 }
 
 impl NodeRaw {
@@ -48,6 +49,13 @@ impl NodeRaw {
             processed: a.renderer().processed() as u64,
             skipped: t.cells_skipped_ert,
             culled: t.cells_culled,
+            stored: a
+                .renderer()
+                .lists()
+                .lists()
+                .iter()
+                .map(|l| l.len() as u64)
+                .sum(),
         }
     }
 }
@@ -91,6 +99,9 @@ pub struct NodeReport {
     pub bytes_sent: u64,
     /// Of which phase 1.
     pub bytes_sent_phase1: u64,
+    /// List entries (segments or merged pieces) the node holds at the end
+    /// of phase 1: its list memory, 24 bytes each.
+    pub segments_stored: u64,
 }
 
 /// Cost of the ERT exchanges: per exchange, from the share leaving the
@@ -144,10 +155,14 @@ pub struct ClusterReport {
     pub ert_table: u32,
     /// ERT update constant C.
     pub ert_update: u32,
-    /// Weak sharing on (only with ERT).
+    /// Weak sharing on (only with ERT), through the manager or overlap.
     pub share: bool,
+    /// ERT sharing mode: `off`, `manager` or `overlap`.
+    pub sharing: String,
     /// DLB on.
     pub dlb: bool,
+    /// Nodes kept canonical lists (image independent of the distribution).
+    pub canonical: bool,
     /// Phase 1 + phase 2 (s).
     pub frame_s: f64,
     /// End of phase 1: the last node told to finish (s).
@@ -179,6 +194,12 @@ pub struct ClusterReport {
     pub t_share: TShare,
     /// The manager.
     pub manager: ManagerStats,
+    /// Modelled seconds the manager spent merging tables (`manager.busy_s`):
+    /// compare with `phase1_s` to see when it is the bottleneck.
+    pub manager_busy_s: f64,
+    /// List entries held by all nodes at the end of phase 1 (sum of
+    /// `nodes[].segments_stored`).
+    pub segments_stored: u64,
     /// Cells processed by all nodes (a cell given away is counted once, by its taker).
     pub cells_processed: u64,
     /// Cells skipped by ERT on all nodes.
@@ -342,6 +363,7 @@ pub fn build(i: Inputs) -> ClusterReport {
                 requests_sent: s.requests_sent,
                 bytes_sent: s.bytes_sent + i.phase2.bytes_sent[k],
                 bytes_sent_phase1: s.bytes_sent,
+                segments_stored: r.stored,
             }
         })
         .collect();
@@ -385,8 +407,19 @@ pub fn build(i: Inputs) -> ClusterReport {
         ert_threshold: p1.node.ert.threshold,
         ert_table: p1.node.ert.divisions,
         ert_update: p1.node.ert.update_c,
-        share: p1.share && ert_on,
+        share: (p1.share || p1.overlap) && ert_on,
+        sharing: if !ert_on {
+            "off"
+        } else if p1.share {
+            "manager"
+        } else if p1.overlap {
+            "overlap"
+        } else {
+            "off"
+        }
+        .to_string(),
         dlb: p1.dlb,
+        canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,
         phase1_s: i.phase1_end_s,
         tsc_max_s: tsc_max,
@@ -405,7 +438,9 @@ pub fn build(i: Inputs) -> ClusterReport {
         bytes_by_kind,
         messages_by_kind,
         t_share: t_share(i.trace1, n),
+        manager_busy_s: i.manager.busy_s,
         manager: i.manager,
+        segments_stored: nodes.iter().map(|x| x.segments_stored).sum(),
         cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
         cells_skipped_ert: skipped,
         cells_moved: nodes.iter().map(|x| x.cells_taken).sum(),

@@ -15,13 +15,16 @@
 //! The protocol is described in `src/compositor/README.md`.
 #![warn(missing_docs)]
 
-pub mod canonical;
 pub mod codec;
 pub mod exec;
 pub mod lists;
 pub mod region;
 pub mod schedule;
 pub mod strategy;
+
+/// The canonical composition lives with the renderer (which uses it for
+/// `--canonical`); re-exported here, where phase 2 relies on it.
+pub use crate::render::cell::canonical;
 
 pub use exec::{run_local, CompositeStats, ExecError, ExecOptions, LocalRun, Message, RoundStats};
 pub use lists::{RegionLists, RegionPixels};

@@ -6,7 +6,8 @@
 //!                        with sharing: Send(ErtShare) and go on (weak sharing)
 //!                        with DLB, no sharing: Send(Progress) every few chunks
 //!                      cells left: Wake(SCAN); none: Send(WorkRequest), wait
-//! ErtReply           → apply_shared                                  Compute(Share)
+//!                        with overlap sharing: Send(ErtReply) to each peer (no manager)
+//! ErtReply           → apply_shared (from the manager or a peer)     Compute(Share)
 //! WorkForward        → give_work(1/3), Send(WorkGrant) to the requester,
 //!                      Send(Gave) to the manager                      Compute(Steal)
 //! WorkGrant          → take_work, resume scanning                     Compute(Steal)
@@ -92,9 +93,12 @@ pub struct NodeActor {
     done: bool,
     grants_taken: u32,
     chunks_since_progress: u32,
-    /// The latest reply received while out of cells, applied only if cells
-    /// arrive (the manager's table only improves, so the latest supersedes).
-    deferred: Option<SharedTable>,
+    /// Per sender, the latest table received while out of cells, applied
+    /// only if cells arrive (a sender's table only improves — the manager's
+    /// merge, or a peer's own entries — so its latest supersedes).
+    deferred: Vec<(usize, SharedTable)>,
+    /// Overlap sharing: the ranks this node sends its table to directly.
+    peers: Vec<usize>,
     stats: NodeStats,
 }
 
@@ -116,12 +120,25 @@ impl NodeActor {
             done: false,
             grants_taken: 0,
             chunks_since_progress: 0,
-            deferred: None,
+            deferred: Vec::new(),
+            peers: Vec::new(),
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
             },
         }
+    }
+
+    /// Overlap sharing (no manager for ERT): at every update point, send the
+    /// local table straight to `peers` as an [`ErtReply`]; they merge it with
+    /// the same per-entry rule as the manager's. Empty (the default): off.
+    pub fn set_peers(&mut self, peers: Vec<usize>) {
+        self.peers = peers;
+    }
+
+    /// The ranks this node shares its table with directly (overlap sharing).
+    pub fn peers(&self) -> &[usize] {
+        &self.peers
     }
 
     /// The renderer (lists, counters).
@@ -204,6 +221,14 @@ impl NodeActor {
                     };
                     self.stats.shares_sent += 1;
                     self.send(out, self.cfg.manager, &m);
+                } else if !self.peers.is_empty() {
+                    let m = ErtReply {
+                        table: self.renderer.local_table().encode(),
+                    };
+                    self.stats.shares_sent += 1;
+                    for k in 0..self.peers.len() {
+                        self.send(out, self.peers[k], &m);
+                    }
                 }
             }
             self.stats.tsc_s = t;
@@ -246,7 +271,11 @@ impl NodeActor {
                     ));
                 }
                 if self.waiting {
-                    self.deferred = Some(t);
+                    let from = env.from.index();
+                    match self.deferred.iter_mut().find(|(f, _)| *f == from) {
+                        Some(slot) => slot.1 = t,
+                        None => self.deferred.push((from, t)),
+                    }
                     return Ok(());
                 }
                 let ops = self.renderer.apply_shared(&t).map_err(|e| err(&e))?;
@@ -296,7 +325,7 @@ impl NodeActor {
                 let m: WorkGrant = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let unit = WorkUnit::decode(&m.unit).map_err(|e| err(&e))?;
                 let mut ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
-                if let Some(t) = self.deferred.take() {
+                for (_, t) in std::mem::take(&mut self.deferred) {
                     ops.add(&self.renderer.apply_shared(&t).map_err(|e| err(&e))?);
                     self.stats.replies_applied += 1;
                 }

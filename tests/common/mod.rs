@@ -240,6 +240,7 @@ pub fn opts(integrator: Integrator, cell_order: CellOrder) -> CellOptions {
         cell_order,
         ert: pvrsim::render::cell::ErtOptions::OFF,
         oracle: false,
+        canonical: false,
     }
 }
 

@@ -94,6 +94,17 @@ impl SegmentLists {
         }
         insert_sorted(&mut self.lists[idx], seg, partial)
     }
+
+    /// Inserts `seg` into the list of local pixel `idx` in canonical form
+    /// ([`super::canonical::insert`]). Returns how many entries partial
+    /// composition removed.
+    #[inline]
+    pub fn insert_canonical(&mut self, idx: usize, seg: Segment, partial: bool) -> usize {
+        if self.track {
+            self.note_change(idx);
+        }
+        super::canonical::insert(&mut self.lists[idx], seg, partial)
+    }
 }
 
 /// Inserts `seg` into `list` (sorted by `z_front`), with partial composition if `partial`.

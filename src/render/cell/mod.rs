@@ -22,6 +22,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bin;
+pub mod canonical;
 pub mod ert;
 pub mod fastmath;
 pub mod integrate;
@@ -64,6 +65,12 @@ pub struct CellOptions {
     pub ert: ErtOptions,
     /// Also run the oracle pass ([`ert::oracle`]) and report it in the stats.
     pub oracle: bool,
+    /// Merge touching segments in a canonical order ([`canonical`]) so the
+    /// image does not depend on how cells are distributed (over tiles, or over
+    /// the nodes of a cluster): bit for bit the cluster's image without ERT.
+    /// Costs list memory (a run of joined segments is kept as `O(log k)`
+    /// pieces until the final composite). Off by default.
+    pub canonical: bool,
 }
 
 impl Default for CellOptions {
@@ -75,6 +82,7 @@ impl Default for CellOptions {
             cell_order: CellOrder::FrontToBack,
             ert: ErtOptions::DEFAULT,
             oracle: false,
+            canonical: false,
         }
     }
 }
@@ -131,6 +139,8 @@ pub struct CellStats {
     pub integrator: String,
     /// Whether partial composition was on.
     pub partial_composition: bool,
+    /// Whether lists were kept in canonical form (`--canonical`).
+    pub canonical: bool,
     /// Tile edge in pixels.
     pub tile_size: u32,
     /// Cell order.
@@ -308,7 +318,11 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
                 .lists()
                 .iter()
                 .map(|l| {
-                    let c = list::composite(l);
+                    let c = if opts.canonical {
+                        canonical::composite(l)
+                    } else {
+                        list::composite(l)
+                    };
                     let keep = 1.0 - c.a;
                     [
                         c.rgb[0] + keep * bg[0],
@@ -342,6 +356,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         threads,
         integrator: opts.integrator.to_string(),
         partial_composition: opts.partial_composition,
+        canonical: opts.canonical,
         tile_size: opts.tile_size,
         cell_order: opts.cell_order.to_string(),
         tile_dims: [frame.tile_dims.0, frame.tile_dims.1],
@@ -422,6 +437,7 @@ pub fn scan_tile(
             opts.partial_composition,
             &mut counts,
         );
+        target.canonical = opts.canonical;
         for c in cells {
             degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
         }

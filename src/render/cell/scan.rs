@@ -73,6 +73,10 @@ pub struct ScanTarget<'a> {
     pub integrator: Integrator,
     /// Partial composition on insertion.
     pub partial: bool,
+    /// Insert with [`super::canonical::insert`] (merge order fixed by the
+    /// depths, exact joins) instead of [`super::list::insert_sorted`]. Off
+    /// after [`ScanTarget::new`].
+    pub canonical: bool,
     /// Counters.
     pub counts: &'a mut ScanCounts,
     /// Segments waiting to be integrated.
@@ -101,6 +105,7 @@ impl<'a> ScanTarget<'a> {
             tf,
             integrator,
             partial,
+            canonical: false,
             counts,
             batch: Batch::default(),
             pending: [(0, 0.0, 0.0); BATCH],
@@ -143,6 +148,11 @@ impl<'a> ScanTarget<'a> {
                 z_back,
                 rgba: self.batch.result(l),
             };
+            if self.canonical {
+                self.counts.segments_merged +=
+                    self.lists.insert_canonical(idx as usize, seg, self.partial) as u64;
+                continue;
+            }
             match self.lists.insert(idx as usize, seg, self.partial) {
                 Inserted::New => {}
                 Inserted::Merged => self.counts.segments_merged += 1,

@@ -77,6 +77,7 @@ pub fn oracle(input: &RenderInput, opts: &CellOptions, threshold: f32) -> Oracle
         partial_composition: false,
         ert: ErtOptions::OFF,
         oracle: false,
+        canonical: false,
         ..*opts
     };
     let frame = scan_frame(input, &o);

@@ -132,6 +132,7 @@ pub fn scan_tile_ert(
             opts.partial_composition,
             &mut counts,
         );
+        target.canonical = opts.canonical;
         for (k, c) in batch.iter().enumerate() {
             if skip.get(k) == Some(&true) {
                 let [i0, i1, j0, j1] = c.range;

@@ -59,7 +59,7 @@
 
 use std::cmp::Ordering;
 
-use crate::render::cell::segment::{Rgba, Segment};
+use super::segment::{Rgba, Segment};
 
 /// Pseudo-random priority of depth `z` as a merge boundary: MurmurHash3's
 /// 32-bit finaliser of the bits of `z`, a bijection, so distinct depths get
