@@ -255,6 +255,7 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
         return;
     }
     let (i0, i1, j0, j1) = range;
+    let x_max = i1 as f32 + 1.0;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
         let re = [
@@ -276,10 +277,18 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
             for k in 0..nx {
                 let da = ent[e][0] - ext[k][0];
                 let rhs = rx[k] - re[e];
+                // The per-pixel test rounds `a x + r` on both sides: widen the
+                // bound by that rounding (relative to the terms' magnitude,
+                // over the slope difference), so the span never drops a pixel
+                // the exact test would keep. Near-parallel planes get a huge
+                // slack and so no narrowing at all.
+                let m = (ent[e][0].abs() + ext[k][0].abs()) * x_max + re[e].abs() + rx[k].abs();
+                let inv = 1.0 / da;
+                let slack = 8.0 * f32::EPSILON * m * inv.abs() + 1e-3;
                 if da > 0.0 {
-                    hi = fmin(hi, rhs / da);
+                    hi = fmin(hi, rhs * inv + slack);
                 } else if da < 0.0 {
-                    lo = fmax(lo, rhs / da);
+                    lo = fmax(lo, rhs * inv - slack);
                 } else if !(rhs > 0.0) {
                     hi = f32::NEG_INFINITY;
                 }
@@ -288,8 +297,8 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
         if !(lo <= hi) {
             continue;
         }
-        let first = floor_i(fmax(lo - 0.5, -1.0)).max(i0 as i64);
-        let last = ceil_i(fmin(hi - 0.5, 1e9)).min(i1 as i64);
+        let first = ceil_i(fclamp(lo - 0.5, -1.0, 1e9)).max(i0 as i64);
+        let last = floor_i(fclamp(hi - 0.5, -1.0, 1e9)).min(i1 as i64);
         if first > last {
             continue;
         }
