@@ -12,7 +12,7 @@ use common::*;
 use pvrsim::render::cell::integrate::{Batch, BATCH};
 use pvrsim::render::cell::list::{composite, insert_sorted, Inserted};
 use pvrsim::render::cell::{self, CellOptions, Integrator, PreparedTf, Rgba, Segment};
-use pvrsim::scene::{ControlPoint, TransferFunction};
+use pvrsim::scene::TransferFunction;
 
 /// A premultiplied colour: `a` in [0, 1], each `rgb <= a`.
 fn rgba() -> impl Strategy<Value = Rgba> {
@@ -196,17 +196,7 @@ fn test_tf() -> TransferFunction {
         [0.85, 0.7, 0.0, 0.1, 0.3],
         [1.0, 1.0, 1.0, 1.0, 0.6],
     ];
-    TransferFunction {
-        points: pts
-            .iter()
-            .map(|p| ControlPoint {
-                s: p[0],
-                rgb: [p[1], p[2], p[3]],
-                opacity: p[4],
-            })
-            .collect(),
-        unit_distance: 2.5,
-    }
+    TransferFunction::from_rows(&pts, 2.5)
 }
 
 fn lane() -> impl Strategy<Value = (f32, f32, f32)> {

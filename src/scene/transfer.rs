@@ -30,6 +30,23 @@ pub struct TransferFunction {
 }
 
 impl TransferFunction {
+    /// A transfer function from rows `[s, r, g, b, opacity]`, as written in a
+    /// scene file, without validation (for code that builds one directly;
+    /// scene files go through [`Scene::parse`](super::Scene::parse), which checks them).
+    pub fn from_rows(rows: &[[f64; 5]], unit_distance: f64) -> TransferFunction {
+        TransferFunction {
+            points: rows
+                .iter()
+                .map(|p| ControlPoint {
+                    s: p[0],
+                    rgb: [p[1], p[2], p[3]],
+                    opacity: p[4],
+                })
+                .collect(),
+            unit_distance,
+        }
+    }
+
     /// Colour and opacity at normalised scalar `s` (clamped outside the points).
     pub fn eval(&self, s: f64) -> ([f64; 3], f64) {
         let p = &self.points;

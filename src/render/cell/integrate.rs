@@ -564,17 +564,7 @@ mod tests {
             [0.7500, 0.9580, 0.6040, 0.4820, 0.1256],
             [1.0000, 0.7060, 0.0160, 0.1500, 0.2443],
         ];
-        TransferFunction {
-            points: pts
-                .iter()
-                .map(|p| ControlPoint {
-                    s: p[0],
-                    rgb: [p[1], p[2], p[3]],
-                    opacity: p[4],
-                })
-                .collect(),
-            unit_distance: 5.0,
-        }
+        TransferFunction::from_rows(&pts, 5.0)
     }
 
     /// Brute-force f64 integral: many small steps, each with the exact

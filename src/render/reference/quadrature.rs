@@ -343,20 +343,9 @@ impl<'a> Integrator<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::ControlPoint;
 
     fn tf(points: &[[f64; 5]], ud: f64) -> TransferFunction {
-        TransferFunction {
-            points: points
-                .iter()
-                .map(|p| ControlPoint {
-                    s: p[0],
-                    rgb: [p[1], p[2], p[3]],
-                    opacity: p[4],
-                })
-                .collect(),
-            unit_distance: ud,
-        }
+        TransferFunction::from_rows(points, ud)
     }
 
     #[test]

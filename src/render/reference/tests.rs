@@ -5,22 +5,10 @@ use std::sync::Arc;
 
 use super::*;
 use crate::data::{Field, TetMesh};
-use crate::scene::{
-    Camera, ControlPoint, DataSpec, ImageSpec, Projection, Scene, TransferFunction,
-};
+use crate::scene::{Camera, DataSpec, ImageSpec, Projection, Scene, TransferFunction};
 
 fn tf(points: &[[f64; 5]], ud: f64) -> TransferFunction {
-    TransferFunction {
-        points: points
-            .iter()
-            .map(|p| ControlPoint {
-                s: p[0],
-                rgb: [p[1], p[2], p[3]],
-                opacity: p[4],
-            })
-            .collect(),
-        unit_distance: ud,
-    }
+    TransferFunction::from_rows(points, ud)
 }
 
 /// A transfer function with kinks and varying colour.
