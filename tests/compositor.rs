@@ -20,7 +20,7 @@ use pvrsim::compositor::{run_local, ExecOptions, LocalRun, RegionLists};
 use pvrsim::image::Image;
 use pvrsim::render::cell::list::{composite as legacy_composite, insert_sorted};
 use pvrsim::render::cell::{
-    self, bin, project, scan_tile, CellOptions, ErtOptions, PreparedTf, Segment,
+    self, bin, project, scan_tile, CellOptions, CellOrder, ErtOptions, PreparedTf, Segment,
 };
 
 /// The renderer's defaults with early ray termination off: these tests
@@ -56,11 +56,18 @@ fn node_lists(
         partial_composition: partial,
         ..no_ert()
     };
-    let mut binning = bin::bin_cells(&input.mesh.tets, &pv, &tf, opts.tile_size);
+    let binning = bin::bin_cells(
+        &input.mesh.tets,
+        &pv,
+        &tf,
+        opts.tile_size,
+        CellOrder::FrontToBack,
+    );
     let (w, h) = (view.width as usize, view.height as usize);
     let mut out = vec![vec![Vec::new(); w * h]; nodes];
-    for (rect, cells) in binning.tiles.iter().zip(&mut binning.bins) {
-        cells.sort_unstable_by_key(|c| c.order_key());
+    let mut cells = Vec::new();
+    for (t, rect) in binning.tiles.iter().enumerate() {
+        binning.records(t, &input.mesh.tets, &pv, &mut cells);
         for (node, lists) in out.iter_mut().enumerate() {
             let mine: Vec<_> = cells
                 .iter()

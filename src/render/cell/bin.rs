@@ -3,18 +3,21 @@
 //!
 //! A cell is skipped before projection when its scalar interval maps to zero
 //! opacity everywhere (an *empty* cell) or when its projected bounding box
-//! misses the image (or lies behind the eye). The survivors are sorted into
-//! fixed-size screen tiles as compact [`CellRecord`]s (the cell's vertices
-//! gathered, so scan conversion reads memory in order). Each tile keeps its
-//! cells in stored order; [`CellOrder::FrontToBack`](super::CellOrder) then
-//! sorts each tile by `(nearest depth, cell id)`. Either way every pixel sees
-//! the same sequence of segments however many threads render the tiles, so
-//! the image does not depend on the thread count or the tile size.
+//! misses the image (or lies behind the eye). The survivors' ids are sorted
+//! into fixed-size screen tiles, in stored order or, for
+//! [`CellOrder::FrontToBack`](super::CellOrder), by `(nearest depth, cell id)`
+//! (one radix sort for the whole frame). A tile's compact [`CellRecord`]s
+//! (the cell's vertices gathered, so scan conversion reads memory in order)
+//! are rebuilt when the tile is scanned. Either way every pixel sees the same
+//! sequence of segments however many threads render the tiles, so the image
+//! does not depend on the thread count or the tile size.
 
 use rayon::prelude::*;
 
 use super::integrate::PreparedTf;
+use super::order::CellOrder;
 use super::project::ProjectedVertices;
+use super::radix;
 use super::scan::{covered_pixels, Rect};
 
 /// Cells per binning task.
@@ -41,10 +44,7 @@ impl CellRecord {
     /// Sort key for front-to-back order: nearest depth, then cell id.
     #[inline]
     pub fn order_key(&self) -> u64 {
-        // Order-preserving map of f32 onto u32.
-        let b = self.near.to_bits();
-        let k = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
-        (k as u64) << 32 | self.cell as u64
+        (near_key(self.near) as u64) << 32 | self.cell as u64
     }
 }
 
@@ -53,8 +53,9 @@ impl CellRecord {
 pub struct Binning {
     /// The tiles, row-major.
     pub tiles: Vec<Rect>,
-    /// For each tile, the cells whose pixel range touches it, in stored order.
-    pub bins: Vec<Vec<CellRecord>>,
+    /// For each tile, the cells whose pixel range touches it, in the
+    /// binning's order; [`Binning::records`] rebuilds their records.
+    pub bins: Vec<Vec<BinEntry>>,
     /// Cells skipped because their scalar interval has zero opacity.
     pub culled_empty: u64,
     /// Cells skipped because they project outside the image or lie behind the eye.
@@ -86,17 +87,44 @@ pub fn tiles_rect(width: u32, height: u32, tw: u32, th: u32) -> Vec<Rect> {
 }
 
 /// Culls `tets` and bins the rest into `tile x tile` tiles.
-pub fn bin_cells(tets: &[[u32; 4]], pv: &ProjectedVertices, tf: &PreparedTf, tile: u32) -> Binning {
-    bin_cells_rect(tets, pv, tf, tile, tile)
+pub fn bin_cells(
+    tets: &[[u32; 4]],
+    pv: &ProjectedVertices,
+    tf: &PreparedTf,
+    tile: u32,
+    order: CellOrder,
+) -> Binning {
+    bin_cells_rect(tets, pv, tf, tile, tile, order)
 }
 
-/// Culls `tets` and bins the rest into `tw x th` tiles.
+/// A cell in a tile's bin: what [`Binning::records`] cannot cheaply
+/// recompute from the vertices.
+#[derive(Debug, Clone, Copy)]
+pub struct BinEntry {
+    /// Cell index in the mesh.
+    pub cell: u32,
+    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
+    pub range: [u32; 4],
+}
+
+/// Culls `tets` and bins the rest into `tw x th` tiles, each tile's cells in
+/// `order`.
+///
+/// Three passes, so that the 100-byte [`CellRecord`]s are never stored for
+/// the whole frame (they are rebuilt per tile by [`Binning::records`], where
+/// they stay in cache):
+/// 1. in parallel chunks, cull every cell and keep the survivors' ranges and
+///    order keys (cell order);
+/// 2. for front-to-back order, one stable radix sort of the keys (ties stay
+///    in cell order, so the order is `(nearest depth, cell id)`);
+/// 3. append each survivor's id to the bins of the tiles its range touches.
 pub fn bin_cells_rect(
     tets: &[[u32; 4]],
     pv: &ProjectedVertices,
     tf: &PreparedTf,
     tw: u32,
     th: u32,
+    order: CellOrder,
 ) -> Binning {
     let (w, h) = pv.size;
     let rects = tiles_rect(w, h, tw, th);
@@ -108,7 +136,8 @@ pub fn bin_cells_rect(
         y1: h,
     };
     struct Part {
-        pairs: Vec<(u32, CellRecord)>,
+        survivors: Vec<BinEntry>,
+        keys: Vec<u32>,
         empty: u64,
         off: u64,
         none: u64,
@@ -118,7 +147,8 @@ pub fn bin_cells_rect(
         .enumerate()
         .map(|(c, chunk)| {
             let mut part = Part {
-                pairs: Vec::with_capacity(chunk.len() * 5 / 4),
+                survivors: Vec::with_capacity(chunk.len()),
+                keys: Vec::with_capacity(chunk.len()),
                 empty: 0,
                 off: 0,
                 none: 0,
@@ -127,12 +157,11 @@ pub fn bin_cells_rect(
                 let cell = (c * CHUNK + k) as u32;
                 match cell_record(cell, ids, pv, tf, full) {
                     Ok(rec) => {
-                        let [i0, i1, j0, j1] = rec.range;
-                        for ty in j0 / th..=j1 / th {
-                            for tx in i0 / tw..=i1 / tw {
-                                part.pairs.push((ty * tiles_x + tx, rec));
-                            }
-                        }
+                        part.survivors.push(BinEntry {
+                            cell,
+                            range: rec.range,
+                        });
+                        part.keys.push(near_key(rec.near));
                     }
                     Err(Culled::Empty) => part.empty += 1,
                     Err(Culled::Offscreen) => part.off += 1,
@@ -142,27 +171,106 @@ pub fn bin_cells_rect(
             part
         })
         .collect();
-    let mut counts = vec![0usize; rects.len()];
-    for p in &parts {
-        for (t, _) in &p.pairs {
-            counts[*t as usize] += 1;
-        }
-    }
-    let mut bins: Vec<Vec<CellRecord>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
     let mut out = Binning {
         tiles: rects,
         ..Default::default()
     };
+    let n: usize = parts.iter().map(|p| p.survivors.len()).sum();
+    let mut survivors = Vec::with_capacity(n);
+    let mut keyed: Vec<(u32, u32)> = Vec::with_capacity(n);
     for p in parts {
-        for (t, rec) in p.pairs {
-            bins[t as usize].push(rec);
-        }
+        let base = survivors.len() as u32;
+        keyed.extend(
+            p.keys
+                .into_iter()
+                .enumerate()
+                .map(|(i, k)| (k, base + i as u32)),
+        );
+        survivors.extend(p.survivors);
         out.culled_empty += p.empty;
         out.culled_offscreen += p.off;
         out.no_pixel_centre += p.none;
     }
+    if order == CellOrder::FrontToBack {
+        radix::sort_by_key_u32(&mut keyed, &mut Vec::new());
+    }
+    let tile_span = |r: [u32; 4]| (r[0] / tw, r[1] / tw, r[2] / th, r[3] / th);
+    let mut counts = vec![0usize; out.tiles.len()];
+    for s in &survivors {
+        let (tx0, tx1, ty0, ty1) = tile_span(s.range);
+        for ty in ty0..=ty1 {
+            for c in &mut counts[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {
+                *c += 1;
+            }
+        }
+    }
+    let mut bins: Vec<Vec<BinEntry>> = counts.iter().map(|&m| Vec::with_capacity(m)).collect();
+    for &(_, i) in &keyed {
+        let s = survivors[i as usize];
+        let (tx0, tx1, ty0, ty1) = tile_span(s.range);
+        for ty in ty0..=ty1 {
+            for b in &mut bins[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {
+                b.push(s);
+            }
+        }
+    }
     out.bins = bins;
     out
+}
+
+/// The nearest depth of a cell's vertices: screen depth (orthographic) or
+/// distance from the eye (perspective).
+#[inline]
+fn near_depth(pos: &[[f32; 3]; 4], perspective: bool) -> f32 {
+    if perspective {
+        pos.iter()
+            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+            .fold(f32::INFINITY, f32::min)
+    } else {
+        pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
+    }
+}
+
+/// Order-preserving map of an `f32` depth onto `u32` (for sorting).
+#[inline]
+pub fn near_key(near: f32) -> u32 {
+    let b = near.to_bits();
+    if b >> 31 == 1 {
+        !b
+    } else {
+        b | 0x8000_0000
+    }
+}
+
+impl Binning {
+    /// The number of (cell, tile) pairs: cells counted once per tile they touch.
+    pub fn pairs(&self) -> u64 {
+        self.bins.iter().map(|b| b.len() as u64).sum()
+    }
+
+    /// Rebuilds the records of tile `t`'s cells, in bin order, into `out`
+    /// (cleared first). `tets` and `pv` must be the ones binned.
+    pub fn records(
+        &self,
+        t: usize,
+        tets: &[[u32; 4]],
+        pv: &ProjectedVertices,
+        out: &mut Vec<CellRecord>,
+    ) {
+        out.clear();
+        out.extend(self.bins[t].iter().map(|e| {
+            let ids = tets[e.cell as usize];
+            let pos = ids.map(|v| pv.pos[v as usize]);
+            CellRecord {
+                near: near_depth(&pos, pv.perspective),
+                cell: e.cell,
+                range: e.range,
+                ids,
+                pos,
+                s: ids.map(|v| pv.s[v as usize]),
+            }
+        }));
+    }
 }
 
 /// Why a cell was not turned into a [`CellRecord`].
@@ -187,7 +295,6 @@ pub fn cell_record(
     tf: &PreparedTf,
     full: Rect,
 ) -> Result<CellRecord, Culled> {
-    let (w, h) = pv.size;
     let s = ids.map(|v| pv.s[v as usize]);
     let (lo, hi) = (
         s.iter().cloned().fold(f32::INFINITY, f32::min),
@@ -196,6 +303,7 @@ pub fn cell_record(
     if tf.is_transparent(lo, hi) {
         return Err(Culled::Empty);
     }
+    let (w, h) = pv.size;
     let pos = ids.map(|v| pv.pos[v as usize]);
     if pos.iter().all(|p| p[2] <= 0.0) {
         return Err(Culled::Offscreen); // behind the eye
@@ -221,15 +329,8 @@ pub fn cell_record(
     let Some((i0, i1, j0, j1)) = range else {
         return Err(Culled::NoPixelCentre);
     };
-    let near = if pv.perspective {
-        pos.iter()
-            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
-            .fold(f32::INFINITY, f32::min)
-    } else {
-        pos.iter().map(|p| p[2]).fold(f32::INFINITY, f32::min)
-    };
     Ok(CellRecord {
-        near,
+        near: near_depth(&pos, pv.perspective),
         cell,
         range: [i0, i1, j0, j1],
         ids,

@@ -29,6 +29,7 @@ pub mod integrate;
 pub mod list;
 pub mod order;
 pub mod project;
+pub mod radix;
 pub mod scan;
 pub mod segment;
 pub mod setup;
@@ -222,6 +223,8 @@ pub struct TileResult {
 pub struct Frame {
     /// Culling and binning.
     pub binning: bin::Binning,
+    /// The projected vertices the binning refers to (records are rebuilt from them).
+    pub vertices: project::ProjectedVertices,
     /// Per tile, its lists.
     pub tiles: Vec<TileResult>,
     /// Per tile, what ERT did (empty when off).
@@ -253,25 +256,23 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     } else {
         ((tile, tile), (0, 0))
     };
-    let mut binning = bin::bin_cells_rect(&input.mesh.tets, &pv, &tf, tile_dims.0, tile_dims.1);
+    let binning = bin::bin_cells_rect(
+        &input.mesh.tets,
+        &pv,
+        &tf,
+        tile_dims.0,
+        tile_dims.1,
+        opts.cell_order,
+    );
     let t1 = Instant::now();
 
     let persp = pv.perspective.then(|| pv.rays());
     let results: Vec<(TileResult, Option<ert::ErtTileStats>)> = binning
         .tiles
         .par_iter()
-        .zip(&mut binning.bins)
-        .map(|(rect, cells)| {
-            if opts.cell_order == CellOrder::FrontToBack {
-                // Sort small (key, index) pairs, then permute the records once.
-                let mut keys: Vec<(u64, u32)> = cells
-                    .iter()
-                    .enumerate()
-                    .map(|(i, c)| (c.order_key(), i as u32))
-                    .collect();
-                keys.sort_unstable();
-                *cells = keys.iter().map(|&(_, i)| cells[i as usize]).collect();
-            }
+        .enumerate()
+        .map_init(Vec::new, |cells, (t, rect)| {
+            binning.records(t, &input.mesh.tets, &pv, cells);
             if ert_on {
                 let (t, e) =
                     ert::scan_tile_ert(persp, &tf, opts, *rect, cells, entry_px, tile_dims);
@@ -290,6 +291,7 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     }
     Frame {
         binning,
+        vertices: pv,
         tiles,
         ert: ert_stats,
         tile_dims,
@@ -352,7 +354,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         cells_culled_empty: binning.culled_empty,
         cells_culled_offscreen: binning.culled_offscreen,
         cells_no_pixel_centre: binning.no_pixel_centre,
-        cell_tile_pairs: binning.bins.iter().map(|b| b.len() as u64).sum(),
+        cell_tile_pairs: binning.pairs(),
         threads,
         integrator: opts.integrator.to_string(),
         partial_composition: opts.partial_composition,
@@ -393,7 +395,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     stats.time_scan_s = frame.time_scan_s;
     stats.time_composite_s = (t3 - t2).as_secs_f64();
     stats.time_total_s = (t3 - t0).as_secs_f64();
-    let sz = sizes::cell_sizes(binning);
+    let sz = sizes::cell_sizes(binning, &input.mesh.tets, &frame.vertices);
     stats.cell_pixels_hist = sz.pixels_hist;
     stats.cell_pixels_mean = sz.pixels_mean;
     stats.cell_pixels_p50 = sz.pixels_p50;

@@ -89,8 +89,12 @@ pub fn oracle(input: &RenderInput, opts: &CellOptions, threshold: f32) -> Oracle
         segments_total,
         ..Default::default()
     };
-    for (rect, cells) in frame.binning.tiles.iter().zip(&frame.binning.bins) {
-        for c in cells {
+    let mut cells = Vec::new();
+    for (t, rect) in frame.binning.tiles.iter().enumerate() {
+        frame
+            .binning
+            .records(t, &input.mesh.tets, &frame.vertices, &mut cells);
+        for c in &cells {
             let [i0, _, j0, _] = c.range;
             // Count each cell once, in the tile holding its first pixel.
             if rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1 {
