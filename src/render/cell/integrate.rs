@@ -63,6 +63,34 @@ struct Piece {
     c1: [f32; 3],
 }
 
+/// The pieces again, structure of arrays, for the vectorised batch math
+/// (which gathers a lane's parameters by piece index).
+#[derive(Debug, Clone)]
+struct PieceTable {
+    s0: Vec<f32>,
+    inv_w: Vec<f32>,
+    o0: Vec<f32>,
+    /// `o1 - o0`.
+    d_o: Vec<f32>,
+    c0: [Vec<f32>; 3],
+    /// `c1 - c0`.
+    d_c: [Vec<f32>; 3],
+}
+
+impl PieceTable {
+    fn new(pieces: &[Piece]) -> PieceTable {
+        let col = |f: &dyn Fn(&Piece) -> f32| pieces.iter().map(f).collect::<Vec<f32>>();
+        PieceTable {
+            s0: col(&|p| p.s0),
+            inv_w: col(&|p| p.inv_w),
+            o0: col(&|p| p.o0),
+            d_o: col(&|p| p.o1 - p.o0),
+            c0: [0, 1, 2].map(|c| col(&|p| p.c0[c])),
+            d_c: [0, 1, 2].map(|c| col(&|p| p.c1[c] - p.c0[c])),
+        }
+    }
+}
+
 /// The transfer function prepared for fast evaluation in f32.
 #[derive(Debug, Clone)]
 pub struct PreparedTf {
@@ -77,6 +105,8 @@ pub struct PreparedTf {
     lut_scale: f32,
     /// `breaks.len() + 1` pieces: below the first point, between each pair, above the last.
     pieces: Vec<Piece>,
+    /// `pieces` as structure of arrays.
+    table: PieceTable,
     inv_unit_distance: f32,
 }
 
@@ -136,6 +166,7 @@ impl PreparedTf {
             lut,
             lut_lo: lo,
             lut_scale,
+            table: PieceTable::new(&pieces),
             pieces,
             inv_unit_distance: (1.0 / tf.unit_distance) as f32,
         }
@@ -345,12 +376,7 @@ impl Default for Batch {
             piece_hint: [NO_PIECE; BATCH],
             lanes: Lanes {
                 split: [false; BATCH],
-                s0: [0.0; BATCH],
-                inv_w: [0.0; BATCH],
-                o0: [0.0; BATCH],
-                d_o: [0.0; BATCH],
-                c0: [[0.0; BATCH]; 3],
-                d_c: [[0.0; BATCH]; 3],
+                piece: [0; BATCH],
             },
         }
     }
@@ -374,16 +400,13 @@ impl Batch {
     }
 }
 
-/// Transfer-function piece parameters gathered per lane (structure of arrays).
+/// Per lane: its transfer-function piece, and whether the scalar code must
+/// redo it.
 #[derive(Debug, Clone)]
 struct Lanes {
     split: [bool; BATCH],
-    s0: [f32; BATCH],
-    inv_w: [f32; BATCH],
-    o0: [f32; BATCH],
-    d_o: [f32; BATCH],
-    c0: [[f32; BATCH]; 3],
-    d_c: [[f32; BATCH]; 3],
+    /// Always a valid index into the pieces (lanes past `n` keep an old one).
+    piece: [u32; BATCH],
 }
 
 impl PreparedTf {
@@ -409,17 +432,8 @@ impl PreparedTf {
                 }
                 Integrator::Midpoint => (self.piece_index(0.5 * (b.s_in[l] + b.s_out[l])), false),
             };
-            let p = &self.pieces[i];
-            let g = &mut b.lanes;
-            g.split[l] = split;
-            g.s0[l] = p.s0;
-            g.inv_w[l] = p.inv_w;
-            g.o0[l] = p.o0;
-            g.d_o[l] = p.o1 - p.o0;
-            for c in 0..3 {
-                g.c0[c][l] = p.c0[c];
-                g.d_c[c][l] = p.c1[c] - p.c0[c];
-            }
+            b.lanes.split[l] = split;
+            b.lanes.piece[l] = i.min(self.pieces.len() - 1) as u32;
         }
         // Pass 2 (vectorised): the math, on whole vectors of lanes (lanes past
         // `n` hold stale inputs; their results are ignored).
@@ -428,13 +442,13 @@ impl PreparedTf {
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { math_avx2(b, lanes, inv_ud, exact) };
+                unsafe { math_avx2(b, &self.table, lanes, inv_ud, exact) };
             } else {
-                math_lanes(b, lanes, inv_ud, exact);
+                math_lanes(b, &self.table, lanes, inv_ud, exact);
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        math_lanes(b, lanes, inv_ud, exact);
+        math_lanes(b, &self.table, lanes, inv_ud, exact);
         if exact {
             // Pass 3 (scalar, rare): lanes that cross a control point or need sub-steps.
             for l in 0..b.n {
@@ -452,36 +466,49 @@ impl PreparedTf {
 /// the machine.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn math_avx2(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
-    math_lanes(b, lanes, inv_ud, exact)
+unsafe fn math_avx2(b: &mut Batch, t: &PieceTable, lanes: usize, inv_ud: f32, exact: bool) {
+    math_lanes(b, t, lanes, inv_ud, exact)
 }
 
 /// Pass 2 of [`PreparedTf::integrate_batch`]: per lane, the exact sub-step
 /// (or the midpoint rule) from the gathered piece parameters.
 #[inline(always)]
-fn math_lanes(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
+fn math_lanes(b: &mut Batch, t: &PieceTable, lanes: usize, inv_ud: f32, exact: bool) {
     let omax = OPACITY_MAX as f32;
     let g = &mut b.lanes;
+    // A lane's piece parameter `v[piece]`. SAFETY: `Lanes::piece` only ever
+    // holds indices below the number of pieces (set from `piece_index` and
+    // clamped in pass 1, zero-initialised), and every column has that length.
+    // Unchecked, so the loops below vectorise with gathers.
+    let n = t.s0.len();
+    let at = |v: &[f32], i: u32| -> f32 {
+        debug_assert!((i as usize) < n && v.len() == n);
+        unsafe { *v.get_unchecked(i as usize) }
+    };
     if exact {
         for l in 0..lanes {
+            let i = g.piece[l];
+            let (s0, inv_w, o0, d_o) = (at(&t.s0, i), at(&t.inv_w, i), at(&t.o0, i), at(&t.d_o, i));
+            let c0p = [at(&t.c0[0], i), at(&t.c0[1], i), at(&t.c0[2], i)];
+            let d_c = [at(&t.d_c[0], i), at(&t.d_c[1], i), at(&t.d_c[2], i)];
             let k = b.len[l] * inv_ud;
-            let w0 = fclamp((b.s_in[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
-            let w1 = fclamp((b.s_out[l] - g.s0[l]) * g.inv_w[l], 0.0, 1.0);
-            let u0 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w0, omax);
-            let u1 = 1.0 - fmin(g.o0[l] + g.d_o[l] * w1, omax);
+            let w0 = fclamp((b.s_in[l] - s0) * inv_w, 0.0, 1.0);
+            let w1 = fclamp((b.s_out[l] - s0) * inv_w, 0.0, 1.0);
+            let u0 = 1.0 - fmin(o0 + d_o * w0, omax);
+            let u1 = 1.0 - fmin(o0 + d_o * w1, omax);
             let (l0, l1) = (-ln(u0), -ln(u1));
             let d_est = k * fmax(l0, l1);
             let rel = (u1 - u0).abs() / fmin(u0, u1);
             g.split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
             let c0 = [
-                g.c0[0][l] + g.d_c[0][l] * w0,
-                g.c0[1][l] + g.d_c[1][l] * w0,
-                g.c0[2][l] + g.d_c[2][l] * w0,
+                c0p[0] + d_c[0] * w0,
+                c0p[1] + d_c[1] * w0,
+                c0p[2] + d_c[2] * w0,
             ];
             let c1 = [
-                g.c0[0][l] + g.d_c[0][l] * w1,
-                g.c0[1][l] + g.d_c[1][l] * w1,
-                g.c0[2][l] + g.d_c[2][l] * w1,
+                c0p[0] + d_c[0] * w1,
+                c0p[1] + d_c[1] * w1,
+                c0p[2] + d_c[2] * w1,
             ];
             let v = sub_step(u0, u1, l0, l1, c0, c1, k);
             b.rgba[0][l] = v.rgb[0];
@@ -491,16 +518,17 @@ fn math_lanes(b: &mut Batch, lanes: usize, inv_ud: f32, exact: bool) {
         }
     } else {
         for l in 0..lanes {
+            let i = g.piece[l];
             let k = b.len[l] * inv_ud;
             let w = fclamp(
-                (0.5 * (b.s_in[l] + b.s_out[l]) - g.s0[l]) * g.inv_w[l],
+                (0.5 * (b.s_in[l] + b.s_out[l]) - at(&t.s0, i)) * at(&t.inv_w, i),
                 0.0,
                 1.0,
             );
-            let o = fmin(g.o0[l] + g.d_o[l] * w, omax);
+            let o = fmin(at(&t.o0, i) + at(&t.d_o, i) * w, omax);
             let a = 1.0 - exp_neg(k * ln(1.0 - o));
             for c in 0..3 {
-                b.rgba[c][l] = (g.c0[c][l] + g.d_c[c][l] * w) * a;
+                b.rgba[c][l] = (at(&t.c0[c], i) + at(&t.d_c[c], i) * w) * a;
             }
             b.rgba[3][l] = a;
         }

@@ -267,25 +267,33 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     let t1 = Instant::now();
 
     let persp = pv.perspective.then(|| pv.rays());
-    let results: Vec<(TileResult, Option<ert::ErtTileStats>)> = binning
-        .tiles
-        .par_iter()
-        .enumerate()
-        .map_init(Vec::new, |cells, (t, rect)| {
+    // Tiles go to the threads heaviest first, each idle thread taking the
+    // next one from a shared queue (greedy longest-processing-time list
+    // scheduling): the last tiles to start are the light ones, so no thread
+    // is left finishing a big tile alone. The work estimate is the bin's
+    // cell count; ties keep the tile order. The image does not depend on
+    // this order: tiles are independent.
+    let mut queue: Vec<usize> = (0..binning.tiles.len()).collect();
+    queue.sort_by_key(|&t| std::cmp::Reverse(binning.bins[t].len()));
+    let mut results: Vec<(usize, TileResult, Option<ert::ErtTileStats>)> = queue
+        .into_iter()
+        .par_bridge()
+        .map_init(Vec::new, |cells, t| {
+            let rect = binning.tiles[t];
             binning.records(t, &input.mesh.tets, &pv, cells);
             if ert_on {
-                let (t, e) =
-                    ert::scan_tile_ert(persp, &tf, opts, *rect, cells, entry_px, tile_dims);
-                (t, Some(e))
+                let (r, e) = ert::scan_tile_ert(persp, &tf, opts, rect, cells, entry_px, tile_dims);
+                (t, r, Some(e))
             } else {
-                (scan_tile(persp, &tf, opts, *rect, cells), None)
+                (t, scan_tile(persp, &tf, opts, rect, cells), None)
             }
         })
         .collect();
+    results.sort_unstable_by_key(|r| r.0);
     let t2 = Instant::now();
     let mut tiles = Vec::with_capacity(results.len());
     let mut ert_stats = Vec::new();
-    for (t, e) in results {
+    for (_, t, e) in results {
         tiles.push(t);
         ert_stats.extend(e);
     }
