@@ -24,7 +24,7 @@ pub fn sort_by_key_u32(items: &mut Vec<(u32, u32)>, scratch: &mut Vec<(u32, u32)
     scratch.resize(n, (0, 0));
     for (b, c) in counts.iter().enumerate() {
         // Every key has the same byte here: this pass would not move anything.
-        if c.iter().any(|&m| m == n) {
+        if c.contains(&n) {
             continue;
         }
         let mut offsets = [0usize; 256];
