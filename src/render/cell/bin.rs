@@ -99,7 +99,7 @@ pub fn bin_cells(
 
 /// A cell in a tile's bin: what [`Binning::records`] cannot cheaply
 /// recompute from the vertices.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct BinEntry {
     /// Cell index in the mesh.
     pub cell: u32,
@@ -136,8 +136,7 @@ pub fn bin_cells_rect(
         y1: h,
     };
     struct Part {
-        survivors: Vec<BinEntry>,
-        keys: Vec<u32>,
+        survivors: Vec<(u32, BinEntry)>,
         empty: u64,
         off: u64,
         none: u64,
@@ -148,7 +147,6 @@ pub fn bin_cells_rect(
         .map(|(c, chunk)| {
             let mut part = Part {
                 survivors: Vec::with_capacity(chunk.len()),
-                keys: Vec::with_capacity(chunk.len()),
                 empty: 0,
                 off: 0,
                 none: 0,
@@ -156,13 +154,13 @@ pub fn bin_cells_rect(
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
                 match cell_record(cell, ids, pv, tf, full) {
-                    Ok(rec) => {
-                        part.survivors.push(BinEntry {
+                    Ok(rec) => part.survivors.push((
+                        near_key(rec.near),
+                        BinEntry {
                             cell,
                             range: rec.range,
-                        });
-                        part.keys.push(near_key(rec.near));
-                    }
+                        },
+                    )),
                     Err(Culled::Empty) => part.empty += 1,
                     Err(Culled::Offscreen) => part.off += 1,
                     Err(Culled::NoPixelCentre) => part.none += 1,
@@ -175,28 +173,23 @@ pub fn bin_cells_rect(
         tiles: rects,
         ..Default::default()
     };
+    // (order key, entry), in cell order.
     let n: usize = parts.iter().map(|p| p.survivors.len()).sum();
     let mut survivors = Vec::with_capacity(n);
-    let mut keyed: Vec<(u32, u32)> = Vec::with_capacity(n);
     for p in parts {
-        let base = survivors.len() as u32;
-        keyed.extend(
-            p.keys
-                .into_iter()
-                .enumerate()
-                .map(|(i, k)| (k, base + i as u32)),
-        );
         survivors.extend(p.survivors);
         out.culled_empty += p.empty;
         out.culled_offscreen += p.off;
         out.no_pixel_centre += p.none;
     }
     if order == CellOrder::FrontToBack {
-        radix::sort_by_key_u32(&mut keyed, &mut Vec::new());
+        // The entries move with their keys, so the fill below reads them in
+        // order (a sort of indices would leave it a random gather).
+        radix::sort_by_key_u32(&mut survivors, &mut Vec::new(), |s| s.0);
     }
     let tile_span = |r: [u32; 4]| (r[0] / tw, r[1] / tw, r[2] / th, r[3] / th);
     let mut counts = vec![0usize; out.tiles.len()];
-    for s in &survivors {
+    for (_, s) in &survivors {
         let (tx0, tx1, ty0, ty1) = tile_span(s.range);
         for ty in ty0..=ty1 {
             for c in &mut counts[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {
@@ -205,8 +198,7 @@ pub fn bin_cells_rect(
         }
     }
     let mut bins: Vec<Vec<BinEntry>> = counts.iter().map(|&m| Vec::with_capacity(m)).collect();
-    for &(_, i) in &keyed {
-        let s = survivors[i as usize];
+    for &(_, s) in &survivors {
         let (tx0, tx1, ty0, ty1) = tile_span(s.range);
         for ty in ty0..=ty1 {
             for b in &mut bins[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {

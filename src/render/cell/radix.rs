@@ -7,21 +7,26 @@
 //! equal keys stay in the order they came in (cell id order), which makes the
 //! result identical to sorting by `(key, cell id)`.
 
-/// Sorts `items` by their `.0`, stably. `scratch` is reused between calls.
-pub fn sort_by_key_u32(items: &mut Vec<(u32, u32)>, scratch: &mut Vec<(u32, u32)>) {
+/// Sorts `items` by `key`, stably. `scratch` is reused between calls.
+pub fn sort_by_key_u32<T: Copy + Default>(
+    items: &mut Vec<T>,
+    scratch: &mut Vec<T>,
+    key: impl Fn(&T) -> u32,
+) {
     let n = items.len();
     if n < 2 {
         return;
     }
     // One histogram per byte, all filled in a single pass over the keys.
     let mut counts = [[0usize; 256]; 4];
-    for &(k, _) in items.iter() {
+    for it in items.iter() {
+        let k = key(it);
         for (b, c) in counts.iter_mut().enumerate() {
             c[((k >> (8 * b)) & 0xff) as usize] += 1;
         }
     }
     scratch.clear();
-    scratch.resize(n, (0, 0));
+    scratch.resize(n, T::default());
     for (b, c) in counts.iter().enumerate() {
         // Every key has the same byte here: this pass would not move anything.
         if c.contains(&n) {
@@ -35,7 +40,7 @@ pub fn sort_by_key_u32(items: &mut Vec<(u32, u32)>, scratch: &mut Vec<(u32, u32)
         }
         let shift = 8 * b;
         for &it in items.iter() {
-            let d = ((it.0 >> shift) & 0xff) as usize;
+            let d = ((key(&it) >> shift) & 0xff) as usize;
             scratch[offsets[d]] = it;
             offsets[d] += 1;
         }
@@ -62,7 +67,7 @@ mod tests {
             let mut expect = items.clone();
             expect.sort_by_key(|&(k, _)| k);
             let mut got = items;
-            sort_by_key_u32(&mut got, &mut Vec::new());
+            sort_by_key_u32(&mut got, &mut Vec::new(), |it| it.0);
             prop_assert_eq!(got, expect);
         }
     }
