@@ -67,7 +67,7 @@ fn node_lists(
     let mut out = vec![vec![Vec::new(); w * h]; nodes];
     let mut cells = Vec::new();
     for (t, rect) in binning.tiles.iter().enumerate() {
-        binning.records(t, &input.mesh.tets, &pv, &mut cells);
+        binning.records(t, &pv, &mut cells);
         for (node, lists) in out.iter_mut().enumerate() {
             let mine: Vec<_> = cells
                 .iter()

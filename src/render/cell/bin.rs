@@ -101,10 +101,15 @@ pub fn bin_cells(
 /// recompute from the vertices.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct BinEntry {
+    /// Order key: [`near_key`] of the nearest depth.
+    pub key: u32,
     /// Cell index in the mesh.
     pub cell: u32,
     /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
     pub range: [u32; 4],
+    /// Global vertex ids (carried along: reading them back from the mesh in
+    /// depth order would be a cache miss per cell).
+    pub ids: [u32; 4],
 }
 
 /// Culls `tets` and bins the rest into `tw x th` tiles, each tile's cells in
@@ -113,11 +118,13 @@ pub struct BinEntry {
 /// Three passes, so that the 100-byte [`CellRecord`]s are never stored for
 /// the whole frame (they are rebuilt per tile by [`Binning::records`], where
 /// they stay in cache):
-/// 1. in parallel chunks, cull every cell and keep the survivors' ranges and
-///    order keys (cell order);
-/// 2. for front-to-back order, one stable radix sort of the keys (ties stay
-///    in cell order, so the order is `(nearest depth, cell id)`);
-/// 3. append each survivor's id to the bins of the tiles its range touches.
+/// 1. in parallel chunks, cull every cell and keep the survivors' compact
+///    [`BinEntry`]s (cell order);
+/// 2. append each entry to the bins of the tiles its range touches, reading
+///    the entries in cell order;
+/// 3. for front-to-back order, sort each bin by a stable radix sort of the
+///    depth keys, bins in parallel (ties stay in cell order, so the order is
+///    `(nearest depth, cell id)`, the same in every tile).
 pub fn bin_cells_rect(
     tets: &[[u32; 4]],
     pv: &ProjectedVertices,
@@ -136,7 +143,7 @@ pub fn bin_cells_rect(
         y1: h,
     };
     struct Part {
-        survivors: Vec<(u32, BinEntry)>,
+        survivors: Vec<BinEntry>,
         empty: u64,
         off: u64,
         none: u64,
@@ -154,13 +161,12 @@ pub fn bin_cells_rect(
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
                 match cell_record(cell, ids, pv, tf, full) {
-                    Ok(rec) => part.survivors.push((
-                        near_key(rec.near),
-                        BinEntry {
-                            cell,
-                            range: rec.range,
-                        },
-                    )),
+                    Ok(rec) => part.survivors.push(BinEntry {
+                        key: near_key(rec.near),
+                        cell,
+                        range: rec.range,
+                        ids,
+                    }),
                     Err(Culled::Empty) => part.empty += 1,
                     Err(Culled::Offscreen) => part.off += 1,
                     Err(Culled::NoPixelCentre) => part.none += 1,
@@ -173,38 +179,36 @@ pub fn bin_cells_rect(
         tiles: rects,
         ..Default::default()
     };
-    // (order key, entry), in cell order.
-    let n: usize = parts.iter().map(|p| p.survivors.len()).sum();
-    let mut survivors = Vec::with_capacity(n);
-    for p in parts {
-        survivors.extend(p.survivors);
-        out.culled_empty += p.empty;
-        out.culled_offscreen += p.off;
-        out.no_pixel_centre += p.none;
-    }
-    if order == CellOrder::FrontToBack {
-        // The entries move with their keys, so the fill below reads them in
-        // order (a sort of indices would leave it a random gather).
-        radix::sort_by_key_u32(&mut survivors, &mut Vec::new(), |s| s.0);
-    }
-    let tile_span = |r: [u32; 4]| (r[0] / tw, r[1] / tw, r[2] / th, r[3] / th);
+    let survivors = || parts.iter().flat_map(|p| p.survivors.iter());
+    // The tiles of a range, as `(row of tiles, first column, last column)`.
+    let tile_rows = |r: [u32; 4]| {
+        (r[2] / th..=r[3] / th).map(move |ty| (ty * tiles_x + r[0] / tw, ty * tiles_x + r[1] / tw))
+    };
     let mut counts = vec![0usize; out.tiles.len()];
-    for (_, s) in &survivors {
-        let (tx0, tx1, ty0, ty1) = tile_span(s.range);
-        for ty in ty0..=ty1 {
-            for c in &mut counts[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {
+    for e in survivors() {
+        for (a, b) in tile_rows(e.range) {
+            for c in &mut counts[a as usize..=b as usize] {
                 *c += 1;
             }
         }
     }
     let mut bins: Vec<Vec<BinEntry>> = counts.iter().map(|&m| Vec::with_capacity(m)).collect();
-    for &(_, s) in &survivors {
-        let (tx0, tx1, ty0, ty1) = tile_span(s.range);
-        for ty in ty0..=ty1 {
-            for b in &mut bins[(ty * tiles_x + tx0) as usize..=(ty * tiles_x + tx1) as usize] {
-                b.push(s);
+    for e in survivors() {
+        for (a, b) in tile_rows(e.range) {
+            for bin in &mut bins[a as usize..=b as usize] {
+                bin.push(*e);
             }
         }
+    }
+    for p in &parts {
+        out.culled_empty += p.empty;
+        out.culled_offscreen += p.off;
+        out.no_pixel_centre += p.none;
+    }
+    if order == CellOrder::FrontToBack {
+        bins.par_iter_mut().for_each_init(Vec::new, |scratch, b| {
+            radix::sort_by_key_u32(b, scratch, |e| e.key)
+        });
     }
     out.bins = bins;
     out
@@ -241,17 +245,11 @@ impl Binning {
     }
 
     /// Rebuilds the records of tile `t`'s cells, in bin order, into `out`
-    /// (cleared first). `tets` and `pv` must be the ones binned.
-    pub fn records(
-        &self,
-        t: usize,
-        tets: &[[u32; 4]],
-        pv: &ProjectedVertices,
-        out: &mut Vec<CellRecord>,
-    ) {
+    /// (cleared first). `pv` must be the vertices binned.
+    pub fn records(&self, t: usize, pv: &ProjectedVertices, out: &mut Vec<CellRecord>) {
         out.clear();
         out.extend(self.bins[t].iter().map(|e| {
-            let ids = tets[e.cell as usize];
+            let ids = e.ids;
             let pos = ids.map(|v| pv.pos[v as usize]);
             CellRecord {
                 near: near_depth(&pos, pv.perspective),

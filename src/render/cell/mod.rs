@@ -280,7 +280,7 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
         .par_bridge()
         .map_init(Vec::new, |cells, t| {
             let rect = binning.tiles[t];
-            binning.records(t, &input.mesh.tets, &pv, cells);
+            binning.records(t, &pv, cells);
             if ert_on {
                 let (r, e) = ert::scan_tile_ert(persp, &tf, opts, rect, cells, entry_px, tile_dims);
                 (t, r, Some(e))
@@ -403,7 +403,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     stats.time_scan_s = frame.time_scan_s;
     stats.time_composite_s = (t3 - t2).as_secs_f64();
     stats.time_total_s = (t3 - t0).as_secs_f64();
-    let sz = sizes::cell_sizes(binning, &input.mesh.tets, &frame.vertices);
+    let sz = sizes::cell_sizes(binning);
     stats.cell_pixels_hist = sz.pixels_hist;
     stats.cell_pixels_mean = sz.pixels_mean;
     stats.cell_pixels_p50 = sz.pixels_p50;

@@ -14,7 +14,6 @@
 use std::collections::BTreeMap;
 
 use super::bin::Binning;
-use super::project::ProjectedVertices;
 
 /// Size statistics of the projected cells.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -104,13 +103,11 @@ impl Counts {
 }
 
 /// Size statistics of the cells in `binning`.
-pub fn cell_sizes(binning: &Binning, tets: &[[u32; 4]], pv: &ProjectedVertices) -> CellSizes {
+pub fn cell_sizes(binning: &Binning) -> CellSizes {
     let mut pixels = Counts::default();
     let mut extents = Counts::default();
-    let mut cells = Vec::new();
-    for (t, rect) in binning.tiles.iter().enumerate() {
-        binning.records(t, tets, pv, &mut cells);
-        for c in &cells {
+    for (rect, cells) in binning.tiles.iter().zip(&binning.bins) {
+        for c in cells {
             let [i0, i1, j0, j1] = c.range;
             if !(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1) {
                 continue;

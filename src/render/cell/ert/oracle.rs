@@ -91,9 +91,7 @@ pub fn oracle(input: &RenderInput, opts: &CellOptions, threshold: f32) -> Oracle
     };
     let mut cells = Vec::new();
     for (t, rect) in frame.binning.tiles.iter().enumerate() {
-        frame
-            .binning
-            .records(t, &input.mesh.tets, &frame.vertices, &mut cells);
+        frame.binning.records(t, &frame.vertices, &mut cells);
         for c in &cells {
             let [i0, _, j0, _] = c.range;
             // Count each cell once, in the tile holding its first pixel.
