@@ -42,14 +42,11 @@ fn main() -> anyhow::Result<()> {
         let mut since = 0usize;
         let total = |nodes: &[NodeRenderer]| nodes.iter().map(|r| r.remaining()).sum::<usize>();
         let mut interval = (total(&nodes) / 100).max(1);
-        loop {
-            let Some(k) = (0..n)
-                .filter_map(|k| nodes[k].next_order_key().map(|key| (key, k)))
-                .min()
-                .map(|x| x.1)
-            else {
-                break;
-            };
+        while let Some(k) = (0..n)
+            .filter_map(|k| nodes[k].next_order_key().map(|key| (key, k)))
+            .min()
+            .map(|x| x.1)
+        {
             let r = nodes[k].step(1);
             if r.update_due {
                 nodes[k].update_table();
