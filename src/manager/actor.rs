@@ -154,7 +154,8 @@ impl ManagerActor {
                 let m: ErtShare = env.decode(&self.codec).map_err(|e| e.to_string())?;
                 let (improved, work) = match self.store.as_mut() {
                     Some(store) => {
-                        let d = LevelDelta::decode(&m.table).map_err(|e| e.to_string())?;
+                        let d = LevelDelta::decode(&m.table, store.grid())
+                            .map_err(|e| e.to_string())?;
                         let before = self.table.clone();
                         let work = store
                             .apply(j, &d, &mut self.table)

@@ -216,7 +216,7 @@ impl NodeActor {
                 self.stats.update_s += s;
                 if self.cfg.share {
                     let table = match self.renderer.take_level_delta() {
-                        Some((delta, ops)) => {
+                        Some((bytes, ops)) => {
                             let s = self.secs(&ops);
                             out.push(Action::Compute {
                                 seconds: s,
@@ -224,7 +224,7 @@ impl NodeActor {
                             });
                             t += s;
                             self.stats.share_s += s;
-                            delta.encode()
+                            bytes
                         }
                         None => self.renderer.local_table().encode(),
                     };

@@ -9,25 +9,31 @@
 //! tables exchanged instantly, the paper's rule skips only 64 % (view B) and
 //! 70 % (view A) of what the sequential renderer skips.
 //!
-//! Here a node shares, instead, for each **block** (an entry cut into
-//! `sub x sub` blocks) and each of `L` **opacity levels**
-//! `a_l = 1 - (1 - thr)^(l / L)` (`a_L = thr`), the depth by which every
-//! pixel of the block has reached `a_l` in the node's own lists (`+inf`:
-//! some pixel has not). Transmittances multiply over disjoint segments, and
-//! the segments of different nodes are disjoint (cells are), so at depth `z`
-//! a pixel's transmittance over the union of all nodes' segments is at most
-//! `prod_k (1 - thr)^(l_k / L)` where `l_k` is the number of node `k`'s
-//! levels reached by `z`; it is at most `1 - thr` (terminated) as soon as
-//! `sum_k l_k >= L`. Counting one unit per (node, level) value `<= z`, the
-//! smallest such `z` for a block is simply the **`L`-th smallest value** over
-//! all nodes' values for that block ([`combine_block`]). An entry's
-//! `deepest` is the max over its blocks: a valid certificate with the same
-//! error bound as the paper's table, up to the `f32` rounding of the levels
-//! (the per-pixel test `acc >= a_l` is `f32`, as the sequential one is).
-//! With `L = 1` and `sub = 1` this is exactly the paper's rule.
+//! Here a node shares, for each **block** (an entry cut into `sub x sub`
+//! blocks) and each of `L` **opacity levels** `a_l = 1 - (1 - thr)^(l / L)`
+//! (`a_L = thr`), a [`LevelMask`]: the set of the block's pixels whose own
+//! segments reached `a_l`, and the deepest depth at which they did.
+//! Transmittances multiply over disjoint segments, and the segments of
+//! different nodes are disjoint (cells are), so at depth `z` a pixel's
+//! transmittance over the union of all nodes' segments is at most
+//! `prod_k (1 - thr)^(l_k / L)`, `l_k` being the number of node `k`'s masks
+//! that hold the pixel with a depth `<= z`; the pixel is terminated (at most
+//! `1 - thr`) as soon as `sum_k l_k >= L`. Counting one unit per such
+//! (node, level) mask, the smallest `z` for a pixel is the **`L`-th smallest
+//! depth** among the masks holding it, and a block's certified `deepest` is
+//! the max of that over its pixels ([`combine_masks`]): opacity adds up
+//! across nodes in depth (rays crossing several nodes' pieces, view B) and
+//! pixels terminated by different nodes add up across space (entries cut by
+//! node boundaries, view A). An entry's `deepest` is the max over its blocks.
+//! It is a valid certificate with the same error bound as the paper's table,
+//! up to the `f32` rounding of the levels (the per-pixel test `acc >= a_l`
+//! is `f32`, as the sequential one is). Every mask a node ever sent stays a
+//! valid certificate (segments are only added), so the manager may replace
+//! a node's masks by newer ones and keep per block the min of everything it
+//! combined.
 //!
-//! Nodes send only the blocks whose values changed since their last share
-//! ([`LevelDelta`]); the manager keeps every node's latest values, recombines
+//! Nodes send only the blocks whose masks changed since their last share
+//! ([`LevelDelta`]); the manager keeps every node's latest masks, recombines
 //! the changed blocks and replies with the usual per-entry
 //! [`super::SharedTable`].
 
@@ -157,56 +163,82 @@ pub fn combine_block<'a>(values: impl Iterator<Item = &'a [f32]>, levels: usize)
     *nth
 }
 
-/// The blocks whose level values changed since a node's last share.
+/// Pixels of a block reached at one level, and the deepest of their depths.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LevelMask {
+    /// One bit per pixel of the block (row-major over its rectangle), LSB
+    /// first in 64-bit words: the pixels whose own opacity reached the level.
+    pub bits: Vec<u64>,
+    /// Max over those pixels of the depth where they reached it.
+    pub depth: f32,
+}
+
+/// The blocks whose level information changed since a node's last share.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LevelDelta {
-    /// Blocks per row and column.
+    /// Blocks per row.
     pub nbx: u16,
     /// Blocks per column.
     pub nby: u16,
     /// Levels `L` (1..=16).
     pub levels: u8,
-    /// Changed blocks, ascending, with their `L` values (`+inf`: not reached).
-    pub blocks: Vec<(u32, Vec<f32>)>,
+    /// Changed blocks, ascending; per block `L` masks (`None`: no pixel
+    /// reached the level).
+    pub blocks: Vec<(u32, Vec<Option<LevelMask>>)>,
+}
+
+/// Bytes of a block's pixel mask on the wire.
+fn mask_bytes(px: usize) -> usize {
+    px.div_ceil(8)
+}
+
+impl BlockGrid {
+    /// Pixels of block `b`.
+    pub fn pixels(&self, b: usize) -> usize {
+        let (x0, x1, y0, y1) = self.rect(b);
+        ((x1 - x0) * (y1 - y0)) as usize
+    }
+
+    /// 64-bit words of a block's mask (for the largest block).
+    pub fn words(&self) -> usize {
+        ((self.block.0 * self.block.1) as usize).div_ceil(64).max(1)
+    }
 }
 
 impl LevelDelta {
-    /// Wire form: `nbx`, `ny` (u16 LE), `L` (u8), count (u32 LE), then per
-    /// block its index (u32 LE), a u16 LE mask of the finite levels and one
-    /// f32 LE per finite level.
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_size() as usize);
+    /// Wire form: `nbx`, `nby` (u16 LE), `L` (u8), count (u32 LE), then per
+    /// block its index (u32 LE), a u16 LE mask of the levels present, and per
+    /// present level the pixel bits (`ceil(pixels / 8)` bytes) and the depth
+    /// (f32 LE). The block's pixel count comes from the grid.
+    pub fn encode(&self, grid: &BlockGrid) -> Vec<u8> {
+        let mut out = Vec::new();
         out.extend_from_slice(&self.nbx.to_le_bytes());
         out.extend_from_slice(&self.nby.to_le_bytes());
         out.push(self.levels);
         out.extend_from_slice(&(self.blocks.len() as u32).to_le_bytes());
         for (b, v) in &self.blocks {
             out.extend_from_slice(&b.to_le_bytes());
-            let mask = v
+            let present = v
                 .iter()
                 .enumerate()
-                .filter(|(_, d)| d.is_finite())
+                .filter(|(_, m)| m.is_some())
                 .fold(0u16, |m, (l, _)| m | 1 << l);
-            out.extend_from_slice(&mask.to_le_bytes());
-            for d in v.iter().filter(|d| d.is_finite()) {
-                out.extend_from_slice(&d.to_le_bytes());
+            out.extend_from_slice(&present.to_le_bytes());
+            let nb = mask_bytes(grid.pixels(*b as usize));
+            for m in v.iter().flatten() {
+                for i in 0..nb {
+                    out.push((m.bits.get(i / 8).copied().unwrap_or(0) >> (8 * (i % 8))) as u8);
+                }
+                out.extend_from_slice(&m.depth.to_le_bytes());
             }
         }
         out
     }
 
-    /// Bytes of [`LevelDelta::encode`].
-    pub fn encoded_size(&self) -> u64 {
-        9 + self
-            .blocks
-            .iter()
-            .map(|(_, v)| 6 + 4 * v.iter().filter(|d| d.is_finite()).count() as u64)
-            .sum::<u64>()
-    }
-
-    /// Decodes [`LevelDelta::encode`]'s form; never panics. Checks the
-    /// shape, block indices (ascending, in range), finite depths.
-    pub fn decode(bytes: &[u8]) -> Result<LevelDelta, TableError> {
+    /// Decodes [`LevelDelta::encode`]'s form against `grid`; never panics.
+    /// Checks the shape, block indices (ascending, in range), padding bits,
+    /// finite depths.
+    pub fn decode(bytes: &[u8], grid: &BlockGrid) -> Result<LevelDelta, TableError> {
         let bad = || TableError::Length(bytes.len());
         let get = |at: usize, n: usize| bytes.get(at..at + n).ok_or_else(bad);
         let h = get(0, 9)?;
@@ -214,35 +246,48 @@ impl LevelDelta {
         let nby = u16::from_le_bytes([h[2], h[3]]);
         let levels = h[4];
         let count = u32::from_le_bytes([h[5], h[6], h[7], h[8]]) as usize;
-        if levels == 0 || levels > 16 || count > nbx as usize * nby as usize {
+        let (gx, gy) = grid.dims();
+        if levels == 0 || levels > 16 || (nbx as u32, nby as u32) != (gx, gy) || count > grid.len()
+        {
             return Err(bad());
         }
+        let words = grid.words();
         let mut at = 9;
         let mut blocks = Vec::with_capacity(count);
         let mut prev: Option<u32> = None;
         for _ in 0..count {
             let h = get(at, 6)?;
             let b = u32::from_le_bytes([h[0], h[1], h[2], h[3]]);
-            let mask = u16::from_le_bytes([h[4], h[5]]);
+            let present = u16::from_le_bytes([h[4], h[5]]);
             at += 6;
-            if b as usize >= nbx as usize * nby as usize
+            if b as usize >= grid.len()
                 || prev.is_some_and(|p| p >= b)
-                || (levels < 16 && mask >> levels != 0)
+                || (levels < 16 && present >> levels != 0)
             {
                 return Err(bad());
             }
             prev = Some(b);
-            let mut v = vec![f32::INFINITY; levels as usize];
-            for (l, d) in v.iter_mut().enumerate() {
-                if mask >> l & 1 == 1 {
-                    let c = get(at, 4)?;
-                    at += 4;
-                    let x = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-                    if !x.is_finite() {
-                        return Err(TableError::NonFinite(b as usize));
-                    }
-                    *d = x;
+            let px = grid.pixels(b as usize);
+            let nb = mask_bytes(px);
+            let mut v = vec![None; levels as usize];
+            for (l, slot) in v.iter_mut().enumerate() {
+                if present >> l & 1 == 0 {
+                    continue;
                 }
+                let m = get(at, nb + 4)?;
+                at += nb + 4;
+                let mut bits = vec![0u64; words];
+                for (i, &byte) in m[..nb].iter().enumerate() {
+                    bits[i / 8] |= (byte as u64) << (8 * (i % 8));
+                }
+                if px % 8 != 0 && m[nb - 1] >> (px % 8) != 0 {
+                    return Err(bad());
+                }
+                let d = f32::from_le_bytes([m[nb], m[nb + 1], m[nb + 2], m[nb + 3]]);
+                if !d.is_finite() {
+                    return Err(TableError::NonFinite(b as usize));
+                }
+                *slot = Some(LevelMask { bits, depth: d });
             }
             blocks.push((b, v));
         }
@@ -258,15 +303,50 @@ impl LevelDelta {
     }
 }
 
-/// The manager's store: every node's latest level values per block, and
-/// the combined per-entry `deepest`.
+/// Whether bit `p` of `bits` is set.
+#[inline]
+fn bit(bits: &[u64], p: usize) -> bool {
+    bits[p / 64] >> (p % 64) & 1 == 1
+}
+
+/// The smallest depth at which every pixel of a block is certified
+/// terminated from the nodes' masks (`per_node[k][l]`, `None`: level not
+/// reached anywhere): per pixel the `L`-th smallest depth among the
+/// (node, level) masks holding it, then the max over the block's `px`
+/// pixels (`+inf` if a pixel has fewer than `L`). Also returns the work
+/// (values inspected).
+pub fn combine_masks(per_node: &[&[Option<LevelMask>]], px: usize, levels: usize) -> (f32, u64) {
+    let mut worst = f32::NEG_INFINITY;
+    let mut work = 0u64;
+    let mut v: Vec<f32> = Vec::with_capacity(per_node.len() * levels);
+    for p in 0..px {
+        v.clear();
+        for node in per_node {
+            for m in node.iter().flatten() {
+                work += 1;
+                if bit(&m.bits, p) {
+                    v.push(m.depth);
+                }
+            }
+        }
+        if v.len() < levels {
+            return (f32::INFINITY, work);
+        }
+        let (_, nth, _) = v.select_nth_unstable_by(levels - 1, |a, b| a.total_cmp(b));
+        worst = worst.max(*nth);
+    }
+    (worst, work)
+}
+
+/// The manager's store: every node's latest level masks per block, and the
+/// combined per-entry `deepest`.
 #[derive(Debug, Clone)]
 pub struct LevelStore {
     grid: BlockGrid,
     levels: usize,
     nodes: usize,
-    /// `[node][block * L + l]`.
-    values: Vec<Vec<f32>>,
+    /// `[block]`: the nodes that sent something for it, with their masks.
+    values: Vec<Vec<(usize, Vec<Option<LevelMask>>)>>,
     /// Combined per block.
     block: Vec<f32>,
 }
@@ -278,15 +358,22 @@ impl LevelStore {
             grid,
             levels,
             nodes,
-            values: vec![vec![f32::INFINITY; grid.len() * levels]; nodes],
+            values: vec![Vec::new(); grid.len()],
             block: vec![f32::INFINITY; grid.len()],
         }
     }
 
-    /// Applies node `k`'s delta (per value the min with what it sent before),
-    /// recombines the changed blocks and writes the changed entries' `deepest`
-    /// into `out` (per entry the min with its current value). Returns the
-    /// number of values read (the manager's work, for the cost model).
+    /// The block grid.
+    pub fn grid(&self) -> &BlockGrid {
+        &self.grid
+    }
+
+    /// Applies node `k`'s delta (its masks replace what it sent before for
+    /// those blocks: each is a certificate that never expires, and a newer
+    /// one holds more pixels), recombines the changed blocks (keeping per
+    /// block the min with its previous combination) and writes the changed
+    /// entries' `deepest` into `out` (per entry the min with its current
+    /// value). Returns the work (values read), for the cost model.
     pub fn apply(
         &mut self,
         k: usize,
@@ -309,17 +396,22 @@ impl LevelStore {
         let mut entries: Vec<usize> = Vec::new();
         for (b, v) in &d.blocks {
             let b = *b as usize;
-            let mine = &mut self.values[k][b * l..(b + 1) * l];
-            for (m, &x) in mine.iter_mut().zip(v) {
-                *m = m.min(x);
+            if v.len() != l {
+                return Err(TableError::Length(v.len()));
+            }
+            let slot = &mut self.values[b];
+            match slot.iter_mut().find(|(n, _)| *n == k) {
+                Some(s) => s.1 = v.clone(),
+                None => slot.push((k, v.clone())),
             }
             work += l as u64;
-            let c = combine_block(self.values.iter().map(|vals| &vals[b * l..(b + 1) * l]), l);
-            work += (self.nodes * l) as u64;
+            let masks: Vec<&[Option<LevelMask>]> = slot.iter().map(|(_, m)| &m[..]).collect();
+            let (c, w) = combine_masks(&masks, self.grid.pixels(b), l);
+            work += w;
             if c < self.block[b] {
                 self.block[b] = c;
                 let e = self.grid.entry_of(b);
-                if entries.last() != Some(&e) && !entries.contains(&e) {
+                if !entries.contains(&e) {
                     entries.push(e);
                 }
             }
@@ -390,28 +482,68 @@ mod tests {
         assert_eq!(combine_block([&alone[..], &n2[..]].into_iter(), 4), 2.0);
     }
 
+    fn mask(g: &BlockGrid, b: usize, px: &[usize], depth: f32) -> Option<LevelMask> {
+        let mut bits = vec![0u64; g.words()];
+        for &p in px {
+            assert!(p < g.pixels(b));
+            bits[p / 64] |= 1 << (p % 64);
+        }
+        Some(LevelMask { bits, depth })
+    }
+
     #[test]
     fn delta_round_trip_and_hostile_bytes() {
-        let inf = f32::INFINITY;
+        let g = BlockGrid::new(12, 6, 2, 2); // entries 6x3, blocks 3x2 (6 px)
+        assert_eq!(
+            (g.dims(), g.pixels(0), g.pixels(6), g.words()),
+            ((4, 4), 6, 3, 1)
+        );
         let d = LevelDelta {
             nbx: 4,
-            nby: 2,
+            nby: 4,
             levels: 3,
-            blocks: vec![(1, vec![1.0, 2.0, inf]), (6, vec![inf, inf, inf])],
+            blocks: vec![
+                (
+                    1,
+                    vec![mask(&g, 1, &[0, 5], 1.0), mask(&g, 1, &[5], 2.0), None],
+                ),
+                (6, vec![None, None, None]),
+            ],
         };
-        let b = d.encode();
-        assert_eq!(b.len() as u64, d.encoded_size());
-        assert_eq!(LevelDelta::decode(&b).unwrap(), d);
+        let b = d.encode(&g);
+        assert_eq!(b.len(), 9 + 6 + 2 * (1 + 4) + 6);
+        assert_eq!(LevelDelta::decode(&b, &g).unwrap(), d);
         for cut in 0..b.len() {
-            assert!(LevelDelta::decode(&b[..cut]).is_err());
+            assert!(LevelDelta::decode(&b[..cut], &g).is_err());
         }
         let mut bad = b.clone();
         bad[9] = 9; // block index out of range
-        assert!(LevelDelta::decode(&bad).is_err());
+        assert!(LevelDelta::decode(&bad, &g).is_err());
+        let mut pad = b.clone();
+        pad[15] |= 0x80; // a bit past the block's 6 pixels
+        assert!(LevelDelta::decode(&pad, &g).is_err());
         let mut nan = b.clone();
-        nan[15..19].copy_from_slice(&f32::NAN.to_le_bytes());
-        assert!(LevelDelta::decode(&nan).is_err());
-        assert!(LevelDelta::decode(&[b.clone(), vec![0]].concat()).is_err());
+        nan[16..20].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(LevelDelta::decode(&nan, &g).is_err());
+        assert!(LevelDelta::decode(&[b.clone(), vec![0]].concat(), &g).is_err());
+        assert!(LevelDelta::decode(&b, &BlockGrid::new(12, 6, 2, 1)).is_err());
+    }
+
+    #[test]
+    fn masks_combine_in_depth_and_across_space() {
+        let g = BlockGrid::new(4, 2, 1, 1); // one entry, one 4x2 block
+        let all: Vec<usize> = (0..8).collect();
+        let (left, right): (Vec<usize>, Vec<usize>) = all.iter().partition(|&&p| p % 4 < 2);
+        // Depth: two nodes at level 1 of 2 everywhere: terminated at the deeper.
+        let a = [mask(&g, 0, &all, 1.0), None];
+        let b = [mask(&g, 0, &all, 3.0), None];
+        assert_eq!(combine_masks(&[&a, &b], 8, 2).0, 3.0);
+        assert_eq!(combine_masks(&[&a], 8, 2).0, f32::INFINITY);
+        // Space: each node terminates its half alone.
+        let l = [mask(&g, 0, &left, 1.0), mask(&g, 0, &left, 2.0)];
+        let r = [mask(&g, 0, &right, 4.0), mask(&g, 0, &right, 5.0)];
+        assert_eq!(combine_masks(&[&l, &r], 8, 2).0, 5.0);
+        assert_eq!(combine_masks(&[&l], 8, 2).0, f32::INFINITY);
     }
 
     #[test]
@@ -419,21 +551,28 @@ mod tests {
         let g = BlockGrid::new(4, 4, 2, 2); // entries 2x2 px, blocks 1x1
         let mut s = LevelStore::new(g, 2, 2);
         let mut t = SharedTable::empty(2, 2);
-        let inf = f32::INFINITY;
-        // Entry 0 = blocks 0, 1, 4, 5. Node 0 reaches level 1 everywhere at 1.0.
-        let all = |v: Vec<f32>| LevelDelta {
+        let delta = |v: Vec<Option<LevelMask>>| LevelDelta {
             nbx: 4,
             nby: 4,
             levels: 2,
             blocks: [0u32, 1, 4, 5].iter().map(|&b| (b, v.clone())).collect(),
         };
-        s.apply(0, &all(vec![1.0, inf]), &mut t).unwrap();
+        // Entry 0 = blocks 0, 1, 4, 5. Node 0 reaches level 1 everywhere at 1.0.
+        s.apply(0, &delta(vec![mask(&g, 0, &[0], 1.0), None]), &mut t)
+            .unwrap();
         assert!(!t.terminated(0));
-        s.apply(1, &all(vec![3.0, inf]), &mut t).unwrap();
+        s.apply(1, &delta(vec![mask(&g, 0, &[0], 3.0), None]), &mut t)
+            .unwrap();
         assert_eq!(t.deepest[0], 3.0);
         assert!(!t.terminated(1));
-        // Node 1 later sees more in front: only improves.
-        s.apply(1, &all(vec![2.0, 5.0]), &mut t).unwrap();
-        assert_eq!(t.deepest[0], 2.0);
+        // Node 1 later sees more in front (levels 1 and 2 by 1.5 and 2.0):
+        // with node 0's level 1 at 1.0, the second smallest is 1.5.
+        let both = vec![mask(&g, 0, &[0], 1.5), mask(&g, 0, &[0], 2.0)];
+        s.apply(1, &delta(both), &mut t).unwrap();
+        assert_eq!(t.deepest[0], 1.5);
+        // A later, weaker certificate never loosens the table.
+        s.apply(1, &delta(vec![mask(&g, 0, &[0], 9.0), None]), &mut t)
+            .unwrap();
+        assert_eq!(t.deepest[0], 1.5);
     }
 }

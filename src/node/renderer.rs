@@ -53,7 +53,7 @@
 
 use std::collections::HashMap;
 
-use super::levels::{level_alphas, BlockGrid, LevelDelta};
+use super::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
 use super::ops::OpCounts;
 use super::table::{NodeTable, SharedTable, TableError};
 use super::work::{WorkError, WorkUnit};
@@ -195,8 +195,9 @@ struct NodeLevels {
     alphas: Vec<f32>,
     /// `[pixel * L + l]`, cached, only ever decreasing.
     pix: Vec<f32>,
-    /// `[block * L + l]`: max over the block's pixels.
-    block: Vec<f32>,
+    /// `[block * L + l]`: the block's pixels that reached level `l`, and
+    /// their deepest depth.
+    block: Vec<Option<LevelMask>>,
     dirty_flag: Vec<bool>,
     dirty: Vec<u32>,
     unsent_flag: Vec<bool>,
@@ -259,7 +260,7 @@ impl NodeRenderer {
             grid,
             alphas: level_alphas(e.threshold, l),
             pix: vec![f32::INFINITY; (w * h) as usize * l],
-            block: vec![f32::INFINITY; grid.len() * l],
+            block: vec![None; grid.len() * l],
             dirty_flag: vec![false; grid.len()],
             dirty: Vec::new(),
             unsent_flag: vec![false; grid.len()],
@@ -272,16 +273,16 @@ impl NodeRenderer {
         self.levels.as_ref().map(|l| (l.grid, l.alphas.len()))
     }
 
-    /// Level sharing: the blocks whose level depths changed since the last
-    /// call, with their values; packing counted as `shared_entries_merged`
-    /// (one per value). `None` if level sharing is off.
-    pub fn take_level_delta(&mut self) -> Option<(LevelDelta, OpCounts)> {
+    /// Level sharing: the blocks whose level masks changed since the last
+    /// call, encoded ([`LevelDelta::encode`]); packing counted as
+    /// `shared_entries_merged` (one per mask). `None` if level sharing is off.
+    pub fn take_level_delta(&mut self) -> Option<(Vec<u8>, OpCounts)> {
         let lv = self.levels.as_mut()?;
         let l = lv.alphas.len();
         let mut ids = std::mem::take(&mut lv.unsent);
         ids.sort_unstable();
         let (nbx, nby) = lv.grid.dims();
-        let blocks: Vec<(u32, Vec<f32>)> = ids
+        let blocks: Vec<(u32, Vec<Option<LevelMask>>)> = ids
             .iter()
             .map(|&b| {
                 lv.unsent_flag[b as usize] = false;
@@ -289,19 +290,20 @@ impl NodeRenderer {
             })
             .collect();
         let ops = OpCounts {
-            shared_entries_merged: (blocks.len() * l) as u64,
+            shared_entries_merged: blocks
+                .iter()
+                .map(|(_, v)| v.iter().flatten().count() as u64)
+                .sum(),
             ..Default::default()
         };
         self.totals.add(&ops);
-        Some((
-            LevelDelta {
-                nbx: nbx as u16,
-                nby: nby as u16,
-                levels: l as u8,
-                blocks,
-            },
-            ops,
-        ))
+        let d = LevelDelta {
+            nbx: nbx as u16,
+            nby: nby as u16,
+            levels: l as u8,
+            blocks,
+        };
+        Some((d.encode(&lv.grid), ops))
     }
 
     /// The options.
@@ -602,22 +604,35 @@ impl NodeLevels {
             let b = b as usize;
             self.dirty_flag[b] = false;
             let (x0, x1, y0, y1) = self.grid.rect(b);
-            let mut m = vec![f32::NEG_INFINITY; l];
+            let words = self.grid.words();
+            let mut m: Vec<LevelMask> = (0..l)
+                .map(|_| LevelMask {
+                    bits: vec![0; words],
+                    depth: f32::NEG_INFINITY,
+                })
+                .collect();
+            let mut i = 0;
             for y in y0..y1 {
                 for x in x0..x1 {
                     let p = (y * w + x) as usize;
                     for (mv, &v) in m.iter_mut().zip(&self.pix[p * l..(p + 1) * l]) {
-                        *mv = mv.max(v);
+                        if v.is_finite() {
+                            mv.bits[i / 64] |= 1 << (i % 64);
+                            mv.depth = mv.depth.max(v);
+                        }
                     }
+                    i += 1;
                 }
             }
             ops.table_entries_updated += 1;
             ops.table_pixels_read += ((x1 - x0) * (y1 - y0)) as u64 * l as u64;
+            let new: Vec<Option<LevelMask>> = m
+                .into_iter()
+                .map(|m| m.depth.is_finite().then_some(m))
+                .collect();
             let old = &mut self.block[b * l..(b + 1) * l];
-            if old.iter().zip(&m).any(|(o, n)| n < o) {
-                for (o, n) in old.iter_mut().zip(&m) {
-                    *o = o.min(*n);
-                }
+            if old != &new[..] {
+                old.clone_from_slice(&new);
                 if !self.unsent_flag[b] {
                     self.unsent_flag[b] = true;
                     self.unsent.push(b as u32);
