@@ -280,7 +280,7 @@ impl LevelDelta {
                 for (i, &byte) in m[..nb].iter().enumerate() {
                     bits[i / 8] |= (byte as u64) << (8 * (i % 8));
                 }
-                if px % 8 != 0 && m[nb - 1] >> (px % 8) != 0 {
+                if !px.is_multiple_of(8) && m[nb - 1] >> (px % 8) != 0 {
                     return Err(bad());
                 }
                 let d = f32::from_le_bytes([m[nb], m[nb + 1], m[nb + 2], m[nb + 3]]);
