@@ -351,6 +351,7 @@ fn malformed_messages_are_errors() {
                 table_dims: (20, 20),
                 dlb: true,
                 min_grant: 3,
+                levels: None,
             },
             vec![10, 10],
             CostProfile::default(),
@@ -422,4 +423,49 @@ fn many_nodes() {
         out.report.cells_processed + out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
         input.mesh.tets.len() as u64
     );
+}
+
+/// Level sharing (opacity levels per block, `src/node/levels.rs`): the image
+/// stays within the ERT bound of the full render, for 1, 3 and 8 nodes, and
+/// the run is deterministic; the shares are level deltas, not tables.
+#[test]
+fn level_sharing_within_bound_and_deterministic() {
+    for view in ["a", "b"] {
+        let input = small(view);
+        let (full, _) = cell::render(
+            &input,
+            &CellOptions {
+                ert: ErtOptions::OFF,
+                ..Default::default()
+            },
+        );
+        let bound = cell::ert::error_bound(
+            0.9,
+            input.scene.transfer.max_radiance(),
+            input.scene.image.background,
+        ) as f32;
+        let ert = NodeErt {
+            share_levels: 4,
+            share_sub: 3,
+            ..NodeErt::PAPER
+        };
+        for n in [1, 3, 8] {
+            let cfg = config(n, ert, true, true, "binary-swap");
+            let out = cluster::run(&input, &cfg).unwrap();
+            let d = max_diff(&out.image, &full);
+            eprintln!(
+                "view {view} N {n} levels: {d:.4} (bound {bound:.4}), skipped {}",
+                out.report.cells_skipped_ert
+            );
+            assert!(d <= bound + 1e-5, "view {view} N {n} levels: {d} > {bound}");
+            assert_eq!((out.report.share_levels, out.report.share_sub), (4, 3));
+            let again = cluster::run(&input, &cfg).unwrap();
+            assert_eq!(out.image.pixels, again.image.pixels);
+            assert_eq!(out.report.frame_s, again.report.frame_s);
+            assert_eq!(out.report.cells_skipped_ert, again.report.cells_skipped_ert);
+            let processed: u64 = out.report.nodes.iter().map(|x| x.cells_processed).sum();
+            let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();
+            assert_eq!(processed + culled, out.report.cells_total, "no cell lost");
+        }
+    }
 }

@@ -55,6 +55,14 @@ pub struct ClusterArgs {
     /// the nodes whose screen footprints overlap its own) or `off`.
     #[arg(long, value_enum, default_value_t = Sharing::Off)]
     pub sharing: Sharing,
+    /// Level sharing with `--sharing manager`: opacity levels `L` sent per
+    /// block (1 with `--share-sub 1`: the paper's per-entry table). See
+    /// `src/node/levels.rs`.
+    #[arg(long, value_name = "L", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub share_levels: u8,
+    /// Level sharing: blocks per entry axis (1: whole entries).
+    #[arg(long, value_name = "S", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=15))]
+    pub share_sub: u8,
     /// Shorthand for `--sharing manager`.
     #[arg(long, conflicts_with = "sharing")]
     pub share: bool,
@@ -186,6 +194,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                     update_c: a.ert_update.max(1),
                     span: a.ert_span,
                     local_pyramid: false,
+                    share_levels: a.share_levels,
+                    share_sub: a.share_sub,
                 },
                 canonical: a.canonical,
             },

@@ -114,6 +114,9 @@ pub fn build_nodes(
         .enumerate()
         .map(|(k, part)| {
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
+            if cfg.share {
+                r.enable_level_sharing();
+            }
             let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
             let unit = WorkUnit::decode(&unit.encode())?;
             r.add_work(&unit)?;
@@ -156,6 +159,11 @@ pub fn run(
         table_dims: (nx as u16, ny as u16),
         dlb: cfg.dlb,
         min_grant: cfg.min_grant as u64,
+        levels: if cfg.share {
+            nodes[0].renderer().level_grid()
+        } else {
+            None
+        },
     };
     let initial = nodes
         .iter()

@@ -159,6 +159,11 @@ pub struct ClusterReport {
     pub share: bool,
     /// ERT sharing mode: `off`, `manager` or `overlap`.
     pub sharing: String,
+    /// Level sharing ([`crate::node::levels`]): opacity levels per block
+    /// (1 with `share_sub` 1: the paper's per-entry table).
+    pub share_levels: u8,
+    /// Level sharing: blocks per entry axis.
+    pub share_sub: u8,
     /// DLB on.
     pub dlb: bool,
     /// Nodes kept canonical lists (image independent of the distribution).
@@ -418,6 +423,8 @@ pub fn build(i: Inputs) -> ClusterReport {
             "off"
         }
         .to_string(),
+        share_levels: p1.node.ert.share_levels,
+        share_sub: p1.node.ert.share_sub,
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,

@@ -23,6 +23,7 @@ use std::collections::VecDeque;
 
 use super::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkRequest};
 use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, NodeId};
+use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
 use crate::node::{CostProfile, SharedTable};
 
@@ -37,6 +38,9 @@ pub struct ManagerConfig {
     pub dlb: bool,
     /// Smallest remaining count (as last heard) for a node to be asked to give.
     pub min_grant: u64,
+    /// Level sharing ([`crate::node::levels`]): the block grid and level
+    /// count; shares are then [`LevelDelta`]s. `None`: the paper's tables.
+    pub levels: Option<(BlockGrid, usize)>,
 }
 
 /// What the manager did.
@@ -67,6 +71,7 @@ pub struct ManagerActor {
     codec: Codec,
     profile: CostProfile,
     table: SharedTable,
+    store: Option<LevelStore>,
     remaining: Vec<u64>,
     /// Per node, `grants_taken` of its latest request (`None`: none yet).
     request_taken: Vec<Option<u32>>,
@@ -97,6 +102,7 @@ impl ManagerActor {
         remaining.resize(n, 0);
         ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
+            store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),
             cfg,
             codec,
             profile,
@@ -146,9 +152,30 @@ impl ManagerActor {
         match env.kind {
             MessageKind::ErtShare => {
                 let m: ErtShare = env.decode(&self.codec).map_err(|e| e.to_string())?;
-                let t = SharedTable::decode(&m.table).map_err(|e| e.to_string())?;
-                let improved = merge_into(&mut self.table, &t).map_err(|e| e.to_string())?;
-                let secs = self.table.len() as f64 * self.profile.per_shared_entry;
+                let (improved, work) = match self.store.as_mut() {
+                    Some(store) => {
+                        let d = LevelDelta::decode(&m.table, store.grid())
+                            .map_err(|e| e.to_string())?;
+                        let before = self.table.clone();
+                        let work = store
+                            .apply(j, &d, &mut self.table)
+                            .map_err(|e| e.to_string())?;
+                        let improved = before
+                            .deepest
+                            .iter()
+                            .zip(&self.table.deepest)
+                            .filter(|(a, b)| b < a)
+                            .count();
+                        (improved, work)
+                    }
+                    None => {
+                        let t = SharedTable::decode(&m.table).map_err(|e| e.to_string())?;
+                        let improved =
+                            merge_into(&mut self.table, &t).map_err(|e| e.to_string())?;
+                        (improved, self.table.len() as u64)
+                    }
+                };
+                let secs = work as f64 * self.profile.per_shared_entry;
                 self.stats.shares_merged += 1;
                 self.stats.entries_improved += improved as u64;
                 self.stats.busy_s += secs;

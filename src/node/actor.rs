@@ -215,9 +215,22 @@ impl NodeActor {
                 self.stats.scan_s += s;
                 self.stats.update_s += s;
                 if self.cfg.share {
+                    let table = match self.renderer.take_level_delta() {
+                        Some((bytes, ops)) => {
+                            let s = self.secs(&ops);
+                            out.push(Action::Compute {
+                                seconds: s,
+                                activity: Activity::Share,
+                            });
+                            t += s;
+                            self.stats.share_s += s;
+                            bytes
+                        }
+                        None => self.renderer.local_table().encode(),
+                    };
                     let m = ErtShare {
                         remaining: self.renderer.remaining() as u64,
-                        table: self.renderer.local_table().encode(),
+                        table,
                     };
                     self.stats.shares_sent += 1;
                     self.send(out, self.cfg.manager, &m);

@@ -23,6 +23,7 @@
 pub mod actor;
 pub mod calibration;
 pub mod cost;
+pub mod levels;
 pub mod lsq;
 pub mod manager_table;
 pub mod ops;

@@ -53,6 +53,7 @@
 
 use std::collections::HashMap;
 
+use super::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
 use super::ops::OpCounts;
 use super::table::{NodeTable, SharedTable, TableError};
 use super::work::{WorkError, WorkUnit};
@@ -80,6 +81,11 @@ pub struct NodeErt {
     pub span: ErtSpan,
     /// Also keep a local per-pixel max-pyramid and skip a cell if either says so.
     pub local_pyramid: bool,
+    /// Opacity levels `L` shared per block with weak sharing
+    /// ([`super::levels`]); 1 with `share_sub = 1`: the paper's table.
+    pub share_levels: u8,
+    /// Blocks per entry axis shared with weak sharing ([`super::levels`]).
+    pub share_sub: u8,
 }
 
 impl NodeErt {
@@ -96,11 +102,19 @@ impl NodeErt {
         update_c: 100,
         span: ErtSpan::Single,
         local_pyramid: false,
+        share_levels: 1,
+        share_sub: 1,
     };
 
     /// Whether ERT runs.
     pub fn enabled(&self) -> bool {
         self.threshold < 1.0
+    }
+
+    /// Whether weak sharing sends opacity levels per block
+    /// ([`super::levels`]) instead of the paper's per-entry table.
+    pub fn level_sharing(&self) -> bool {
+        self.enabled() && (self.share_levels > 1 || self.share_sub > 1)
     }
 }
 
@@ -170,6 +184,24 @@ pub struct NodeRenderer {
     since_update: usize,
     interval: Option<usize>,
     totals: OpCounts,
+    levels: Option<NodeLevels>,
+}
+
+/// Per-pixel and per-block opacity-level depths for level sharing
+/// ([`super::levels`]).
+#[derive(Debug, Clone)]
+struct NodeLevels {
+    grid: BlockGrid,
+    alphas: Vec<f32>,
+    /// `[pixel * L + l]`, cached, only ever decreasing.
+    pix: Vec<f32>,
+    /// `[block * L + l]`: the block's pixels that reached level `l`, and
+    /// their deepest depth.
+    block: Vec<Option<LevelMask>>,
+    dirty_flag: Vec<bool>,
+    dirty: Vec<u32>,
+    unsent_flag: Vec<bool>,
+    unsent: Vec<u32>,
 }
 
 impl NodeRenderer {
@@ -207,7 +239,71 @@ impl NodeRenderer {
             since_update: 0,
             interval: None,
             totals: OpCounts::default(),
+            levels: None,
         }
+    }
+
+    /// Turns on level sharing (with weak sharing and
+    /// [`NodeErt::level_sharing`]): from now on table updates also keep
+    /// per-pixel and per-block opacity-level depths, and
+    /// [`NodeRenderer::take_level_delta`] gives the blocks that changed.
+    /// Call before the first step.
+    pub fn enable_level_sharing(&mut self) {
+        let e = self.opts.ert;
+        if !e.level_sharing() || self.levels.is_some() {
+            return;
+        }
+        let (w, h) = (self.view.width, self.view.height);
+        let grid = BlockGrid::new(w, h, e.divisions, e.share_sub as u32);
+        let l = e.share_levels.clamp(1, 16) as usize;
+        self.levels = Some(NodeLevels {
+            grid,
+            alphas: level_alphas(e.threshold, l),
+            pix: vec![f32::INFINITY; (w * h) as usize * l],
+            block: vec![None; grid.len() * l],
+            dirty_flag: vec![false; grid.len()],
+            dirty: Vec::new(),
+            unsent_flag: vec![false; grid.len()],
+            unsent: Vec::new(),
+        });
+    }
+
+    /// The block grid and level count of level sharing, if on.
+    pub fn level_grid(&self) -> Option<(BlockGrid, usize)> {
+        self.levels.as_ref().map(|l| (l.grid, l.alphas.len()))
+    }
+
+    /// Level sharing: the blocks whose level masks changed since the last
+    /// call, encoded ([`LevelDelta::encode`]); packing counted as
+    /// `shared_entries_merged` (one per mask). `None` if level sharing is off.
+    pub fn take_level_delta(&mut self) -> Option<(Vec<u8>, OpCounts)> {
+        let lv = self.levels.as_mut()?;
+        let l = lv.alphas.len();
+        let mut ids = std::mem::take(&mut lv.unsent);
+        ids.sort_unstable();
+        let (nbx, nby) = lv.grid.dims();
+        let blocks: Vec<(u32, Vec<Option<LevelMask>>)> = ids
+            .iter()
+            .map(|&b| {
+                lv.unsent_flag[b as usize] = false;
+                (b, lv.block[b as usize * l..(b as usize + 1) * l].to_vec())
+            })
+            .collect();
+        let ops = OpCounts {
+            shared_entries_merged: blocks
+                .iter()
+                .map(|(_, v)| v.iter().flatten().count() as u64)
+                .sum(),
+            ..Default::default()
+        };
+        self.totals.add(&ops);
+        let d = LevelDelta {
+            nbx: nbx as u16,
+            nby: nby as u16,
+            levels: l as u8,
+            blocks,
+        };
+        Some((d.encode(&lv.grid), ops))
     }
 
     /// The options.
@@ -273,6 +369,17 @@ impl NodeRenderer {
         let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
         self.totals.work_cells_moved += k as u64;
         unit
+    }
+
+    /// The processing-order key of the next unprocessed cell.
+    pub fn next_order_key(&self) -> Option<u64> {
+        self.records.get(self.next).map(|c| c.order_key())
+    }
+
+    /// Per pixel, the cached termination depth of the node's own lists as of
+    /// the last table update (`+inf`: not terminated; empty with ERT off).
+    pub fn termination_depths(&self) -> &[f32] {
+        &self.depth
     }
 
     /// Unprocessed cells.
@@ -384,10 +491,27 @@ impl NodeRenderer {
             depth,
             table,
             pyramid,
+            levels,
             ..
         } = self;
         lists.drain_changed(|idx, list| {
-            let (d, walked) = termination_depth_counted(list, thr);
+            let (d, walked) = match levels.as_mut() {
+                None => termination_depth_counted(list, thr),
+                Some(lv) => {
+                    let l = lv.alphas.len();
+                    let (x, y) = (idx as u32 % w, idx as u32 / w);
+                    let cached = &mut lv.pix[idx * l..(idx + 1) * l];
+                    let (walked, changed) = level_depths_counted(list, &lv.alphas, cached);
+                    if changed {
+                        let b = lv.grid.block_of(x, y);
+                        if !lv.dirty_flag[b] {
+                            lv.dirty_flag[b] = true;
+                            lv.dirty.push(b as u32);
+                        }
+                    }
+                    (cached[l - 1], walked)
+                }
+            };
             ops.lists_walked += 1;
             ops.list_entries_walked += walked as u64;
             if d < depth[idx] {
@@ -402,6 +526,9 @@ impl NodeRenderer {
         table.rebuild(depth, &mut ops);
         if let Some(p) = pyramid.as_mut() {
             p.rebuild(depth);
+        }
+        if let Some(lv) = levels.as_mut() {
+            lv.rebuild(w, &mut ops);
         }
         self.since_update = 0;
         self.interval = None;
@@ -466,6 +593,80 @@ impl NodeRenderer {
         }
         ops
     }
+}
+
+impl NodeLevels {
+    /// Recomputes the dirty blocks' level depths (max over their pixels);
+    /// blocks whose values changed are queued for the next share.
+    fn rebuild(&mut self, w: u32, ops: &mut OpCounts) {
+        let l = self.alphas.len();
+        for &b in &self.dirty {
+            let b = b as usize;
+            self.dirty_flag[b] = false;
+            let (x0, x1, y0, y1) = self.grid.rect(b);
+            let words = self.grid.words();
+            let mut m: Vec<LevelMask> = (0..l)
+                .map(|_| LevelMask {
+                    bits: vec![0; words],
+                    depth: f32::NEG_INFINITY,
+                })
+                .collect();
+            let mut i = 0;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let p = (y * w + x) as usize;
+                    for (mv, &v) in m.iter_mut().zip(&self.pix[p * l..(p + 1) * l]) {
+                        if v.is_finite() {
+                            mv.bits[i / 64] |= 1 << (i % 64);
+                            mv.depth = mv.depth.max(v);
+                        }
+                    }
+                    i += 1;
+                }
+            }
+            ops.table_entries_updated += 1;
+            ops.table_pixels_read += ((x1 - x0) * (y1 - y0)) as u64 * l as u64;
+            let new: Vec<Option<LevelMask>> = m
+                .into_iter()
+                .map(|m| m.depth.is_finite().then_some(m))
+                .collect();
+            let old = &mut self.block[b * l..(b + 1) * l];
+            if old != &new[..] {
+                old.clone_from_slice(&new);
+                if !self.unsent_flag[b] {
+                    self.unsent_flag[b] = true;
+                    self.unsent.push(b as u32);
+                }
+            }
+        }
+        self.dirty.clear();
+    }
+}
+
+/// Walks `list` front to back until the last of `alphas` is reached; per
+/// level, lowers `cached[l]` to the `z_back` of the segment where the
+/// accumulated opacity first reaches `alphas[l]`. Returns the entries
+/// visited and whether any cached value changed.
+pub fn level_depths_counted(list: &[Segment], alphas: &[f32], cached: &mut [f32]) -> (usize, bool) {
+    let mut acc = 0.0f32;
+    let mut j = 0;
+    let mut changed = false;
+    let mut walked = list.len();
+    for (k, s) in list.iter().enumerate() {
+        acc += (1.0 - acc) * s.rgba.a;
+        while j < alphas.len() && acc >= alphas[j] {
+            if s.z_back < cached[j] {
+                cached[j] = s.z_back;
+                changed = true;
+            }
+            j += 1;
+        }
+        if j == alphas.len() {
+            walked = k + 1;
+            break;
+        }
+    }
+    (walked, changed)
 }
 
 /// [`crate::render::cell::ert::termination_depth`], and the number of list
