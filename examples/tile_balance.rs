@@ -70,7 +70,11 @@ fn main() -> anyhow::Result<()> {
             binning.records(t, &pv, &mut cells);
             std::hint::black_box(cell::scan_tile(persp, &tf, &opts, *rect, &cells));
             let dt = t0.elapsed().as_secs_f64();
-            times[t] = if times[t] == 0.0 { dt } else { times[t].min(dt) };
+            times[t] = if times[t] == 0.0 {
+                dt
+            } else {
+                times[t].min(dt)
+            };
         }
     }
     let total_t: f64 = times.iter().sum();
