@@ -221,10 +221,11 @@ impl PreparedTf {
     /// Whether the opacity is zero everywhere on `[lo, hi]` (cells whose
     /// scalar interval maps to zero opacity are skipped before projection).
     pub fn is_transparent(&self, lo: f32, hi: f32) -> bool {
-        let (i0, i1) = (self.piece_index(lo), self.piece_index(hi));
+        // Most cells are visible: answer those with one look-up.
         if self.eval(lo).0 > 0.0 || self.eval(hi).0 > 0.0 {
             return false;
         }
+        let (i0, i1) = (self.piece_index(lo), self.piece_index(hi));
         // Interior control points between lo and hi.
         (i0..i1).all(|b| self.pieces[b + 1].o0 <= 0.0)
     }
