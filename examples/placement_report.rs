@@ -15,7 +15,7 @@ fn main() -> anyhow::Result<()> {
         _ => PlacementMethod::Rcb,
     };
     let (input, _) = RenderInput::load(std::path::Path::new(&scene))?;
-    let p = Placement::new(&input.mesh, n, method);
+    let p = Placement::new(&input.mesh, n, method, Some(&input.scene.view()));
     for (k, w) in p.world(&input.mesh).iter().enumerate() {
         println!(
             "node {k}: {} cells, box [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}]",

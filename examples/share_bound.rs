@@ -24,7 +24,7 @@ fn main() -> anyhow::Result<()> {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let (w, h) = (view.width, view.height);
-    let p = Placement::new(&input.mesh, n, PlacementMethod::Rcb);
+    let p = Placement::new(&input.mesh, n, PlacementMethod::Rcb, None);
     let modes: Vec<String> = args.map(|s| s.to_string()).collect();
     for mode in modes.iter().map(|s| s.as_str()) {
         let mut nodes: Vec<NodeRenderer> = p

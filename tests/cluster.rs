@@ -283,7 +283,7 @@ proptest! {
 
 fn node_actor(input: &RenderInput) -> pvrsim::node::NodeActor {
     let cfg = config(2, NodeErt::PAPER, true, true, "binary-swap").phase1;
-    let placement = Placement::new(&input.mesh, 2, PlacementMethod::Rcb);
+    let placement = Placement::new(&input.mesh, 2, PlacementMethod::Rcb, None);
     phase1::build_nodes(
         input,
         &placement,
@@ -467,5 +467,21 @@ fn level_sharing_within_bound_and_deterministic() {
             let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();
             assert_eq!(processed + culled, out.report.cells_total, "no cell lost");
         }
+        // The view-aligned placement, the one that meets the share target.
+        let cfg = ClusterConfig {
+            placement: PlacementMethod::RcbView,
+            ..config(8, ert, true, true, "binary-swap")
+        };
+        let out = cluster::run(&input, &cfg).unwrap();
+        let d = max_diff(&out.image, &full);
+        eprintln!(
+            "view {view} N 8 levels rcb-view: {d:.4} (bound {bound:.4}), skipped {}",
+            out.report.cells_skipped_ert
+        );
+        assert!(d <= bound + 1e-5, "view {view} rcb-view: {d} > {bound}");
+        assert_eq!(out.report.placement, "rcb-view");
+        let processed: u64 = out.report.nodes.iter().map(|x| x.cells_processed).sum();
+        let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();
+        assert_eq!(processed + culled, out.report.cells_total, "no cell lost");
     }
 }

@@ -45,7 +45,7 @@ fn run_cluster(
 ) -> (Vec<NodeRenderer>, usize) {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
-    let placement = Placement::new(&input.mesh, n, PlacementMethod::Rcb);
+    let placement = Placement::new(&input.mesh, n, PlacementMethod::Rcb, None);
     let mut nodes: Vec<NodeRenderer> = placement
         .parts
         .iter()
@@ -211,9 +211,14 @@ fn placement_is_balanced_exact_and_deterministic() {
     let input = small("b");
     let mesh = &input.mesh;
     let m = mesh.tets.len();
-    for method in [PlacementMethod::Rcb, PlacementMethod::Morton] {
+    let view = input.scene.view();
+    for method in [
+        PlacementMethod::Rcb,
+        PlacementMethod::Morton,
+        PlacementMethod::RcbView,
+    ] {
         for n in [1, 2, 3, 5, 7, 8] {
-            let p = Placement::new(mesh, n, method);
+            let p = Placement::new(mesh, n, method, Some(&view));
             assert_eq!(p.nodes(), n);
             let counts: Vec<usize> = p.parts.iter().map(|x| x.len()).collect();
             let (lo, hi) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
@@ -221,9 +226,30 @@ fn placement_is_balanced_exact_and_deterministic() {
             let mut all: Vec<u32> = p.parts.concat();
             all.sort_unstable();
             assert_eq!(all, (0..m as u32).collect::<Vec<_>>());
-            assert_eq!(p, Placement::new(mesh, n, method), "deterministic");
+            assert_eq!(
+                p,
+                Placement::new(mesh, n, method, Some(&view)),
+                "deterministic"
+            );
         }
     }
+}
+
+/// The view-aligned placement cuts across the screen only: its nodes'
+/// screen footprints overlap less than those of the 3-D bisection (which,
+/// in view B, stacks pieces along the descending aorta in depth).
+#[test]
+fn view_aligned_placement_splits_the_screen() {
+    let input = small("b");
+    let view = input.scene.view();
+    let f3 = Placement::new(&input.mesh, 8, PlacementMethod::Rcb, None).footprints(&input);
+    let fv =
+        Placement::new(&input.mesh, 8, PlacementMethod::RcbView, Some(&view)).footprints(&input);
+    eprintln!(
+        "view b overlap: rcb {:.3}, rcb-view {:.3}",
+        f3.overlap, fv.overlap
+    );
+    assert!(fv.overlap < f3.overlap, "{} vs {}", fv.overlap, f3.overlap);
 }
 
 /// Coherence: the pieces' bounding boxes are far smaller than those of a
@@ -247,7 +273,7 @@ fn placement_is_coherent() {
     let vol = |p: &Placement| p.world(mesh).iter().map(|w| w.volume()).sum::<f64>();
     let vr = vol(&random);
     for method in [PlacementMethod::Rcb, PlacementMethod::Morton] {
-        let p = Placement::new(mesh, n, method);
+        let p = Placement::new(mesh, n, method, None);
         let v = vol(&p);
         eprintln!("{method:?}: bbox volume sum {v:.0} vs random {vr:.0}");
         assert!(v < 0.3 * vr, "{method:?}: {v} vs random {vr}");
@@ -319,7 +345,7 @@ proptest! {
         let input = small("b");
         let view = input.scene.view();
         let tf = PreparedTf::new(&input.scene.transfer);
-        let p = Placement::new(&input.mesh, n, PlacementMethod::Morton);
+        let p = Placement::new(&input.mesh, n, PlacementMethod::Morton, None);
         let mut nodes: Vec<NodeRenderer> = p.parts.iter().map(|part| {
             let mut node = NodeRenderer::new(view, tf.clone(), no_ert(true));
             node.add_work(&WorkUnit::from_mesh(&input.mesh, &input.s_norm, part)).unwrap();

@@ -82,7 +82,7 @@ fn time_run(input: &RenderInput, opts: NodeOptions, step: usize, out: &mut Vec<S
     let tf = PreparedTf::new(&input.scene.transfer);
     let mut node = NodeRenderer::new(view, tf, opts);
     // Units of 1/8, 1/8, 1/4 and 1/2 of the mesh, so that receive samples vary in size.
-    let parts = Placement::new(&input.mesh, 8, PlacementMethod::Rcb).parts;
+    let parts = Placement::new(&input.mesh, 8, PlacementMethod::Rcb, None).parts;
     for range in [0..1, 1..2, 2..4, 4..8] {
         let cells: Vec<u32> = parts[range].concat();
         let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, &cells);

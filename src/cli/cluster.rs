@@ -90,7 +90,10 @@ pub struct ClusterArgs {
     #[arg(long, default_value = "pentium4")]
     pub profile: String,
     /// Initial placement of cells on nodes: recursive coordinate bisection
-    /// (`rcb`) or a Morton-curve cut (`morton`).
+    /// of the cell centroids in 3-D (`rcb`, the paper's object-space split),
+    /// a Morton-curve cut (`morton`), or bisection of the centroids' screen
+    /// positions for this view (`rcb-view`: every node owns a screen region
+    /// with all its depths; view-dependent).
     #[arg(long, value_enum, default_value_t = PlacementMethod::Rcb)]
     pub placement: PlacementMethod,
     /// Most cells a node scans between two looks at its inbox (an ERT update

@@ -101,7 +101,12 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
     let list_codec =
         crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let codec = Codec::default();
-    let placement = Placement::new(&input.mesh, p1.nodes, cfg.placement);
+    let placement = Placement::new(
+        &input.mesh,
+        p1.nodes,
+        cfg.placement,
+        Some(&input.scene.view()),
+    );
     let nodes = phase1::build_nodes(input, &placement, p1, &cfg.profile, codec)?;
     let ph1 = phase1::run(nodes, p1, &cfg.network, &cfg.profile, codec)?;
 

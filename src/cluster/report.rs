@@ -406,7 +406,9 @@ pub fn build(i: Inputs) -> ClusterReport {
         clock: p1.clock,
         network: cfg.network_name.clone(),
         profile: cfg.profile_name.clone(),
-        placement: format!("{:?}", cfg.placement).to_lowercase(),
+        placement: clap::ValueEnum::to_possible_value(&cfg.placement)
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default(),
         compositor: cfg.compositor.clone(),
         codec: cfg.codec.clone(),
         ert_threshold: p1.node.ert.threshold,

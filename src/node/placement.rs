@@ -19,6 +19,14 @@
 //!   63-bit Z-order key, cells sorted by `(key, id)` and cut into `N`
 //!   consecutive runs of the target counts.
 //!
+//! - **View-aligned bisection** ([`PlacementMethod::RcbView`]): the same
+//!   bisection on the centroids' pixel positions for the frame's view, cutting
+//!   only along the screen axes (the longer of X and Y). Each node then owns
+//!   a screen region with all its depths, so a node's own front cells
+//!   terminate its rays and little is left for ERT sharing to recover; the
+//!   price is that the placement depends on the view (our Table 2 runs
+//!   render one view per run, like the paper's).
+//!
 //! [`Placement::footprints`] reports for a view where each node's cells land
 //! on screen: the bounding box in pixels and the number of pixels covered by
 //! the union of its cells' pixel ranges (each visible cell's bounding
@@ -37,6 +45,7 @@ use crate::render::cell::project::ProjectedVertices;
 use crate::render::cell::scan::Rect;
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
+use crate::scene::View;
 
 /// How to cut the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
@@ -46,6 +55,11 @@ pub enum PlacementMethod {
     Rcb,
     /// Morton (Z-order) curve of centroids, cut into equal runs.
     Morton,
+    /// Recursive bisection of the centroids' *screen* positions for the
+    /// frame's view: cuts only across the image, never along the depth, so
+    /// each node holds every depth of its part of the screen (sort-first
+    /// style). View-dependent: another view needs another placement.
+    RcbView,
 }
 
 /// Cells per node.
@@ -132,7 +146,9 @@ fn bbox(ids: &[u32], c: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-fn rcb(ids: &mut [u32], c: &[[f64; 3]], targets: &[usize], out: &mut Vec<Vec<u32>>) {
+/// Recursive bisection of `ids` by their points `c`, cutting along the
+/// longest of the first `axes` coordinates.
+fn rcb(ids: &mut [u32], c: &[[f64; 3]], axes: usize, targets: &[usize], out: &mut Vec<Vec<u32>>) {
     if targets.len() <= 1 {
         let mut part = ids.to_vec();
         part.sort_unstable();
@@ -140,7 +156,7 @@ fn rcb(ids: &mut [u32], c: &[[f64; 3]], targets: &[usize], out: &mut Vec<Vec<u32
         return;
     }
     let (lo, hi) = bbox(ids, c);
-    let axis = (0..3)
+    let axis = (0..axes)
         .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])).then(b.cmp(&a)))
         .unwrap_or(0);
     let half = targets.len() / 2;
@@ -153,8 +169,8 @@ fn rcb(ids: &mut [u32], c: &[[f64; 3]], targets: &[usize], out: &mut Vec<Vec<u32
         });
     }
     let (l, r) = ids.split_at_mut(k);
-    rcb(l, c, &targets[..half], out);
-    rcb(r, c, &targets[half..], out);
+    rcb(l, c, axes, &targets[..half], out);
+    rcb(r, c, axes, &targets[half..], out);
 }
 
 /// Interleaves the low 21 bits of `x`, `y`, `z` (x lowest).
@@ -171,15 +187,35 @@ fn morton3(x: u64, y: u64, z: u64) -> u64 {
 }
 
 impl Placement {
-    /// Places the cells of `mesh` on `n >= 1` nodes.
-    pub fn new(mesh: &TetMesh, n: usize, method: PlacementMethod) -> Placement {
+    /// Places the cells of `mesh` on `n >= 1` nodes. `view` is needed by
+    /// [`PlacementMethod::RcbView`] only (without one it falls back to
+    /// [`PlacementMethod::Rcb`]).
+    pub fn new(
+        mesh: &TetMesh,
+        n: usize,
+        method: PlacementMethod,
+        view: Option<&View>,
+    ) -> Placement {
         let n = n.max(1);
-        let c = centroids(mesh);
+        let mut c = centroids(mesh);
         let t = targets(c.len(), n);
         let mut ids: Vec<u32> = (0..c.len() as u32).collect();
         let mut parts = Vec::with_capacity(n);
         match method {
-            PlacementMethod::Rcb => rcb(&mut ids, &c, &t, &mut parts),
+            PlacementMethod::RcbView if view.is_some() => {
+                let view = view.expect("checked");
+                // Screen position of each centroid (camera x, y for one
+                // behind a perspective eye: it is off screen anyway).
+                for p in &mut c {
+                    let cam = view.to_camera(*p);
+                    *p = match view.camera_to_pixel(cam) {
+                        Some([x, y]) => [x, y, cam[2]],
+                        None => [cam[0], -cam[1], cam[2]],
+                    };
+                }
+                rcb(&mut ids, &c, 2, &t, &mut parts)
+            }
+            PlacementMethod::Rcb | PlacementMethod::RcbView => rcb(&mut ids, &c, 3, &t, &mut parts),
             PlacementMethod::Morton => {
                 let (lo, hi) = bbox(&ids, &c);
                 let q = |v: f64, a: usize| {
