@@ -51,6 +51,24 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
     }
 }
 
+/// The sequential render with ERT off, and the error bound of ERT at 0.9
+/// for this scene: what every ERT cluster image is checked against.
+fn full_image_and_bound(input: &RenderInput) -> (Image, f32) {
+    let (full, _) = cell::render(
+        input,
+        &CellOptions {
+            ert: ErtOptions::OFF,
+            ..Default::default()
+        },
+    );
+    let bound = cell::ert::error_bound(
+        0.9,
+        input.scene.transfer.max_radiance(),
+        input.scene.image.background,
+    ) as f32;
+    (full, bound)
+}
+
 fn max_diff(a: &Image, b: &Image) -> f32 {
     a.pixels
         .iter()
@@ -124,18 +142,7 @@ fn image_equals_sequential_without_ert() {
 fn image_within_ert_bound() {
     for view in ["a", "b"] {
         let input = small(view);
-        let (full, _) = cell::render(
-            &input,
-            &CellOptions {
-                ert: ErtOptions::OFF,
-                ..Default::default()
-            },
-        );
-        let bound = cell::ert::error_bound(
-            0.9,
-            input.scene.transfer.max_radiance(),
-            input.scene.image.background,
-        ) as f32;
+        let (full, bound) = full_image_and_bound(&input);
         for n in [1, 3, 8] {
             for (share, dlb) in [(false, false), (true, true)] {
                 let out = cluster::run(
@@ -432,18 +439,7 @@ fn many_nodes() {
 fn level_sharing_within_bound_and_deterministic() {
     for view in ["a", "b"] {
         let input = small(view);
-        let (full, _) = cell::render(
-            &input,
-            &CellOptions {
-                ert: ErtOptions::OFF,
-                ..Default::default()
-            },
-        );
-        let bound = cell::ert::error_bound(
-            0.9,
-            input.scene.transfer.max_radiance(),
-            input.scene.image.background,
-        ) as f32;
+        let (full, bound) = full_image_and_bound(&input);
         let ert = NodeErt {
             share_levels: 4,
             share_sub: 3,
