@@ -99,6 +99,8 @@ pub struct NodeActor {
     deferred: Vec<(usize, SharedTable)>,
     /// Overlap sharing: the ranks this node sends its table to directly.
     peers: Vec<usize>,
+    /// A share sent to the manager whose reply has not come back yet.
+    share_in_flight: bool,
     stats: NodeStats,
 }
 
@@ -122,6 +124,7 @@ impl NodeActor {
             chunks_since_progress: 0,
             deferred: Vec::new(),
             peers: Vec::new(),
+            share_in_flight: false,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -214,7 +217,16 @@ impl NodeActor {
                 t += s;
                 self.stats.scan_s += s;
                 self.stats.update_s += s;
-                if self.cfg.share {
+                // Shares from a node with less than a chunk left would
+                // reach the others after their own last chunks, and the
+                // schedule's updates crowd there (every remaining / C
+                // cells): they would only queue at the manager, ahead of
+                // the work requests. So a node shares only with at least a
+                // chunk left and at most one share in flight (its table
+                // keeps improving meanwhile; the next share carries it).
+                let worth_sharing = self.renderer.remaining() >= self.cfg.chunk.max(1);
+                if self.cfg.share && worth_sharing && !self.share_in_flight {
+                    self.share_in_flight = true;
                     let table = match self.renderer.take_level_delta() {
                         Some((bytes, ops)) => {
                             let s = self.secs(&ops);
@@ -234,7 +246,7 @@ impl NodeActor {
                     };
                     self.stats.shares_sent += 1;
                     self.send(out, self.cfg.manager, &m);
-                } else if !self.peers.is_empty() {
+                } else if !self.cfg.share && !self.peers.is_empty() && worth_sharing {
                     let m = ErtReply {
                         table: self.renderer.local_table().encode(),
                     };
@@ -275,6 +287,9 @@ impl NodeActor {
         match env.kind {
             MessageKind::ErtReply => {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
+                if env.from.index() == self.cfg.manager {
+                    self.share_in_flight = false;
+                }
                 let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
                 let (nx, ny) = self.renderer.table_dims();
                 if (t.nx as u32, t.ny as u32) != (nx, ny) {
