@@ -37,6 +37,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             give_fraction: 1.0 / 3.0,
             min_grant: 3,
             progress_every: 1,
+            share_window: 1,
             clock: ClockKind::Virtual,
             record_trace: true,
         },

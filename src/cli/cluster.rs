@@ -106,6 +106,13 @@ pub struct ClusterArgs {
     /// the manager every this many chunks.
     #[arg(long, default_value_t = 1)]
     pub progress_every: u32,
+    /// Most ERT shares a node keeps in flight to the manager (sent, reply
+    /// not back yet); a node with less than one chunk left does not share.
+    /// 0 = no limit and shares to the very end: the paper's protocol, under
+    /// which the manager's queue grows with the node count (see
+    /// docs/experiments/cluster.md, scaling).
+    #[arg(long, default_value_t = 1)]
+    pub share_window: u32,
     /// A donor refuses a work request below this many unprocessed cells.
     #[arg(long, default_value_t = 3)]
     pub min_grant: usize,
@@ -209,6 +216,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             give_fraction: 1.0 / 3.0,
             min_grant: a.min_grant.max(1),
             progress_every: a.progress_every.max(1),
+            share_window: a.share_window,
             clock: a.clock,
             record_trace: true,
         },

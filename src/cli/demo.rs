@@ -106,6 +106,7 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
             give_fraction: 1.0 / 3.0,
             min_grant: 3,
             progress_every: 1,
+            share_window: 1,
             clock: ClockKind::Virtual,
             record_trace: true,
         },

@@ -51,6 +51,8 @@ pub struct Phase1Config {
     pub min_grant: usize,
     /// Progress report period in chunks (DLB without sharing).
     pub progress_every: u32,
+    /// Most ERT shares a node keeps in flight to the manager (0: no limit).
+    pub share_window: u32,
     /// Clock.
     pub clock: ClockKind,
     /// Record the timeline.
@@ -129,6 +131,7 @@ pub fn build_nodes(
                 give_fraction: cfg.give_fraction,
                 min_grant: cfg.min_grant,
                 progress_every: cfg.progress_every,
+                share_window: cfg.share_window,
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
             if overlap {

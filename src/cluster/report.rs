@@ -164,6 +164,8 @@ pub struct ClusterReport {
     pub share_levels: u8,
     /// Level sharing: blocks per entry axis.
     pub share_sub: u8,
+    /// Most ERT shares in flight per node (0: no limit, the paper's protocol).
+    pub share_window: u32,
     /// DLB on.
     pub dlb: bool,
     /// Nodes kept canonical lists (image independent of the distribution).
@@ -427,6 +429,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         .to_string(),
         share_levels: p1.node.ert.share_levels,
         share_sub: p1.node.ert.share_sub,
+        share_window: p1.share_window,
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,

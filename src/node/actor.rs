@@ -47,6 +47,9 @@ pub struct NodeConfig {
     pub min_grant: usize,
     /// With DLB and no sharing: send a progress report every this many chunks.
     pub progress_every: u32,
+    /// Most shares a node keeps in flight to the manager (sent, reply not
+    /// yet back); 0 = no limit, the paper's protocol.
+    pub share_window: u32,
 }
 
 /// What a node did in phase 1 (times are the driver's: virtual or wall).
@@ -99,8 +102,8 @@ pub struct NodeActor {
     deferred: Vec<(usize, SharedTable)>,
     /// Overlap sharing: the ranks this node sends its table to directly.
     peers: Vec<usize>,
-    /// A share sent to the manager whose reply has not come back yet.
-    share_in_flight: bool,
+    /// Shares sent to the manager whose replies have not come back yet.
+    shares_in_flight: u32,
     stats: NodeStats,
 }
 
@@ -124,7 +127,7 @@ impl NodeActor {
             chunks_since_progress: 0,
             deferred: Vec::new(),
             peers: Vec::new(),
-            share_in_flight: false,
+            shares_in_flight: 0,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -221,12 +224,16 @@ impl NodeActor {
                 // reach the others after their own last chunks, and the
                 // schedule's updates crowd there (every remaining / C
                 // cells): they would only queue at the manager, ahead of
-                // the work requests. So a node shares only with at least a
-                // chunk left and at most one share in flight (its table
-                // keeps improving meanwhile; the next share carries it).
-                let worth_sharing = self.renderer.remaining() >= self.cfg.chunk.max(1);
-                if self.cfg.share && worth_sharing && !self.share_in_flight {
-                    self.share_in_flight = true;
+                // the work requests. So with a share window a node shares
+                // only with at least a chunk left and at most `share_window`
+                // shares in flight (its table keeps improving meanwhile; the
+                // next share carries it). Window 0: the paper's protocol.
+                let window = self.cfg.share_window;
+                let worth_sharing =
+                    window == 0 || self.renderer.remaining() >= self.cfg.chunk.max(1);
+                let room = window == 0 || self.shares_in_flight < window;
+                if self.cfg.share && worth_sharing && room {
+                    self.shares_in_flight += 1;
                     let table = match self.renderer.take_level_delta() {
                         Some((bytes, ops)) => {
                             let s = self.secs(&ops);
@@ -288,7 +295,7 @@ impl NodeActor {
             MessageKind::ErtReply => {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
                 if env.from.index() == self.cfg.manager {
-                    self.share_in_flight = false;
+                    self.shares_in_flight = self.shares_in_flight.saturating_sub(1);
                 }
                 let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
                 let (nx, ny) = self.renderer.table_dims();
