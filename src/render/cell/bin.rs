@@ -3,10 +3,10 @@
 //!
 //! A cell is skipped before projection when its scalar interval maps to zero
 //! opacity everywhere (an *empty* cell) or when its projected bounding box
-//! misses the image (or lies behind the eye). The survivors' ids are sorted
-//! into fixed-size screen tiles, in stored order or, for
-//! [`CellOrder::FrontToBack`](super::CellOrder), by `(nearest depth, cell id)`
-//! (one radix sort for the whole frame). A tile's compact [`CellRecord`]s
+//! misses the image (or lies behind the eye). The survivors go, as compact
+//! [`BinEntry`]s, into the bins of the fixed-size screen tiles they touch, in
+//! stored order or, for [`CellOrder::FrontToBack`](super::CellOrder), by
+//! `(nearest depth, cell id)` (a stable radix sort per bin). A tile's [`CellRecord`]s
 //! (the cell's vertices gathered, so scan conversion reads memory in order)
 //! are rebuilt when the tile is scanned. Either way every pixel sees the same
 //! sequence of segments however many threads render the tiles, so the image
