@@ -335,7 +335,7 @@ impl PreparedTf {
 }
 
 /// Lanes in an integration batch.
-pub const BATCH: usize = 32;
+pub const BATCH: usize = 128;
 
 /// `Batch::piece_hint` value meaning "look the piece up".
 pub const NO_PIECE: u16 = u16::MAX;
