@@ -107,6 +107,10 @@ pub struct PreparedTf {
     pieces: Vec<Piece>,
     /// `pieces` as structure of arrays.
     table: PieceTable,
+    /// The maximal closed scalar intervals on which the opacity is zero
+    /// (as `eval` computes it), ascending: a cell is transparent iff its
+    /// scalar range lies inside one.
+    zero_runs: Vec<(f32, f32)>,
     inv_unit_distance: f32,
 }
 
@@ -146,6 +150,7 @@ impl PreparedTf {
             c1: c(l),
         });
         let breaks: Vec<f32> = p.iter().map(|c| f(c.s)).collect();
+        let runs = zero_runs(&pieces, &breaks);
         let mut breaks_inf = breaks.clone();
         breaks_inf.push(f32::INFINITY);
         let (lo, hi) = (breaks[0], breaks[breaks.len() - 1]);
@@ -167,6 +172,7 @@ impl PreparedTf {
             lut_lo: lo,
             lut_scale,
             table: PieceTable::new(&pieces),
+            zero_runs: runs,
             pieces,
             inv_unit_distance: (1.0 / tf.unit_distance) as f32,
         }
@@ -221,13 +227,7 @@ impl PreparedTf {
     /// Whether the opacity is zero everywhere on `[lo, hi]` (cells whose
     /// scalar interval maps to zero opacity are skipped before projection).
     pub fn is_transparent(&self, lo: f32, hi: f32) -> bool {
-        // Most cells are visible: answer those with one look-up.
-        if self.eval(lo).0 > 0.0 || self.eval(hi).0 > 0.0 {
-            return false;
-        }
-        let (i0, i1) = (self.piece_index(lo), self.piece_index(hi));
-        // Interior control points between lo and hi.
-        (i0..i1).all(|b| self.pieces[b + 1].o0 <= 0.0)
+        self.zero_runs.iter().any(|&(a, b)| a <= lo && hi <= b)
     }
 
     /// Colour and alpha of a segment through a tet, `s_a` at the front, `s_b`
@@ -332,6 +332,39 @@ impl PreparedTf {
         }
         acc
     }
+}
+
+/// The maximal closed intervals on which the piecewise linear opacity is
+/// zero: unions of pieces whose both ends are zero (the outer pieces reach
+/// to infinity) and of control points of zero opacity. Inside a piece with
+/// a nonzero end the opacity is nonzero everywhere but at that other end.
+fn zero_runs(pieces: &[Piece], breaks: &[f32]) -> Vec<(f32, f32)> {
+    let last = pieces.len() - 1;
+    let mut runs: Vec<(f32, f32)> = Vec::new();
+    for (k, p) in pieces.iter().enumerate() {
+        let start = if k == 0 {
+            f32::NEG_INFINITY
+        } else {
+            breaks[k - 1]
+        };
+        let end = if k == last { f32::INFINITY } else { breaks[k] };
+        if p.o0 <= 0.0 && p.o1 <= 0.0 {
+            runs.push((start, end));
+        } else if p.o0 <= 0.0 {
+            runs.push((start, start));
+        } else if p.o1 <= 0.0 {
+            runs.push((end, end));
+        }
+    }
+    runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut merged: Vec<(f32, f32)> = Vec::new();
+    for r in runs {
+        match merged.last_mut() {
+            Some(m) if r.0 <= m.1 => m.1 = m.1.max(r.1),
+            _ => merged.push(r),
+        }
+    }
+    merged
 }
 
 /// Lanes in an integration batch.
@@ -676,6 +709,50 @@ mod tests {
             );
             let z = p.integrate(integ, 0.2, 0.8, 0.0);
             assert_eq!(z.a, 0.0);
+        }
+    }
+
+    /// The definition: zero opacity at both ends and at every control point
+    /// between them (the opacity is linear in between).
+    fn transparent_by_definition(p: &PreparedTf, lo: f32, hi: f32) -> bool {
+        if p.eval(lo).0 > 0.0 || p.eval(hi).0 > 0.0 {
+            return false;
+        }
+        let (i0, i1) = (p.piece_index(lo), p.piece_index(hi));
+        (i0..i1).all(|b| p.pieces[b + 1].o0 <= 0.0)
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn zero_runs_agree_with_the_definition(
+            ops in proptest::collection::vec(0u8..4, 2..9),
+            cuts in proptest::collection::vec(0.0f64..1.0, 2..9),
+            queries in proptest::collection::vec((-0.2f32..1.2, 0.0f32..0.5), 1..60),
+        ) {
+            // Control points at sorted positions (duplicates allowed), with
+            // opacity 0 half of the time so zero runs of every shape occur.
+            let n = ops.len().min(cuts.len());
+            let mut s: Vec<f64> = cuts[..n].to_vec();
+            s.sort_by(|a, b| a.total_cmp(b));
+            let points = (0..n)
+                .map(|i| ControlPoint {
+                    s: s[i],
+                    rgb: [0.5, 0.5, 0.5],
+                    opacity: [0.0, 0.0, 0.3, 1.0][ops[i] as usize],
+                })
+                .collect();
+            let p = PreparedTf::new(&TransferFunction { points, unit_distance: 1.0 });
+            // Also ask about the control points themselves.
+            let mut qs = queries.clone();
+            qs.extend(s.iter().map(|&v| (v as f32, 0.0)));
+            for (lo, w) in qs {
+                let hi = lo + w;
+                proptest::prop_assert_eq!(
+                    p.is_transparent(lo, hi),
+                    transparent_by_definition(&p, lo, hi),
+                    "[{}, {}] with {:?}", lo, hi, p.zero_runs
+                );
+            }
         }
     }
 
