@@ -9,6 +9,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use proptest::prelude::*;
+use pvrsim::data::lattice::kuhn_tets;
 use pvrsim::data::{Field, TetMesh};
 use pvrsim::image::Image;
 use pvrsim::render::cell::ert::EntrySize;
@@ -34,7 +35,6 @@ fn random_mesh(n: usize, seed: u64) -> TetMesh {
         ((state >> 33) as f64) / (1u64 << 31) as f64
     };
     let m = n + 1;
-    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
     let mut points = Vec::new();
     let mut values = Vec::new();
     for k in 0..m {
@@ -52,30 +52,7 @@ fn random_mesh(n: usize, seed: u64) -> TetMesh {
             }
         }
     }
-    let mut tets = Vec::new();
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                for p in perms {
-                    let mut c = [i, j, k];
-                    let mut t = [id(c[0], c[1], c[2]); 4];
-                    for (s, &axis) in p.iter().enumerate() {
-                        c[axis] += 1;
-                        t[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
+    let tets = kuhn_tets([n; 3], |_, _, _| true);
     TetMesh {
         points,
         tets,

@@ -597,16 +597,8 @@ impl Geometry {
 /// oriented: for axis order `(a, b, c)`: 0, e_a, e_a + e_b, 1 (odd orders
 /// have their middle two corners swapped).
 fn kuhn_templates() -> [[[usize; 3]; 4]; 6] {
-    const PERMS: [[usize; 3]; 6] = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
     let mut out = [[[0usize; 3]; 4]; 6];
-    for (m, p) in PERMS.iter().enumerate() {
+    for (m, p) in super::lattice::KUHN_AXIS_ORDERS.iter().enumerate() {
         let mut c1 = [0usize; 3];
         c1[p[0]] = 1;
         let mut c2 = c1;

@@ -2,6 +2,7 @@
 
 pub mod demo;
 pub mod io;
+pub mod lattice;
 pub mod mesh;
 pub mod quality;
 

@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
 use pvrsim::data::demo::{demo_scene_toml, generate, DemoParams};
+use pvrsim::data::lattice::kuhn_tets;
 use pvrsim::data::{Field, TetMesh};
 use pvrsim::image::Image;
 use pvrsim::render::cell::{self, CellOptions, CellOrder, CellStats, Integrator};
@@ -47,30 +48,7 @@ pub fn box_mesh(
             }
         }
     }
-    const PERMS: [[usize; 3]; 6] = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    let mut tets = Vec::with_capacity(6 * n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                for p in PERMS {
-                    let mut c = [i, j, k];
-                    let mut tet = [lattice_index(n, c[0], c[1], c[2]); 4];
-                    for (s, &axis) in p.iter().enumerate() {
-                        c[axis] += 1;
-                        tet[s + 1] = lattice_index(n, c[0], c[1], c[2]);
-                    }
-                    tets.push(tet);
-                }
-            }
-        }
-    }
+    let tets = kuhn_tets([n; 3], |_, _, _| true);
     let values = points.iter().map(|&p| field(p)).collect();
     TetMesh {
         points,

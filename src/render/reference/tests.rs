@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use super::*;
+use crate::data::lattice::kuhn_tets;
 use crate::data::{Field, TetMesh};
 use crate::scene::{Camera, DataSpec, ImageSpec, Projection, Scene, TransferFunction};
 
@@ -97,7 +98,6 @@ fn kuhn_grid(
     h: f64,
     keep: impl Fn(usize, usize, usize) -> bool,
 ) -> TetMesh {
-    let id = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
     let mut points = Vec::new();
     for k in 0..=n[2] {
         for j in 0..=n[1] {
@@ -110,33 +110,7 @@ fn kuhn_grid(
             }
         }
     }
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    let mut tets = Vec::new();
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                if !keep(i, j, k) {
-                    continue;
-                }
-                for p in perms {
-                    let mut c = [i, j, k];
-                    let mut t = [id(c[0], c[1], c[2]), 0, 0, 0];
-                    for (m, &ax) in p.iter().enumerate() {
-                        c[ax] += 1;
-                        t[m + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
+    let tets = kuhn_tets(n, keep);
     TetMesh {
         points,
         tets,
