@@ -4,7 +4,7 @@
 use crate::compositor::lists::{RegionLists, RegionPixels};
 use crate::compositor::region::area;
 
-use super::wire::{put_header, put_pixel, put_segment, put_u32, read_list, Reader};
+use super::wire::{put_header, put_list, put_pixel, read_list, Reader};
 use super::{Codec, DecodeError, Limits, PIXEL_BYTES};
 
 /// The raw codec.
@@ -19,11 +19,7 @@ impl Codec for Raw {
     fn encode_lists(&self, lists: &RegionLists, out: &mut Vec<u8>) {
         put_header(out, b'L', b'r', &lists.rect());
         for p in 0..lists.pixels() {
-            let l = lists.list(p);
-            put_u32(out, l.len() as u32);
-            for s in l {
-                put_segment(out, s);
-            }
+            put_list(out, lists.list(p));
         }
     }
 

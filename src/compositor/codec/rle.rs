@@ -11,7 +11,7 @@
 use crate::compositor::lists::{RegionLists, RegionPixels};
 use crate::compositor::region::area;
 
-use super::wire::{put_header, put_pixel, put_segment, put_u32, read_list, Reader, RUN};
+use super::wire::{put_header, put_list, put_pixel, put_u32, read_list, Reader, RUN};
 use super::{Codec, DecodeError, Limits, PIXEL_BYTES};
 
 /// The run-length codec.
@@ -67,11 +67,7 @@ impl Codec for Rle {
             out,
             |out, a, b| {
                 for p in a..b {
-                    let l = lists.list(p);
-                    put_u32(out, l.len() as u32);
-                    for s in l {
-                        put_segment(out, s);
-                    }
+                    put_list(out, lists.list(p));
                 }
             },
         );

@@ -255,6 +255,15 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// Appends one pixel's list: its segment count, then the segments (what
+/// [`read_list`] reads back after the count).
+pub fn put_list(out: &mut Vec<u8>, list: &[Segment]) {
+    put_u32(out, list.len() as u32);
+    for s in list {
+        put_segment(out, s);
+    }
+}
+
 /// Reads `count` segments of one pixel onto `segs`, checking canonical order.
 pub fn read_list(
     rd: &mut Reader,
