@@ -442,9 +442,9 @@ impl NodeRenderer {
                 tf,
                 opts.integrator,
                 opts.partial_composition,
+                opts.canonical,
                 &mut counts,
             );
-            target.canonical = opts.canonical;
             for c in &records[self.next..end] {
                 if ert.enabled() {
                     ops.cells_tested += 1;

@@ -445,9 +445,9 @@ pub fn scan_tile(
             tf,
             opts.integrator,
             opts.partial_composition,
+            opts.canonical,
             &mut counts,
         );
-        target.canonical = opts.canonical;
         for c in cells {
             degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
         }

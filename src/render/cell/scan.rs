@@ -74,8 +74,7 @@ pub struct ScanTarget<'a> {
     /// Partial composition on insertion.
     pub partial: bool,
     /// Insert with [`super::canonical::insert`] (merge order fixed by the
-    /// depths, exact joins) instead of [`super::list::insert_sorted`]. Off
-    /// after [`ScanTarget::new`].
+    /// depths, exact joins) instead of [`super::list::insert_sorted`].
     pub canonical: bool,
     /// Counters.
     pub counts: &'a mut ScanCounts,
@@ -90,13 +89,15 @@ pub struct ScanTarget<'a> {
 }
 
 impl<'a> ScanTarget<'a> {
-    /// A target writing into `lists` (the lists of `tile`).
+    /// A target writing into `lists` (the lists of `tile`), with partial
+    /// composition if `partial`, in canonical form if `canonical`.
     pub fn new(
         lists: &'a mut SegmentLists,
         tile: Rect,
         tf: &'a PreparedTf,
         integrator: Integrator,
         partial: bool,
+        canonical: bool,
         counts: &'a mut ScanCounts,
     ) -> Self {
         ScanTarget {
@@ -105,7 +106,7 @@ impl<'a> ScanTarget<'a> {
             tf,
             integrator,
             partial,
-            canonical: false,
+            canonical,
             counts,
             batch: Batch::default(),
             pending: [(0, 0.0, 0.0); BATCH],

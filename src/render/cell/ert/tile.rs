@@ -130,9 +130,9 @@ pub fn scan_tile_ert(
             tf,
             opts.integrator,
             opts.partial_composition,
+            opts.canonical,
             &mut counts,
         );
-        target.canonical = opts.canonical;
         for (k, c) in batch.iter().enumerate() {
             if skip.get(k) == Some(&true) {
                 let [i0, i1, j0, j1] = c.range;
