@@ -11,7 +11,7 @@ use pvrsim::manager::protocol::{Control, ErtReply, ErtShare, WorkGrant};
 use pvrsim::manager::{ManagerActor, ManagerConfig};
 use pvrsim::net::{Action, Actor, Codec, Envelope, Event, MessageKind, NetworkModel, NodeId};
 use pvrsim::node::renderer::NodeErt;
-use pvrsim::node::{CostProfile, NodeOptions, Placement, PlacementMethod};
+use pvrsim::node::{CostProfile, NodeOptions, NodePolicy, Placement, PlacementMethod};
 use pvrsim::render::cell::{self, CellOptions, ErtOptions};
 use pvrsim::render::RenderInput;
 
@@ -33,11 +33,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             share,
             overlap: false,
             dlb,
-            chunk: 100,
-            give_fraction: 1.0 / 3.0,
-            min_grant: 3,
-            progress_every: 1,
-            share_window: 1,
+            policy: NodePolicy::default(),
             clock: ClockKind::Virtual,
             record_trace: true,
         },
@@ -264,7 +260,7 @@ proptest! {
         let n = parts.len();
         let placement = Placement::from_parts(parts);
         let mut cfg = config(n, NodeErt::PAPER, share, true, "binary-swap").phase1;
-        cfg.chunk = chunk;
+        cfg.policy.chunk = chunk;
         cfg.record_trace = false;
         let profile = CostProfile::named("pentium4").unwrap();
         let codec = Codec::default();

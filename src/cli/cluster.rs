@@ -11,7 +11,7 @@ use clap::Args;
 use crate::cluster::{self, ClockKind, ClusterConfig, ClusterOutcome, Phase1Config};
 use crate::net::NetworkModel;
 use crate::node::renderer::NodeErt;
-use crate::node::{CostProfile, NodeOptions, PlacementMethod};
+use crate::node::{CostProfile, NodeOptions, NodePolicy, PlacementMethod};
 use crate::render::cell::{CellOrder, ErtSpan, Integrator};
 use crate::render::RenderInput;
 
@@ -100,21 +100,21 @@ pub struct ClusterArgs {
     /// point also ends a chunk). Smaller chunks let a donor answer work
     /// requests sooner (measured on aorta-small, 8 nodes: 1000 → every
     /// forward refused, 100 → 94 cells moved).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = NodePolicy::default().chunk)]
     pub chunk: usize,
     /// With DLB and no sharing: a node reports its unprocessed-cell count to
     /// the manager every this many chunks.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = NodePolicy::default().progress_every)]
     pub progress_every: u32,
     /// Most ERT shares a node keeps in flight to the manager (sent, reply
     /// not back yet); a node with less than one chunk left does not share.
     /// 0 = no limit and shares to the very end: the paper's protocol, under
     /// which the manager's queue grows with the node count (see
     /// docs/experiments/cluster.md, scaling).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = NodePolicy::default().share_window)]
     pub share_window: u32,
     /// A donor refuses a work request below this many unprocessed cells.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = NodePolicy::default().min_grant)]
     pub min_grant: usize,
     /// Store every segment instead of merging touching ones on insertion.
     #[arg(long)]
@@ -212,11 +212,13 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             share: a.share || a.sharing == Sharing::Manager,
             overlap: !a.share && a.sharing == Sharing::Overlap,
             dlb: a.dlb,
-            chunk: a.chunk,
-            give_fraction: 1.0 / 3.0,
-            min_grant: a.min_grant.max(1),
-            progress_every: a.progress_every.max(1),
-            share_window: a.share_window,
+            policy: NodePolicy {
+                chunk: a.chunk,
+                give_fraction: 1.0 / 3.0,
+                min_grant: a.min_grant.max(1),
+                progress_every: a.progress_every.max(1),
+                share_window: a.share_window,
+            },
             clock: a.clock,
             record_trace: true,
         },

@@ -90,7 +90,7 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
     use crate::cluster::{self, timeline, ClockKind, ClusterConfig, Phase1Config};
     use crate::net::NetworkModel;
     use crate::node::renderer::NodeErt;
-    use crate::node::{CostProfile, NodeOptions, PlacementMethod};
+    use crate::node::{CostProfile, NodeOptions, NodePolicy, PlacementMethod};
 
     let cfg = ClusterConfig {
         phase1: Phase1Config {
@@ -102,11 +102,7 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
             share: true,
             overlap: false,
             dlb: true,
-            chunk: 100,
-            give_fraction: 1.0 / 3.0,
-            min_grant: 3,
-            progress_every: 1,
-            share_window: 1,
+            policy: NodePolicy::default(),
             clock: ClockKind::Virtual,
             record_trace: true,
         },

@@ -11,7 +11,7 @@ use crate::net::{
     SimOptions, SimTrace, Simulation, TrafficStats, WallOptions,
 };
 use crate::node::{
-    CostProfile, NodeActor, NodeConfig, NodeOptions, NodeRenderer, Placement, WorkUnit,
+    CostProfile, NodeActor, NodeConfig, NodeOptions, NodePolicy, NodeRenderer, Placement, WorkUnit,
 };
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
@@ -43,16 +43,8 @@ pub struct Phase1Config {
     pub overlap: bool,
     /// Dynamic load balancing.
     pub dlb: bool,
-    /// Most cells per chunk.
-    pub chunk: usize,
-    /// Fraction a donor gives.
-    pub give_fraction: f64,
-    /// Fewest cells a donor gives from.
-    pub min_grant: usize,
-    /// Progress report period in chunks (DLB without sharing).
-    pub progress_every: u32,
-    /// Most ERT shares a node keeps in flight to the manager (0: no limit).
-    pub share_window: u32,
+    /// Pacing, work giving and share window of every node.
+    pub policy: NodePolicy,
     /// Clock.
     pub clock: ClockKind,
     /// Record the timeline.
@@ -127,11 +119,7 @@ pub fn build_nodes(
                 manager: n,
                 share: cfg.share && cfg.node.ert.enabled(),
                 dlb: cfg.dlb,
-                chunk: cfg.chunk,
-                give_fraction: cfg.give_fraction,
-                min_grant: cfg.min_grant,
-                progress_every: cfg.progress_every,
-                share_window: cfg.share_window,
+                policy: cfg.policy,
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
             if overlap {
@@ -161,7 +149,7 @@ pub fn run(
         nodes: n,
         table_dims: (nx as u16, ny as u16),
         dlb: cfg.dlb,
-        min_grant: cfg.min_grant as u64,
+        min_grant: cfg.policy.min_grant as u64,
         levels: if cfg.share {
             nodes[0].renderer().level_grid()
         } else {

@@ -429,7 +429,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         .to_string(),
         share_levels: p1.node.ert.share_levels,
         share_sub: p1.node.ert.share_sub,
-        share_window: p1.share_window,
+        share_window: p1.policy.share_window,
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,

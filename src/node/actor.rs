@@ -27,17 +27,9 @@ use crate::node::{compute_time, CostProfile, NodeRenderer, OpCounts, SharedTable
 
 const SCAN: u64 = 1;
 
-/// How a node works in phase 1.
+/// How the nodes of a run pace their work, share and give cells.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NodeConfig {
-    /// The node's rank.
-    pub rank: usize,
-    /// The manager's rank.
-    pub manager: usize,
-    /// Weak sharing of ERT tables through the manager.
-    pub share: bool,
-    /// Dynamic load balancing.
-    pub dlb: bool,
+pub struct NodePolicy {
     /// Most cells per chunk (the inbox is polled between chunks; an ERT
     /// update point also ends a chunk).
     pub chunk: usize,
@@ -50,6 +42,35 @@ pub struct NodeConfig {
     /// Most shares a node keeps in flight to the manager (sent, reply not
     /// yet back); 0 = no limit, the paper's protocol.
     pub share_window: u32,
+}
+
+impl Default for NodePolicy {
+    /// Chunks of 100 cells, the paper's third, grants from 3 cells, a
+    /// progress report every chunk, one share in flight.
+    fn default() -> Self {
+        NodePolicy {
+            chunk: 100,
+            give_fraction: 1.0 / 3.0,
+            min_grant: 3,
+            progress_every: 1,
+            share_window: 1,
+        }
+    }
+}
+
+/// How a node works in phase 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeConfig {
+    /// The node's rank.
+    pub rank: usize,
+    /// The manager's rank.
+    pub manager: usize,
+    /// Weak sharing of ERT tables through the manager.
+    pub share: bool,
+    /// Dynamic load balancing.
+    pub dlb: bool,
+    /// Pacing and work-giving knobs, the same for every node of a run.
+    pub policy: NodePolicy,
 }
 
 /// What a node did in phase 1 (times are the driver's: virtual or wall).
@@ -202,7 +223,7 @@ impl NodeActor {
     fn scan(&mut self, t: f64, out: &mut Vec<Action>) {
         let mut t = t;
         if self.renderer.remaining() > 0 {
-            let r = self.renderer.step(self.cfg.chunk.max(1));
+            let r = self.renderer.step(self.cfg.policy.chunk.max(1));
             let s = self.secs(&r.ops);
             out.push(Action::Compute {
                 seconds: s,
@@ -228,9 +249,9 @@ impl NodeActor {
                 // only with at least a chunk left and at most `share_window`
                 // shares in flight (its table keeps improving meanwhile; the
                 // next share carries it). Window 0: the paper's protocol.
-                let window = self.cfg.share_window;
+                let window = self.cfg.policy.share_window;
                 let worth_sharing =
-                    window == 0 || self.renderer.remaining() >= self.cfg.chunk.max(1);
+                    window == 0 || self.renderer.remaining() >= self.cfg.policy.chunk.max(1);
                 let room = window == 0 || self.shares_in_flight < window;
                 if self.cfg.share && worth_sharing && room {
                     self.shares_in_flight += 1;
@@ -268,7 +289,7 @@ impl NodeActor {
             if self.cfg.dlb
                 && !self.cfg.share
                 && self.renderer.remaining() > 0
-                && self.chunks_since_progress >= self.cfg.progress_every.max(1)
+                && self.chunks_since_progress >= self.cfg.policy.progress_every.max(1)
             {
                 self.chunks_since_progress = 0;
                 let m = Control::Progress {
@@ -325,10 +346,10 @@ impl NodeActor {
             MessageKind::WorkRequest => {
                 let m: WorkForward = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let rem = self.renderer.remaining();
-                let k = (rem as f64 * self.cfg.give_fraction).floor() as usize;
-                let cells = if rem >= self.cfg.min_grant.max(1) && k > 0 {
+                let k = (rem as f64 * self.cfg.policy.give_fraction).floor() as usize;
+                let cells = if rem >= self.cfg.policy.min_grant.max(1) && k > 0 {
                     let before = self.renderer.totals().work_cells_moved;
-                    let unit = self.renderer.give_work(self.cfg.give_fraction);
+                    let unit = self.renderer.give_work(self.cfg.policy.give_fraction);
                     let ops = OpCounts {
                         work_cells_moved: self.renderer.totals().work_cells_moved - before,
                         ..Default::default()

@@ -33,7 +33,7 @@ pub mod table;
 pub mod union;
 pub mod work;
 
-pub use actor::{NodeActor, NodeConfig, NodeStats};
+pub use actor::{NodeActor, NodeConfig, NodePolicy, NodeStats};
 pub use cost::{compute_time, CostProfile};
 pub use manager_table::merge_tables;
 pub use ops::OpCounts;
