@@ -58,11 +58,15 @@ pub struct ClusterArgs {
     /// Level sharing with `--sharing manager`: opacity levels `L` sent per
     /// block (1 with `--share-sub 1`: the paper's per-entry table). See
     /// `src/node/levels.rs`.
-    #[arg(long, value_name = "L", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=16))]
-    pub share_levels: u8,
+    /// Default: 4 with the pyramid structure (per pixel), 1 with flat.
+    #[arg(long, value_name = "L", value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub share_levels: Option<u8>,
     /// Level sharing: blocks per entry axis (1: whole entries).
     #[arg(long, value_name = "S", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=15))]
     pub share_sub: u8,
+    /// ERT structure, front-first help, `--paper`.
+    #[command(flatten)]
+    pub ert_mode: super::cluster_ert::ClusterErtArgs,
     /// Shorthand for `--sharing manager`.
     #[arg(long, conflicts_with = "sharing")]
     pub share: bool,
@@ -191,6 +195,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
     anyhow::ensure!(a.ert_table >= 1, "--ert-table must be at least 1");
     anyhow::ensure!(a.chunk >= 1, "--chunk must be at least 1");
     anyhow::ensure!(a.nodes >= 1, "--nodes must be at least 1");
+    let mode = a.ert_mode.resolve(a.share_levels)?;
+    let paper = a.ert_mode.paper;
     Ok(ClusterConfig {
         phase1: Phase1Config {
             nodes: a.nodes,
@@ -203,9 +209,9 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                     divisions: a.ert_table,
                     update_c: a.ert_update.max(1),
                     span: a.ert_span,
-                    local_pyramid: false,
-                    share_levels: a.share_levels,
-                    share_sub: a.share_sub,
+                    structure: mode.structure,
+                    share_levels: mode.share_levels,
+                    share_sub: if paper { 1 } else { a.share_sub },
                 },
                 canonical: a.canonical,
             },
@@ -217,7 +223,9 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 give_fraction: 1.0 / 3.0,
                 min_grant: a.min_grant.max(1),
                 progress_every: a.progress_every.max(1),
-                share_window: a.share_window,
+                share_window: if paper { 0 } else { a.share_window },
+                help_gap: mode.help_gap,
+                help_fraction: a.ert_mode.help_fraction,
             },
             clock: a.clock,
             record_trace: true,

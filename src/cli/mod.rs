@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod calibrate;
 pub mod cluster;
+pub mod cluster_ert;
 pub mod demo;
 pub mod info;
 pub mod render;

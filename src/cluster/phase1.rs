@@ -110,6 +110,7 @@ pub fn build_nodes(
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
             if cfg.share {
                 r.enable_level_sharing();
+                r.enable_pixel_sharing(depth_quant(input, &view));
             }
             let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
             let unit = WorkUnit::decode(&unit.encode())?;
@@ -134,6 +135,39 @@ pub fn build_nodes(
         .collect()
 }
 
+/// Depth codes for per-pixel sharing over the frame's depth range: the
+/// vertices' smallest and largest depth (screen depth, or distance from the
+/// eye in perspective: convex, so no point of a cell is farther than its
+/// farthest vertex; nearer points get code 0, which rounds them up).
+fn depth_quant(
+    input: &RenderInput,
+    view: &crate::scene::View,
+) -> crate::node::pixel_share::DepthQuant {
+    let persp = matches!(
+        view.projection,
+        crate::scene::Projection::Perspective { .. }
+    );
+    let (lo, hi) = input
+        .mesh
+        .points
+        .iter()
+        .map(|&p| {
+            let c = view.to_camera(p);
+            if persp {
+                (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+            } else {
+                c[2]
+            }
+        })
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| {
+            (a.min(z), b.max(z))
+        });
+    // Widen by a relative epsilon: f32 segment depths may round past the
+    // f64 extremes.
+    let pad = 1e-4 * (hi - lo).abs().max(1.0);
+    crate::node::pixel_share::DepthQuant::new((lo - pad) as f32, (hi + pad) as f32)
+}
+
 /// Runs phase 1 over `nodes` (from [`build_nodes`]).
 pub fn run(
     mut nodes: Vec<NodeActor>,
@@ -154,6 +188,17 @@ pub fn run(
             nodes[0].renderer().level_grid()
         } else {
             None
+        },
+        pixels: if cfg.share {
+            nodes[0].renderer().pixel_share_shape()
+        } else {
+            None
+        },
+        help_gap: match nodes[0].renderer().depth_span() {
+            Some(span) if cfg.share && cfg.dlb && cfg.policy.help_gap > 0.0 => {
+                Some(cfg.policy.help_gap * span)
+            }
+            _ => None,
         },
     };
     let initial = nodes

@@ -166,6 +166,13 @@ pub struct ClusterReport {
     pub share_sub: u8,
     /// Most ERT shares in flight per node (0: no limit, the paper's protocol).
     pub share_window: u32,
+    /// ERT structure nodes test against: `pyramid` (per-pixel, with
+    /// per-pixel level sharing) or `flat` (the paper's table).
+    pub ert_structure: String,
+    /// Front-first help gap, fraction of the depth range (0: off).
+    pub help_gap: f32,
+    /// Front-first help forwards the manager sent.
+    pub help_forwards: u64,
     /// DLB on.
     pub dlb: bool,
     /// Nodes kept canonical lists (image independent of the distribution).
@@ -430,6 +437,13 @@ pub fn build(i: Inputs) -> ClusterReport {
         share_levels: p1.node.ert.share_levels,
         share_sub: p1.node.ert.share_sub,
         share_window: p1.policy.share_window,
+        ert_structure: match p1.node.ert.structure {
+            crate::render::cell::ert::ErtStructure::Pyramid => "pyramid",
+            crate::render::cell::ert::ErtStructure::Flat => "flat",
+        }
+        .to_string(),
+        help_gap: p1.policy.help_gap,
+        help_forwards: i.manager.help_forwards,
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s: i.phase1_end_s + composite_s,

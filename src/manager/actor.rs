@@ -25,6 +25,7 @@ use super::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkRequest};
 use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, NodeId};
 use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
+use crate::node::pixel_share::{PixelLevels, PixelStore};
 use crate::node::{CostProfile, SharedTable};
 
 /// How the manager works.
@@ -41,6 +42,14 @@ pub struct ManagerConfig {
     /// Level sharing ([`crate::node::levels`]): the block grid and level
     /// count; shares are then [`LevelDelta`]s. `None`: the paper's tables.
     pub levels: Option<(BlockGrid, usize)>,
+    /// Per-pixel level sharing ([`crate::node::pixel_share`]): image width,
+    /// height and level count; shares are then [`PixelLevels`] and replies
+    /// the certified depths that changed. Takes precedence over `levels`.
+    pub pixels: Option<(u32, u32, usize)>,
+    /// Front-first help: a node asking for help (in its share) is sent the
+    /// nearest cells of the node with the nearest depth frontier when its own
+    /// frontier lies more than this depth behind it. `None`: off.
+    pub help_gap: Option<f32>,
 }
 
 /// What the manager did.
@@ -56,6 +65,8 @@ pub struct ManagerStats {
     pub forwards: u64,
     /// Forwards a donor refused (too few cells).
     pub refused: u64,
+    /// Front-first help forwards sent (included in `forwards`).
+    pub help_forwards: u64,
     /// Modelled seconds spent merging tables.
     pub busy_s: f64,
     /// When the manager sent `Finish` (end of phase 1).
@@ -72,6 +83,7 @@ pub struct ManagerActor {
     profile: CostProfile,
     table: SharedTable,
     store: Option<LevelStore>,
+    pixels: Option<PixelStore>,
     remaining: Vec<u64>,
     /// Per node, `grants_taken` of its latest request (`None`: none yet).
     request_taken: Vec<Option<u32>>,
@@ -81,6 +93,10 @@ pub struct ManagerActor {
     asked: Vec<bool>,
     /// Per node, a forward on its behalf is pending.
     pending: Vec<bool>,
+    /// Per node, a front-first help forward on its behalf is pending.
+    help_pending: Vec<bool>,
+    /// Per node, the depth frontier it last reported (`+inf`: unknown or done).
+    front: Vec<f32>,
     waiting: VecDeque<usize>,
     finished: bool,
     stats: ManagerStats,
@@ -103,6 +119,7 @@ impl ManagerActor {
         ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
             store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),
+            pixels: cfg.pixels.map(|(w, h, l)| PixelStore::new(w, h, l, n)),
             cfg,
             codec,
             profile,
@@ -111,6 +128,8 @@ impl ManagerActor {
             grants_to: vec![0; n],
             asked: vec![false; n],
             pending: vec![false; n],
+            help_pending: vec![false; n],
+            front: vec![f32::NEG_INFINITY; n],
             waiting: VecDeque::new(),
             finished: false,
             stats: ManagerStats::default(),
@@ -152,6 +171,33 @@ impl ManagerActor {
         match env.kind {
             MessageKind::ErtShare => {
                 let m: ErtShare = env.decode(&self.codec).map_err(|e| e.to_string())?;
+                if m.front.is_nan() {
+                    return Err(format!("share from node {j} with a NaN frontier"));
+                }
+                self.front[j] = m.front;
+                if m.help {
+                    self.help(j, out);
+                }
+                if let Some(store) = self.pixels.as_mut() {
+                    let (w, h, l) = store.shape();
+                    let d = PixelLevels::decode(&m.table, w, h, l).map_err(|e| e.to_string())?;
+                    let work = store.apply(j, &d).map_err(|e| e.to_string())?;
+                    let (reply, rwork) = store.reply(j);
+                    let secs = (work + rwork) as f64 * self.profile.per_shared_entry;
+                    self.stats.shares_merged += 1;
+                    self.stats.entries_improved += reply.pixels.len() as u64;
+                    self.stats.busy_s += secs;
+                    self.remaining[j] = m.remaining;
+                    out.push(Action::Compute {
+                        seconds: secs,
+                        activity: Activity::Share,
+                    });
+                    let reply = ErtReply {
+                        table: reply.encode(),
+                    };
+                    self.send(out, j, &reply);
+                    return Ok(());
+                }
                 let (improved, work) = match self.store.as_mut() {
                     Some(store) => {
                         let d = LevelDelta::decode(&m.table, store.grid())
@@ -194,6 +240,7 @@ impl ManagerActor {
                 self.stats.requests += 1;
                 self.request_taken[j] = Some(m.grants_taken);
                 self.remaining[j] = 0;
+                self.front[j] = f32::INFINITY;
                 if self.idle(j) && !self.pending[j] && !self.waiting.contains(&j) {
                     self.waiting.push_back(j);
                 }
@@ -206,10 +253,28 @@ impl ManagerActor {
                         to,
                         cells,
                         remaining,
+                        help,
                     } => {
                         let to = to as usize;
                         if to >= self.cfg.nodes {
                             return Err(format!("grant report names unknown node {to}"));
+                        }
+                        if help {
+                            if !self.help_pending[to] {
+                                return Err(format!(
+                                    "help report from {j} for node {to}, none pending"
+                                ));
+                            }
+                            self.asked[j] = false;
+                            self.help_pending[to] = false;
+                            self.remaining[j] = remaining;
+                            if cells > 0 {
+                                self.grants_to[to] += 1;
+                                self.remaining[to] += cells;
+                            } else {
+                                self.stats.refused += 1;
+                            }
+                            return Ok(());
                         }
                         self.asked[j] = false;
                         self.pending[to] = false;
@@ -259,9 +324,40 @@ impl ManagerActor {
                 d,
                 &WorkForward {
                     requester: r as u32,
+                    front: false,
                 },
             );
         }
+    }
+
+    /// Front-first help for node `r`: forward to the node with the nearest
+    /// frontier when `r`'s lies more than `help_gap` behind it.
+    fn help(&mut self, r: usize, out: &mut Vec<Action>) {
+        let Some(gap) = self.cfg.help_gap else { return };
+        if !self.cfg.dlb || self.help_pending[r] || self.pending[r] {
+            return;
+        }
+        let donor = (0..self.cfg.nodes)
+            .filter(|&d| d != r && !self.idle(d) && !self.asked[d] && !self.help_pending[d])
+            .filter(|&d| self.remaining[d] >= self.cfg.min_grant && self.front[d].is_finite())
+            .min_by(|&a, &b| self.front[a].total_cmp(&self.front[b]).then(a.cmp(&b)));
+        let Some(d) = donor else { return };
+        if self.front[r] - self.front[d] <= gap {
+            return;
+        }
+        self.asked[d] = true;
+        self.help_pending[r] = true;
+        self.stats.forwards += 1;
+        self.stats.help_forwards += 1;
+        self.remaining[d] -= self.remaining[d] / 3;
+        self.send(
+            out,
+            d,
+            &WorkForward {
+                requester: r as u32,
+                front: true,
+            },
+        );
     }
 
     fn finish(&mut self, out: &mut Vec<Action>) {

@@ -25,7 +25,14 @@ pub struct ErtShare {
     /// Unprocessed cells of the sender when it sent this (the manager's load
     /// information for DLB).
     pub remaining: u64,
-    /// [`crate::node::SharedTable::encode`] of the node's local table.
+    /// Nearest depth of the sender's next unprocessed cell (`+inf`: none):
+    /// its depth frontier, for front-first help.
+    pub front: f32,
+    /// The sender asks for front cells of a node nearer the eye (front-first
+    /// help): it has no help request pending.
+    pub help: bool,
+    /// The node's ERT information: [`crate::node::SharedTable::encode`],
+    /// a level delta, or per-pixel levels, by the run's sharing mode.
     pub table: Vec<u8>,
 }
 
@@ -61,8 +68,11 @@ impl Message for WorkRequest {
 /// The manager asks a donor to give a share of its cells to `requester`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct WorkForward {
-    /// The idle node's rank.
+    /// The idle (or helping) node's rank.
     pub requester: u32,
+    /// Front-first help: give the *first* cells in processing order (the
+    /// nearest), not the last; answer even a refusal with an empty grant.
+    pub front: bool,
 }
 
 impl Message for WorkForward {
@@ -98,6 +108,8 @@ pub enum Control {
         cells: u64,
         /// The donor's unprocessed cells afterwards.
         remaining: u64,
+        /// The forward was front-first help (the requester is not idle).
+        help: bool,
     },
     /// Node → manager: the node hit an error (e.g. a message failed to
     /// decode) and stops; the manager ends phase 1 for everyone.

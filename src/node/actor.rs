@@ -42,6 +42,14 @@ pub struct NodePolicy {
     /// Most shares a node keeps in flight to the manager (sent, reply not
     /// yet back); 0 = no limit, the paper's protocol.
     pub share_window: u32,
+    /// Front-first help (with DLB and per-pixel sharing), as a fraction of
+    /// the frame's depth range (0: off): shares ask the manager for the
+    /// nearest cells of the node with the nearest depth frontier, which the
+    /// manager grants when this node's frontier lies more than this behind.
+    pub help_gap: f32,
+    /// Front-first help: fraction of its unprocessed cells a donor gives
+    /// (the nearest ones).
+    pub help_fraction: f64,
 }
 
 impl Default for NodePolicy {
@@ -54,6 +62,8 @@ impl Default for NodePolicy {
             min_grant: 3,
             progress_every: 1,
             share_window: 1,
+            help_gap: 0.0,
+            help_fraction: 0.25,
         }
     }
 }
@@ -125,6 +135,8 @@ pub struct NodeActor {
     peers: Vec<usize>,
     /// Shares sent to the manager whose replies have not come back yet.
     shares_in_flight: u32,
+    /// A front-first help request is out (cleared by any grant).
+    help_pending: bool,
     stats: NodeStats,
 }
 
@@ -149,6 +161,7 @@ impl NodeActor {
             deferred: Vec::new(),
             peers: Vec::new(),
             shares_in_flight: 0,
+            help_pending: false,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -255,7 +268,11 @@ impl NodeActor {
                 let room = window == 0 || self.shares_in_flight < window;
                 if self.cfg.share && worth_sharing && room {
                     self.shares_in_flight += 1;
-                    let table = match self.renderer.take_level_delta() {
+                    let delta = self
+                        .renderer
+                        .take_pixel_levels()
+                        .or_else(|| self.renderer.take_level_delta());
+                    let table = match delta {
                         Some((bytes, ops)) => {
                             let s = self.secs(&ops);
                             out.push(Action::Compute {
@@ -268,8 +285,12 @@ impl NodeActor {
                         }
                         None => self.renderer.local_table().encode(),
                     };
+                    let help = self.cfg.policy.help_gap > 0.0 && self.cfg.dlb && !self.help_pending;
+                    self.help_pending |= help;
                     let m = ErtShare {
                         remaining: self.renderer.remaining() as u64,
+                        front: self.renderer.front_depth(),
+                        help,
                         table,
                     };
                     self.stats.shares_sent += 1;
@@ -318,6 +339,22 @@ impl NodeActor {
                 if env.from.index() == self.cfg.manager {
                     self.shares_in_flight = self.shares_in_flight.saturating_sub(1);
                 }
+                if self.renderer.pixel_share_shape().is_some() {
+                    // Per-pixel deltas: each carries only what changed, so
+                    // none may be dropped; applied even while waiting.
+                    let ops = self
+                        .renderer
+                        .apply_pixel_depths(&m.table)
+                        .map_err(|e| err(&e))?;
+                    let s = self.secs(&ops);
+                    self.stats.share_s += s;
+                    self.stats.replies_applied += 1;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Share,
+                    });
+                    return Ok(());
+                }
                 let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
                 let (nx, ny) = self.renderer.table_dims();
                 if (t.nx as u32, t.ny as u32) != (nx, ny) {
@@ -346,10 +383,19 @@ impl NodeActor {
             MessageKind::WorkRequest => {
                 let m: WorkForward = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let rem = self.renderer.remaining();
-                let k = (rem as f64 * self.cfg.policy.give_fraction).floor() as usize;
+                let fraction = if m.front {
+                    self.cfg.policy.help_fraction
+                } else {
+                    self.cfg.policy.give_fraction
+                };
+                let k = (rem as f64 * fraction).floor() as usize;
                 let cells = if rem >= self.cfg.policy.min_grant.max(1) && k > 0 {
                     let before = self.renderer.totals().work_cells_moved;
-                    let unit = self.renderer.give_work(self.cfg.policy.give_fraction);
+                    let unit = if m.front {
+                        self.renderer.give_front_work(self.cfg.policy.help_fraction)
+                    } else {
+                        self.renderer.give_work(self.cfg.policy.give_fraction)
+                    };
                     let ops = OpCounts {
                         work_cells_moved: self.renderer.totals().work_cells_moved - before,
                         ..Default::default()
@@ -368,18 +414,31 @@ impl NodeActor {
                     self.send(out, m.requester as usize, &g);
                     n
                 } else {
+                    if m.front {
+                        // The helper is not waiting, but it must learn that
+                        // nothing comes: an empty grant.
+                        let g = WorkGrant {
+                            unit: WorkUnit::default().encode(),
+                        };
+                        self.send(out, m.requester as usize, &g);
+                    }
                     0
                 };
                 let report = Control::Gave {
                     to: m.requester,
                     cells,
                     remaining: self.renderer.remaining() as u64,
+                    help: m.front,
                 };
                 self.send(out, self.cfg.manager, &report);
             }
             MessageKind::WorkGrant => {
                 let m: WorkGrant = env.decode(&self.codec).map_err(|e| err(&e))?;
                 let unit = WorkUnit::decode(&m.unit).map_err(|e| err(&e))?;
+                self.help_pending = false;
+                if unit.is_empty() {
+                    return Ok(());
+                }
                 let mut ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
                 for (_, t) in std::mem::take(&mut self.deferred) {
                     ops.add(&self.renderer.apply_shared(&t).map_err(|e| err(&e))?);

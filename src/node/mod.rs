@@ -14,6 +14,8 @@
 //! - [`table`]: the [`SharedTable`] that travels between a node and the
 //!   manager (1 bit + one depth per entry), and [`manager_table`]: the
 //!   manager's merge rule.
+//! - [`levels`] and [`pixel_share`]: ERT information that composes across
+//!   nodes (opacity levels per block, or per pixel for the pyramid).
 //! - [`actor`]: the [`NodeActor`], phase 1 of a cluster node as a
 //!   [`crate::net::Actor`] (scan in chunks, weak ERT sharing, DLB).
 //! - [`cost`]: the compute-time cost model, operation counts → seconds.
@@ -27,6 +29,7 @@ pub mod levels;
 pub mod lsq;
 pub mod manager_table;
 pub mod ops;
+pub mod pixel_share;
 pub mod placement;
 pub mod renderer;
 pub mod table;

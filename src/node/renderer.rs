@@ -55,12 +55,13 @@ use std::collections::HashMap;
 
 use super::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
 use super::ops::OpCounts;
+use super::pixel_share::{DepthQuant, NodePixelLevels, PixelDepths};
 use super::table::{NodeTable, SharedTable, TableError};
 use super::work::{WorkError, WorkUnit};
 use crate::render::cell::bin::{cell_record, CellRecord, Culled};
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
-use crate::render::cell::ert::ErtSpan;
+use crate::render::cell::ert::{ErtSpan, ErtStructure};
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::{PerspRays, ProjectedVertices};
 use crate::render::cell::scan::{Rect, ScanCounts, ScanTarget};
@@ -79,8 +80,11 @@ pub struct NodeErt {
     pub update_c: u32,
     /// Which cells the table tests (`Single`: the paper).
     pub span: ErtSpan,
-    /// Also keep a local per-pixel max-pyramid and skip a cell if either says so.
-    pub local_pyramid: bool,
+    /// `Pyramid` (default): cells are also tested against a per-pixel
+    /// max-pyramid (the sequential renderer's best test), and weak sharing
+    /// sends per-pixel opacity levels ([`super::pixel_share`]). `Flat`: the
+    /// paper's `D x D` table only, and its per-entry sharing.
+    pub structure: ErtStructure,
     /// Opacity levels `L` shared per block with weak sharing
     /// ([`super::levels`]); 1 with `share_sub = 1`: the paper's table.
     pub share_levels: u8,
@@ -101,7 +105,7 @@ impl NodeErt {
         divisions: 20,
         update_c: 100,
         span: ErtSpan::Single,
-        local_pyramid: false,
+        structure: ErtStructure::Flat,
         share_levels: 1,
         share_sub: 1,
     };
@@ -112,9 +116,18 @@ impl NodeErt {
     }
 
     /// Whether weak sharing sends opacity levels per block
-    /// ([`super::levels`]) instead of the paper's per-entry table.
+    /// ([`super::levels`]) instead of the paper's per-entry table (flat
+    /// structure only).
     pub fn level_sharing(&self) -> bool {
-        self.enabled() && (self.share_levels > 1 || self.share_sub > 1)
+        self.enabled()
+            && self.structure == ErtStructure::Flat
+            && (self.share_levels > 1 || self.share_sub > 1)
+    }
+
+    /// Whether weak sharing sends per-pixel opacity levels
+    /// ([`super::pixel_share`]): the pyramid structure.
+    pub fn pixel_sharing(&self) -> bool {
+        self.enabled() && self.structure == ErtStructure::Pyramid
     }
 }
 
@@ -185,6 +198,7 @@ pub struct NodeRenderer {
     interval: Option<usize>,
     totals: OpCounts,
     levels: Option<NodeLevels>,
+    pixel_levels: Option<NodePixelLevels>,
 }
 
 /// Per-pixel and per-block opacity-level depths for level sharing
@@ -235,12 +249,91 @@ impl NodeRenderer {
                 Vec::new()
             },
             table: NodeTable::new(w, h, opts.ert.divisions),
-            pyramid: (ert && opts.ert.local_pyramid).then(|| Pyramid::new(w, h, 1, 1)),
+            pyramid: (ert && opts.ert.structure == ErtStructure::Pyramid)
+                .then(|| Pyramid::new(w, h, 1, 1)),
             since_update: 0,
             interval: None,
             totals: OpCounts::default(),
             levels: None,
+            pixel_levels: None,
         }
+    }
+
+    /// Turns on per-pixel level sharing ([`super::pixel_share`]; with weak
+    /// sharing and [`NodeErt::pixel_sharing`]): table updates also keep the
+    /// per-pixel level depths, [`NodeRenderer::take_pixel_levels`] gives the
+    /// pixels that changed, with depths coded by `quant`.
+    pub fn enable_pixel_sharing(&mut self, quant: DepthQuant) {
+        let e = self.opts.ert;
+        if !e.pixel_sharing() || self.pixel_levels.is_some() {
+            return;
+        }
+        let (w, h) = (self.view.width, self.view.height);
+        let l = e.share_levels.clamp(1, 16) as usize;
+        self.pixel_levels = Some(NodePixelLevels::new(w, h, e.threshold, l, quant));
+    }
+
+    /// The frame's depth range width (per-pixel sharing's codes), if on.
+    pub fn depth_span(&self) -> Option<f32> {
+        self.pixel_levels.as_ref().map(|p| p.quant.span())
+    }
+
+    /// Image size and level count of per-pixel level sharing, if on.
+    pub fn pixel_share_shape(&self) -> Option<(u32, u32, usize)> {
+        self.pixel_levels
+            .as_ref()
+            .map(|p| (self.view.width, self.view.height, p.levels()))
+    }
+
+    /// Per-pixel level sharing: the pixels whose level depths changed since
+    /// the last call, encoded ([`super::pixel_share::PixelLevels::encode`]);
+    /// packing counted as `shared_entries_merged` (one per code). `None` if
+    /// per-pixel sharing is off.
+    pub fn take_pixel_levels(&mut self) -> Option<(Vec<u8>, OpCounts)> {
+        let (w, h) = (self.view.width, self.view.height);
+        let pl = self.pixel_levels.as_mut()?;
+        let (d, packed) = pl.take(w, h);
+        let ops = OpCounts {
+            shared_entries_merged: packed,
+            ..Default::default()
+        };
+        self.totals.add(&ops);
+        Some((d.encode(), ops))
+    }
+
+    /// Applies the manager's certified per-pixel depths
+    /// ([`super::pixel_share::PixelDepths`]): each pixel's depth becomes the
+    /// min of its own and the certified one, and the pyramid (and table) are
+    /// rebuilt over the pixels that changed. Cost: one `shared_entries_merged`
+    /// per entry received, plus the rebuild.
+    pub fn apply_pixel_depths(&mut self, bytes: &[u8]) -> Result<OpCounts, TableError> {
+        let (w, h) = (self.view.width, self.view.height);
+        let Some(pl) = self.pixel_levels.as_ref() else {
+            return Err(TableError::Length(bytes.len()));
+        };
+        let d = PixelDepths::decode(bytes, w, h)?;
+        let mut ops = OpCounts {
+            shared_entries_merged: d.pixels.len() as u64,
+            ..Default::default()
+        };
+        for &(p, c) in &d.pixels {
+            let z = pl.quant.value(c);
+            let p = p as usize;
+            if z < self.depth[p] {
+                self.depth[p] = z;
+                let (x, y) = (p as u32 % w, p as u32 / w);
+                self.table.mark(x, y);
+                if let Some(py) = self.pyramid.as_mut() {
+                    py.mark(x, y);
+                }
+            }
+        }
+        self.table.rebuild(&self.depth, &mut ops);
+        if let Some(py) = self.pyramid.as_mut() {
+            py.rebuild(&self.depth);
+        }
+        self.totals.add(&ops);
+        Ok(ops)
     }
 
     /// Turns on level sharing (with weak sharing and
@@ -371,13 +464,36 @@ impl NodeRenderer {
         unit
     }
 
+    /// Gives away the **first** `floor(remaining * fraction)` unprocessed
+    /// cells (the nearest, in front-to-back order): front-first help, where a
+    /// node whose own cells lie behind everybody else's scans the front of
+    /// the volume first, so that termination information exists before the
+    /// cells behind it are reached. Counted like [`NodeRenderer::give_work`].
+    pub fn give_front_work(&mut self, fraction: f64) -> WorkUnit {
+        let rem = self.remaining();
+        let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
+        let given: Vec<CellRecord> = self.records.drain(self.next..self.next + k).collect();
+        let vertices = &self.vertices;
+        let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
+        self.totals.work_cells_moved += k as u64;
+        unit
+    }
+
+    /// Nearest depth of the next unprocessed cell (`+inf`: none).
+    pub fn front_depth(&self) -> f32 {
+        self.records
+            .get(self.next)
+            .map_or(f32::INFINITY, |c| c.near)
+    }
+
     /// The processing-order key of the next unprocessed cell.
     pub fn next_order_key(&self) -> Option<u64> {
         self.records.get(self.next).map(|c| c.order_key())
     }
 
-    /// Per pixel, the cached termination depth of the node's own lists as of
-    /// the last table update (`+inf`: not terminated; empty with ERT off).
+    /// Per pixel, the cached termination depth as of the last table update:
+    /// the node's own lists, and with per-pixel sharing also the manager's
+    /// certified depths (`+inf`: not terminated; empty with ERT off).
     pub fn termination_depths(&self) -> &[f32] {
         &self.depth
     }
@@ -492,12 +608,23 @@ impl NodeRenderer {
             table,
             pyramid,
             levels,
+            pixel_levels,
             ..
         } = self;
         lists.drain_changed(|idx, list| {
-            let (d, walked) = match levels.as_mut() {
-                None => termination_depth_counted(list, thr),
-                Some(lv) => {
+            let (d, walked) = match (levels.as_mut(), pixel_levels.as_mut()) {
+                (None, None) => termination_depth_counted(list, thr),
+                (_, Some(pl)) => {
+                    let l = pl.alphas.len();
+                    let cached = &mut pl.pix[idx * l..(idx + 1) * l];
+                    let (walked, changed) = level_depths_counted(list, &pl.alphas, cached);
+                    let d = cached[l - 1];
+                    if changed {
+                        pl.mark(idx);
+                    }
+                    (d, walked)
+                }
+                (Some(lv), None) => {
                     let l = lv.alphas.len();
                     let (x, y) = (idx as u32 % w, idx as u32 / w);
                     let cached = &mut lv.pix[idx * l..(idx + 1) * l];

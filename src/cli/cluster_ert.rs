@@ -1,0 +1,86 @@
+//! The ERT mode options of `pvrsim cluster` (flattened into
+//! [`super::cluster::ClusterArgs`]): which structure the nodes test cells
+//! against, how sharing travels, front-first help, and `--paper`, the
+//! preset that reproduces the paper's protocol exactly.
+
+use clap::Args;
+
+use crate::render::cell::ert::ErtStructure;
+
+/// ERT structure, sharing granularity and scheduling of the cluster's nodes.
+#[derive(Debug, Clone, Args)]
+pub struct ClusterErtArgs {
+    /// What nodes test cells against. `pyramid` (default): a per-pixel
+    /// max-pyramid (the sequential renderer's best test) and, with
+    /// `--share`, per-pixel opacity levels combined by the manager so that
+    /// opacity adds up across nodes (src/node/pixel_share.rs). `flat`: the
+    /// paper's D x D table and its per-entry sharing.
+    #[arg(long, value_enum)]
+    pub ert_structure: Option<ErtStructure>,
+    /// Front-first help (pyramid structure, with --share and --dlb): a node
+    /// whose next cell lies more than this fraction of the frame's depth
+    /// range behind the nearest node's asks (in its share) for that node's
+    /// nearest cells, so that the front of the volume is scanned first and
+    /// the cells behind it can be skipped. 0 turns it off.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.3)]
+    pub help_gap: f32,
+    /// Front-first help: fraction of its unprocessed cells a node gives
+    /// (its nearest ones).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.25)]
+    pub help_fraction: f64,
+    /// The paper's protocol exactly: flat D x D table, single-entry test,
+    /// per-entry sharing (1 level, whole entries), no share window, no
+    /// front-first help. Overrides --ert-structure, --share-levels,
+    /// --share-sub, --share-window and --help-gap.
+    #[arg(long)]
+    pub paper: bool,
+}
+
+/// The resolved ERT mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErtMode {
+    /// Structure tested.
+    pub structure: ErtStructure,
+    /// Opacity levels shared (pixel levels for the pyramid, block levels for flat).
+    pub share_levels: u8,
+    /// Front-first help gap (0: off).
+    pub help_gap: f32,
+}
+
+impl ClusterErtArgs {
+    /// Resolves the mode from these flags and the `--share-levels` given
+    /// (if any): the pyramid shares 4 levels per pixel by default (measured
+    /// best on aorta view B, docs/experiments/cluster.md), flat 1 (the paper).
+    pub fn resolve(&self, share_levels: Option<u8>) -> anyhow::Result<ErtMode> {
+        anyhow::ensure!(
+            self.help_gap.is_finite() && self.help_gap >= 0.0,
+            "--help-gap must be a fraction >= 0 (0 = off), got {}",
+            self.help_gap
+        );
+        anyhow::ensure!(
+            self.help_fraction > 0.0 && self.help_fraction <= 1.0,
+            "--help-fraction must be in (0, 1], got {}",
+            self.help_fraction
+        );
+        if self.paper {
+            return Ok(ErtMode {
+                structure: ErtStructure::Flat,
+                share_levels: 1,
+                help_gap: 0.0,
+            });
+        }
+        let structure = self.ert_structure.unwrap_or(ErtStructure::Pyramid);
+        Ok(ErtMode {
+            structure,
+            share_levels: share_levels.unwrap_or(match structure {
+                ErtStructure::Pyramid => 4,
+                ErtStructure::Flat => 1,
+            }),
+            help_gap: if structure == ErtStructure::Pyramid {
+                self.help_gap
+            } else {
+                0.0
+            },
+        })
+    }
+}
