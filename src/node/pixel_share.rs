@@ -112,9 +112,13 @@ impl DepthQuant {
             };
         }
         let mut q = q as u16;
-        // Float rounding in the division: step up until the value covers z.
+        // Float rounding in the division: step up until the value covers z,
+        // and down while the code below still does.
         while q < NOT_REACHED - 1 && self.value(q) < z {
             q += 1;
+        }
+        while q > 0 && self.value(q - 1) >= z {
+            q -= 1;
         }
         if self.value(q) < z {
             NOT_REACHED
@@ -219,6 +223,10 @@ pub struct PixelLevels {
     pub height: u32,
     /// Levels `L` (1..=16).
     pub levels: u8,
+    /// The sender's screen footprint, inclusive pixel range `[x0, x1, y0,
+    /// y1]` of every cell it has held (empty: `x0 > x1`): the manager's reply
+    /// carries only the entries there.
+    pub footprint: [u32; 4],
     /// Ascending pixel indices, each with `L` codes (level order).
     pub pixels: Vec<(u32, Vec<u16>)>,
 }
@@ -227,8 +235,8 @@ const TAG_LEVELS: u8 = b'P';
 const TAG_DEPTHS: u8 = b'D';
 
 impl PixelLevels {
-    /// Wire form: tag `P`, width and height (u32 LE), `L` (u8), count (u32 LE),
-    /// then per pixel its index (varint delta from the previous one; the first
+    /// Wire form: tag `P`, width and height (u32 LE), `L` (u8), the footprint
+    /// (4 x u32 LE), count (u32 LE), then per pixel its index (varint delta from the previous one; the first
     /// absolute) and `L` codes (u16 LE).
     pub fn encode(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(14 + self.pixels.len() * (2 + 2 * self.levels as usize));
@@ -236,6 +244,9 @@ impl PixelLevels {
         out.extend_from_slice(&self.width.to_le_bytes());
         out.extend_from_slice(&self.height.to_le_bytes());
         out.push(self.levels);
+        for v in self.footprint {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
         out.extend_from_slice(&(self.pixels.len() as u32).to_le_bytes());
         let mut prev = None;
         for (p, codes) in &self.pixels {
@@ -256,6 +267,7 @@ impl PixelLevels {
             return Err(r.err());
         }
         let (w, h, l) = (r.u32()?, r.u32()?, r.u8()?);
+        let footprint = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
         let count = r.u32()? as usize;
         let per = 1 + 2 * l as usize;
         if (w, h, l) != (width, height, levels) || count > bytes.len() / per.max(1) {
@@ -281,6 +293,7 @@ impl PixelLevels {
             width,
             height,
             levels,
+            footprint,
             pixels,
         })
     }
@@ -361,6 +374,10 @@ pub fn lth_smallest(values: &mut [u16], levels: usize) -> u16 {
     *nth
 }
 
+/// Edge of the manager's log tiles, in pixels: a reply walks the logs of the
+/// tiles under the node's footprint only.
+pub const TILE: u32 = 16;
+
 /// The manager's store for per-pixel level sharing: every node's latest
 /// codes per pixel, the certified depth per pixel, and a change log from
 /// which each node's reply is cut.
@@ -370,19 +387,25 @@ pub struct PixelStore {
     height: u32,
     levels: usize,
     nodes: usize,
-    /// Per pixel, the nodes that sent something, with their `L` codes
-    /// (ascending node rank, so the combination is deterministic).
-    values: Vec<Vec<(u32, Vec<u16>)>>,
+    /// `[pixel * L + i]`: the `L` smallest codes received for the pixel
+    /// over all (node, level) pairs, ascending (`NOT_REACHED` where fewer),
+    /// and whose they are (`node * 16 + level`; `u32::MAX`: empty slot).
+    kept_code: Vec<u16>,
+    kept_id: Vec<u32>,
     /// Per pixel, the certified depth code.
     certified: Vec<u16>,
-    /// Pixels in the order their certified depth went down (repeats allowed).
-    log: Vec<u32>,
-    /// Per node, how much of the log it has been sent.
+    /// Per screen tile ([`TILE`] x [`TILE`] pixels), the pixels in the order
+    /// their certified depth went down (repeats allowed).
+    log: Vec<Vec<u32>>,
+    /// Tiles per row.
+    tiles_x: u32,
+    /// `[node * tiles + tile]`: how much of the tile's log the node has been sent.
     cursor: Vec<usize>,
+    /// Per node, its latest footprint.
+    footprint: Vec<[u32; 4]>,
     /// Per pixel, the reply number that last listed it (dedupe).
     stamp: Vec<u32>,
     replies: u32,
-    scratch: Vec<u16>,
 }
 
 impl PixelStore {
@@ -390,18 +413,22 @@ impl PixelStore {
     /// `nodes` nodes.
     pub fn new(width: u32, height: u32, levels: usize, nodes: usize) -> PixelStore {
         let n = (width as usize) * (height as usize);
+        let tiles_x = width.div_ceil(TILE).max(1);
+        let tiles = (tiles_x * height.div_ceil(TILE).max(1)) as usize;
         PixelStore {
             width,
             height,
             levels,
             nodes,
-            values: vec![Vec::new(); n],
+            kept_code: vec![NOT_REACHED; n * levels],
+            kept_id: vec![u32::MAX; n * levels],
             certified: vec![NOT_REACHED; n],
-            log: Vec::new(),
-            cursor: vec![0; nodes],
+            log: vec![Vec::new(); tiles],
+            tiles_x,
+            cursor: vec![0; nodes * tiles],
+            footprint: vec![[0, width.saturating_sub(1), 0, height.saturating_sub(1)]; nodes],
             stamp: vec![0; n],
             replies: 0,
-            scratch: Vec::new(),
         }
     }
 
@@ -415,9 +442,14 @@ impl PixelStore {
         &self.certified
     }
 
-    /// Applies node `k`'s codes (they replace its earlier ones pixel by
-    /// pixel) and recombines those pixels. Returns the work (codes read and
-    /// written), for the cost model.
+    /// Applies node `k`'s codes (each lowers the node's value for that level
+    /// and pixel) and recombines those pixels. Returns the work (slots
+    /// compared), for the cost model.
+    ///
+    /// Only the `L` smallest (node, level) values per pixel are kept: values
+    /// only ever go down, so one that has left the `L` smallest can come
+    /// back only through a new, lower value — which its node sends.
+    /// `O(L^2)` per pixel, whatever the node count.
     pub fn apply(&mut self, k: usize, d: &PixelLevels) -> Result<u64, TableError> {
         if k >= self.nodes
             || (d.width, d.height, d.levels as usize) != (self.width, self.height, self.levels)
@@ -426,52 +458,80 @@ impl PixelStore {
         }
         let l = self.levels;
         let mut work = 0u64;
+        self.footprint[k] = d.footprint;
         for (p, codes) in &d.pixels {
             if codes.len() != l {
                 return Err(TableError::Length(codes.len()));
             }
             let p = *p as usize;
-            let slot = &mut self.values[p];
-            match slot.binary_search_by_key(&(k as u32), |(n, _)| *n) {
-                Ok(i) => {
-                    for (old, &new) in slot[i].1.iter_mut().zip(codes) {
-                        *old = (*old).min(new);
-                    }
+            let kc = &mut self.kept_code[p * l..(p + 1) * l];
+            let ki = &mut self.kept_id[p * l..(p + 1) * l];
+            for (lvl, &c) in codes.iter().enumerate() {
+                if c == NOT_REACHED {
+                    continue;
                 }
-                Err(i) => slot.insert(i, (k as u32, codes.clone())),
+                let id = (k as u32) * 16 + lvl as u32;
+                work += l as u64;
+                let slot = match ki.iter().position(|&x| x == id) {
+                    Some(i) if c < kc[i] => i,
+                    Some(_) => continue,
+                    None if c < kc[l - 1] => l - 1,
+                    None => continue,
+                };
+                kc[slot] = c;
+                ki[slot] = id;
+                // Bubble the lowered value into place (the rest stays sorted).
+                let mut i = slot;
+                while i > 0 && kc[i - 1] > kc[i] {
+                    kc.swap(i - 1, i);
+                    ki.swap(i - 1, i);
+                    i -= 1;
+                }
             }
-            self.scratch.clear();
-            for (_, v) in slot.iter() {
-                self.scratch.extend_from_slice(v);
-            }
-            work += self.scratch.len() as u64 + l as u64;
-            let c = lth_smallest(&mut self.scratch, l);
+            let c = kc[l - 1];
             if c < self.certified[p] {
                 self.certified[p] = c;
-                self.log.push(p as u32);
+                let (x, y) = (p as u32 % self.width, p as u32 / self.width);
+                self.log[((y / TILE) * self.tiles_x + x / TILE) as usize].push(p as u32);
             }
         }
         Ok(work)
     }
 
-    /// The entries that changed since node `k`'s last reply (ascending pixel
-    /// order, each once, with its current certified depth), and the work.
+    /// The entries in the tiles under node `k`'s footprint that changed since its last
+    /// reply (ascending pixel order, each once, with its current certified
+    /// depth), and the work (log entries walked, entries packed).
     pub fn reply(&mut self, k: usize) -> (PixelDepths, u64) {
         self.replies = self.replies.wrapping_add(1).max(1);
-        let from = self.cursor.get(k).copied().unwrap_or(self.log.len());
         let mut pixels: Vec<(u32, u16)> = Vec::new();
-        for &p in &self.log[from..] {
-            let s = &mut self.stamp[p as usize];
-            if *s != self.replies {
-                *s = self.replies;
-                pixels.push((p, self.certified[p as usize]));
+        let mut work = 0u64;
+        if k < self.nodes {
+            let [x0, x1, y0, y1] = self.footprint[k];
+            let (x1, y1) = (x1.min(self.width - 1), y1.min(self.height - 1));
+            let tiles = self.log.len();
+            if x0 <= x1 && y0 <= y1 {
+                for ty in y0 / TILE..=y1 / TILE {
+                    for tx in x0 / TILE..=x1 / TILE {
+                        let t = (ty * self.tiles_x + tx) as usize;
+                        let cur = &mut self.cursor[k * tiles + t];
+                        let log = &self.log[t];
+                        work += (log.len() - *cur) as u64;
+                        // Whole tiles: a pixel left out now could not be sent
+                        // later, once the cursor has passed it.
+                        for &p in &log[*cur..] {
+                            let s = &mut self.stamp[p as usize];
+                            if *s != self.replies {
+                                *s = self.replies;
+                                pixels.push((p, self.certified[p as usize]));
+                            }
+                        }
+                        *cur = log.len();
+                    }
+                }
             }
         }
-        if let Some(c) = self.cursor.get_mut(k) {
-            *c = self.log.len();
-        }
         pixels.sort_unstable_by_key(|e| e.0);
-        let work = (self.log.len() - from) as u64 + pixels.len() as u64;
+        work += pixels.len() as u64;
         (
             PixelDepths {
                 width: self.width,
@@ -525,9 +585,9 @@ impl NodePixelLevels {
         }
     }
 
-    /// Takes the changed pixels as a [`PixelLevels`] share; also returns how
-    /// many codes were packed.
-    pub fn take(&mut self, width: u32, height: u32) -> (PixelLevels, u64) {
+    /// Takes the changed pixels as a [`PixelLevels`] share with the sender's
+    /// `footprint`; also returns how many codes were packed.
+    pub fn take(&mut self, width: u32, height: u32, footprint: [u32; 4]) -> (PixelLevels, u64) {
         let l = self.levels();
         let mut ids = std::mem::take(&mut self.unsent);
         ids.sort_unstable();
@@ -545,6 +605,7 @@ impl NodePixelLevels {
                 width,
                 height,
                 levels: l as u8,
+                footprint,
                 pixels,
             },
             packed,
@@ -566,9 +627,10 @@ mod tests {
             prop_assert!(q.value(c) >= z, "code {} value {} < {}", c, q.value(c), z);
             if (0.0..=1.0).contains(&t) {
                 prop_assert!(c != NOT_REACHED);
-                // Tight: one step less would be below z.
+                // Tight: one step less would be below z (unless the step is
+                // below f32 resolution there and both codes decode alike).
                 if c > 0 {
-                    prop_assert!(q.value(c - 1) < z);
+                    prop_assert!(q.value(c - 1) < z || q.value(c - 1) == q.value(c));
                 }
             }
         }
@@ -582,6 +644,7 @@ mod tests {
                 width: 30,
                 height: 20,
                 levels,
+                footprint: [1, 20, 3, 19],
                 pixels: raw.into_iter().map(|(p, v)| (p, v[..levels as usize].to_vec())).collect(),
             };
             let b = d.encode();
@@ -610,7 +673,7 @@ mod tests {
                 for (old, new) in latest[p as usize][k].iter_mut().zip(&codes) {
                     *old = (*old).min(*new);
                 }
-                let d = PixelLevels { width: 4, height: 3, levels: 2, pixels: vec![(p, codes)] };
+                let d = PixelLevels { width: 4, height: 3, levels: 2, footprint: [0, 3, 0, 2], pixels: vec![(p, codes)] };
                 s.apply(k, &d).unwrap();
                 let (r, _) = s.reply(0);
                 for (p, c) in r.pixels {
@@ -651,6 +714,30 @@ mod tests {
             pixels: vec![(16, 7)],
         };
         assert!(PixelDepths::decode(&out.encode(), 4, 4).is_err());
+    }
+
+    /// A reply carries only the changes under the node's footprint; a node
+    /// whose footprint grows gets the whole history of the new part.
+    #[test]
+    fn replies_follow_the_footprint() {
+        let mut s = PixelStore::new(40, 40, 1, 2);
+        let share = |fp: [u32; 4], px: &[u32]| PixelLevels {
+            width: 40,
+            height: 40,
+            levels: 1,
+            footprint: fp,
+            pixels: px.iter().map(|&p| (p, vec![5])).collect(),
+        };
+        // Node 1 terminates pixels (1, 1) and (35, 35).
+        s.apply(1, &share([0, 39, 0, 39], &[41, 35 * 40 + 35]))
+            .unwrap();
+        // Node 0 covers only the top-left corner.
+        s.apply(0, &share([0, 9, 0, 9], &[])).unwrap();
+        assert_eq!(s.reply(0).0.pixels, vec![(41, 5)]);
+        assert!(s.reply(0).0.pixels.is_empty());
+        // Its footprint grows to the whole screen: the rest arrives.
+        s.apply(0, &share([0, 39, 0, 39], &[])).unwrap();
+        assert_eq!(s.reply(0).0.pixels, vec![(35 * 40 + 35, 5)]);
     }
 
     #[test]

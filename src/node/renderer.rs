@@ -199,6 +199,9 @@ pub struct NodeRenderer {
     totals: OpCounts,
     levels: Option<NodeLevels>,
     pixel_levels: Option<NodePixelLevels>,
+    /// Inclusive pixel range `[x0, x1, y0, y1]` of every cell ever held
+    /// (`x0 > x1`: none).
+    footprint: [u32; 4],
 }
 
 /// Per-pixel and per-block opacity-level depths for level sharing
@@ -256,6 +259,7 @@ impl NodeRenderer {
             totals: OpCounts::default(),
             levels: None,
             pixel_levels: None,
+            footprint: [u32::MAX, 0, u32::MAX, 0],
         }
     }
 
@@ -291,8 +295,9 @@ impl NodeRenderer {
     /// per-pixel sharing is off.
     pub fn take_pixel_levels(&mut self) -> Option<(Vec<u8>, OpCounts)> {
         let (w, h) = (self.view.width, self.view.height);
+        let footprint = self.footprint;
         let pl = self.pixel_levels.as_mut()?;
-        let (d, packed) = pl.take(w, h);
+        let (d, packed) = pl.take(w, h, footprint);
         let ops = OpCounts {
             shared_entries_merged: packed,
             ..Default::default()
@@ -425,6 +430,11 @@ impl NodeRenderer {
             match cell_record(c.id, c.v, &pv, &self.tf, self.full) {
                 Ok(mut rec) => {
                     rec.ids = c.v.map(|l| unit.vertex_ids[l as usize]);
+                    let f = &mut self.footprint;
+                    f[0] = f[0].min(rec.range[0]);
+                    f[1] = f[1].max(rec.range[1]);
+                    f[2] = f[2].min(rec.range[2]);
+                    f[3] = f[3].max(rec.range[3]);
                     self.records.push(rec);
                 }
                 Err(Culled::Empty | Culled::Offscreen | Culled::NoPixelCentre) => {
