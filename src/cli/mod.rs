@@ -4,10 +4,15 @@
 pub mod bench;
 pub mod calibrate;
 pub mod cluster;
+pub mod compare;
 pub mod demo;
 pub mod info;
+pub mod memory;
+pub mod output;
 pub mod render;
+pub mod scene;
 pub mod sweep;
+pub mod validate;
 
 use clap::{Parser, Subcommand};
 
@@ -58,6 +63,45 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+    }
+}
+
+/// The text `main` prints for an error: `error: MSG` and one `caused by:`
+/// line per cause, leaving out a cause whose text the line above already
+/// ends with (a file error wrapped once would otherwise print twice).
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut s = format!("error: {e}\n");
+    let mut last = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !last.ends_with(&c) {
+            s.push_str(&format!("  caused by: {c}\n"));
+        }
+        last = c;
+    }
+    s
+}
+
+/// Warns when the scene's field is a vector field: it is rendered as its
+/// magnitude (an extension of the scene contract, which names a scalar).
+pub fn warn_field(input: &crate::render::RenderInput) {
+    let name = &input.scene.data.field;
+    if let Some(f) = input.mesh.fields.iter().find(|f| &f.name == name) {
+        if f.components > 1 {
+            output::warn(format!(
+                "field \"{name}\" has {} components: rendering its magnitude |v| (range {:.4} .. {:.4})",
+                f.components, input.range[0], input.range[1]
+            ));
+        }
+    }
+}
+
+/// `n` and the noun, plural unless `n == 1` ("1 thread", "4 threads").
+pub fn plural(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
     }
 }
 

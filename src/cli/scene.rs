@@ -1,0 +1,1 @@
+//! `pvrsim scene`: writes a fitted scene (placeholder removed below).
