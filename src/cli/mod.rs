@@ -51,6 +51,8 @@ pub enum Command {
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
+    /// Write a fitted scene for a mesh: camera framing the bounds, a transfer function over the field's range.
+    Scene(scene::SceneArgs),
 }
 
 /// Runs the parsed command line.
@@ -63,6 +65,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Scene(a) => scene::run(a),
     }
 }
 

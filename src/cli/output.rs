@@ -140,6 +140,35 @@ pub fn prepare_output(option: &str, path: &Path, kind: OutputKind) -> anyhow::Re
     Ok(path.to_path_buf())
 }
 
+/// Makes sure directory `dir` (an option's value, e.g. `--out-dir`) exists:
+/// creates it if only its last level is missing (and says so); refuses to
+/// create a tree.
+pub fn prepare_dir(option: &str, dir: &Path) -> anyhow::Result<()> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    anyhow::ensure!(
+        !dir.exists(),
+        "{option} {}: exists and is not a directory",
+        dir.display()
+    );
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    anyhow::ensure!(
+        parent.is_dir(),
+        "{option} {}: {} does not exist (pvrsim creates at most one missing level; create {} first)",
+        dir.display(),
+        parent.display(),
+        parent.display()
+    );
+    std::fs::create_dir(dir)
+        .with_context(|| format!("{option}: cannot create {}", dir.display()))?;
+    eprintln!("note: created directory {} for {option}", dir.display());
+    Ok(())
+}
+
 /// Whether `e` (or any cause) is an I/O error of kind `BrokenPipe`.
 pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
