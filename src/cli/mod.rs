@@ -47,7 +47,7 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Time the renderers on the shared aorta scenes (needs ../shared/data).
     Bench(bench::BenchArgs),
-    /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md).
+    /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md); a progress bar on a terminal, one line per finished run when piped.
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
