@@ -88,7 +88,12 @@ pub fn human(bytes: u64) -> String {
 }
 
 /// Refuses a frame whose lower-bound size exceeds `available` bytes.
-pub fn check_fits(width: u32, height: u32, kind: FrameKind, available: Option<u64>) -> anyhow::Result<()> {
+pub fn check_fits(
+    width: u32,
+    height: u32,
+    kind: FrameKind,
+    available: Option<u64>,
+) -> anyhow::Result<()> {
     let need = frame_bytes(width, height, kind);
     if let Some(avail) = available {
         anyhow::ensure!(
@@ -128,8 +133,13 @@ mod tests {
             compare: false,
         };
         // 65536 x 65536 x 35 bytes > 140 GiB.
-        let e = check_fits(65536, 65536, r, Some(64 << 30)).unwrap_err().to_string();
-        assert!(e.contains("needs at least 140.0 GiB") && e.contains("64.0 GiB available"), "{e}");
+        let e = check_fits(65536, 65536, r, Some(64 << 30))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("needs at least 140.0 GiB") && e.contains("64.0 GiB available"),
+            "{e}"
+        );
         assert!(check_fits(300, 300, r, Some(64 << 20)).is_ok());
         // The cluster's bound grows with the node count.
         let c8 = frame_bytes(300, 300, FrameKind::Cluster { nodes: 8 });

@@ -206,7 +206,10 @@ mod tests {
         let e = prepare_output("-o", &d.path().join("x.jpg"), OutputKind::Png).unwrap_err();
         assert!(e.to_string().contains(".jpg is not supported"), "{e}");
         assert!(prepare_output("-o", &d.path().join("x.PNG"), OutputKind::Png).is_ok());
-        assert!(!d.path().join("x.PNG").exists(), "the probe file is removed");
+        assert!(
+            !d.path().join("x.PNG").exists(),
+            "the probe file is removed"
+        );
     }
 
     #[test]

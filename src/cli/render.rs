@@ -140,7 +140,10 @@ impl Validate for RenderArgs {
             RendererKind::Reference => {
                 for (flag, given) in cell_only {
                     if given {
-                        c.ignored(flag, "the reference renderer has no ERT, tiles or segment lists");
+                        c.ignored(
+                            flag,
+                            "the reference renderer has no ERT, tiles or segment lists",
+                        );
                     }
                 }
                 if self.compare {

@@ -48,7 +48,10 @@ impl SceneSource for crate::data::TetMesh {
         let s = self.scalar(field)?;
         let lo = s.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        anyhow::ensure!(lo.is_finite() && hi.is_finite(), "field \"{field}\" has no values");
+        anyhow::ensure!(
+            lo.is_finite() && hi.is_finite(),
+            "field \"{field}\" has no values"
+        );
         Ok([lo, hi])
     }
     fn components(&self, field: &str) -> usize {
@@ -58,7 +61,11 @@ impl SceneSource for crate::data::TetMesh {
             .map_or(1, |f| f.components)
     }
     fn describe(&self) -> String {
-        format!("{} tetrahedra, {} vertices", self.tets.len(), self.points.len())
+        format!(
+            "{} tetrahedra, {} vertices",
+            self.tets.len(),
+            self.points.len()
+        )
     }
 }
 
@@ -115,9 +122,18 @@ pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| anyhow::anyhow!("--size {s}: expected WxH, e.g. 512x512"))?;
-    let w: u32 = w.trim().parse().map_err(|_| anyhow::anyhow!("--size {s}: width `{w}` is not a whole number"))?;
-    let h: u32 = h.trim().parse().map_err(|_| anyhow::anyhow!("--size {s}: height `{h}` is not a whole number"))?;
-    anyhow::ensure!(w >= 1 && h >= 1, "--size {s}: both sides must be at least 1");
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--size {s}: width `{w}` is not a whole number"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--size {s}: height `{h}` is not a whole number"))?;
+    anyhow::ensure!(
+        w >= 1 && h >= 1,
+        "--size {s}: both sides must be at least 1"
+    );
     super::validate::image_size(Some(w), Some(h))?;
     Ok((w, h))
 }
@@ -143,8 +159,14 @@ pub fn parse_view(s: &str) -> anyhow::Result<(DVec3, DVec3)> {
             let (a, e) = other.split_once(',').ok_or_else(|| {
                 anyhow::anyhow!("--view {other}: expected +x, -x, +y, -y, +z, -z or AZ,EL in degrees (e.g. 30,20)")
             })?;
-            let az: f64 = a.trim().parse().map_err(|_| anyhow::anyhow!("--view {other}: azimuth `{a}` is not a number"))?;
-            let el: f64 = e.trim().parse().map_err(|_| anyhow::anyhow!("--view {other}: elevation `{e}` is not a number"))?;
+            let az: f64 = a
+                .trim()
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--view {other}: azimuth `{a}` is not a number"))?;
+            let el: f64 = e
+                .trim()
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--view {other}: elevation `{e}` is not a number"))?;
             anyhow::ensure!(
                 az.is_finite() && el.is_finite() && (-90.0..=90.0).contains(&el),
                 "--view {other}: the elevation must be in [-90, 90] degrees"
@@ -185,7 +207,14 @@ pub struct Fitted {
 }
 
 /// Fits the camera to the box `(lo, hi)` (see the module doc).
-pub fn fit(lo: [f64; 3], hi: [f64; 3], dir: DVec3, up: DVec3, aspect: f64, fov: Option<f64>) -> Fitted {
+pub fn fit(
+    lo: [f64; 3],
+    hi: [f64; 3],
+    dir: DVec3,
+    up: DVec3,
+    aspect: f64,
+    fov: Option<f64>,
+) -> Fitted {
     let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
     let centre = 0.5 * (lo + hi);
     let diag = (hi - lo).length().max(1e-12);
@@ -263,16 +292,29 @@ pub fn ensure_finite_toml(text: &str, what: &Path) -> anyhow::Result<()> {
             toml::Value::Float(f) if !f.is_finite() => Err(format!("`{key}` is {f}")),
             toml::Value::Array(a) => a.iter().try_for_each(|x| walk(x, key)),
             toml::Value::Table(t) => t.iter().try_for_each(|(k, x)| {
-                walk(x, &if key.is_empty() { k.clone() } else { format!("{key}.{k}") })
+                walk(
+                    x,
+                    &if key.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{key}.{k}")
+                    },
+                )
             }),
             _ => Ok(()),
         }
     }
-    let v: toml::Value = text
-        .parse()
-        .map_err(|e| anyhow::anyhow!("internal error: the scene for {} is not valid TOML: {e}", what.display()))?;
+    let v: toml::Value = text.parse().map_err(|e| {
+        anyhow::anyhow!(
+            "internal error: the scene for {} is not valid TOML: {e}",
+            what.display()
+        )
+    })?;
     walk(&v, "").map_err(|e| {
-        anyhow::anyhow!("internal error: the scene for {} would hold a non-finite number: {e}; nothing written", what.display())
+        anyhow::anyhow!(
+            "internal error: the scene for {} would hold a non-finite number: {e}; nothing written",
+            what.display()
+        )
     })
 }
 
@@ -288,7 +330,11 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
     );
     let range = src.field_range(&a.field)?;
     let diag = (DVec3::from(hi) - DVec3::from(lo)).length();
-    anyhow::ensure!(diag > 0.0, "{}: all points coincide; nothing to frame", a.data.display());
+    anyhow::ensure!(
+        diag > 0.0,
+        "{}: all points coincide; nothing to frame",
+        a.data.display()
+    );
     let f = fit(lo, hi, dir, up, w as f64 / h as f64, a.perspective);
     let out_dir = match a.output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -310,7 +356,8 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
         a.view,
         w,
         h,
-        a.perspective.map_or(String::new(), |f| format!(" --perspective {f}"))
+        a.perspective
+            .map_or(String::new(), |f| format!(" --perspective {f}"))
     ));
     t.push_str(&format!("# Data: {}.\n", src.describe()));
     t.push_str(&format!(
@@ -328,23 +375,35 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
         }
     ));
     t.push_str("# Transfer function: ParaView's Cool to Warm colours over the field's range;\n");
-    t.push_str("# opacity 0.01 -> 0.05 -> 0.3 per unit_distance = diagonal / 50. Edit to taste.\n\n");
+    t.push_str(
+        "# opacity 0.01 -> 0.05 -> 0.3 per unit_distance = diagonal / 50. Edit to taste.\n\n",
+    );
     t.push_str("[data]\n");
     t.push_str(&format!("path  = {:?}\n", data_path.to_string_lossy()));
     t.push_str(&format!("field = {:?}", a.field));
     if comps > 1 {
-        t.push_str(&format!("   # {comps} components: rendered as the magnitude |v|"));
+        t.push_str(&format!(
+            "   # {comps} components: rendered as the magnitude |v|"
+        ));
     }
     t.push('\n');
-    t.push_str(&format!("range = [{:?}, {:?}]   # the field's min and max\n\n", range[0], range[1]));
+    t.push_str(&format!(
+        "range = [{:?}, {:?}]   # the field's min and max\n\n",
+        range[0], range[1]
+    ));
     t.push_str("[camera]\n");
     t.push_str(&format!("eye        = {}\n", v3(f.eye)));
     t.push_str(&format!("target     = {}\n", v3(f.target)));
     t.push_str(&format!("up         = {}\n", v3(f.up)));
     t.push_str(&format!("projection = \"{}\"\n", f.projection.0));
-    t.push_str(&format!("{:<10} = {:.6}\n\n", f.projection.1, f.projection.2));
+    t.push_str(&format!(
+        "{:<10} = {:.6}\n\n",
+        f.projection.1, f.projection.2
+    ));
     t.push_str("[image]\n");
-    t.push_str(&format!("width      = {w}\nheight     = {h}\nbackground = [0.0, 0.0, 0.0]\n\n"));
+    t.push_str(&format!(
+        "width      = {w}\nheight     = {h}\nbackground = [0.0, 0.0, 0.0]\n\n"
+    ));
     t.push_str("[transfer]\n");
     t.push_str(&format!("unit_distance = {:.6}\n", diag / 50.0));
     t.push_str("points = [\n");
@@ -368,10 +427,19 @@ pub fn run(a: SceneArgs) -> anyhow::Result<()> {
     let src = load_source(&a.data)?;
     let text = scene_text(&a, src.as_ref())?;
     // The scene must parse as the renderers will read it.
-    crate::scene::Scene::parse(&text, &a.output)
-        .with_context(|| format!("internal error: the fitted scene for {} does not parse", a.data.display()))?;
-    std::fs::write(&a.output, &text).with_context(|| format!("cannot write {}", a.output.display()))?;
-    println!("wrote {} (render it: pvrsim render {} -o out.png)", a.output.display(), a.output.display());
+    crate::scene::Scene::parse(&text, &a.output).with_context(|| {
+        format!(
+            "internal error: the fitted scene for {} does not parse",
+            a.data.display()
+        )
+    })?;
+    std::fs::write(&a.output, &text)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
+    println!(
+        "wrote {} (render it: pvrsim render {} -o out.png)",
+        a.output.display(),
+        a.output.display()
+    );
     Ok(())
 }
 

@@ -429,7 +429,9 @@ pub fn build(i: Inputs) -> ClusterReport {
     let frame_s = i.phase1_end_s + composite_s;
     let speedup_frame = seq_s.filter(|_| frame_s > 0.0).map(|s| s / frame_s);
     let manager_busy_s = if wall {
-        wall_busy.get(n).map_or(0.0, |b| b.values().sum::<f64>().max(0.0))
+        wall_busy
+            .get(n)
+            .map_or(0.0, |b| b.values().sum::<f64>().max(0.0))
     } else {
         i.manager.busy_s
     };

@@ -35,9 +35,7 @@ pub fn kinds_shown(trace: &SimTrace) -> Vec<TraceKind> {
         TraceKind::Compute,
     ]
     .into_iter()
-    .filter(|&k| {
-        colour(k).is_some() && trace.events.iter().any(|e| e.kind == k && e.end > e.start)
-    })
+    .filter(|&k| colour(k).is_some() && trace.events.iter().any(|e| e.kind == k && e.end > e.start))
     .collect()
 }
 

@@ -60,13 +60,19 @@ impl std::fmt::Display for Estimate {
         };
         let mut basis = Vec::new();
         if self.from_same_point > 0 {
-            basis.push(format!("{} from an earlier repetition", self.from_same_point));
+            basis.push(format!(
+                "{} from an earlier repetition",
+                self.from_same_point
+            ));
         }
         if self.from_mean > 0 {
             basis.push(format!("{} from the mean of finished runs", self.from_mean));
         }
         if self.from_model > 0 {
-            basis.push(format!("{} from a size model, rough (within about 2x)", self.from_model));
+            basis.push(format!(
+                "{} from a size model, rough (within about 2x)",
+                self.from_model
+            ));
         }
         if self.unknown > 0 {
             basis.push(format!("{} unknown (scene unreadable)", self.unknown));
@@ -121,7 +127,12 @@ pub fn model_seconds(command: &str, cells: f64, pixels: f64, compare: bool, node
 
 /// Estimates the runs `todo` (points with their repetition) of a sweep of
 /// `command` whose path parameters are relative to `base_dir`.
-pub fn estimate(command: &str, base_dir: &Path, todo: &[(&Point, usize)], results: &Results) -> Estimate {
+pub fn estimate(
+    command: &str,
+    base_dir: &Path,
+    todo: &[(&Point, usize)],
+    results: &Results,
+) -> Estimate {
     let done: Vec<f64> = results.rows.iter().filter_map(wall_s).collect();
     let mean = (!done.is_empty()).then(|| done.iter().sum::<f64>() / done.len() as f64);
     let mut cache = HashMap::new();
@@ -185,6 +196,9 @@ mod tests {
         };
         let s = e.to_string();
         assert!(s.starts_with("estimated duration ~2.5 min"), "{s}");
-        assert!(s.contains("2 from the mean") && s.contains("1 from a size model"), "{s}");
+        assert!(
+            s.contains("2 from the mean") && s.contains("1 from a size model"),
+            "{s}"
+        );
     }
 }

@@ -44,9 +44,9 @@ struct RenderCommand {
 /// The validation layer's verdict on parsed args, as a clap error (so a
 /// sweep reports it like any other refused command line).
 fn validated<T: crate::cli::validate::Validate>(args: &T) -> Result<(), clap::Error> {
-    crate::cli::validate::check(args).map(|_| ()).map_err(|e| {
-        clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n"))
-    })
+    crate::cli::validate::check(args)
+        .map(|_| ())
+        .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")))
 }
 
 fn render_check(argv: &[String]) -> Result<(), clap::Error> {
