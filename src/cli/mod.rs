@@ -1,5 +1,15 @@
 //! The command line: one subcommand per task, each in its own file. Every
 //! option documents its default; `pvrsim help COMMAND` shows it all.
+//!
+//! Shared by every command (new ones plug in the same way):
+//! - [`validate`]: the one validation layer. Each command's args implement
+//!   [`validate::Validate`]; ranges and the meaning of option combinations
+//!   are decided there (errors say what to do, warnings what will happen);
+//!   `sweep` runs the same checks on every run before the first.
+//! - [`output`]: output paths checked before work (extension, writability,
+//!   at most one new directory level), warnings, the broken-pipe stop.
+//! - [`memory`]: a frame's memory, estimated and checked before allocating.
+//! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
 pub mod calibrate;
