@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 /// The binary under test.
 pub const EXE: &str = env!("CARGO_BIN_EXE_pvrsim");
