@@ -1,7 +1,14 @@
 //! `pvrsim calibrate`: measures the node's unit costs on this machine and
-//! writes a cost profile (`configs/profiles/calibrated.toml` by default);
-//! with `--table1`, also fits the `pentium4` profile to the paper's Table 1
-//! (see `docs/cost-model.md` and [`crate::node::calibration`]).
+//! writes a cost profile (`profiles/calibrated.toml` by default, which
+//! `--profile calibrated` reads first); with `--table1`, also fits a
+//! `pentium4` profile to the paper's Table 1 (`profiles/pentium4.toml`; use
+//! it with `--profile profiles/pentium4.toml`). See `docs/cost-model.md`
+//! and [`crate::node::calibration`].
+//!
+//! The shipped profiles in `configs/profiles/` are tracked, and `pentium4`
+//! is compiled into the binary: they are never overwritten without
+//! `--force` (and a rewritten `pentium4.toml` takes effect only after the
+//! next build, so the command says so).
 //!
 //! The node renderer is timed from outside (it reads no clock itself), on
 //! one thread: every `add_work`, `step` and `update_table` call is a sample.
@@ -42,8 +49,9 @@ pub struct CalibrateArgs {
     /// are deterministic, so sample k of every run did the same work).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
-    /// Where to write the calibrated profile.
-    #[arg(long, default_value = "configs/profiles/calibrated.toml")]
+    /// Where to write the calibrated profile (`--profile calibrated` reads
+    /// profiles/calibrated.toml first, then the shipped one).
+    #[arg(long, default_value = "profiles/calibrated.toml")]
     pub out: PathBuf,
     /// Also fit the pentium4 profile to the paper's Table 1 (needs aorta.vtk).
     #[arg(long)]
@@ -54,9 +62,13 @@ pub struct CalibrateArgs {
     /// Base profile for --table1 (default: the one just calibrated).
     #[arg(long)]
     pub base: Option<PathBuf>,
-    /// Where --table1 writes the fitted profile.
-    #[arg(long, default_value = "configs/profiles/pentium4.toml")]
+    /// Where --table1 writes the fitted profile (then: `--profile
+    /// profiles/pentium4.toml`; the built-in `pentium4` is unchanged).
+    #[arg(long, default_value = "profiles/pentium4.toml")]
     pub pentium4_out: PathBuf,
+    /// Allow overwriting a shipped profile in configs/profiles/.
+    #[arg(long)]
+    pub force: bool,
     /// Skip the measurement (use with --table1 --base).
     #[arg(long)]
     pub no_measure: bool,
@@ -159,10 +171,34 @@ fn quality_lines(q: &[FitQuality]) -> String {
     s
 }
 
+/// Whether `path` is one of the shipped, tracked profiles
+/// (`configs/profiles/*.toml`, existing).
+pub fn is_shipped_profile(path: &Path) -> bool {
+    let Ok(abs) = std::fs::canonicalize(path) else {
+        return false;
+    };
+    abs.parent()
+        .is_some_and(|d| d.ends_with("configs/profiles"))
+}
+
+/// Checks an output profile path before any measurement: TOML, writable,
+/// not a shipped profile unless `force`.
+fn check_target(option: &str, path: &Path, force: bool) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        force || !is_shipped_profile(path),
+        "{option} {}: this is a shipped profile (tracked{}); write to a new file (the default is under profiles/) or give --force",
+        path.display(),
+        if path.ends_with("pentium4.toml") {
+            ", and compiled into the binary: a new one takes effect only after the next build"
+        } else {
+            ""
+        }
+    );
+    super::output::prepare_output(option, path, super::output::OutputKind::Toml)?;
+    Ok(())
+}
+
 fn write_profile(path: &Path, header: &str, file: &ProfileFile) -> anyhow::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
     let body = toml::to_string(file)?;
     std::fs::write(path, format!("{header}{body}"))
         .with_context(|| format!("writing {}", path.display()))?;
@@ -226,6 +262,16 @@ fn ops_line(o: &OpCounts) -> String {
 
 /// Runs `pvrsim calibrate`.
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
+    if !a.no_measure {
+        check_target("--out", &a.out, a.force)?;
+    }
+    if a.table1 {
+        check_target("--pentium4-out", &a.pentium4_out, a.force)?;
+    }
+    anyhow::ensure!(
+        !a.no_measure || a.table1,
+        "--no-measure without --table1 does nothing; add --table1 (with --base)"
+    );
     let mut base = None;
     if !a.no_measure {
         let mut samples = Vec::new();
@@ -346,6 +392,14 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
                 costs: base.scaled_split(fit.k_cell, fit.k_pixel),
             },
         )?;
+        if is_shipped_profile(&a.pentium4_out) {
+            println!("note: the built-in pentium4 profile changes only after the next build (cargo build --release)");
+        } else {
+            println!(
+                "use it with --profile {} (the built-in pentium4 is unchanged)",
+                a.pentium4_out.display()
+            );
+        }
     }
     Ok(())
 }

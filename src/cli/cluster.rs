@@ -8,6 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
+use super::memory::{self, FrameKind};
+use super::output::{prepare_output, OutputKind};
+use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::{self, ClockKind, ClusterConfig, ClusterOutcome, Phase1Config};
 use crate::net::NetworkModel;
 use crate::node::renderer::NodeErt;
@@ -34,9 +37,11 @@ pub struct ClusterArgs {
     /// Number of rendering nodes (the manager is one more rank).
     #[arg(long, default_value_t = 8)]
     pub nodes: usize,
-    /// Early ray termination threshold; 1.0 turns ERT off (the `Base` and
-    /// `DLB` rows of the paper's Table 2). The paper uses 0.9.
-    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 1.0)]
+    /// Early ray termination threshold, in (0, 1]. Default 0.99, as in the
+    /// scene contract and `pvrsim render`; the paper's experiments use 0.9
+    /// (`--ert 0.9`); 1.0 turns ERT off (the `Base` and `DLB` rows of the
+    /// paper's Table 2). Sharing (`--share`, `--sharing`) needs ERT on.
+    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
     pub ert: f32,
     /// ERT table of D x D entries over the whole image (the paper's best: 20).
     #[arg(long, value_name = "D", default_value_t = 20)]
@@ -81,18 +86,21 @@ pub struct ClusterArgs {
     #[arg(long, default_value = "rle")]
     pub codec: String,
     /// Network model: a preset (gbe, fast-ethernet, 10gbe, infiniband,
-    /// ideal) or a TOML file (see configs/network/).
-    #[arg(long, default_value = "gbe")]
-    pub network: String,
+    /// ideal) or a TOML file (see configs/network/). Default: gbe. Only the
+    /// virtual clock models time; with `--clock wall` it has no effect.
+    #[arg(long, value_name = "NAME_OR_FILE")]
+    pub network: Option<String>,
     /// `virtual`: discrete-event simulation, modelled times, deterministic.
     /// `wall`: real threads, wall-clock times, compute as really done.
     #[arg(long, value_enum, default_value_t = ClockKind::Virtual)]
     pub clock: ClockKind,
     /// Compute cost profile: `pentium4` (the paper's machine, fitted to its
-    /// Table 1), `calibrated` (configs/profiles/calibrated.toml: this
-    /// machine) or a profile TOML file.
-    #[arg(long, default_value = "pentium4")]
-    pub profile: String,
+    /// Table 1; built in), `calibrated` (this machine: profiles/calibrated.toml
+    /// as `pvrsim calibrate` writes it, else the shipped
+    /// configs/profiles/calibrated.toml), or a profile TOML file, read at run
+    /// time. Default: pentium4. With `--clock wall` it has no effect.
+    #[arg(long, value_name = "NAME_OR_FILE")]
+    pub profile: Option<String>,
     /// Initial placement of cells on nodes: recursive coordinate bisection
     /// of the cell centroids in 3-D (`rcb`, the paper's object-space split),
     /// a Morton-curve cut (`morton`), or bisection of the centroids' screen
@@ -131,7 +139,12 @@ pub struct ClusterArgs {
     #[arg(long)]
     pub canonical: bool,
     /// Skip the reference runs (sequential, and Base at the same N); the
-    /// report's `share_efficiency`, `ideal_speedup`, `speedup` become null.
+    /// report's `share_efficiency`, `ideal_speedup`, `speedup`,
+    /// `speedup_frame` become null. The summary explains the terms:
+    /// Tsc = a node's scan-conversion time (phase 1, no compositing);
+    /// speed-up = sequential ÷ frame (frame-based) and ÷ Tsc max (Tsc-based,
+    /// the paper's); ideal speed-up = Base Tsc max ÷ (sequential ÷ N);
+    /// share efficiency = cells skipped by all nodes ÷ by the sequential run.
     #[arg(long)]
     pub no_baselines: bool,
     /// Override the scene's image width (keeps the camera).
@@ -154,24 +167,43 @@ pub struct ClusterArgs {
     pub trace: Option<PathBuf>,
 }
 
-/// Resolves a profile name or file.
-pub fn load_profile(name: &str) -> anyhow::Result<CostProfile> {
+/// Where `--profile calibrated` is read from: `profiles/calibrated.toml`
+/// (what `pvrsim calibrate` writes) if it exists, else the shipped
+/// `configs/profiles/calibrated.toml` (in the current directory, else in the
+/// source tree).
+pub fn calibrated_path() -> PathBuf {
+    let own = Path::new("profiles/calibrated.toml");
+    if own.exists() {
+        return own.to_path_buf();
+    }
+    let local = Path::new("configs/profiles/calibrated.toml");
+    if local.exists() {
+        local.to_path_buf()
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/profiles/calibrated.toml")
+    }
+}
+
+/// Resolves a profile name or file (read at run time); returns the profile
+/// and the name the report shows (a file's path).
+pub fn load_profile(name: &str) -> anyhow::Result<(CostProfile, String)> {
     if name == "pentium4" {
-        return CostProfile::named(name);
+        return Ok((CostProfile::named(name)?, name.to_string()));
     }
     let path = if name == "calibrated" {
-        let local = Path::new("configs/profiles/calibrated.toml");
-        if local.exists() {
-            local.to_path_buf()
-        } else {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/profiles/calibrated.toml")
-        }
+        calibrated_path()
     } else {
         PathBuf::from(name)
     };
-    Ok(CostProfile::load(&path)
-        .with_context(|| format!("--profile {name}: not pentium4, calibrated, or a profile file"))?
-        .costs)
+    let shown = if name == "calibrated" {
+        format!("calibrated ({})", path.display())
+    } else {
+        name.to_string()
+    };
+    let p = CostProfile::load(&path).with_context(|| {
+        format!("--profile {name}: not pentium4, calibrated, or a readable profile TOML file")
+    })?;
+    Ok((p.costs, shown))
 }
 
 fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
@@ -186,15 +218,61 @@ fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
     })
 }
 
+impl ClusterArgs {
+    /// Whether ERT tables are shared (through the manager or by overlap).
+    fn sharing_mode(&self) -> Sharing {
+        if self.share {
+            Sharing::Manager
+        } else {
+            self.sharing
+        }
+    }
+}
+
+impl Validate for ClusterArgs {
+    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
+        let ert = validate::ert_mode(self.ert)?;
+        at_least("--nodes", self.nodes, 1)?;
+        at_least("--ert-table", self.ert_table, 1)?;
+        at_least("--ert-update", self.ert_update, 1)?;
+        at_least("--chunk", self.chunk, 1)?;
+        at_least("--min-grant", self.min_grant, 1)?;
+        at_least("--progress-every", self.progress_every, 1)?;
+        validate::image_size(self.width, self.height)?;
+        let mode = self.sharing_mode();
+        let ert_how = "early ray termination: give --ert < 1 (e.g. 0.9); --ert 1 turns it off";
+        needs("--share", self.share, ert.is_on(), ert_how)?;
+        needs(
+            "--sharing manager|overlap",
+            self.sharing != Sharing::Off,
+            ert.is_on(),
+            ert_how,
+        )?;
+        let levels = self.share_levels.is_some_and(|l| l > 1) || self.share_sub > 1;
+        needs(
+            "--share-levels/--share-sub (level sharing)",
+            levels,
+            ert.is_on() && mode == Sharing::Manager,
+            "sharing through the manager: add --share (or --sharing manager) and --ert < 1",
+        )?;
+        if self.clock == ClockKind::Wall {
+            let why = "--clock wall measures times on this host; the network and cost models only set times on the virtual clock";
+            if let Some(n) = &self.network {
+                c.ignored(&format!("--network {n}"), why);
+            }
+            if let Some(p) = &self.profile {
+                c.ignored(&format!("--profile {p}"), why);
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The configuration the arguments describe.
 pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
-    anyhow::ensure!(
-        a.ert > 0.0 && a.ert <= 1.0,
-        "--ert must be in (0, 1] (1 = off)"
-    );
-    anyhow::ensure!(a.ert_table >= 1, "--ert-table must be at least 1");
-    anyhow::ensure!(a.chunk >= 1, "--chunk must be at least 1");
-    anyhow::ensure!(a.nodes >= 1, "--nodes must be at least 1");
+    validate::check(a)?;
+    let network = a.network.as_deref().unwrap_or("gbe");
+    let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("pentium4"))?;
     let mode = a.ert_mode.resolve(a.share_levels)?;
     let paper = a.ert_mode.paper;
     Ok(ClusterConfig {
@@ -207,7 +285,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 ert: NodeErt {
                     threshold: a.ert,
                     divisions: a.ert_table,
-                    update_c: a.ert_update.max(1),
+                    update_c: a.ert_update,
                     span: a.ert_span,
                     structure: mode.structure,
                     share_levels: mode.share_levels,
@@ -215,14 +293,14 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 },
                 canonical: a.canonical,
             },
-            share: a.share || a.sharing == Sharing::Manager,
-            overlap: !a.share && a.sharing == Sharing::Overlap,
+            share: a.sharing_mode() == Sharing::Manager,
+            overlap: a.sharing_mode() == Sharing::Overlap,
             dlb: a.dlb,
             policy: NodePolicy {
                 chunk: a.chunk,
                 give_fraction: 1.0 / 3.0,
-                min_grant: a.min_grant.max(1),
-                progress_every: a.progress_every.max(1),
+                min_grant: a.min_grant,
+                progress_every: a.progress_every,
                 share_window: if paper { 0 } else { a.share_window },
                 help_gap: mode.help_gap,
                 help_fraction: a.ert_mode.help_fraction,
@@ -233,29 +311,55 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
         placement: a.placement,
         compositor: a.compositor.clone(),
         codec: a.codec.clone(),
-        network: load_network(&a.network)?,
-        network_name: a.network.clone(),
-        profile: load_profile(&a.profile)?,
-        profile_name: a.profile.clone(),
+        network: load_network(network)?,
+        network_name: network.to_string(),
+        profile,
+        profile_name,
         baselines: !a.no_baselines,
     })
 }
 
 /// Loads the scene and runs the cluster, writing nothing.
 pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
+    validate::check(a)?;
     let (mut input, _) = RenderInput::load(&a.scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
-        anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
     }
+    super::warn_field(&input);
     let cfg = config(a)?;
+    memory::check_fits(
+        input.scene.image.width,
+        input.scene.image.height,
+        FrameKind::Cluster { nodes: a.nodes },
+        memory::available_bytes(),
+    )?;
     cluster::run(&input, &cfg)
 }
 
-/// Runs `pvrsim cluster`.
+/// Runs `pvrsim cluster`: checks the options and every output path first.
 pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
+    validate::apply(&a)?;
+    prepare_output("-o", &a.output, OutputKind::Png)?;
+    for (flag, path, kind) in [
+        ("--report", &a.report, OutputKind::Json),
+        ("--trace", &a.trace, OutputKind::Json),
+        ("--timeline", &a.timeline, OutputKind::Png),
+    ] {
+        if let Some(p) = path {
+            prepare_output(flag, p, kind)?;
+        }
+    }
     let out = execute(&a)?;
+    super::output::warn_if_empty(
+        &out.image,
+        &format!(
+            "{} of {} cells culled on arrival",
+            out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+            out.report.cells_total
+        ),
+    );
     out.image.save_png(&a.output)?;
     println!("wrote {}", a.output.display());
     if let Some(p) = &a.report {

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
+use super::validate::{self, Checks, Validate};
 use crate::data::demo::{demo_mesh_and_scene, DemoParams};
 use crate::render::cell::{self, CellOptions};
 use crate::render::RenderInput;
@@ -20,7 +21,7 @@ pub struct DemoArgs {
     /// cluster's cluster.png, timeline.png and cluster-report.json.
     #[arg(long, default_value = "demo")]
     pub out_dir: PathBuf,
-    /// About how many tetrahedra to generate.
+    /// About how many tetrahedra to generate, 1,000 to 20,000,000.
     #[arg(long, default_value_t = 150_000)]
     pub cells: usize,
     /// Worker threads; 0 = all cores.
@@ -31,10 +32,27 @@ pub struct DemoArgs {
     pub nodes: usize,
 }
 
+/// Fewest tetrahedra `--cells` accepts: below this the vessel's lattice is
+/// too coarse to hold a lumen (100 gives no cell at all; 1,000 gives 926).
+pub const MIN_CELLS: usize = 1_000;
+/// Most tetrahedra `--cells` accepts (about 5 GB of mesh and lists).
+pub const MAX_CELLS: usize = 20_000_000;
+
+impl Validate for DemoArgs {
+    fn validate(&self, _c: &mut Checks) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            (MIN_CELLS..=MAX_CELLS).contains(&self.cells),
+            "--cells {}: must be between {MIN_CELLS} and {MAX_CELLS}",
+            self.cells
+        );
+        Ok(())
+    }
+}
+
 /// Runs `pvrsim demo`.
 pub fn run(a: DemoArgs) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    validate::apply(&a)?;
+    super::output::prepare_dir("--out-dir", &a.out_dir)?;
     let t = std::time::Instant::now();
     let params = DemoParams {
         cells_target: a.cells,
@@ -43,6 +61,11 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     let (mesh, scene_text) =
         super::with_threads(a.threads, || demo_mesh_and_scene(&params, "demo.vtk"))?;
     let gen_s = t.elapsed().as_secs_f64();
+    anyhow::ensure!(
+        !mesh.tets.is_empty(),
+        "--cells {}: the generator made no tetrahedra; give more cells",
+        a.cells
+    );
     println!(
         "generated a bifurcating vessel: {} tetrahedra, {} vertices in {:.2} s",
         mesh.tets.len(),
@@ -50,6 +73,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         gen_s
     );
     let vtk = a.out_dir.join("demo.vtk");
+    super::scene::ensure_finite_toml(&scene_text, &a.out_dir.join("demo.toml"))?;
     crate::data::io::write_vtk_legacy(&mesh, &vtk, true)?;
     let scene_path = a.out_dir.join("demo.toml");
     std::fs::write(&scene_path, &scene_text)
@@ -65,8 +89,8 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     let stats_path = a.out_dir.join("demo-stats.json");
     std::fs::write(&stats_path, serde_json::to_string_pretty(&stats)?)?;
     println!(
-        "rendered {}x{} by cell projection in {:.3} s ({} threads): {} segments, {} merged by partial composition",
-        image.width, image.height, stats.time_total_s, stats.threads, stats.segments_generated, stats.segments_merged
+        "rendered {}x{} by cell projection in {:.3} s ({}): {} segments, {} merged by partial composition",
+        image.width, image.height, stats.time_total_s, super::plural(stats.threads, "thread"), stats.segments_generated, stats.segments_merged
     );
     println!("wrote {} and {}", png.display(), stats_path.display());
     if a.nodes > 0 {
@@ -138,8 +162,10 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
         r.tsc_max_s,
         100.0 * r.imbalance
     );
-    if let (Some(seq), Some(sp)) = (r.sequential_s, r.speedup) {
-        println!("  one modelled node: {seq:.3} s, speed-up {sp:.2}");
+    if let (Some(seq), Some(sp), Some(spf)) = (r.sequential_s, r.speedup, r.speedup_frame) {
+        println!(
+            "  one modelled node: {seq:.3} s; speed-up {spf:.2} by frame time (sequential / frame), {sp:.2} by Tsc (sequential / slowest node's scan time, the paper's measure)"
+        );
     }
     println!(
         "  cells: {} skipped by ERT, {} moved by DLB; bytes on the wire: {} ({} in phase 2)",

@@ -28,7 +28,8 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("{}  (read in {:.3} s)", a.file.display(), load_s);
-        print!("{report}");
+        // Always end with a newline (the report's last line may lack one).
+        println!("{}", report.to_string().trim_end());
     }
     Ok(())
 }

@@ -1,14 +1,29 @@
 //! The command line: one subcommand per task, each in its own file. Every
 //! option documents its default; `pvrsim help COMMAND` shows it all.
+//!
+//! Shared by every command (new ones plug in the same way):
+//! - [`validate`]: the one validation layer. Each command's args implement
+//!   [`validate::Validate`]; ranges and the meaning of option combinations
+//!   are decided there (errors say what to do, warnings what will happen);
+//!   `sweep` runs the same checks on every run before the first.
+//! - [`output`]: output paths checked before work (extension, writability,
+//!   at most one new directory level), warnings, the broken-pipe stop.
+//! - [`memory`]: a frame's memory, estimated and checked before allocating.
+//! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
 pub mod calibrate;
 pub mod cluster;
 pub mod cluster_ert;
+pub mod compare;
 pub mod demo;
 pub mod info;
+pub mod memory;
+pub mod output;
 pub mod render;
+pub mod scene;
 pub mod sweep;
+pub mod validate;
 
 use clap::{Parser, Subcommand};
 
@@ -43,10 +58,12 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Time the renderers on the shared aorta scenes (needs ../shared/data).
     Bench(bench::BenchArgs),
-    /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md).
+    /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md); a progress bar on a terminal, one line per finished run when piped.
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
+    /// Write a fitted scene for a mesh: camera framing the bounds, a transfer function over the field's range.
+    Scene(scene::SceneArgs),
 }
 
 /// Runs the parsed command line.
@@ -59,6 +76,46 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Scene(a) => scene::run(a),
+    }
+}
+
+/// The text `main` prints for an error: `error: MSG` and one `caused by:`
+/// line per cause, leaving out a cause whose text the line above already
+/// ends with (a file error wrapped once would otherwise print twice).
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut s = format!("error: {e}\n");
+    let mut last = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !last.ends_with(&c) {
+            s.push_str(&format!("  caused by: {c}\n"));
+        }
+        last = c;
+    }
+    s
+}
+
+/// Warns when the scene's field is a vector field: it is rendered as its
+/// magnitude (an extension of the scene contract, which names a scalar).
+pub fn warn_field(input: &crate::render::RenderInput) {
+    let name = &input.scene.data.field;
+    if let Some(f) = input.mesh.fields.iter().find(|f| &f.name == name) {
+        if f.components > 1 {
+            output::warn(format!(
+                "field \"{name}\" has {} components: rendering its magnitude |v| (range {:.4} .. {:.4})",
+                f.components, input.range[0], input.range[1]
+            ));
+        }
+    }
+}
+
+/// `n` and the noun, plural unless `n == 1` ("1 thread", "4 threads").
+pub fn plural(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
     }
 }
 

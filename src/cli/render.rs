@@ -5,6 +5,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
+use super::memory::{self, FrameKind};
+use super::output::{prepare_output, OutputKind};
+use super::validate::{self, at_least, Checks, Validate};
 use crate::render::cell::ert::EntrySize;
 use crate::render::cell::{
     self, CellOptions, CellOrder, ErtOptions, ErtSpan, ErtStructure, Integrator,
@@ -46,16 +49,17 @@ pub struct RenderArgs {
     /// memory. Without ERT the image is then bit for bit `pvrsim cluster`'s.
     #[arg(long)]
     pub canonical: bool,
-    /// Screen tile edge in pixels (work unit of the threads). Without ERT the
+    /// Screen tile edge in pixels, at least 1 (work unit of the threads). Without ERT the
     /// image does not depend on it; with ERT each tile has its own ERT table
     /// (or pyramid), the tile is rounded to whole entries, and the image may
     /// change with it (within the ERT error bound). Never with the thread count.
     #[arg(long, default_value_t = 32)]
     pub tile: u32,
-    /// Early ray termination threshold: a pixel terminates where the alpha of
-    /// the segments known in front reaches it. 1.0 turns ERT off (no test, no
-    /// update). The paper's experiments use 0.9. The per-pixel error bound
-    /// (1 - THRESHOLD) x max emitted radiance is reported in the stats.
+    /// Early ray termination threshold, in (0, 1]: a pixel terminates where
+    /// the alpha of the segments known in front reaches it. 1.0 turns ERT off
+    /// (no test, no update). Default 0.99 as in the scene contract (and
+    /// `pvrsim cluster`); the paper's experiments use 0.9. The per-pixel
+    /// error bound (1 - THRESHOLD) x max emitted radiance is in the stats.
     #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
     pub ert: f32,
     /// ERT table of D x D entries (flat structure; entries of ceil(W/D) x
@@ -97,8 +101,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// Also render with the reference renderer, print the error of this image
-    /// against it (max-abs and RMSE in 1/255), and write OUTPUT-compare.png
-    /// (this image | reference | 10x difference).
+    /// against it (max-abs and RMSE in 1/255) and whether it is within the
+    /// bound that applies (exact integrator 2/255, plus ERT's
+    /// (1 - THRESHOLD) x max radiance), and write OUTPUT-compare.png
+    /// (labelled: this image | reference | 10x difference).
     #[arg(long)]
     pub compare: bool,
 }
@@ -111,20 +117,93 @@ pub struct RenderOutcome {
     pub stats: serde_json::Value,
 }
 
+impl Validate for RenderArgs {
+    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
+        let ert = validate::ert_mode(self.ert)?;
+        at_least("--tile", self.tile, 1)?;
+        at_least("--ert-update", self.ert_update, 1)?;
+        if let Some(d) = self.ert_table {
+            at_least("--ert-table", d, 1)?;
+        }
+        if let Some(n) = self.ert_entry_px {
+            at_least("--ert-entry-px", n, 1)?;
+        }
+        validate::image_size(self.width, self.height)?;
+        let cell_only = [
+            ("--ert-table", self.ert_table.is_some()),
+            ("--ert-entry-px", self.ert_entry_px.is_some()),
+            ("--oracle", self.oracle),
+            ("--canonical", self.canonical),
+            ("--no-partial-composition", self.no_partial_composition),
+        ];
+        match self.renderer {
+            RendererKind::Reference => {
+                for (flag, given) in cell_only {
+                    if given {
+                        c.ignored(
+                            flag,
+                            "the reference renderer has no ERT, tiles or segment lists",
+                        );
+                    }
+                }
+                if self.compare {
+                    c.ignored("--compare", "--renderer reference is the reference itself");
+                }
+            }
+            RendererKind::Cell if !ert.is_on() => {
+                for (flag, given) in &cell_only[..2] {
+                    if *given {
+                        c.ignored(flag, "ERT is off (--ert 1); give --ert < 1, e.g. 0.9");
+                    }
+                }
+            }
+            RendererKind::Cell => {}
+        }
+        Ok(())
+    }
+}
+
+/// The path of the `--compare` strip: `OUTPUT-compare.png`.
+pub fn compare_path(output: &std::path::Path) -> PathBuf {
+    output.with_file_name(format!(
+        "{}-compare.png",
+        output.file_stem().unwrap_or_default().to_string_lossy()
+    ))
+}
+
 /// Renders as `pvrsim render` would, without writing files or printing
 /// (when `quiet`). Used by `render` and by `sweep`, so that a sweep can vary
 /// any option `render` has, under the same name.
 pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
+    validate::check(a)?;
     let (mut input, load_s) = RenderInput::load(&a.scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
-        anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
+    }
+    let threads = if a.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        a.threads
+    };
+    let kind = FrameKind::Render {
+        tile: a.tile,
+        threads,
+        compare: a.compare,
+    };
+    memory::check_fits(
+        input.scene.image.width,
+        input.scene.image.height,
+        kind,
+        memory::available_bytes(),
+    )?;
+    if !quiet {
+        super::warn_field(&input);
     }
     let opts = CellOptions {
         integrator: a.integrator,
         partial_composition: !a.no_partial_composition,
-        tile_size: a.tile.max(1),
+        tile_size: a.tile,
         cell_order: a.cell_order,
         ert: ErtOptions {
             threshold: a.ert,
@@ -132,17 +211,13 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
                 .ert_entry_px
                 .map(EntrySize::Pixels)
                 .or(a.ert_table.map(EntrySize::Divisions)),
-            update_c: a.ert_update.max(1),
+            update_c: a.ert_update,
             span: a.ert_span,
             structure: a.ert_structure,
         },
         oracle: a.oracle,
         canonical: a.canonical,
     };
-    anyhow::ensure!(
-        a.ert > 0.0 && a.ert.is_finite(),
-        "--ert must be in (0, 1] (1 = off)"
-    );
     let (image, mut stats) = match a.renderer {
         RendererKind::Cell => {
             let (image, mut stats) =
@@ -176,25 +251,25 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         !image.has_non_finite(),
         "internal error: the image has NaN or infinite pixels"
     );
-    if a.compare {
+    if a.compare && a.renderer == RendererKind::Cell {
         let adjacency = input.mesh.adjacency();
         let (reference, rs) = super::with_threads(a.threads, || {
             reference::render(&input, &adjacency, &Default::default())
         })?;
         let err = image.error_against(&reference);
+        let ert_bound = stats["ert_error_bound"].as_f64().unwrap_or(0.0);
+        let v = super::compare::verdict(&err, a.integrator, ert_bound);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
+        stats["compare_verdict"] = serde_json::to_value(&v)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
         if !quiet {
             println!("against the reference ({:.2} s): {err}", rs.time_s);
-            let diff = crate::image::Image::difference(&image, &reference, 10.0);
-            let side = crate::image::Image::side_by_side(&[&image, &reference, &diff], 4);
-            let path = a.output.with_file_name(format!(
-                "{}-compare.png",
-                a.output.file_stem().unwrap_or_default().to_string_lossy()
-            ));
-            side.save_png(&path)?;
+            println!("{}", v.text);
+            let path = compare_path(&a.output);
+            let label = format!("this: cell ({})", a.integrator_name());
+            super::compare::write_strip(&image, &reference, &label, 10.0, &path)?;
             println!(
-                "wrote {} (this | reference | 10x difference)",
+                "wrote {} (labelled: this | reference | 10x difference)",
                 path.display()
             );
         }
@@ -202,9 +277,35 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     Ok(RenderOutcome { image, stats })
 }
 
-/// Runs `pvrsim render`.
+impl RenderArgs {
+    fn integrator_name(&self) -> String {
+        self.integrator
+            .to_possible_value()
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default()
+    }
+}
+
+/// Runs `pvrsim render`: checks the options and every output path, renders,
+/// warns when the image is empty, writes.
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    validate::apply(&a)?;
+    prepare_output("-o", &a.output, OutputKind::Png)?;
+    if let Some(p) = &a.stats {
+        prepare_output("--stats", p, OutputKind::Json)?;
+    }
+    if a.compare && a.renderer == RendererKind::Cell {
+        prepare_output("--compare", &compare_path(&a.output), OutputKind::Png)?;
+    }
     let out = execute(&a, false)?;
+    let projected = out.stats["cells_projected"].as_u64();
+    super::output::warn_if_empty(
+        &out.image,
+        &match projected {
+            Some(n) => format!("{n} cells projected on screen"),
+            None => "no ray met a visible cell".into(),
+        },
+    );
     out.image.save_png(&a.output)?;
     println!("wrote {}", a.output.display());
     if let Some(path) = &a.stats {
@@ -218,14 +319,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) {
     let sc = &input.scene.image;
     println!(
-        "cell projection of {} ({}x{}, {} integrator, {} order, partial composition {}, {} threads)",
+        "cell projection of {} ({}x{}, {} integrator, {} order, partial composition {}, {})",
         a.scene.display(),
         sc.width,
         sc.height,
         s.integrator,
         s.cell_order,
         if s.partial_composition { "on" } else { "off" },
-        s.threads
+        super::plural(s.threads, "thread")
     );
     println!(
         "  cells: {} total, {} culled empty, {} culled off-screen, {} projected",

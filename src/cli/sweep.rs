@@ -19,7 +19,8 @@ pub struct SweepArgs {
     /// Redo runs that results.csv already has (by default they are skipped).
     #[arg(long)]
     pub force: bool,
-    /// List the runs (and which are already done) without running anything.
+    /// List the runs (and which are already done) and estimate how long the
+    /// rest would take, without running anything.
     #[arg(long)]
     pub dry_run: bool,
     /// Run only points whose parameter KEY equals VALUE (repeatable: the same
@@ -42,6 +43,7 @@ pub fn run(a: SweepArgs) -> anyhow::Result<()> {
         only: a.only,
         allow_missing: a.allow_missing,
         progress: std::io::stderr().is_terminal(),
+        lines: !std::io::stdout().is_terminal(),
     };
     let r = run_sweep(&opts)?;
     if !r.missing.is_empty() {
@@ -64,6 +66,11 @@ pub fn run(a: SweepArgs) -> anyhow::Result<()> {
             r.runs_skipped,
             r.csv.display()
         );
+        if let Some(e) = &r.estimate {
+            if r.runs_selected > r.runs_skipped {
+                println!("{e}");
+            }
+        }
         return Ok(());
     }
     print!(

@@ -197,11 +197,26 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
     )?;
     let host2_s = t2.elapsed().as_secs_f64();
     let mut trace = trace1;
-    if p1.record_trace {
+    if p1.record_trace && p1.clock == ClockKind::Virtual {
         for mut e in ph2.sim.trace.events.iter().cloned() {
             e.start += end_s;
             e.end += end_s;
             trace.events.push(e);
+        }
+    } else if p1.record_trace {
+        // Wall clock: one clock per timeline. Phase 2 ran on this host, all
+        // nodes on one thread, so each node gets the host phase-2 window
+        // (not the modelled replay, which would mix clocks).
+        for k in 0..p1.nodes {
+            trace.events.push(crate::net::TraceEvent {
+                node: crate::net::NodeId::from(k),
+                start: end_s,
+                end: end_s + host2_s,
+                kind: crate::net::TraceKind::Composite,
+                bytes: 0,
+                peer: None,
+                message: None,
+            });
         }
     }
     let report = report::build(report::Inputs {

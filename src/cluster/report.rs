@@ -3,9 +3,28 @@
 //! `bytes_total`, `bytes_by_kind`, `t_share`, `share_efficiency`,
 //! `ideal_speedup`, `nodes[]`. Host-time measurements, which vary from run
 //! to run, are under `wall` only; in virtual-clock mode everything else is a
-//! deterministic function of the inputs. In wall-clock mode the time keys
-//! hold wall measurements (phase 1 from the threads' timeline; phase 2 is
-//! the in-process compositor's host time, all nodes' work on one thread).
+//! deterministic function of the inputs. In wall-clock mode **every** time
+//! key holds a host measurement, never a modelled one (one report, one
+//! clock): phase 1 from the threads' timeline, phase 2 the in-process
+//! compositor's host time (all nodes' work on one thread, so per-node
+//! `composite_s` is `null`), the manager's busy time from its spans, the
+//! sequential reference measured on one thread; `network` and `profile`
+//! then read `n/a (wall clock)`, since neither model is used for a time.
+//!
+//! Terms (also printed by [`summary`]):
+//! - **Tsc**: a node's scan-conversion time, the end of its last scan chunk
+//!   in phase 1 (no compositing); `tsc_max_s` is the slowest node's, the
+//!   paper's Table 2 figure.
+//! - **speed-up (Tsc)** `speedup` = sequential ÷ Tsc max; **speed-up
+//!   (frame)** `speedup_frame` = sequential ÷ frame (phase 1 + phase 2):
+//!   what a user waits for. The sequential run is one node holding every
+//!   cell, same ERT settings, same clock.
+//! - **ideal speed-up** = Base Tsc max ÷ (sequential ÷ N): the speed-up over
+//!   Base (ERT, sharing, DLB off at the same N) of a cluster that skipped as
+//!   much as the sequential ERT run and split it perfectly.
+//! - **share efficiency** = cells skipped by ERT on all nodes ÷ cells
+//!   skipped by the sequential run (1: the cluster skips as much as one
+//!   machine that sees every cell).
 
 use std::collections::BTreeMap;
 
@@ -77,8 +96,9 @@ pub struct NodeReport {
     pub steal_s: f64,
     /// Phase-1 seconds with nothing to do (phase-1 end − busy).
     pub idle_s: f64,
-    /// Phase-2 compute seconds (merging and compositing).
-    pub composite_s: f64,
+    /// Phase-2 compute seconds (merging and compositing), modelled; `null`
+    /// on the wall clock (the host composites all nodes on one thread).
+    pub composite_s: Option<f64>,
     /// Cells placed on the node.
     pub cells_initial: u64,
     /// Cells processed (tested, skipped or scanned), own and taken.
@@ -139,9 +159,9 @@ pub struct ClusterReport {
     pub n_nodes: usize,
     /// `virtual` or `wall`.
     pub clock: ClockKind,
-    /// Network model name.
+    /// Network model name (`n/a (wall clock)` when no time is modelled).
     pub network: String,
-    /// Cost profile name.
+    /// Cost profile name (`n/a (wall clock)` when no time is modelled).
     pub profile: String,
     /// Placement method.
     pub placement: String,
@@ -231,10 +251,14 @@ pub struct ClusterReport {
     pub share_efficiency: Option<f64>,
     /// Base `tsc_max_s` ÷ (sequential time / N).
     pub ideal_speedup: Option<f64>,
-    /// Sequential time ÷ `tsc_max_s`.
+    /// Sequential time ÷ `tsc_max_s` (scan conversion only, the paper's measure).
     pub speedup: Option<f64>,
     /// `speedup / N`.
     pub efficiency: Option<f64>,
+    /// Sequential time ÷ `frame_s` (phase 1 + compositing: what a user waits for).
+    pub speedup_frame: Option<f64>,
+    /// `speedup_frame / N`.
+    pub efficiency_frame: Option<f64>,
     /// The compositor's counters (bytes per round, raw vs encoded).
     pub compositing: CompositeStats,
     /// One line per node.
@@ -271,15 +295,16 @@ pub struct Inputs<'a> {
     pub host_phase2_s: f64,
 }
 
-/// Per node, per kind, total seconds of distinct spans (the thread driver
-/// records one span per compute action of a handler, all equal).
+/// Per rank (nodes, then the manager at index `n`), per kind, total seconds
+/// of distinct spans (the thread driver records one span per compute action
+/// of a handler, all equal); and each rank's end of its last scan span.
 fn wall_busy(trace: &SimTrace, n: usize) -> (Vec<f64>, Vec<BTreeMap<TraceKind, f64>>) {
-    let mut last_scan = vec![0.0f64; n];
-    let mut busy = vec![BTreeMap::new(); n];
-    let mut prev: Vec<Option<(f64, f64, TraceKind)>> = vec![None; n];
+    let mut last_scan = vec![0.0f64; n + 1];
+    let mut busy = vec![BTreeMap::new(); n + 1];
+    let mut prev: Vec<Option<(f64, f64, TraceKind)>> = vec![None; n + 1];
     for e in &trace.events {
         let k = e.node.index();
-        if k >= n || matches!(e.kind, TraceKind::Send | TraceKind::Recv | TraceKind::Idle) {
+        if k > n || matches!(e.kind, TraceKind::Send | TraceKind::Recv | TraceKind::Idle) {
             continue;
         }
         if prev[k] == Some((e.start, e.end, e.kind)) {
@@ -366,7 +391,7 @@ pub fn build(i: Inputs) -> ClusterReport {
                 share_s: share,
                 steal_s: steal,
                 idle_s: (i.phase1_end_s - scan - share - steal).max(0.0),
-                composite_s: i.phase2.busy_s[k],
+                composite_s: (!wall).then(|| i.phase2.busy_s[k]),
                 cells_initial: s.cells_initial,
                 cells_processed: r.processed,
                 cells_skipped_ert: r.skipped,
@@ -408,13 +433,29 @@ pub fn build(i: Inputs) -> ClusterReport {
     let seq_s = refs.map(|r| r.seq_s);
     let base = refs.map(|r| r.base_tsc_max_s.unwrap_or(tsc_max));
     let speedup = seq_s.filter(|_| tsc_max > 0.0).map(|s| s / tsc_max);
+    let frame_s = i.phase1_end_s + composite_s;
+    let speedup_frame = seq_s.filter(|_| frame_s > 0.0).map(|s| s / frame_s);
+    let manager_busy_s = if wall {
+        wall_busy
+            .get(n)
+            .map_or(0.0, |b| b.values().sum::<f64>().max(0.0))
+    } else {
+        i.manager.busy_s
+    };
+    let modelled_name = |name: &str| {
+        if wall {
+            "n/a (wall clock)".to_string()
+        } else {
+            name.to_string()
+        }
+    };
     ClusterReport {
         image: [i.input.scene.image.width, i.input.scene.image.height],
         cells_total: i.input.mesh.tets.len() as u64,
         n_nodes: n,
         clock: p1.clock,
-        network: cfg.network_name.clone(),
-        profile: cfg.profile_name.clone(),
+        network: modelled_name(&cfg.network_name),
+        profile: modelled_name(&cfg.profile_name),
         placement: clap::ValueEnum::to_possible_value(&cfg.placement)
             .map(|v| v.get_name().to_string())
             .unwrap_or_default(),
@@ -446,7 +487,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         help_forwards: i.manager.help_forwards,
         dlb: p1.dlb,
         canonical: p1.node.canonical,
-        frame_s: i.phase1_end_s + composite_s,
+        frame_s,
         phase1_s: i.phase1_end_s,
         tsc_max_s: tsc_max,
         tsc_mean_s: tsc_mean,
@@ -464,7 +505,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         bytes_by_kind,
         messages_by_kind,
         t_share: t_share(i.trace1, n),
-        manager_busy_s: i.manager.busy_s,
+        manager_busy_s,
         manager: i.manager,
         segments_stored: nodes.iter().map(|x| x.segments_stored).sum(),
         cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
@@ -482,6 +523,8 @@ pub fn build(i: Inputs) -> ClusterReport {
         },
         speedup,
         efficiency: speedup.map(|s| s / n as f64),
+        speedup_frame,
+        efficiency_frame: speedup_frame.map(|s| s / n as f64),
         compositing: i.phase2.stats.clone(),
         nodes,
         wall: WallInfo {
@@ -492,21 +535,25 @@ pub fn build(i: Inputs) -> ClusterReport {
 }
 
 /// The summary printed at the end of `pvrsim cluster`: one line per node
-/// (at most 32, then totals only) and the totals.
+/// (at most 32, then totals only), the totals, the speed-ups (frame-based
+/// and Tsc-based side by side) and what the terms mean. One clock per
+/// report: the header says which.
 pub fn summary(r: &ClusterReport) -> String {
     use std::fmt::Write;
+    let wall = r.clock == ClockKind::Wall;
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cluster: {} nodes + manager, {} clock, network {}, profile {}, ERT {}{}{}, {} / {}",
-        r.n_nodes,
-        if r.clock == ClockKind::Virtual {
-            "virtual"
+        "cluster: {} + manager, {}, ERT {}{}{}, {} / {}",
+        crate::cli::plural(r.n_nodes, "node"),
+        if wall {
+            "wall clock (times measured on this host; no network or cost model)".to_string()
         } else {
-            "wall"
+            format!(
+                "virtual clock (modelled times: network {}, profile {})",
+                r.network, r.profile
+            )
         },
-        r.network,
-        r.profile,
         if r.ert_threshold < 1.0 {
             format!("{}", r.ert_threshold)
         } else {
@@ -519,7 +566,7 @@ pub fn summary(r: &ClusterReport) -> String {
     );
     let _ = writeln!(
         s,
-        "{:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
+        "{:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
         "node",
         "Tsc s",
         "scan s",
@@ -527,6 +574,7 @@ pub fn summary(r: &ClusterReport) -> String {
         "steal s",
         "idle s",
         "initial",
+        "culled",
         "done",
         "skipped",
         "given",
@@ -536,7 +584,7 @@ pub fn summary(r: &ClusterReport) -> String {
     for x in r.nodes.iter().take(32) {
         let _ = writeln!(
             s,
-            "{:>5} {:>9.4} {:>9.4} {:>8.4} {:>8.4} {:>8.4} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
+            "{:>5} {:>9.4} {:>9.4} {:>8.4} {:>8.4} {:>8.4} {:>8} {:>8} {:>8} {:>8} {:>7} {:>7} {:>11}",
             x.rank,
             x.tsc_s,
             x.scan_s,
@@ -544,6 +592,7 @@ pub fn summary(r: &ClusterReport) -> String {
             x.steal_s,
             x.idle_s,
             x.cells_initial,
+            x.cells_culled,
             x.cells_processed,
             x.cells_skipped_ert,
             x.cells_given,
@@ -556,24 +605,27 @@ pub fn summary(r: &ClusterReport) -> String {
     }
     let _ = writeln!(
         s,
-        "Tsc max {:.4} s, mean {:.4} s, imbalance {:.1} %; phase 1 {:.4} s, phase 2 {:.4} s, frame {:.4} s",
+        "Tsc max {:.4} s, mean {:.4} s, imbalance {:.1} %; phase 1 {:.4} s, phase 2 {:.4} s{}, frame {:.4} s",
         r.tsc_max_s,
         r.tsc_mean_s,
         100.0 * r.imbalance,
         r.phase1_s,
         r.composite_s,
+        if wall { " (host, all nodes on one thread)" } else { "" },
         r.frame_s
     );
+    let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
     let _ = writeln!(
         s,
-        "cells: {} processed, {} skipped by ERT, {} moved by DLB; ERT exchanges {} (T_share mean {:.2} ms, max {:.2} ms); manager busy {:.4} s",
+        "cells: {} culled on arrival (empty or off screen), {} processed, {} skipped by ERT, {} moved by DLB; ERT exchanges {} (T_share mean {:.2} ms, max {:.2} ms); manager busy {:.4} s",
+        culled,
         r.cells_processed,
         r.cells_skipped_ert,
         r.cells_moved,
         r.t_share.exchanges,
         1e3 * r.t_share.mean_s,
         1e3 * r.t_share.max_s,
-        r.manager.busy_s
+        r.manager_busy_s
     );
     let kinds: Vec<String> = r
         .bytes_by_kind
@@ -581,16 +633,31 @@ pub fn summary(r: &ClusterReport) -> String {
         .map(|(k, b)| format!("{k} {b}"))
         .collect();
     let _ = writeln!(s, "bytes: {} total ({})", r.bytes_total, kinds.join(", "));
+    match (r.sequential_s, r.speedup, r.speedup_frame) {
+        (Some(seq), Some(sp), Some(spf)) => {
+            let _ = writeln!(
+                s,
+                "sequential (one node, every cell, same ERT, same clock) {seq:.4} s; speed-up: frame-based {spf:.2} (efficiency {:.3}), Tsc-based {sp:.2} (efficiency {:.3})",
+                spf / r.n_nodes as f64,
+                sp / r.n_nodes as f64
+            );
+        }
+        _ => {
+            let _ = writeln!(s, "no reference runs (--no-baselines): no speed-ups");
+        }
+    }
     let opt = |v: Option<f64>, d: usize| v.map_or("n/a".to_string(), |v| format!("{v:.d$}"));
+    if let Some(b) = r.base_tsc_max_s {
+        let _ = writeln!(
+            s,
+            "Base Tsc max {b:.4} s; ideal speed-up {}, share efficiency {}",
+            opt(r.ideal_speedup, 2),
+            opt(r.share_efficiency, 3)
+        );
+    }
     let _ = writeln!(
         s,
-        "sequential {} s, Base Tsc max {} s; speed-up {} (efficiency {}), ideal speed-up {}, share efficiency {}",
-        opt(r.sequential_s, 4),
-        opt(r.base_tsc_max_s, 4),
-        opt(r.speedup, 2),
-        opt(r.efficiency, 3),
-        opt(r.ideal_speedup, 2),
-        opt(r.share_efficiency, 3)
+        "terms: Tsc = a node's scan-conversion time (phase 1, no compositing); frame = phase 1 + phase 2; speed-up = sequential / frame or / Tsc max; Base = ERT, sharing and DLB off at the same N; ideal speed-up = Base Tsc max / (sequential / N); share efficiency = cells skipped by all nodes / cells skipped by the sequential run"
     );
     s
 }

@@ -22,8 +22,25 @@ pub fn colour(kind: TraceKind) -> Option<RGBColor> {
     })
 }
 
+/// The span kinds the chart draws and its legend names, in drawing order:
+/// only those that occur in `trace` (a legend entry with no span, such as
+/// `compute` in a cluster run, would only confuse).
+pub fn kinds_shown(trace: &SimTrace) -> Vec<TraceKind> {
+    [
+        TraceKind::Idle,
+        TraceKind::Scan,
+        TraceKind::Share,
+        TraceKind::Steal,
+        TraceKind::Composite,
+        TraceKind::Compute,
+    ]
+    .into_iter()
+    .filter(|&k| colour(k).is_some() && trace.events.iter().any(|e| e.kind == k && e.end > e.start))
+    .collect()
+}
+
 /// Draws the chart of `trace` (`nodes` nodes; rank `nodes` is the manager)
-/// into a PNG at `path`.
+/// into a PNG at `path`. The legend names only the kinds that occur.
 pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
     crate::experiment::plot::register_fonts();
     let ranks = trace
@@ -77,14 +94,7 @@ pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
             }
         })
         .draw()?;
-    for kind in [
-        TraceKind::Idle,
-        TraceKind::Scan,
-        TraceKind::Share,
-        TraceKind::Steal,
-        TraceKind::Composite,
-        TraceKind::Compute,
-    ] {
+    for kind in kinds_shown(trace) {
         let Some(c) = colour(kind) else { continue };
         let rects = trace
             .events

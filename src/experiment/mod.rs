@@ -7,10 +7,12 @@
 //! - [`config`]: the file format, validated into a [`config::Plan`];
 //! - [`grid`]: values, ranges, zip groups and their Cartesian product;
 //! - [`run`]: parameters to a command line, and the sweepable subcommands;
+//! - [`estimate`]: the duration `--dry-run` announces;
 //! - [`results`]: the CSV and the summary;
 //! - [`plot`]: the PNG plots.
 
 pub mod config;
+pub mod estimate;
 pub mod grid;
 pub mod plot;
 pub mod results;
@@ -41,6 +43,10 @@ pub struct SweepOptions {
     pub allow_missing: bool,
     /// Show a progress bar on stderr (when it is a terminal).
     pub progress: bool,
+    /// Print one line per finished run on stdout (when stdout is not a
+    /// terminal: piped, logged, CI), with the count, the run's time and the
+    /// time elapsed.
+    pub lines: bool,
 }
 
 /// What a sweep did.
@@ -70,6 +76,8 @@ pub struct SweepReport {
     pub missing: Vec<PathBuf>,
     /// For a dry run: one line per run.
     pub listing: Vec<String>,
+    /// For a dry run: how long the runs to do would take.
+    pub estimate: Option<estimate::Estimate>,
 }
 
 /// Parses `KEY=VALUE` of `--only`.
@@ -211,6 +219,12 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
         }
     }
     if opts.dry_run {
+        report.estimate = Some(estimate::estimate(
+            plan.executor.command,
+            &plan.base_dir,
+            &todo,
+            &results,
+        ));
         return Ok(report);
     }
 
@@ -229,12 +243,26 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    for (p, rep) in &todo {
+    let t0 = std::time::Instant::now();
+    for (k, (p, rep)) in todo.iter().enumerate() {
         pb.set_message(format!("{} rep {rep}", describe(p, n_varied)));
         let r = run::run_point(plan.executor, &plan.base_dir, p);
         if let Err(e) = &r.outcome {
             report.runs_failed += 1;
             pb.suspend(|| eprintln!("run failed ({} rep {rep}): {e}", describe(p, n_varied)));
+        }
+        if opts.lines {
+            pb.suspend(|| {
+                println!(
+                    "[{}/{}] {} rep {rep}: {} in {:.2} s ({:.1} s elapsed)",
+                    k + 1,
+                    todo.len(),
+                    describe(p, n_varied),
+                    if r.outcome.is_ok() { "ok" } else { "FAILED" },
+                    r.wall_s,
+                    t0.elapsed().as_secs_f64()
+                )
+            });
         }
         results.record(p, *rep, r.wall_s, &r.outcome);
         results.save(&plan)?;

@@ -41,8 +41,16 @@ struct RenderCommand {
     args: RenderArgs,
 }
 
+/// The validation layer's verdict on parsed args, as a clap error (so a
+/// sweep reports it like any other refused command line).
+fn validated<T: crate::cli::validate::Validate>(args: &T) -> Result<(), clap::Error> {
+    crate::cli::validate::check(args)
+        .map(|_| ())
+        .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")))
+}
+
 fn render_check(argv: &[String]) -> Result<(), clap::Error> {
-    RenderCommand::try_parse_from(argv).map(|_| ())
+    validated(&RenderCommand::try_parse_from(argv)?.args)
 }
 
 fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
@@ -59,7 +67,7 @@ struct ClusterCommand {
 }
 
 fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
-    ClusterCommand::try_parse_from(argv).map(|_| ())
+    validated(&ClusterCommand::try_parse_from(argv)?.args)
 }
 
 /// Runs a cluster point; the row's statistics are the report (without the
