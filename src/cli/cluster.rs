@@ -148,6 +148,9 @@ pub struct ClusterArgs {
     /// Write the Chrome trace JSON (open in Perfetto) here.
     #[arg(long)]
     pub trace: Option<PathBuf>,
+    /// Where the nodes run (`--transport`, `--workers`, ...).
+    #[command(flatten)]
+    pub net: super::transport_args::TransportArgs,
 }
 
 /// Resolves a profile name or file.
@@ -241,8 +244,17 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
     }
-    let cfg = config(a)?;
-    cluster::run(&input, &cfg)
+    let mut cfg = config(a)?;
+    match a.net.apply(&mut cfg)? {
+        None => cluster::run(&input, &cfg),
+        Some(kind) => {
+            let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
+            out.report.transport = Some(crate::cluster::remote::transport_section(
+                &input, &cfg, &out, measured,
+            )?);
+            Ok(out)
+        }
+    }
 }
 
 /// Runs `pvrsim cluster`.

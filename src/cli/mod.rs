@@ -8,6 +8,8 @@ pub mod demo;
 pub mod info;
 pub mod render;
 pub mod sweep;
+pub mod transport_args;
+pub mod worker;
 
 use clap::{Parser, Subcommand};
 
@@ -46,6 +48,8 @@ pub enum Command {
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
+    /// Serve cluster frames as one worker process over TCP (see `cluster --transport`).
+    Worker(worker::WorkerArgs),
 }
 
 /// Runs the parsed command line.
@@ -58,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Worker(a) => worker::run(a),
     }
 }
 
