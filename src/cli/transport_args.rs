@@ -77,14 +77,20 @@ pub fn read_hostfile(path: &Path) -> anyhow::Result<Vec<String>> {
             continue;
         }
         anyhow::ensure!(
-            !l.contains(char::is_whitespace) && l.rsplit_once(':').is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()),
+            !l.contains(char::is_whitespace)
+                && l.rsplit_once(':')
+                    .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()),
             "{}:{}: `{l}` is not host:port",
             path.display(),
             i + 1
         );
         out.push(l.to_string());
     }
-    anyhow::ensure!(!out.is_empty(), "hostfile {} lists no workers", path.display());
+    anyhow::ensure!(
+        !out.is_empty(),
+        "hostfile {} lists no workers",
+        path.display()
+    );
     Ok(out)
 }
 
@@ -92,7 +98,8 @@ impl TransportArgs {
     /// Checks the combination of options and applies `threads` to `cfg`
     /// (the wall clock). Returns the kind if the run needs this module.
     pub fn apply(&self, cfg: &mut ClusterConfig) -> anyhow::Result<Option<TransportKind>> {
-        let tcp_only = !self.workers.is_empty() || self.hostfile.is_some() || self.token_file.is_some();
+        let tcp_only =
+            !self.workers.is_empty() || self.hostfile.is_some() || self.token_file.is_some();
         if tcp_only && self.transport != Some(TransportKind::Tcp) {
             anyhow::bail!("--workers, --hostfile and --token-file need --transport tcp");
         }
@@ -160,7 +167,10 @@ impl TransportArgs {
                 let r = c.run(input, cfg);
                 if r.is_ok() {
                     let bad = workers.finish(Duration::from_secs(10));
-                    anyhow::ensure!(bad.is_empty(), "worker processes {bad:?} did not exit cleanly");
+                    anyhow::ensure!(
+                        bad.is_empty(),
+                        "worker processes {bad:?} did not exit cleanly"
+                    );
                 }
                 r
             }

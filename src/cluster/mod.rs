@@ -200,11 +200,7 @@ pub fn node_lists(
     if opts.canonical {
         crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
     } else {
-        crate::compositor::RegionLists::canonical(
-            full,
-            r.lists().lists(),
-            opts.partial_composition,
-        )
+        crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
     }
 }
 

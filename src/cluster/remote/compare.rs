@@ -72,7 +72,12 @@ pub fn transport_section(
     p1.clock = ClockKind::Virtual;
     p1.record_trace = false;
     let codec = Codec::default();
-    let placement = Placement::new(&input.mesh, p1.nodes, cfg.placement, Some(&input.scene.view()));
+    let placement = Placement::new(
+        &input.mesh,
+        p1.nodes,
+        cfg.placement,
+        Some(&input.scene.view()),
+    );
     let nodes = phase1::build_nodes(input, &placement, &p1, &cfg.profile, codec)?;
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
     let mut by_kind: BTreeMap<String, KindLine> = BTreeMap::new();

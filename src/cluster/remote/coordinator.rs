@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
+use super::guard::SessionGuard;
 use super::session::{setup_for, NodeResult, Session};
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
 use crate::compositor::codec::Limits;
@@ -116,9 +117,10 @@ impl Coordinator {
             let opts = self.tcp;
             tasks.push(rt.spawn(async move {
                 let name = format!("worker {k} ({addr})");
-                let (mut s, hello) = tcp::connect(&addr, &token, Role::Coordinator, n as u32, &opts)
-                    .await
-                    .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
+                let (mut s, hello) =
+                    tcp::connect(&addr, &token, Role::Coordinator, n as u32, &opts)
+                        .await
+                        .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
                 anyhow::ensure!(
                     hello.role == Role::Worker,
                     "{name}, set-up: answered as {:?}, not as a worker",
@@ -126,8 +128,15 @@ impl Coordinator {
                 );
                 let d = opts.deadline.max(Duration::from_secs(10));
                 let to = NodeId::from(k);
-                tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Setup(Box::new(setup)), &name)
-                    .await?;
+                tcp::raw::write_msg(
+                    &mut s,
+                    &codec,
+                    me,
+                    to,
+                    &Session::Setup(Box::new(setup)),
+                    &name,
+                )
+                .await?;
                 let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
                 let sent = match need {
                     Session::Need(true) => {
@@ -139,16 +148,14 @@ impl Coordinator {
                     Session::Need(false) => 0,
                     other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
                 };
-                Ok(
-                    (
-                        Link {
-                            rank: to,
-                            name,
-                            stream: s,
-                        },
-                        sent,
-                    ),
-                )
+                Ok((
+                    Link {
+                        rank: to,
+                        name,
+                        stream: s,
+                    },
+                    sent,
+                ))
             }));
         }
         let mut links = Vec::with_capacity(n);
@@ -196,6 +203,9 @@ impl Coordinator {
                     ready[k] = true;
                     initial[k] = remaining;
                 }
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))
+                }
                 _ => anyhow::bail!(
                     "set-up: {} sent a {} message instead of Ready",
                     t.peer_name(e.from),
@@ -206,7 +216,7 @@ impl Coordinator {
         measured.setup_s = t_setup.elapsed().as_secs_f64();
         let go = codec.encode(&Session::Go)?;
         for k in 0..n {
-            t.send(NodeId::from(k), MessageKind::Control, go.clone())
+            t.send(NodeId::from(k), MessageKind::Session, go.clone())
                 .context("set-up (sending Go)")?;
         }
 
@@ -215,7 +225,7 @@ impl Coordinator {
         let wire0 = t.stats();
         let t1 = Instant::now();
         let (m_stop, m_trace, m_traffic) = run_actor(
-            &t,
+            &SessionGuard::new(&t, codec),
             &mut manager,
             WallClock::start(),
             WallOptions {
@@ -244,6 +254,9 @@ impl Coordinator {
                 })?;
             let k = e.from.index();
             match codec.decode::<Session>(&e.payload) {
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
+                }
                 Ok(Session::Result(r)) if k < n => {
                     measured.lists_bytes += r.lists.len() as u64;
                     results[k] = Some(*r);
@@ -251,7 +264,7 @@ impl Coordinator {
                 }
                 // Late phase-1 traffic to the stopped manager is dropped,
                 // as in the other drivers.
-                _ if e.kind != MessageKind::Control => {}
+                _ if e.kind != MessageKind::Session => {}
                 _ => anyhow::bail!(
                     "collecting results: {} sent a message that is not its result",
                     t.peer_name(e.from)
@@ -305,7 +318,10 @@ impl Coordinator {
         traffic.merge(&m_traffic);
         wire.merge(&wire_m);
         measured.phase1 = wire;
-        let end_s = stopped_at[..n].iter().flatten().fold(0.0f64, |a, &b| a.max(b));
+        let end_s = stopped_at[..n]
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, &b| a.max(b));
         let out = crate::cluster::finish(
             input,
             &cfg,
@@ -349,5 +365,10 @@ fn manager_for(
         min_grant: p1.policy.min_grant as u64,
         levels: if p1.share { probe.level_grid() } else { None },
     };
-    Ok(ManagerActor::new(mcfg, initial, cfg.profile, Codec::default()))
+    Ok(ManagerActor::new(
+        mcfg,
+        initial,
+        cfg.profile,
+        Codec::default(),
+    ))
 }

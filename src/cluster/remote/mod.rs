@@ -9,12 +9,14 @@
 //! | [`session`] | set-up and result messages, wire forms of the options |
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the coordinator: set-up, manager, results, phase 2 |
+//! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
 //! | [`probe`] | the echo service for `pvrsim calibrate --network` |
 
 pub mod compare;
 pub mod coordinator;
+pub mod guard;
 pub mod probe;
 pub mod session;
 pub mod spawn;

@@ -1,5 +1,5 @@
 //! The session messages between the coordinator and a worker process, and
-//! the set-up a worker rebuilds its node from. They travel as `Control`
+//! the set-up a worker rebuilds its node from. They travel as `Session`
 //! messages, outside the actors' protocol: before the node starts and after
 //! it stopped.
 //!
@@ -43,10 +43,13 @@ pub enum Session {
     Go,
     /// The node's outcome.
     Result(Box<NodeResult>),
+    /// The worker could not set up its node (bad set-up, bad cells, mesh
+    /// failed): the reason, for the coordinator's error.
+    Failed(String),
 }
 
 impl Message for Session {
-    const KIND: MessageKind = MessageKind::Control;
+    const KIND: MessageKind = MessageKind::Session;
 }
 
 /// ERT options of a node ([`NodeErt`] on the wire).

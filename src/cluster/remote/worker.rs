@@ -6,19 +6,19 @@
 
 use std::collections::VecDeque;
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
 use tokio::net::TcpListener;
 use tokio::runtime::Runtime;
 
+use super::guard::SessionGuard;
 use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{
-    run_actor, Codec, ComputeMode, Envelope, MessageKind, NetResult, NodeId, Transport,
-    WallClock, WallOptions,
+    run_actor, Codec, ComputeMode, MessageKind, NodeId, Transport, WallClock, WallOptions,
 };
 use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
 use crate::render::cell::PreparedTf;
@@ -42,6 +42,13 @@ impl Worker {
     /// Binds `addr` (port 0: any free port). Refuses a non-loopback address
     /// without a token.
     pub fn bind(addr: &str, token: Token, opts: TcpOptions) -> anyhow::Result<Worker> {
+        // Checked before binding: a refused address is never opened.
+        let addrs: Vec<std::net::SocketAddr> = std::net::ToSocketAddrs::to_socket_addrs(addr)
+            .with_context(|| format!("--listen {addr}: not an address (host:port)"))?
+            .collect();
+        for a in &addrs {
+            tcp::check_exposure(a, &token, "listening on")?;
+        }
         let rt = tcp::runtime()?;
         let listener = rt
             .block_on(TcpListener::bind(addr))
@@ -77,7 +84,10 @@ impl Worker {
             );
             let acc = match self.accept_timeout {
                 None => self.rt.block_on(accept),
-                Some(t) => match self.rt.block_on(async { tokio::time::timeout(t, accept).await }) {
+                Some(t) => match self
+                    .rt
+                    .block_on(async { tokio::time::timeout(t, accept).await })
+                {
                     Ok(r) => r,
                     Err(_) => anyhow::bail!(
                         "no coordinator started a session within {:.0} s (--accept-timeout)",
@@ -98,7 +108,9 @@ impl Worker {
                     super::probe::echo(&self.rt, stream, &self.opts).map_err(anyhow::Error::from)
                 }
                 Role::Worker => {
-                    eprintln!("pvrsim worker: a worker connected from {from} outside a session; closed");
+                    eprintln!(
+                        "pvrsim worker: a worker connected from {from} outside a session; closed"
+                    );
                     continue;
                 }
             };
@@ -154,9 +166,9 @@ impl Worker {
         let cells = match cached {
             Some(i) => self.cache[i].1.clone(),
             None => {
-                let m: Session = self
-                    .rt
-                    .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+                let m: Session =
+                    self.rt
+                        .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
                 let Session::Cells(bytes) = m else {
                     anyhow::bail!("{name} sent {m:?} instead of the cells");
                 };
@@ -172,12 +184,9 @@ impl Worker {
             }
         };
         // The mesh: dial lower ranks, accept higher ones.
-        let mut links = self.rt.block_on(mesh(
-            &self.listener,
-            &self.token,
-            &self.opts,
-            &setup,
-        ))?;
+        let mut links = self
+            .rt
+            .block_on(mesh(&self.listener, &self.token, &self.opts, &setup))?;
         links.push(Link {
             rank: coord,
             name,
@@ -194,17 +203,30 @@ impl Worker {
         t.set_essential(coord, true);
         // Built after the mesh (peers wait on our accept meanwhile) and
         // with the links up (heartbeats flow while the cells are sorted).
-        let mut actor = build_node(&setup, &cells)?;
+        let mut actor = match build_node(&setup, &cells) {
+            Ok(a) => a,
+            Err(e) => {
+                let why = format!("node {}: {e:#}", setup.rank);
+                let _ = t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Failed(why))?,
+                );
+                t.close(Duration::from_secs(2));
+                return Err(e);
+            }
+        };
         let ready = Session::Ready {
             remaining: actor.renderer().remaining() as u64,
         };
-        t.send(coord, MessageKind::Control, codec.encode(&ready)?)?;
+        t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
         // Wait for Go; messages from peers that started earlier are kept.
-        let early = Stashed::wait_go(&t, coord, &codec, d)?;
+        let early = SessionGuard::wait_go(&t, coord, codec, d)?;
+        eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
         let clock = WallClock::start();
         let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
         let wire0 = t.stats();
-        let (stop, trace, traffic) = run_actor(
+        let run = run_actor(
             &early,
             &mut actor,
             clock,
@@ -212,8 +234,21 @@ impl Worker {
                 compute: ComputeMode::Skip,
                 recv_timeout: timeout,
             },
-        )
-        .with_context(|| format!("node {} in phase 1", setup.rank))?;
+        );
+        let (stop, trace, traffic) = match run {
+            Ok(x) => x,
+            Err(e) => {
+                // Tell the coordinator why (a lost peer, most likely).
+                let why = format!("node {} in phase 1: {e}", setup.rank);
+                let _ = t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Failed(why.clone()))?,
+                );
+                t.close(Duration::from_secs(2));
+                anyhow::bail!(why);
+            }
+        };
         if let Some(e) = &actor.stats().error {
             eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
         }
@@ -234,7 +269,7 @@ impl Worker {
         };
         t.send(
             coord,
-            MessageKind::Control,
+            MessageKind::Session,
             codec.encode(&Session::Result(Box::new(result)))?,
         )?;
         t.close(Duration::from_secs(10));
@@ -339,7 +374,10 @@ async fn mesh(
                         if ok {
                             links.push(Link {
                                 rank: NodeId(h.rank),
-                                name: format!("worker {} ({})", h.rank, setup.peers[h.rank as usize]),
+                                name: format!(
+                                    "worker {} ({})",
+                                    h.rank, setup.peers[h.rank as usize]
+                                ),
                                 stream: s,
                             });
                         } else {
@@ -366,74 +404,4 @@ async fn mesh(
     let mut links = a?;
     links.extend(b?);
     Ok(links)
-}
-
-/// A transport that hands out messages kept aside first (messages peers
-/// sent before this worker got `Go`).
-pub struct Stashed<'a> {
-    inner: &'a TcpTransport,
-    kept: Mutex<VecDeque<Envelope>>,
-}
-
-impl<'a> Stashed<'a> {
-    /// Waits for `Go` from `coord`, keeping every other message.
-    pub fn wait_go(
-        t: &'a TcpTransport,
-        coord: NodeId,
-        codec: &Codec,
-        wait: Duration,
-    ) -> anyhow::Result<Stashed<'a>> {
-        let mut kept = VecDeque::new();
-        loop {
-            let e = t
-                .recv_timeout(wait)?
-                .ok_or_else(|| anyhow::anyhow!("no Go from the coordinator within {wait:?}"))?;
-            if e.from == coord && e.kind == MessageKind::Control {
-                if let Ok(Session::Go) = codec.decode::<Session>(&e.payload) {
-                    return Ok(Stashed {
-                        inner: t,
-                        kept: Mutex::new(kept),
-                    });
-                }
-            }
-            kept.push_back(e);
-        }
-    }
-
-    fn pop(&self) -> Option<Envelope> {
-        self.kept
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .pop_front()
-    }
-}
-
-impl Transport for Stashed<'_> {
-    fn rank(&self) -> NodeId {
-        self.inner.rank()
-    }
-    fn size(&self) -> usize {
-        self.inner.size()
-    }
-    fn send(&self, to: NodeId, kind: MessageKind, payload: Vec<u8>) -> NetResult<()> {
-        self.inner.send(to, kind, payload)
-    }
-    fn recv(&self) -> NetResult<Envelope> {
-        match self.pop() {
-            Some(e) => Ok(e),
-            None => self.inner.recv(),
-        }
-    }
-    fn recv_timeout(&self, timeout: Duration) -> NetResult<Option<Envelope>> {
-        match self.pop() {
-            Some(e) => Ok(Some(e)),
-            None => self.inner.recv_timeout(timeout),
-        }
-    }
-    fn try_recv(&self) -> NetResult<Option<Envelope>> {
-        match self.pop() {
-            Some(e) => Ok(Some(e)),
-            None => self.inner.try_recv(),
-        }
-    }
 }

@@ -155,15 +155,13 @@ async fn within<F: std::future::Future>(
 ) -> NetResult<F::Output> {
     match deadline {
         None => Ok(f.await),
-        Some(d) => tokio::time::timeout(d, f).await.map_err(|_| {
-            NetError::Io {
-                what: format!(
-                    "nothing received for {:.1} s while waiting for {what}",
-                    d.as_secs_f64()
-                ),
-                msg: "no heartbeat: the peer is stalled (e.g. SIGSTOP), hung, or the network is down"
-                    .into(),
-            }
+        Some(d) => tokio::time::timeout(d, f).await.map_err(|_| NetError::Io {
+            what: format!(
+                "nothing received for {:.1} s while waiting for {what}",
+                d.as_secs_f64()
+            ),
+            msg: "no heartbeat: the peer is stalled (e.g. SIGSTOP), hung, or the network is down"
+                .into(),
         }),
     }
 }
@@ -193,7 +191,7 @@ mod tests {
         Envelope {
             from: NodeId(from),
             to: NodeId(to),
-            kind: MessageKind::from_code(kind % 7).unwrap(),
+            kind: MessageKind::from_code(kind % 8).unwrap(),
             payload,
         }
     }
@@ -218,14 +216,17 @@ mod tests {
         let (_, e) = decode_all(&[7], &codec);
         assert!(e.unwrap().to_string().contains("unknown link frame tag 7"));
         let (_, e) = decode_all(&[TAG_DATA, 1, 2], &codec);
-        assert!(e.unwrap().to_string().contains("ends inside a frame's header"));
+        assert!(e
+            .unwrap()
+            .to_string()
+            .contains("ends inside a frame's header"));
     }
 
     proptest! {
         #[test]
         fn frames_round_trip(
             msgs in proptest::collection::vec(
-                (0u32..9, 0u32..9, 0u8..7, proptest::collection::vec(any::<u8>(), 0..64), 0u8..3),
+                (0u32..9, 0u32..9, 0u8..8, proptest::collection::vec(any::<u8>(), 0..64), 0u8..3),
                 0..12)
         ) {
             let codec = Codec::with_limit(1024);

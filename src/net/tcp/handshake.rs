@@ -146,7 +146,7 @@ async fn status<S: AsyncRead + Unpin>(s: &mut S, peer: &str, stage: &str) -> Net
         }
         x => Err(NetError::Handshake {
             peer: peer.to_string(),
-            msg: format!("{stage}: unexpected status byte {x}"),
+            msg: format!("{stage}: not a pvrsim peer (it answered with byte 0x{x:02x})"),
         }),
     }
 }
@@ -165,7 +165,9 @@ pub async fn dial<S: AsyncRead + AsyncWrite + Unpin>(
     s.write_all(&hello)
         .await
         .map_err(|e| io(peer, "sending the preamble", e))?;
-    s.flush().await.map_err(|e| io(peer, "sending the preamble", e))?;
+    s.flush()
+        .await
+        .map_err(|e| io(peer, "sending the preamble", e))?;
 
     status(s, peer, "reading the challenge").await?;
     let mut pre_l = [0u8; PREAMBLE_BYTES];
@@ -191,7 +193,9 @@ pub async fn dial<S: AsyncRead + AsyncWrite + Unpin>(
     s.write_all(&mac_d)
         .await
         .map_err(|e| io(peer, "sending the proof", e))?;
-    s.flush().await.map_err(|e| io(peer, "sending the proof", e))?;
+    s.flush()
+        .await
+        .map_err(|e| io(peer, "sending the proof", e))?;
     status(s, peer, "reading the verdict").await?;
     Ok(info)
 }
@@ -248,7 +252,9 @@ pub async fn listen<S: AsyncRead + AsyncWrite + Unpin>(
     s.write_all(&[0u8])
         .await
         .map_err(|e| io(peer, "sending the verdict", e))?;
-    s.flush().await.map_err(|e| io(peer, "sending the verdict", e))?;
+    s.flush()
+        .await
+        .map_err(|e| io(peer, "sending the verdict", e))?;
     Ok(info)
 }
 
@@ -279,8 +285,20 @@ mod tests {
                 dial(&mut a, &t, Role::Coordinator, 8, "l"),
                 listen(&mut b, &t, Role::Worker, 0, "d")
             );
-            assert_eq!(d.unwrap(), PeerHello { role: Role::Worker, rank: 0 });
-            assert_eq!(l.unwrap(), PeerHello { role: Role::Coordinator, rank: 8 });
+            assert_eq!(
+                d.unwrap(),
+                PeerHello {
+                    role: Role::Worker,
+                    rank: 0
+                }
+            );
+            assert_eq!(
+                l.unwrap(),
+                PeerHello {
+                    role: Role::Coordinator,
+                    rank: 8
+                }
+            );
         });
     }
 
