@@ -60,6 +60,9 @@ pub struct CalibrateArgs {
     /// Skip the measurement (use with --table1 --base).
     #[arg(long)]
     pub no_measure: bool,
+    /// `--network`: ping-pong calibration of the network instead.
+    #[command(flatten)]
+    pub net: super::calibrate_network::NetworkCalibrateArgs,
 }
 
 fn ert_modes() -> [(&'static str, NodeErt); 3] {
@@ -226,6 +229,9 @@ fn ops_line(o: &OpCounts) -> String {
 
 /// Runs `pvrsim calibrate`.
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
+    if a.net.network {
+        return super::calibrate_network::run(&a.net);
+    }
     let mut base = None;
     if !a.no_measure {
         let mut samples = Vec::new();

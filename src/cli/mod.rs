@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod calibrate_network;
 pub mod cluster;
 pub mod demo;
 pub mod info;

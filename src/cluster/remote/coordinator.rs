@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 
 use super::guard::SessionGuard;
-use super::session::{setup_for, NodeResult, Session};
+use super::session::{sha256, NodeResult, Session, WorkerSetup};
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
 use crate::compositor::codec::Limits;
 use crate::manager::{ManagerActor, ManagerConfig};
@@ -100,18 +100,23 @@ impl Coordinator {
             } else {
                 Vec::new()
             };
-            let setup = setup_for(
-                k,
-                &p1,
-                &self.workers,
-                &scene_toml,
-                peers,
-                &cfg.profile,
-                &cfg.codec,
-                &cells,
-                part.len() as u64,
-                self.recv_timeout.as_secs_f64(),
-            );
+            let setup = WorkerSetup {
+                rank: k as u32,
+                nodes: n as u32,
+                peers: self.workers.clone(),
+                scene_toml: scene_toml.clone(),
+                node: p1.node.into(),
+                share: p1.share,
+                dlb: p1.dlb,
+                policy: p1.policy.into(),
+                overlap_peers: peers,
+                profile: cfg.profile,
+                list_codec: cfg.codec.clone(),
+                max_message_bytes: codec.max_message_bytes,
+                cells_initial: part.len() as u64,
+                cells_sha256: sha256(&cells),
+                recv_timeout_s: self.recv_timeout.as_secs_f64(),
+            };
             let addr = self.workers[k].clone();
             let token = self.token.clone();
             let opts = self.tcp;

@@ -18,7 +18,6 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::cluster::report::NodeRaw;
-use crate::cluster::Phase1Config;
 use crate::net::tcp::WireStats;
 use crate::net::{Message, MessageKind, SimTrace, TrafficStats};
 use crate::node::renderer::NodeErt;
@@ -228,38 +227,6 @@ impl WorkerSetup {
             return Err(format!("recv timeout {} s", self.recv_timeout_s));
         }
         Ok(())
-    }
-}
-
-/// Builds the set-up of worker `rank` from the coordinator's configuration.
-pub fn setup_for(
-    rank: usize,
-    p1: &Phase1Config,
-    peers: &[String],
-    scene_toml: &str,
-    overlap_peers: Vec<u32>,
-    profile: &CostProfile,
-    list_codec: &str,
-    cells: &[u8],
-    cells_initial: u64,
-    recv_timeout_s: f64,
-) -> WorkerSetup {
-    WorkerSetup {
-        rank: rank as u32,
-        nodes: p1.nodes as u32,
-        peers: peers.to_vec(),
-        scene_toml: scene_toml.to_string(),
-        node: p1.node.into(),
-        share: p1.share,
-        dlb: p1.dlb,
-        policy: p1.policy.into(),
-        overlap_peers,
-        profile: *profile,
-        list_codec: list_codec.to_string(),
-        max_message_bytes: crate::net::DEFAULT_MAX_MESSAGE_BYTES,
-        cells_initial,
-        cells_sha256: sha256(cells),
-        recv_timeout_s,
     }
 }
 
