@@ -62,8 +62,11 @@ attach() {
 head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/token"
 chmod 600 "$WORK/token"
 
-printf '| link | nodes | image identical | phase-1 bytes = model | phase-1 measured (s) | phase-1 modelled (s) | frame (s) | wire bytes phase 1 | cells bytes |\n'
-printf '|---|---|---|---|---|---|---|---|---|\n'
+PROFILE=pentium4
+[ -f configs/profiles/calibrated.toml ] && PROFILE=calibrated
+echo "profile: $PROFILE"
+printf '| link | nodes | image identical | phase-1 bytes = model | phase-1 measured (s) | phase-1 modelled (s) | frame (s) | set-up (s) | wire bytes phase 1 | cells bytes | ping-pong fit |\n'
+printf '|---|---|---|---|---|---|---|---|---|---|---|\n'
 status=0
 round=0
 for spec in "1gbit gbe" "100mbit fast-ethernet"; do
@@ -86,7 +89,7 @@ for spec in "1gbit gbe" "100mbit fast-ethernet"; do
   done
   if ! ip netns exec ${P}c timeout 120 "$PVRSIM" cluster "$SCENE" --nodes "$N" --canonical --ert 1 \
       --no-baselines --transport tcp --workers "$workers" --token-file "$WORK/token" \
-      --network "$model" -o "$WORK/$rate.png" --report "$WORK/$rate.json" > "$WORK/c.out" 2> "$WORK/c.err"; then
+      --network "$model" --profile "$PROFILE" -o "$WORK/$rate.png" --report "$WORK/$rate.json" > "$WORK/c.out" 2> "$WORK/c.err"; then
     echo "netns-check: the frame failed on $rate:" >&2; cat "$WORK/c.err" >&2; status=1; continue
   fi
   same=no; cmp -s "$WORK/threads.png" "$WORK/$rate.png" && same=yes
@@ -94,10 +97,18 @@ for spec in "1gbit gbe" "100mbit fast-ethernet"; do
 import json, sys
 r = json.load(open(sys.argv[1])); t = r["transport"]
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {sys.argv[4]} | {'yes' if t['phase1_bytes_match'] else 'NO'} | "
-      f"{t['phase1_measured_s']:.4f} | {t['phase1_modelled_s']:.4f} | {r['frame_s']:.4f} | "
-      f"{t['phase1_wire_bytes']} | {t['setup_cells_bytes']} |")
+      f"{t['phase1_measured_s']:.4f} | {t['phase1_modelled_s']:.4f} | {r['frame_s']:.4f} | {t['setup_s']:.4f} | "
+      f"{t['phase1_wire_bytes']} | {t['setup_cells_bytes']} | {sys.argv[5]} |")
 sys.exit(0 if t["phase1_bytes_match"] and sys.argv[4] == "yes" else 1)
 PY
-  python3 "$WORK/row.py" "$WORK/$rate.json" "$rate" "$N" "$same" || status=1
+  # ping-pong over the same link: coordinator namespace -> worker 0's
+  ip netns exec ${P}w0 "$PVRSIM" worker --listen 10.77.0.1:7701 --token-file "$WORK/token" \
+    --once --accept-timeout 60 > "$WORK/probe.out" 2>/dev/null &
+  PIDS+=($!)
+  for _ in $(seq 100); do [ -s "$WORK/probe.out" ] && break; sleep 0.1; done
+  fit=$(ip netns exec ${P}c timeout 120 "$PVRSIM" calibrate --network --peer 10.77.0.1:7701 \
+    --peer-token-file "$WORK/token" --max-bytes $((16 << 20)) \
+    --network-out "$WORK/net-$rate.toml" 2>&1 | grep '^alpha' || echo "failed")
+  python3 "$WORK/row.py" "$WORK/$rate.json" "$rate" "$N" "$same" "$fit" || status=1
 done
 exit $status

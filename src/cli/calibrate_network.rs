@@ -4,10 +4,8 @@
 //! cluster --network FILE` reads.
 //!
 //! One-way time `t(n) = rtt(n) / 2` per payload size `n` (median of the
-//! repetitions). The fit minimises the *relative* error
-//! `sum_i ((alpha + n_i / beta - t_i) / t_i)^2`, linear least squares in
-//! `(alpha, 1/beta)` with weights `1 / t_i^2`, in f64, so 1-byte and 64-MiB
-//! points both count (plain least squares would ignore the small ones).
+//! repetitions); `alpha` from the small sizes, `beta` from the large ones
+//! (see [`fit`]), in f64.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -63,34 +61,55 @@ pub struct Sample {
     pub one_way_s: f64,
 }
 
-/// Fits `t = alpha + n / beta` minimising the relative error; returns
-/// `(alpha, beta)`.
+/// Bytes from which a sample is taken as bandwidth-bound.
+pub const LARGE_BYTES: u64 = 1 << 20;
+/// Bytes up to which a sample is taken as latency-bound.
+pub const SMALL_BYTES: u64 = 1 << 10;
+
+/// Fits `t = alpha + n / beta` in two regimes (Hockney's model, as
+/// ping-pong benchmarks report it): `alpha` is the mean one-way time of the
+/// latency-bound sizes (`n <= SMALL_BYTES`); `beta` is the least-squares
+/// slope of `t - alpha` against `n` through the origin over the
+/// bandwidth-bound sizes (`n >= LARGE_BYTES`; the largest two if none),
+/// `1/beta = sum n (t - alpha) / sum n^2`. Middle sizes ride on socket
+/// buffers and fit neither regime, so they are printed but not fitted.
+/// Returns `(alpha, beta)`.
 pub fn fit(samples: &[Sample]) -> anyhow::Result<(f64, f64)> {
-    // Normal equations of min sum w (a + b n - t)^2, w = 1/t^2, b = 1/beta.
-    let (mut sw, mut sn, mut snn, mut st, mut snt) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    anyhow::ensure!(samples.len() >= 2, "need at least two sizes to fit");
     for s in samples {
         anyhow::ensure!(
-            s.one_way_s > 0.0,
+            s.one_way_s.is_finite() && s.one_way_s > 0.0,
             "a non-positive time at {} bytes",
             s.bytes
         );
-        let w = 1.0 / (s.one_way_s * s.one_way_s);
-        let n = s.bytes as f64;
-        sw += w;
-        sn += w * n;
-        snn += w * n * n;
-        st += w * s.one_way_s;
-        snt += w * n * s.one_way_s;
     }
-    let det = sw * snn - sn * sn;
-    anyhow::ensure!(det > 0.0, "need at least two distinct sizes to fit");
-    let a = (snn * st - sn * snt) / det;
-    let b = (sw * snt - sn * st) / det;
+    let small: Vec<&Sample> = samples.iter().filter(|s| s.bytes <= SMALL_BYTES).collect();
+    let small = if small.is_empty() {
+        vec![samples
+            .iter()
+            .min_by_key(|s| s.bytes)
+            .unwrap_or(&samples[0])]
+    } else {
+        small
+    };
+    let alpha = small.iter().map(|s| s.one_way_s).sum::<f64>() / small.len() as f64;
+    let mut large: Vec<&Sample> = samples.iter().filter(|s| s.bytes >= LARGE_BYTES).collect();
+    if large.is_empty() {
+        let mut by_size: Vec<&Sample> = samples.iter().collect();
+        by_size.sort_by_key(|s| s.bytes);
+        large = by_size.into_iter().rev().take(2).collect();
+    }
+    let (mut snn, mut snt) = (0.0f64, 0.0f64);
+    for s in &large {
+        let n = s.bytes as f64;
+        snn += n * n;
+        snt += n * (s.one_way_s - alpha);
+    }
     anyhow::ensure!(
-        b > 0.0,
-        "the fit gives a non-positive time per byte ({b:e} s/B): too few or too noisy samples"
+        snt > 0.0,
+        "large messages are not slower than small ones: too few or too noisy samples"
     );
-    Ok((a.max(0.0), 1.0 / b))
+    Ok((alpha, snn / snt))
 }
 
 /// Runs the sweep and writes the profile.
@@ -137,8 +156,8 @@ pub fn run(a: &NetworkCalibrateArgs) -> anyhow::Result<()> {
     );
     let toml = format!(
         "# Written by `pvrsim calibrate --network` (ping-pong over a pvrsim TCP link to {addr}).\n\
-         # One-way time t(n) = rtt/2, median per size; fit t = latency_s + n / bandwidth_bytes_per_s\n\
-         # minimising the relative error. Samples (bytes, one-way seconds):\n{}\
+         # One-way time t(n) = rtt/2, median per size; t = latency_s + n / bandwidth_bytes_per_s with\n\
+         # latency_s = mean t(n <= 1 KiB), bandwidth from n >= 1 MiB. Samples (bytes, one-way seconds):\n{}\
          name = {:?}\n\
          description = \"measured by ping-pong to {addr}\"\n\
          latency_s = {alpha:e}\n\
@@ -243,5 +262,16 @@ mod tests {
             one_way_s: 1e-5,
         }];
         assert!(fit(&s).is_err());
+        let flat = [
+            Sample {
+                bytes: 8,
+                one_way_s: 1e-5,
+            },
+            Sample {
+                bytes: 1 << 20,
+                one_way_s: 1e-5,
+            },
+        ];
+        assert!(fit(&flat).is_err());
     }
 }
