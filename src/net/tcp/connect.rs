@@ -39,13 +39,23 @@ pub async fn connect(
 ) -> NetResult<(TcpStream, PeerHello)> {
     let t = opts.handshake_timeout;
     let work = async {
-        let mut s = TcpStream::connect(addr).await.map_err(|e| NetError::Io {
-            what: format!("connecting to {addr}"),
-            msg: e.to_string(),
-        })?;
-        if let Ok(a) = s.peer_addr() {
-            check_exposure(&a, token, "connecting to")?;
+        // Checked before connecting: without a token nothing leaves loopback.
+        let targets: Vec<SocketAddr> = tokio::net::lookup_host(addr)
+            .await
+            .map_err(|e| NetError::Io {
+                what: format!("resolving {addr}"),
+                msg: e.to_string(),
+            })?
+            .collect();
+        for a in &targets {
+            check_exposure(a, token, "connecting to")?;
         }
+        let mut s = TcpStream::connect(&targets[..])
+            .await
+            .map_err(|e| NetError::Io {
+                what: format!("connecting to {addr}"),
+                msg: e.to_string(),
+            })?;
         s.set_nodelay(true).map_err(|e| NetError::Io {
             what: format!("TCP_NODELAY on {addr}"),
             msg: e.to_string(),
