@@ -72,6 +72,9 @@ pub struct CalibrateArgs {
     /// Skip the measurement (use with --table1 --base).
     #[arg(long)]
     pub no_measure: bool,
+    /// `--network`: ping-pong calibration of the network instead.
+    #[command(flatten)]
+    pub net: super::calibrate_network::NetworkCalibrateArgs,
 }
 
 fn ert_modes() -> [(&'static str, NodeErt); 3] {
@@ -262,6 +265,9 @@ fn ops_line(o: &OpCounts) -> String {
 
 /// Runs `pvrsim calibrate`.
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
+    if a.net.network {
+        return super::calibrate_network::run(&a.net);
+    }
     if !a.no_measure {
         check_target("--out", &a.out, a.force)?;
     }

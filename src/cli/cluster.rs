@@ -165,6 +165,9 @@ pub struct ClusterArgs {
     /// Write the Chrome trace JSON (open in Perfetto) here.
     #[arg(long)]
     pub trace: Option<PathBuf>,
+    /// Where the nodes run (`--transport`, `--workers`, ...).
+    #[command(flatten)]
+    pub net: super::transport_args::TransportArgs,
 }
 
 /// Where `--profile calibrated` is read from: `profiles/calibrated.toml`
@@ -328,14 +331,23 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
         input = input.with_size(w, h);
     }
     super::warn_field(&input);
-    let cfg = config(a)?;
+    let mut cfg = config(a)?;
     memory::check_fits(
         input.scene.image.width,
         input.scene.image.height,
         FrameKind::Cluster { nodes: a.nodes },
         memory::available_bytes(),
     )?;
-    cluster::run(&input, &cfg)
+    match a.net.apply(&mut cfg)? {
+        None => cluster::run(&input, &cfg),
+        Some(kind) => {
+            let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
+            out.report.transport = Some(crate::cluster::remote::transport_section(
+                &input, &cfg, &out, measured,
+            )?);
+            Ok(out)
+        }
+    }
 }
 
 /// Runs `pvrsim cluster`: checks the options and every output path first.

@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod calibrate_network;
 pub mod cluster;
 pub mod cluster_ert;
 pub mod compare;
@@ -24,6 +25,8 @@ pub mod render;
 pub mod scene;
 pub mod sweep;
 pub mod validate;
+pub mod transport_args;
+pub mod worker;
 
 use clap::{Parser, Subcommand};
 
@@ -64,6 +67,8 @@ pub enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// Write a fitted scene for a mesh: camera framing the bounds, a transfer function over the field's range.
     Scene(scene::SceneArgs),
+    /// Serve cluster frames as one worker process over TCP (see `cluster --transport`).
+    Worker(worker::WorkerArgs),
 }
 
 /// Runs the parsed command line.
@@ -77,6 +82,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Scene(a) => scene::run(a),
+        Command::Worker(a) => worker::run(a),
     }
 }
 
@@ -116,6 +122,7 @@ pub fn plural(n: usize, noun: &str) -> String {
         format!("1 {noun}")
     } else {
         format!("{n} {noun}s")
+        
     }
 }
 

@@ -16,6 +16,7 @@
 
 pub mod phase1;
 pub mod phase2;
+pub mod remote;
 pub mod report;
 pub mod timeline;
 
@@ -101,10 +102,9 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         "--nodes {} is more than this simulator supports (65536)",
         p1.nodes
     );
-    let strategy =
-        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
-    let list_codec =
-        crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    // Fail on a bad name before the run, not after it.
+    crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
+    crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let codec = Codec::default();
     let placement = Placement::new(
         &input.mesh,
@@ -152,17 +152,6 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         None
     };
 
-    // Phase 2 on canonical lists.
-    let full = crate::render::cell::scan::Rect {
-        x0: 0,
-        y0: 0,
-        x1: input.scene.image.width,
-        y1: input.scene.image.height,
-    };
-    let partial = p1.node.partial_composition;
-    let t2 = std::time::Instant::now();
-    let mut node_stats = Vec::with_capacity(ph1.nodes.len());
-    let mut lists = Vec::with_capacity(ph1.nodes.len());
     let Phase1 {
         nodes,
         manager,
@@ -172,16 +161,94 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         traffic: traffic1,
         host_s,
     } = ph1;
+    let mut node_stats = Vec::with_capacity(nodes.len());
+    let mut lists = Vec::with_capacity(nodes.len());
     for a in nodes {
         node_stats.push(report::NodeRaw::from_actor(&a));
-        let r = a.into_renderer();
-        lists.push(if p1.node.canonical {
-            // Already canonical: copied as they are.
-            crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
-        } else {
-            crate::compositor::RegionLists::canonical(full, r.lists().lists(), partial)
-        });
+        lists.push(node_lists(a.renderer(), input, p1.node));
     }
+    finish(
+        input,
+        cfg,
+        Phase1Parts {
+            nodes: node_stats,
+            lists,
+            manager: manager.stats().clone(),
+            end_s,
+            stopped_at,
+            trace: trace1,
+            traffic: traffic1,
+            host_s,
+        },
+        refs,
+    )
+}
+
+/// A node's lists over the whole screen in canonical form, as phase 2
+/// takes them (copied if the node kept them canonical already).
+pub fn node_lists(
+    r: &NodeRenderer,
+    input: &RenderInput,
+    opts: NodeOptions,
+) -> crate::compositor::RegionLists {
+    let full = crate::render::cell::scan::Rect {
+        x0: 0,
+        y0: 0,
+        x1: input.scene.image.width,
+        y1: input.scene.image.height,
+    };
+    if opts.canonical {
+        crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
+    } else {
+        crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
+    }
+}
+
+/// What phase 1 left for phase 2 and the report, whichever driver ran it.
+#[derive(Debug)]
+pub struct Phase1Parts {
+    /// Per node, its numbers.
+    pub nodes: Vec<report::NodeRaw>,
+    /// Per node, its canonical lists over the whole screen.
+    pub lists: Vec<crate::compositor::RegionLists>,
+    /// The manager's statistics.
+    pub manager: crate::manager::ManagerStats,
+    /// End of phase 1 (seconds).
+    pub end_s: f64,
+    /// Per rank, when it stopped.
+    pub stopped_at: Vec<Option<f64>>,
+    /// The phase-1 timeline.
+    pub trace: SimTrace,
+    /// Phase-1 traffic.
+    pub traffic: crate::net::TrafficStats,
+    /// Host seconds of phase 1.
+    pub host_s: f64,
+}
+
+/// Phase 2 and the report over the lists of phase 1.
+pub fn finish(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    p: Phase1Parts,
+    refs: Option<report::References>,
+) -> anyhow::Result<ClusterOutcome> {
+    let p1 = &cfg.phase1;
+    let strategy =
+        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
+    let list_codec =
+        crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let partial = p1.node.partial_composition;
+    let t2 = std::time::Instant::now();
+    let Phase1Parts {
+        nodes: node_stats,
+        lists,
+        manager,
+        end_s,
+        stopped_at,
+        trace: trace1,
+        traffic: traffic1,
+        host_s,
+    } = p;
     let ph2 = phase2::run(
         strategy.as_ref(),
         list_codec.as_ref(),
@@ -223,7 +290,7 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         cfg,
         input,
         nodes: node_stats,
-        manager: manager.stats().clone(),
+        manager,
         phase1_end_s: end_s,
         stopped_at,
         trace1: &trace,

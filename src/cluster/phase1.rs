@@ -143,6 +143,15 @@ fn depth_quant(
     input: &RenderInput,
     view: &crate::scene::View,
 ) -> crate::node::pixel_share::DepthQuant {
+    let _ = view;
+    let [z0, z1] = depth_range(input);
+    crate::node::pixel_share::DepthQuant::new(z0, z1)
+}
+
+/// The frame's depth range `[z0, z1]` for per-pixel sharing's depth codes
+/// (see `depth_quant`), padded a little.
+pub fn depth_range(input: &RenderInput) -> [f32; 2] {
+    let view = &input.scene.view();
     let persp = matches!(
         view.projection,
         crate::scene::Projection::Perspective { .. }
@@ -165,7 +174,7 @@ fn depth_quant(
     // Widen by a relative epsilon: f32 segment depths may round past the
     // f64 extremes.
     let pad = 1e-4 * (hi - lo).abs().max(1.0);
-    crate::node::pixel_share::DepthQuant::new((lo - pad) as f32, (hi + pad) as f32)
+    [(lo - pad) as f32, (hi + pad) as f32]
 }
 
 /// Runs phase 1 over `nodes` (from [`build_nodes`]).

@@ -49,8 +49,9 @@ pub struct References {
     pub base_tsc_max_s: Option<f64>,
 }
 
-/// A node's numbers taken from its actor before phase 2.
-#[derive(Debug, Clone)]
+/// A node's numbers taken from its actor before phase 2 (serde: a worker
+/// process sends them to the coordinator).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct NodeRaw {
     stats: NodeStats,
     processed: u64,
@@ -60,6 +61,11 @@ pub struct NodeRaw {
 }
 
 impl NodeRaw {
+    /// The node's first error, if it failed.
+    pub fn error(&self) -> Option<&str> {
+        self.stats.error.as_deref()
+    }
+
     /// Reads the actor.
     pub fn from_actor(a: &NodeActor) -> NodeRaw {
         let t = a.renderer().totals();
@@ -265,6 +271,11 @@ pub struct ClusterReport {
     pub nodes: Vec<NodeReport>,
     /// Host-time measurements.
     pub wall: WallInfo,
+    /// With a real transport (`--transport processes|tcp`): bytes and
+    /// messages measured at the transport beside the virtual model's
+    /// prediction for the same frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transport: Option<crate::cluster::remote::TransportSection>,
 }
 
 /// What [`build`] needs.
@@ -531,6 +542,7 @@ pub fn build(i: Inputs) -> ClusterReport {
             host_phase1_s: i.host_phase1_s,
             host_phase2_s: i.host_phase2_s,
         },
+        transport: None,
     }
 }
 

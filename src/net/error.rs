@@ -81,6 +81,33 @@ pub enum NetError {
     /// negative or NaN compute time).
     #[error("simulation: {0}")]
     Sim(String),
+    /// A connection to a peer failed after it was set up: the peer died,
+    /// closed without `Goodbye`, stalled past the heartbeat deadline, or
+    /// sent a malformed or oversized frame.
+    #[error("{peer}: {reason}")]
+    PeerLost {
+        /// The peer, e.g. `worker 2 (127.0.0.1:4711)`.
+        peer: String,
+        /// What happened.
+        reason: String,
+    },
+    /// Setting up a connection failed: not a pvrsim peer, wrong protocol
+    /// version, wrong token, replayed or forged handshake, timeout.
+    #[error("handshake with {peer}: {msg}")]
+    Handshake {
+        /// The peer's address or name.
+        peer: String,
+        /// What went wrong.
+        msg: String,
+    },
+    /// An I/O error outside a live connection (bind, connect, token file).
+    #[error("{what}: {msg}")]
+    Io {
+        /// What was being done.
+        what: String,
+        /// The error.
+        msg: String,
+    },
     /// A worker thread of the wall-clock driver panicked.
     #[error("actor thread for {0} panicked")]
     ThreadPanic(NodeId),

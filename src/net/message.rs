@@ -105,11 +105,15 @@ pub enum MessageKind {
     Image,
     /// Anything else: start, stop, barriers, acknowledgements.
     Control,
+    /// Between a coordinator and its worker processes, outside the actors'
+    /// protocol: set-up, readiness, results, a worker's failure report
+    /// (`crate::cluster::remote::session`). Never delivered to an actor.
+    Session,
 }
 
 impl MessageKind {
     /// Every kind, in code order.
-    pub const ALL: [MessageKind; 7] = [
+    pub const ALL: [MessageKind; 8] = [
         MessageKind::ErtShare,
         MessageKind::ErtReply,
         MessageKind::WorkRequest,
@@ -117,6 +121,7 @@ impl MessageKind {
         MessageKind::Segments,
         MessageKind::Image,
         MessageKind::Control,
+        MessageKind::Session,
     ];
 
     /// The kind's one-byte code in a frame header.
@@ -139,6 +144,7 @@ impl MessageKind {
             MessageKind::Segments => "segments",
             MessageKind::Image => "image",
             MessageKind::Control => "control",
+            MessageKind::Session => "session",
         }
     }
 }

@@ -12,6 +12,7 @@
 //! | [`actor`] | the [`Actor`] state-machine interface shared by both drivers |
 //! | [`sim`] | the discrete-event driver (virtual time, one thread) |
 //! | [`wall`] | the thread driver (wall time, real transports) |
+//! | [`tcp`] | the TCP transport: token handshake, frames, heartbeats, per-peer tasks |
 //! | [`trace`] | typed timeline and Chrome trace JSON |
 //!
 //! Node and manager logic is written once against [`Actor`]; the design
@@ -25,6 +26,7 @@ pub mod error;
 pub mod message;
 pub mod metered;
 pub mod sim;
+pub mod tcp;
 pub mod trace;
 pub mod transport;
 pub mod wall;
@@ -44,4 +46,4 @@ pub use metered::{Counter, Metered, TrafficStats};
 pub use sim::{SimOptions, SimReport, Simulation};
 pub use trace::{SimTrace, TraceEvent, TraceKind};
 pub use transport::{Mailbox, Transport};
-pub use wall::{run_threads, ComputeMode, WallOptions, WallReport};
+pub use wall::{run_actor, run_threads, ComputeMode, WallOptions, WallReport};

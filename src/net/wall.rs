@@ -92,7 +92,7 @@ where
         let handles: Vec<_> = transports
             .iter()
             .zip(actors)
-            .map(|(t, actor)| s.spawn(move || run_one(t, actor, clock, options)))
+            .map(|(t, actor)| s.spawn(move || run_actor(t, actor, clock, options)))
             .collect();
         handles
             .into_iter()
@@ -120,8 +120,10 @@ where
     Ok(report)
 }
 
-/// One actor's thread loop; returns its stop time, trace and traffic.
-fn run_one<T: Transport, A: Actor>(
+/// One actor's loop on the calling thread until it stops; returns its stop
+/// time, trace and traffic. This is what each thread of [`run_threads`]
+/// runs, and what a process driver (one actor per process, over TCP) calls.
+pub fn run_actor<T: Transport, A: Actor>(
     t: &T,
     mut actor: A,
     clock: WallClock,

@@ -84,7 +84,7 @@ pub struct NodeConfig {
 }
 
 /// What a node did in phase 1 (times are the driver's: virtual or wall).
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeStats {
     /// End of the node's last scan chunk: its scan-conversion time `Tsc`.
     pub tsc_s: f64,

@@ -179,7 +179,7 @@ fn kind_codes_round_trip() {
     for k in MessageKind::ALL {
         assert_eq!(MessageKind::from_code(k.code()), Some(k));
     }
-    assert_eq!(MessageKind::from_code(7), None);
+    assert_eq!(MessageKind::from_code(8), None);
 }
 
 proptest! {

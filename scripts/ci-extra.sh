@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Extra CI steps for the real transports (call from .ci/run after the README's
+# test command; CI runs as root). Installs iproute2 (ip, tc) and python3 if
+# missing, builds the release binary, and runs the namespace check.
+set -euo pipefail
+if ! command -v ip >/dev/null || ! command -v tc >/dev/null || ! command -v python3 >/dev/null; then
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq iproute2 python3
+fi
+cargo build --release
+scripts/netns-check.sh tests/data/aorta-small-view-b.toml 4

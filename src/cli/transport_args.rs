@@ -1,0 +1,205 @@
+//! The transport options of `pvrsim cluster` (flattened into its
+//! arguments): where the nodes run and how they are reached.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::cluster::remote::{Coordinator, LocalWorkers, Measured};
+use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
+use crate::net::tcp::{TcpOptions, Token};
+use crate::render::RenderInput;
+
+/// Where the nodes run (`--transport`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TransportKind {
+    /// Threads of this process on channels (the same as `--clock wall`).
+    Threads,
+    /// One child process per node on loopback TCP, with a fresh token.
+    Processes,
+    /// One `pvrsim worker` per node at --workers or --hostfile addresses.
+    Tcp,
+}
+
+/// What happens when a worker fails mid-frame (`--on-failure`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnFailure {
+    /// The frame fails with an error naming the worker and the phase.
+    Abort,
+}
+
+/// Transport options of `pvrsim cluster`.
+#[derive(Debug, Clone, Args)]
+pub struct TransportArgs {
+    /// Run the nodes on a real transport: `threads` (this process),
+    /// `processes` (child processes on loopback TCP) or `tcp` (workers
+    /// started with `pvrsim worker`, see docs/running-across-machines.md).
+    /// Times are then wall-clock. Unset: the --clock setting (virtual by
+    /// default).
+    #[arg(long, value_enum)]
+    pub transport: Option<TransportKind>,
+    /// With --transport tcp: the workers, `host:port,host:port,...`, one
+    /// per node, by rank.
+    #[arg(long, value_delimiter = ',', value_name = "HOST:PORT,...")]
+    pub workers: Vec<String>,
+    /// With --transport tcp: a file of worker addresses, one `host:port`
+    /// per line (`#` comments, blank lines ignored).
+    #[arg(long, value_name = "FILE", conflicts_with = "workers")]
+    pub hostfile: Option<PathBuf>,
+    /// With --transport tcp: the shared token file (the workers' file).
+    /// Without it only loopback workers can be used.
+    #[arg(long, value_name = "FILE")]
+    pub token_file: Option<PathBuf>,
+    /// When a worker fails mid-frame: `abort` (an error naming the worker
+    /// and the phase, non-zero exit).
+    #[arg(long, value_enum, default_value_t = OnFailure::Abort)]
+    pub on_failure: OnFailure,
+    /// Seconds without a frame or heartbeat before a worker is declared
+    /// lost (stalled or dead).
+    #[arg(long, value_name = "SECONDS", default_value_t = 3.0)]
+    pub heartbeat_timeout: f64,
+    /// Seconds a rank may wait for its next message before the frame fails
+    /// as a protocol deadlock.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub recv_timeout: f64,
+}
+
+/// Reads a hostfile: one `host:port` per line.
+pub fn read_hostfile(path: &Path) -> anyhow::Result<Vec<String>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read hostfile {}", path.display()))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let l = line.split('#').next().unwrap_or("").trim();
+        if l.is_empty() {
+            continue;
+        }
+        anyhow::ensure!(
+            !l.contains(char::is_whitespace)
+                && l.rsplit_once(':')
+                    .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()),
+            "{}:{}: `{l}` is not host:port",
+            path.display(),
+            i + 1
+        );
+        out.push(l.to_string());
+    }
+    anyhow::ensure!(
+        !out.is_empty(),
+        "hostfile {} lists no workers",
+        path.display()
+    );
+    Ok(out)
+}
+
+impl TransportArgs {
+    /// Checks the combination of options and applies `threads` to `cfg`
+    /// (the wall clock). Returns the kind if the run needs this module.
+    pub fn apply(&self, cfg: &mut ClusterConfig) -> anyhow::Result<Option<TransportKind>> {
+        let tcp_only =
+            !self.workers.is_empty() || self.hostfile.is_some() || self.token_file.is_some();
+        if tcp_only && self.transport != Some(TransportKind::Tcp) {
+            anyhow::bail!("--workers, --hostfile and --token-file need --transport tcp");
+        }
+        anyhow::ensure!(
+            self.heartbeat_timeout.is_finite() && self.heartbeat_timeout > 0.2,
+            "--heartbeat-timeout must be more than 0.2 s (the heartbeat period)"
+        );
+        anyhow::ensure!(
+            self.recv_timeout.is_finite() && self.recv_timeout > 0.0,
+            "--recv-timeout must be a positive number of seconds"
+        );
+        match self.transport {
+            None => Ok(None),
+            Some(TransportKind::Threads) => {
+                cfg.phase1.clock = ClockKind::Wall;
+                Ok(None)
+            }
+            Some(k) => {
+                if cfg.baselines {
+                    // The references would run here, not on the workers.
+                    eprintln!(
+                        "note: the sequential and Base references are not run with --transport {}; \
+                         the report's ratios are null (pass --no-baselines to silence this)",
+                        if k == TransportKind::Tcp { "tcp" } else { "processes" }
+                    );
+                    cfg.baselines = false;
+                }
+                cfg.phase1.clock = ClockKind::Wall;
+                Ok(Some(k))
+            }
+        }
+    }
+
+    fn tcp_options(&self) -> TcpOptions {
+        TcpOptions {
+            deadline: Duration::from_secs_f64(self.heartbeat_timeout),
+            ..Default::default()
+        }
+    }
+
+    /// Runs the frame on worker processes (`processes` or `tcp`).
+    pub fn run(
+        &self,
+        kind: TransportKind,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let n = cfg.phase1.nodes;
+        let recv_timeout = Duration::from_secs_f64(self.recv_timeout);
+        match kind {
+            TransportKind::Threads => anyhow::bail!("threads run in this process (internal error)"),
+            TransportKind::Processes => {
+                let exe = std::env::current_exe().context("cannot find this program's path")?;
+                let extra = vec![
+                    "--heartbeat-timeout".to_string(),
+                    self.heartbeat_timeout.to_string(),
+                ];
+                let mut workers = LocalWorkers::spawn(&exe, n, &extra, Duration::from_secs(30))?;
+                let c = Coordinator {
+                    workers: workers.addrs.clone(),
+                    token: workers.token().clone(),
+                    tcp: self.tcp_options(),
+                    recv_timeout,
+                };
+                let r = c.run(input, cfg);
+                if r.is_ok() {
+                    let bad = workers.finish(Duration::from_secs(10));
+                    anyhow::ensure!(
+                        bad.is_empty(),
+                        "worker processes {bad:?} did not exit cleanly"
+                    );
+                }
+                r
+            }
+            TransportKind::Tcp => {
+                let workers = match &self.hostfile {
+                    Some(p) => read_hostfile(p)?,
+                    None => self.workers.clone(),
+                };
+                anyhow::ensure!(
+                    !workers.is_empty(),
+                    "--transport tcp needs --workers host:port,... or --hostfile FILE"
+                );
+                anyhow::ensure!(
+                    workers.len() == n,
+                    "{} workers for --nodes {n}: give one worker per node",
+                    workers.len()
+                );
+                let token = match &self.token_file {
+                    Some(p) => Token::load(p)?,
+                    None => Token::none(),
+                };
+                Coordinator {
+                    workers,
+                    token,
+                    tcp: self.tcp_options(),
+                    recv_timeout,
+                }
+                .run(input, cfg)
+            }
+        }
+    }
+}

@@ -1,0 +1,393 @@
+//! The coordinator: connects to `N` workers, gives each its node (cells by
+//! content hash), runs the [`ManagerActor`] as rank `N` on its own
+//! [`TcpTransport`] with the same driver loop as the threads
+//! ([`run_actor`]), collects every node's results, and runs phase 2 and the
+//! report with the same code as the other clocks ([`crate::cluster::finish`]).
+//!
+//! Every failure names the worker and the phase and ends the run with an
+//! error; the caller (the CLI) exits non-zero. Nothing waits without a
+//! deadline: connects and handshakes have a timeout, links have
+//! heartbeats, receives have `recv_timeout`.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+
+use super::guard::SessionGuard;
+use super::session::{sha256, NodeResult, Session, WorkerSetup};
+use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
+use crate::compositor::codec::Limits;
+use crate::manager::{ManagerActor, ManagerConfig};
+use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
+use crate::net::{
+    run_actor, Codec, ComputeMode, MessageKind, NodeId, SimTrace, TrafficStats, Transport,
+    WallClock, WallOptions,
+};
+use crate::node::{NodeRenderer, Placement, WorkUnit};
+use crate::render::cell::PreparedTf;
+use crate::render::RenderInput;
+
+/// How the coordinator reaches its workers.
+#[derive(Debug, Clone)]
+pub struct Coordinator {
+    /// Worker addresses, one per node, by rank.
+    pub workers: Vec<String>,
+    /// The shared token.
+    pub token: Token,
+    /// Link timing.
+    pub tcp: TcpOptions,
+    /// Longest wait for a message in phase 1 (a protocol deadlock).
+    pub recv_timeout: Duration,
+}
+
+/// What the transport measured, beside the report.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Measured {
+    /// Phase 1, all ranks: bytes on the wire and payload per kind.
+    pub phase1: WireStats,
+    /// Set-up: bytes of cells sent (0 when every worker had them cached).
+    pub cells_bytes_sent: u64,
+    /// Workers that had their cells cached.
+    pub cells_cached: usize,
+    /// Seconds to connect, set up and mesh.
+    pub setup_s: f64,
+    /// Seconds to collect the results (lists included).
+    pub collect_s: f64,
+    /// Bytes of lists collected.
+    pub lists_bytes: u64,
+}
+
+impl Coordinator {
+    /// Runs one frame on the workers.
+    pub fn run(
+        &self,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let n = cfg.phase1.nodes;
+        anyhow::ensure!(
+            self.workers.len() == n,
+            "{} worker addresses for --nodes {n}: give one worker per node",
+            self.workers.len()
+        );
+        let mut cfg = cfg.clone();
+        cfg.phase1.clock = ClockKind::Wall;
+        let p1 = cfg.phase1;
+        let codec = Codec::default();
+        let rt = tcp::runtime()?;
+        let t_setup = Instant::now();
+        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
+        let overlap = p1.overlap && !p1.share && p1.node.ert.enabled();
+        let pairwise = if overlap {
+            placement.footprints(input).pairwise
+        } else {
+            Vec::new()
+        };
+        let scene_toml = input
+            .scene
+            .to_toml(&input.scene.data.path.to_string_lossy());
+        let me = NodeId::from(n);
+        // Connect, set up, send cells: all workers concurrently.
+        let mut tasks = Vec::with_capacity(n);
+        for (k, part) in placement.parts.iter().enumerate() {
+            let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
+            let peers: Vec<u32> = if overlap {
+                (0..n)
+                    .filter(|&b| b != k && pairwise[k].get(b).is_some_and(|&p| p > 0))
+                    .map(|b| b as u32)
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let setup = WorkerSetup {
+                rank: k as u32,
+                nodes: n as u32,
+                peers: self.workers.clone(),
+                scene_toml: scene_toml.clone(),
+                depth_range: crate::cluster::phase1::depth_range(input),
+                node: p1.node.into(),
+                share: p1.share,
+                dlb: p1.dlb,
+                policy: p1.policy.into(),
+                overlap_peers: peers,
+                profile: cfg.profile,
+                list_codec: cfg.codec.clone(),
+                max_message_bytes: codec.max_message_bytes,
+                cells_initial: part.len() as u64,
+                cells_sha256: sha256(&cells),
+                recv_timeout_s: self.recv_timeout.as_secs_f64(),
+            };
+            let addr = self.workers[k].clone();
+            let token = self.token.clone();
+            let opts = self.tcp;
+            tasks.push(rt.spawn(async move {
+                let name = format!("worker {k} ({addr})");
+                let (mut s, hello) =
+                    tcp::connect(&addr, &token, Role::Coordinator, n as u32, &opts)
+                        .await
+                        .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
+                anyhow::ensure!(
+                    hello.role == Role::Worker,
+                    "{name}, set-up: answered as {:?}, not as a worker",
+                    hello.role
+                );
+                let d = opts.deadline.max(Duration::from_secs(10));
+                let to = NodeId::from(k);
+                tcp::raw::write_msg(
+                    &mut s,
+                    &codec,
+                    me,
+                    to,
+                    &Session::Setup(Box::new(setup)),
+                    &name,
+                )
+                .await?;
+                let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
+                let sent = match need {
+                    Session::Need(true) => {
+                        let len = cells.len() as u64;
+                        tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(cells), &name)
+                            .await?;
+                        len
+                    }
+                    Session::Need(false) => 0,
+                    other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
+                };
+                Ok((
+                    Link {
+                        rank: to,
+                        name,
+                        stream: s,
+                    },
+                    sent,
+                ))
+            }));
+        }
+        let mut links = Vec::with_capacity(n);
+        let mut measured = Measured::default();
+        let mut first_err = None;
+        for t in tasks {
+            match rt.block_on(t) {
+                Ok(Ok((l, sent))) => {
+                    measured.cells_bytes_sent += sent;
+                    measured.cells_cached += usize::from(sent == 0);
+                    links.push(l);
+                }
+                Ok(Err(e)) => {
+                    first_err.get_or_insert(e);
+                }
+                Err(e) => {
+                    first_err.get_or_insert(anyhow::anyhow!("a set-up task failed: {e}"));
+                }
+            }
+        }
+        if let Some(e) = first_err {
+            return Err(e);
+        }
+        let t = TcpTransport::new(Arc::clone(&rt), me, n + 1, links, self.tcp)?;
+        for k in 0..n {
+            t.set_essential(NodeId::from(k), true);
+        }
+        // Ready from everyone, then Go.
+        let mut ready = vec![false; n];
+        let mut initial = vec![0u64; n];
+        let wait = self.tcp.handshake_timeout * 4 + Duration::from_secs(10);
+        while ready.iter().any(|r| !r) {
+            let e = t
+                .recv_timeout(wait)
+                .context("set-up (joining the mesh)")?
+                .ok_or_else(|| {
+                    let missing: Vec<usize> = (0..n).filter(|&k| !ready[k]).collect();
+                    anyhow::anyhow!(
+                        "set-up: workers {missing:?} did not join the mesh within {wait:?}"
+                    )
+                })?;
+            let k = e.from.index();
+            match codec.decode::<Session>(&e.payload) {
+                Ok(Session::Ready { remaining }) if k < n => {
+                    ready[k] = true;
+                    initial[k] = remaining;
+                }
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))
+                }
+                _ => anyhow::bail!(
+                    "set-up: {} sent a {} message instead of Ready",
+                    t.peer_name(e.from),
+                    e.kind
+                ),
+            }
+        }
+        measured.setup_s = t_setup.elapsed().as_secs_f64();
+        let go = codec.encode(&Session::Go)?;
+        for k in 0..n {
+            t.send(NodeId::from(k), MessageKind::Session, go.clone())
+                .context("set-up (sending Go)")?;
+        }
+
+        // Phase 1: the manager here, the nodes on the workers.
+        let mut manager = manager_for(input, &cfg, initial)?;
+        let wire0 = t.stats();
+        let t1 = Instant::now();
+        let (m_stop, m_trace, m_traffic) = run_actor(
+            &SessionGuard::new(&t, codec),
+            &mut manager,
+            WallClock::start(),
+            WallOptions {
+                compute: ComputeMode::Skip,
+                recv_timeout: self.recv_timeout,
+            },
+        )
+        .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
+        if let Some(e) = &manager.stats().error {
+            anyhow::bail!("phase 1 failed at the manager: {e}");
+        }
+
+        // Results.
+        let t_collect = Instant::now();
+        let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
+        while results.iter().any(Option::is_none) {
+            let e = t
+                .recv_timeout(self.recv_timeout)
+                .context("collecting the nodes' results")?
+                .ok_or_else(|| {
+                    let missing: Vec<usize> = (0..n).filter(|&k| results[k].is_none()).collect();
+                    anyhow::anyhow!(
+                        "collecting results: workers {missing:?} sent nothing within {:?}",
+                        self.recv_timeout
+                    )
+                })?;
+            let k = e.from.index();
+            match codec.decode::<Session>(&e.payload) {
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
+                }
+                Ok(Session::Result(r)) if k < n => {
+                    measured.lists_bytes += r.lists.len() as u64;
+                    results[k] = Some(*r);
+                    t.set_essential(e.from, false);
+                }
+                // Late phase-1 traffic to the stopped manager is dropped,
+                // as in the other drivers.
+                _ if e.kind != MessageKind::Session => {}
+                _ => anyhow::bail!(
+                    "collecting results: {} sent a message that is not its result",
+                    t.peer_name(e.from)
+                ),
+            }
+        }
+        let host_s = t1.elapsed().as_secs_f64();
+        measured.collect_s = t_collect.elapsed().as_secs_f64();
+        let wire_m = {
+            let mut w = t.stats();
+            w.wire_bytes_sent -= wire0.wire_bytes_sent;
+            w.wire_bytes_recv -= wire0.wire_bytes_recv;
+            w.payload = m_traffic.clone();
+            w
+        };
+        t.close(Duration::from_secs(2));
+
+        let list_codec =
+            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let mut nodes = Vec::with_capacity(n);
+        let mut lists = Vec::with_capacity(n);
+        let mut stopped_at = Vec::with_capacity(n + 1);
+        let mut trace = SimTrace::default();
+        let mut traffic = TrafficStats::default();
+        let mut wire = WireStats::default();
+        for (k, r) in results.into_iter().enumerate() {
+            let r = r.ok_or_else(|| anyhow::anyhow!("no result from worker {k}"))?;
+            if let Some(e) = &r.raw.error() {
+                anyhow::bail!("phase 1 failed at node {k} ({}): {e}", self.workers[k]);
+            }
+            let limits = Limits {
+                max_pixels: input.scene.image.width as u64 * input.scene.image.height as u64,
+                ..Limits::default()
+            };
+            lists.push(
+                list_codec
+                    .decode_lists(&r.lists, &limits)
+                    .map_err(|e| anyhow::anyhow!("the lists of worker {k}: {e}"))?,
+            );
+            nodes.push(r.raw);
+            stopped_at.push(Some(r.stopped_at));
+            trace.events.extend(r.trace.events);
+            traffic.merge(&r.traffic);
+            wire.merge(&r.wire);
+        }
+        stopped_at.push(Some(m_stop));
+        trace.events.extend(m_trace.events);
+        trace
+            .events
+            .sort_by(|a, b| a.start.total_cmp(&b.start).then(a.node.cmp(&b.node)));
+        traffic.merge(&m_traffic);
+        wire.merge(&wire_m);
+        measured.phase1 = wire;
+        let end_s = stopped_at[..n]
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, &b| a.max(b));
+        let out = crate::cluster::finish(
+            input,
+            &cfg,
+            Phase1Parts {
+                nodes,
+                lists,
+                manager: manager.stats().clone(),
+                end_s,
+                stopped_at,
+                trace,
+                traffic,
+                host_s,
+            },
+            None,
+        )?;
+        Ok((out, measured))
+    }
+}
+
+/// The manager for a run, as [`crate::cluster::phase1::run`] builds it:
+/// table shape and level grid from a node renderer of the same options.
+fn manager_for(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    initial: Vec<u64>,
+) -> anyhow::Result<ManagerActor> {
+    let p1 = &cfg.phase1;
+    let mut probe = NodeRenderer::new(
+        input.scene.view(),
+        PreparedTf::new(&input.scene.transfer),
+        p1.node,
+    );
+    if p1.share {
+        probe.enable_level_sharing();
+        let [z0, z1] = crate::cluster::phase1::depth_range(input);
+        probe.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
+    }
+    let (nx, ny) = probe.table_dims();
+    let mcfg = ManagerConfig {
+        nodes: p1.nodes,
+        table_dims: (nx as u16, ny as u16),
+        dlb: p1.dlb,
+        min_grant: p1.policy.min_grant as u64,
+        levels: if p1.share { probe.level_grid() } else { None },
+        pixels: if p1.share {
+            probe.pixel_share_shape()
+        } else {
+            None
+        },
+        help_gap: match probe.depth_span() {
+            Some(span) if p1.share && p1.dlb && p1.policy.help_gap > 0.0 => {
+                Some(p1.policy.help_gap * span)
+            }
+            _ => None,
+        },
+    };
+    Ok(ManagerActor::new(
+        mcfg,
+        initial,
+        cfg.profile,
+        Codec::default(),
+    ))
+}

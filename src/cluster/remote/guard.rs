@@ -1,0 +1,127 @@
+//! [`SessionGuard`]: the transport an actor sees in a worker process or in
+//! the coordinator. It passes the actors' messages through and keeps
+//! session messages (kind `Session`) away from them: a peer's failure
+//! report becomes an error naming that peer; on a worker, messages that
+//! peers sent before this worker's `Go` are handed out first.
+
+use std::collections::VecDeque;
+use std::sync::Mutex;
+use std::time::Duration;
+
+use super::session::Session;
+use crate::net::tcp::TcpTransport;
+use crate::net::{Codec, Envelope, MessageKind, NetError, NetResult, NodeId, Transport};
+
+/// See the module docs.
+pub struct SessionGuard<'a> {
+    inner: &'a TcpTransport,
+    codec: Codec,
+    kept: Mutex<VecDeque<Envelope>>,
+}
+
+impl<'a> SessionGuard<'a> {
+    /// Guards `t` (the coordinator's side).
+    pub fn new(t: &'a TcpTransport, codec: Codec) -> Self {
+        SessionGuard {
+            inner: t,
+            codec,
+            kept: Mutex::new(VecDeque::new()),
+        }
+    }
+
+    /// Waits for `Go` from `coord` (a worker's side), keeping the actors'
+    /// messages that arrive before it.
+    pub fn wait_go(
+        t: &'a TcpTransport,
+        coord: NodeId,
+        codec: Codec,
+        wait: Duration,
+    ) -> anyhow::Result<Self> {
+        let g = SessionGuard::new(t, codec);
+        loop {
+            let e = t
+                .recv_timeout(wait)?
+                .ok_or_else(|| anyhow::anyhow!("no Go from the coordinator within {wait:?}"))?;
+            if e.kind == MessageKind::Session {
+                match codec.decode::<Session>(&e.payload) {
+                    Ok(Session::Go) if e.from == coord => return Ok(g),
+                    _ => {
+                        g.check(e)?;
+                    }
+                }
+            } else {
+                g.kept
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push_back(e);
+            }
+        }
+    }
+
+    /// An actor message passes; a session message is an error.
+    fn check(&self, e: Envelope) -> NetResult<Envelope> {
+        if e.kind != MessageKind::Session {
+            return Ok(e);
+        }
+        let peer = self.inner.peer_name(e.from);
+        let reason = match self.codec.decode::<Session>(&e.payload) {
+            Ok(Session::Failed(why)) => format!("failed: {why}"),
+            Ok(other) => format!("sent {} out of turn", variant(&other)),
+            Err(err) => format!("sent a bad session message: {err}"),
+        };
+        Err(NetError::PeerLost { peer, reason })
+    }
+
+    fn pop(&self) -> Option<Envelope> {
+        self.kept
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .pop_front()
+    }
+}
+
+fn variant(s: &Session) -> &'static str {
+    match s {
+        Session::Setup(_) => "a set-up",
+        Session::Need(_) => "a cache answer",
+        Session::Cells(_) => "cells",
+        Session::Ready { .. } => "Ready",
+        Session::Go => "Go",
+        Session::Result(_) => "its result",
+        Session::Failed(_) => "a failure",
+    }
+}
+
+impl Transport for SessionGuard<'_> {
+    fn rank(&self) -> NodeId {
+        self.inner.rank()
+    }
+    fn size(&self) -> usize {
+        self.inner.size()
+    }
+    fn send(&self, to: NodeId, kind: MessageKind, payload: Vec<u8>) -> NetResult<()> {
+        self.inner.send(to, kind, payload)
+    }
+    fn recv(&self) -> NetResult<Envelope> {
+        match self.pop() {
+            Some(e) => Ok(e),
+            None => self.check(self.inner.recv()?),
+        }
+    }
+    fn recv_timeout(&self, timeout: Duration) -> NetResult<Option<Envelope>> {
+        match self.pop() {
+            Some(e) => Ok(Some(e)),
+            None => self
+                .inner
+                .recv_timeout(timeout)?
+                .map(|e| self.check(e))
+                .transpose(),
+        }
+    }
+    fn try_recv(&self) -> NetResult<Option<Envelope>> {
+        match self.pop() {
+            Some(e) => Ok(Some(e)),
+            None => self.inner.try_recv()?.map(|e| self.check(e)).transpose(),
+        }
+    }
+}

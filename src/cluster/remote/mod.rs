@@ -1,0 +1,28 @@
+//! Real transports for a cluster run: worker processes on this machine
+//! (`--transport processes`) or on other machines (`--transport tcp`), the
+//! coordinator running the manager. The node, manager and compositor code
+//! is the same as under the simulator and the threads; only the driver and
+//! the transport change.
+//!
+//! | file | job |
+//! |---|---|
+//! | [`session`] | set-up and result messages, wire forms of the options |
+//! | [`compare`] | measured traffic beside the virtual model's for the same frame |
+//! | [`coordinator`] | the coordinator: set-up, manager, results, phase 2 |
+//! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
+//! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
+//! | [`spawn`] | child worker processes on loopback, reaped on every path |
+//! | [`probe`] | the echo service for `pvrsim calibrate --network` |
+
+pub mod compare;
+pub mod coordinator;
+pub mod guard;
+pub mod probe;
+pub mod session;
+pub mod spawn;
+pub mod worker;
+
+pub use compare::{transport_section, TransportSection};
+pub use coordinator::{Coordinator, Measured};
+pub use spawn::LocalWorkers;
+pub use worker::Worker;

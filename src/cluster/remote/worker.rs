@@ -1,0 +1,409 @@
+//! The worker process (`pvrsim worker`): listens, authenticates the
+//! coordinator, builds its node from the set-up, joins the mesh of peers,
+//! runs the [`NodeActor`] with the same thread driver loop as `--clock wall`
+//! ([`run_actor`]) and sends its results. Then it serves the next session,
+//! or exits (`--once`). Cells are cached by SHA-256 across sessions.
+
+use std::collections::VecDeque;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use tokio::net::TcpListener;
+use tokio::runtime::Runtime;
+
+use super::guard::SessionGuard;
+use super::session::{NodeResult, Session, WorkerSetup};
+use crate::cluster::report::NodeRaw;
+use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
+use crate::net::{
+    run_actor, Codec, ComputeMode, MessageKind, NodeId, Transport, WallClock, WallOptions,
+};
+use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
+use crate::render::cell::PreparedTf;
+use crate::scene::Scene;
+
+/// How many datasets' cells a worker keeps.
+const CACHE_ENTRIES: usize = 4;
+
+/// A bound worker, ready to serve.
+pub struct Worker {
+    rt: Arc<Runtime>,
+    listener: TcpListener,
+    token: Token,
+    opts: TcpOptions,
+    cache: VecDeque<([u8; 32], Vec<u8>)>,
+    /// Give up if no session starts within this (`None`: wait forever).
+    pub accept_timeout: Option<Duration>,
+}
+
+impl Worker {
+    /// Binds `addr` (port 0: any free port). Refuses a non-loopback address
+    /// without a token.
+    pub fn bind(addr: &str, token: Token, opts: TcpOptions) -> anyhow::Result<Worker> {
+        // Checked before binding: a refused address is never opened.
+        let addrs: Vec<std::net::SocketAddr> = std::net::ToSocketAddrs::to_socket_addrs(addr)
+            .with_context(|| format!("--listen {addr}: not an address (host:port)"))?
+            .collect();
+        for a in &addrs {
+            tcp::check_exposure(a, &token, "listening on")?;
+        }
+        let rt = tcp::runtime()?;
+        let listener = rt
+            .block_on(TcpListener::bind(addr))
+            .with_context(|| format!("cannot listen on {addr}"))?;
+        let local = listener.local_addr()?;
+        tcp::check_exposure(&local, &token, "listening on")?;
+        Ok(Worker {
+            rt,
+            listener,
+            token,
+            opts,
+            cache: VecDeque::new(),
+            accept_timeout: None,
+        })
+    }
+
+    /// The address it listens on.
+    pub fn local_addr(&self) -> anyhow::Result<std::net::SocketAddr> {
+        Ok(self.listener.local_addr()?)
+    }
+
+    /// Serves sessions; with `once`, returns after the first one (its
+    /// outcome). Connections that fail the handshake are reported on stderr
+    /// and do not count.
+    pub fn serve(&mut self, once: bool) -> anyhow::Result<()> {
+        loop {
+            let accept = tcp::accept(
+                &self.listener,
+                &self.token,
+                Role::Worker,
+                u32::MAX,
+                &self.opts,
+            );
+            let acc = match self.accept_timeout {
+                None => self.rt.block_on(accept),
+                Some(t) => match self
+                    .rt
+                    .block_on(async { tokio::time::timeout(t, accept).await })
+                {
+                    Ok(r) => r,
+                    Err(_) => anyhow::bail!(
+                        "no coordinator started a session within {:.0} s (--accept-timeout)",
+                        t.as_secs_f64()
+                    ),
+                },
+            };
+            let (stream, hello, from) = match acc {
+                Ok(x) => x,
+                Err(e) => {
+                    eprintln!("pvrsim worker: refused a connection: {e}");
+                    continue;
+                }
+            };
+            let r = match hello.role {
+                Role::Coordinator => self.session(stream, hello.rank, from.to_string()),
+                Role::Probe => {
+                    super::probe::echo(&self.rt, stream, &self.opts).map_err(anyhow::Error::from)
+                }
+                Role::Worker => {
+                    eprintln!(
+                        "pvrsim worker: a worker connected from {from} outside a session; closed"
+                    );
+                    continue;
+                }
+            };
+            match &r {
+                Ok(()) => eprintln!("pvrsim worker: session with {from} done"),
+                Err(e) => eprintln!("pvrsim worker: session with {from} failed: {e:#}"),
+            }
+            if once {
+                return r;
+            }
+        }
+    }
+
+    fn session(
+        &mut self,
+        mut stream: tokio::net::TcpStream,
+        coord_rank: u32,
+        coord_name: String,
+    ) -> anyhow::Result<()> {
+        let codec = Codec::default();
+        let d = self.opts.deadline.max(Duration::from_secs(10));
+        let coord = NodeId(coord_rank);
+        let name = format!("the coordinator ({coord_name})");
+        // Set-up on the bare stream.
+        let setup: Session = self
+            .rt
+            .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+        let Session::Setup(setup) = setup else {
+            anyhow::bail!("{name} sent {setup:?} instead of the set-up");
+        };
+        setup
+            .validate()
+            .map_err(|e| anyhow::anyhow!("bad set-up from {name}: {e}"))?;
+        anyhow::ensure!(
+            coord_rank == setup.nodes,
+            "{name} says it is rank {coord_rank}, but the set-up has {} nodes",
+            setup.nodes
+        );
+        let me = NodeId(setup.rank);
+        let codec = Codec::with_limit(setup.max_message_bytes);
+        let cached = self
+            .cache
+            .iter()
+            .position(|(h, _)| *h == setup.cells_sha256);
+        self.rt.block_on(tcp::raw::write_msg(
+            &mut stream,
+            &codec,
+            me,
+            coord,
+            &Session::Need(cached.is_none()),
+            &name,
+        ))?;
+        let cells = match cached {
+            Some(i) => self.cache[i].1.clone(),
+            None => {
+                let m: Session =
+                    self.rt
+                        .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+                let Session::Cells(bytes) = m else {
+                    anyhow::bail!("{name} sent {m:?} instead of the cells");
+                };
+                anyhow::ensure!(
+                    super::session::sha256(&bytes) == setup.cells_sha256,
+                    "the cells from {name} do not match their SHA-256"
+                );
+                if self.cache.len() >= CACHE_ENTRIES {
+                    self.cache.pop_front();
+                }
+                self.cache.push_back((setup.cells_sha256, bytes.clone()));
+                bytes
+            }
+        };
+        // The mesh: dial lower ranks, accept higher ones.
+        let mut links = self
+            .rt
+            .block_on(mesh(&self.listener, &self.token, &self.opts, &setup))?;
+        links.push(Link {
+            rank: coord,
+            name,
+            stream,
+        });
+        let opts = TcpOptions { codec, ..self.opts };
+        let t = TcpTransport::new(
+            Arc::clone(&self.rt),
+            me,
+            setup.nodes as usize + 1,
+            links,
+            opts,
+        )?;
+        t.set_essential(coord, true);
+        // Built after the mesh (peers wait on our accept meanwhile) and
+        // with the links up (heartbeats flow while the cells are sorted).
+        let mut actor = match build_node(&setup, &cells) {
+            Ok(a) => a,
+            Err(e) => {
+                let why = format!("node {}: {e:#}", setup.rank);
+                let _ = t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Failed(why))?,
+                );
+                t.close(Duration::from_secs(2));
+                return Err(e);
+            }
+        };
+        let ready = Session::Ready {
+            remaining: actor.renderer().remaining() as u64,
+        };
+        t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
+        // Wait for Go; messages from peers that started earlier are kept.
+        let early = SessionGuard::wait_go(&t, coord, codec, d)?;
+        eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
+        let clock = WallClock::start();
+        let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
+        let wire0 = t.stats();
+        let run = run_actor(
+            &early,
+            &mut actor,
+            clock,
+            WallOptions {
+                compute: ComputeMode::Skip,
+                recv_timeout: timeout,
+            },
+        );
+        let (stop, trace, traffic) = match run {
+            Ok(x) => x,
+            Err(e) => {
+                // Tell the coordinator why (a lost peer, most likely).
+                let why = format!("node {} in phase 1: {e}", setup.rank);
+                let _ = t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Failed(why.clone()))?,
+                );
+                t.close(Duration::from_secs(2));
+                anyhow::bail!(why);
+            }
+        };
+        if let Some(e) = &actor.stats().error {
+            eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
+        }
+        let mut wire = t.stats();
+        wire.payload = traffic.clone();
+        wire.wire_bytes_sent -= wire0.wire_bytes_sent;
+        wire.wire_bytes_recv -= wire0.wire_bytes_recv;
+        let scene = parse_scene(&setup)?;
+        let input_dims = (scene.image.width, scene.image.height);
+        let lists = worker_lists(&actor, &setup, input_dims)?;
+        let result = NodeResult {
+            raw: NodeRaw::from_actor(&actor),
+            stopped_at: stop,
+            trace,
+            traffic,
+            wire,
+            lists,
+        };
+        t.send(
+            coord,
+            MessageKind::Session,
+            codec.encode(&Session::Result(Box::new(result)))?,
+        )?;
+        t.close(Duration::from_secs(10));
+        Ok(())
+    }
+}
+
+fn parse_scene(setup: &WorkerSetup) -> anyhow::Result<Scene> {
+    Scene::parse(&setup.scene_toml, Path::new("(scene from the coordinator)"))
+        .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// The node a set-up describes, with its cells.
+pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor> {
+    let scene = parse_scene(setup)?;
+    let opts = setup.node_options();
+    let mut r = NodeRenderer::new(scene.view(), PreparedTf::new(&scene.transfer), opts);
+    if setup.share {
+        r.enable_level_sharing();
+        let [z0, z1] = setup.depth_range;
+        r.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
+    }
+    let unit = WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+    r.add_work(&unit)?;
+    let nc = NodeConfig {
+        rank: setup.rank as usize,
+        manager: setup.nodes as usize,
+        share: setup.share && opts.ert.enabled(),
+        dlb: setup.dlb,
+        policy: setup.policy.into(),
+    };
+    let mut a = NodeActor::new(nc, r, setup.profile, Codec::default(), setup.cells_initial);
+    if !setup.overlap_peers.is_empty() {
+        a.set_peers(setup.overlap_peers.iter().map(|&p| p as usize).collect());
+    }
+    Ok(a)
+}
+
+fn worker_lists(
+    actor: &NodeActor,
+    setup: &WorkerSetup,
+    (w, h): (u32, u32),
+) -> anyhow::Result<Vec<u8>> {
+    let codec =
+        crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
+    let full = crate::render::cell::scan::Rect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
+    let opts = setup.node_options();
+    let r = actor.renderer();
+    let lists = if opts.canonical {
+        crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
+    } else {
+        crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
+    };
+    let mut out = Vec::new();
+    codec.encode_lists(&lists, &mut out);
+    Ok(out)
+}
+
+/// Dials every lower rank and accepts every higher one, concurrently.
+async fn mesh(
+    listener: &TcpListener,
+    token: &Token,
+    opts: &TcpOptions,
+    setup: &WorkerSetup,
+) -> anyhow::Result<Vec<Link>> {
+    let me = setup.rank;
+    let dial = async {
+        let mut links = Vec::new();
+        for j in 0..me {
+            let addr = &setup.peers[j as usize];
+            let (s, hello) = tcp::connect(addr, token, Role::Worker, me, opts)
+                .await
+                .with_context(|| format!("node {me} connecting to node {j} at {addr}"))?;
+            anyhow::ensure!(
+                hello.role == Role::Worker,
+                "{addr} (node {j}) answered as {:?}, not as a worker",
+                hello.role
+            );
+            links.push(Link {
+                rank: NodeId(j),
+                name: format!("worker {j} ({addr})"),
+                stream: s,
+            });
+        }
+        Ok::<_, anyhow::Error>(links)
+    };
+    let accept = async {
+        let mut links: Vec<Link> = Vec::new();
+        let want = (setup.nodes - me - 1) as usize;
+        let limit = opts.handshake_timeout * 2 + Duration::from_secs(5);
+        let all = async {
+            while links.len() < want {
+                match tcp::accept(listener, token, Role::Worker, me, opts).await {
+                    Ok((s, h, from)) => {
+                        let ok = h.role == Role::Worker
+                            && h.rank > me
+                            && h.rank < setup.nodes
+                            && !links.iter().any(|l| l.rank.0 == h.rank);
+                        if ok {
+                            links.push(Link {
+                                rank: NodeId(h.rank),
+                                name: format!(
+                                    "worker {} ({})",
+                                    h.rank, setup.peers[h.rank as usize]
+                                ),
+                                stream: s,
+                            });
+                        } else {
+                            eprintln!(
+                                "pvrsim worker: node {me}: unexpected {:?} rank {} from {from} while joining the mesh; closed",
+                                h.role, h.rank
+                            );
+                        }
+                    }
+                    Err(e) => eprintln!("pvrsim worker: node {me}: refused a connection: {e}"),
+                }
+            }
+        };
+        tokio::time::timeout(limit, all).await.map_err(|_| {
+            anyhow::anyhow!(
+                "node {me}: only {} of the {want} higher-ranked workers connected within {:.0} s",
+                links.len(),
+                limit.as_secs_f64()
+            )
+        })?;
+        Ok::<_, anyhow::Error>(links)
+    };
+    let (a, b) = tokio::join!(dial, accept);
+    let mut links = a?;
+    links.extend(b?);
+    Ok(links)
+}
