@@ -9,5 +9,6 @@
 pub mod cell;
 pub mod input;
 pub mod reference;
+pub mod splat;
 
 pub use input::RenderInput;
