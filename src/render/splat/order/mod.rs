@@ -254,6 +254,19 @@ pub fn visit_kept(
     dims: [u64; 3],
     view: &OrderView,
     keep: impl Fn(u64) -> bool,
+    f: impl FnMut(u64),
+) {
+    visit_with(order, dims, view, keep, &mut sort::SortScratch::default(), f)
+}
+
+/// [`visit_kept`] with the sorts' buffers kept by the caller (reused
+/// across frames).
+pub fn visit_with(
+    order: Order,
+    dims: [u64; 3],
+    view: &OrderView,
+    keep: impl Fn(u64) -> bool,
+    scratch: &mut sort::SortScratch,
     mut f: impl FnMut(u64),
 ) {
     let boxes = octants(dims, view);
@@ -266,9 +279,8 @@ pub fn visit_kept(
         Order::Axis => boxes.iter().for_each(|o| axis::walk(o, dims, &mut g)),
         Order::Dda => boxes.iter().for_each(|o| dda::walk(o, dims, &mut g)),
         Order::Quicksort | Order::Radix => {
-            let mut out = Vec::new();
-            sort::sorted(order == Order::Radix, &boxes, dims, view, &keep, &mut out);
-            out.into_iter().for_each(f);
+            sort::sorted(order == Order::Radix, &boxes, dims, view, &keep, scratch);
+            scratch.out.iter().for_each(|&i| f(i));
         }
     }
 }

@@ -5,9 +5,10 @@
 //!   std's pattern-defeating quicksort (ipnsort: quicksort with a heapsort
 //!   fallback and an insertion sort for short runs), a comparison sort,
 //!   O(N log N), on 16-byte `(key, index)` pairs;
-//! - **radix**: an O(N) counting sort of depths quantised to 16 bits
-//!   (65,536 buckets; a 256^3 grid seen along its diagonal has 443 voxel
-//!   steps of depth, so a bucket is 1/148 of a voxel), stable.
+//! - **radix**: an O(N) LSD radix sort (two stable 8-bit counting-sort
+//!   passes) of depths quantised to 16 bits (65,536 levels; a 256^3 grid
+//!   seen along its diagonal has 443 voxel steps of depth, so a level is
+//!   1/148 of a voxel).
 //!
 //! **Exact ties.** Voxels are generated in the axis order (octant by octant,
 //! a raster from the far corner), which already puts every voxel after its
@@ -46,16 +47,38 @@ fn depth_tables(dims: [u64; 3], view: &OrderView) -> [Vec<f64>; 3] {
     })
 }
 
+/// Buffers the sorts reuse from frame to frame (fresh allocations of
+/// several hundred MB per 256^3 sort would cost more in page faults than
+/// the sort itself). `out` holds the last result.
+#[derive(Debug, Default)]
+pub struct SortScratch {
+    /// The sorted voxel indices, back to front.
+    pub out: Vec<u64>,
+    keys: Vec<u16>,
+    idxs: Vec<u64>,
+    keys2: Vec<u16>,
+    idxs2: Vec<u64>,
+    pairs: Vec<(u64, u64)>,
+}
+
 /// Sorts the kept voxels of the octant boxes `boxes` back to front into
-/// `out` (cleared first): by counting sort when `radix`, else by quicksort.
+/// `scratch.out`: by radix sort when `radix`, else by quicksort.
 pub fn sorted(
     radix: bool,
     boxes: &[Octant],
     dims: [u64; 3],
     view: &OrderView,
     keep: &impl Fn(u64) -> bool,
-    out: &mut Vec<u64>,
+    scratch: &mut SortScratch,
 ) {
+    let SortScratch {
+        out,
+        keys,
+        idxs,
+        keys2,
+        idxs2,
+        pairs,
+    } = scratch;
     out.clear();
     let tab = depth_tables(dims, view);
     let ext = |pick: fn(f64, f64) -> f64| -> f64 {
@@ -70,48 +93,54 @@ pub fn sorted(
         let d = tab[0][g[0] as usize] + tab[1][g[1] as usize] + tab[2][g[2] as usize];
         ((hi - d) * inv_span).clamp(0.0, 1.0)
     };
-    let walk = |f: &mut dyn FnMut(u64, [u64; 3])| {
-        let mut g = |idx: u64, c: [u64; 3]| {
-            if keep(idx) {
-                f(idx, c)
-            }
-        };
-        for o in boxes {
-            axis::walk_coords(o, dims, &mut g);
-        }
-    };
+    let n_all: u64 = dims.iter().product();
     if radix {
-        // Pass 1: bucket per kept voxel (in generation order), histogram.
+        // Pass 1: 16-bit bucket per kept voxel (in generation order) and
+        // both bytes' histograms.
         let scale = (RADIX_BUCKETS - 1) as f64;
-        let mut bucket: Vec<u16> = Vec::new();
-        let mut count = vec![0u64; RADIX_BUCKETS + 1];
-        walk(&mut |_, g| {
-            let b = (progress(g) * scale) as u16;
-            bucket.push(b);
-            count[b as usize + 1] += 1;
+        keys.clear();
+        idxs.clear();
+        let mut hist = [[0usize; 256]; 2];
+        walk_kept(boxes, dims, keep, |idx, g| {
+            let k = (progress(g) * scale) as u16;
+            keys.push(k);
+            idxs.push(idx);
+            hist[0][(k & 0xff) as usize] += 1;
+            hist[1][(k >> 8) as usize] += 1;
         });
-        // Prefix sums: count[b] = first output slot of bucket b.
-        for b in 1..=RADIX_BUCKETS {
-            count[b] += count[b - 1];
+        // Exclusive prefix sums: first output slot of each byte value.
+        for h in hist.iter_mut() {
+            let mut acc = 0;
+            for c in h.iter_mut() {
+                (*c, acc) = (acc, acc + *c);
+            }
         }
-        // Pass 2: the same walk again scatters each index to its slot.
-        out.resize(bucket.len(), 0);
-        let mut seq = 0usize;
-        walk(&mut |idx, _| {
-            let b = bucket[seq] as usize;
-            out[count[b] as usize] = idx;
-            count[b] += 1;
-            seq += 1;
-        });
+        // Passes 2 and 3: LSD radix, low byte then high byte, each a stable
+        // counting-sort scatter with 256 write streams (one 65,536-bucket
+        // scatter would miss the cache on nearly every write).
+        let n = keys.len();
+        keys2.resize(n, 0);
+        idxs2.resize(n, 0);
+        for (&k, &i) in keys.iter().zip(idxs.iter()) {
+            let slot = &mut hist[0][(k & 0xff) as usize];
+            keys2[*slot] = k;
+            idxs2[*slot] = i;
+            *slot += 1;
+        }
+        out.resize(n, 0);
+        for (&k, &i) in keys2.iter().zip(idxs2.iter()) {
+            let slot = &mut hist[1][(k >> 8) as usize];
+            out[*slot] = i;
+            *slot += 1;
+        }
     } else {
-        let n: u64 = dims.iter().product();
-        let rank_bits = 64 - n.saturating_sub(1).leading_zeros();
+        let rank_bits = 64 - n_all.saturating_sub(1).leading_zeros();
         // At most 52 bits of depth, so that the scale is exact in f64.
         let q_bits = (64 - rank_bits).min(52);
         let scale = ((1u64 << q_bits) - 1) as f64;
-        let mut pairs: Vec<(u64, u64)> = Vec::new();
+        pairs.clear();
         let mut seq = 0u64;
-        walk(&mut |idx, g| {
+        walk_kept(boxes, dims, keep, |idx, g| {
             let q = (progress(g) * scale) as u64;
             let key = if rank_bits == 0 { q } else { (q << rank_bits) | seq };
             pairs.push((key, idx));
@@ -119,5 +148,22 @@ pub fn sorted(
         });
         pairs.sort_unstable_by_key(|p| p.0);
         out.extend(pairs.iter().map(|p| p.1));
+    }
+}
+
+/// The axis order over `boxes`, kept voxels only, with their coordinates.
+#[inline]
+fn walk_kept(
+    boxes: &[Octant],
+    dims: [u64; 3],
+    keep: &impl Fn(u64) -> bool,
+    mut f: impl FnMut(u64, [u64; 3]),
+) {
+    for o in boxes {
+        axis::walk_coords(o, dims, &mut |idx, c| {
+            if keep(idx) {
+                f(idx, c)
+            }
+        });
     }
 }
