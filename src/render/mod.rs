@@ -14,6 +14,9 @@ pub mod cell;
 pub mod grid_reference;
 pub mod input;
 pub mod reference;
+pub mod slice2d;
+pub mod slice3d;
+pub mod slicing;
 pub mod volume_input;
 
 pub use input::RenderInput;

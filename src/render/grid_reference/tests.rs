@@ -25,7 +25,7 @@ pub(crate) fn scene(camera: &str, transfer: &str, size: u32, range: Option<[f64;
     .unwrap()
 }
 
-fn volume(dims: [u64; 3], spacing: [f64; 3], origin: [f64; 3], f: impl Fn([f64; 3]) -> f32) -> Volume {
+pub(crate) fn volume(dims: [u64; 3], spacing: [f64; 3], origin: [f64; 3], f: impl Fn([f64; 3]) -> f32) -> Volume {
     let mut v = Vec::new();
     for k in 0..dims[2] {
         for j in 0..dims[1] {
