@@ -8,6 +8,7 @@ pub mod cluster;
 pub mod demo;
 pub mod info;
 pub mod render;
+pub mod render_grid;
 pub mod sweep;
 
 use clap::{Parser, Subcommand};
