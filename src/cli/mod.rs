@@ -9,6 +9,8 @@ pub mod demo;
 pub mod info;
 pub mod render;
 pub mod render_grid;
+pub mod splat;
+pub mod splat_experiments;
 pub mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -36,6 +38,10 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a PNG with the cell-projection or the reference renderer.
     Render(render::RenderArgs),
+    /// Render a grid scene by EWA splatting (--order axis|dda|sort|radix).
+    Splat(splat::SplatArgs),
+    /// The splatting experiments of docs/experiments/splatting.md (generated data; the 256^3 grid needs ../shared/data).
+    SplatExperiments(splat_experiments::ExperimentArgs),
     /// Render on a simulated PC cluster (N nodes + manager): ERT, weak sharing, DLB, compositing; image, report, timeline.
     Cluster(cluster::ClusterArgs),
     /// Print a mesh file's counts, bounds, fields and mesh quality.
@@ -54,6 +60,8 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Splat(a) => splat::run(a),
+        Command::SplatExperiments(a) => splat_experiments::run(a),
         Command::Cluster(a) => cluster::run(a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
