@@ -76,10 +76,17 @@ pub fn time_ordering(
             .map(|_| {
                 let t = thread_cpu_s();
                 let mut k = 0usize;
-                order::visit_with(method, dims, &view, |_| true, scratch, |i| {
-                    buf[k] = i;
-                    k += 1;
-                });
+                order::visit_with(
+                    method,
+                    dims,
+                    &view,
+                    |_| true,
+                    scratch,
+                    |i| {
+                        buf[k] = i;
+                        k += 1;
+                    },
+                );
                 let e = (thread_cpu_s() - t) * 1e3;
                 assert_eq!(k, total, "{method} visited {k} of {total} voxels");
                 std::hint::black_box(&buf);
@@ -100,7 +107,16 @@ pub fn run(json: Option<&Path>) -> anyhow::Result<()> {
     let mut scratch = SortScratch::default();
     println!(
         "{:>5} {:>9} {:>9} {:>11} {:>9} | {:>7} {:>9} {:>9} | paper: {:>6} {:>7}",
-        "n", "axis ms", "dda ms", "quicksort", "radix", "dda/ax", "qsort/dda", "radix/dda", "dda/ax", "qs/dda"
+        "n",
+        "axis ms",
+        "dda ms",
+        "quicksort",
+        "radix",
+        "dda/ax",
+        "qsort/dda",
+        "radix/dda",
+        "dda/ax",
+        "qs/dda"
     );
     for (n, paper) in PAPER_TABLE1 {
         let ms: Vec<f64> = Order::ALL

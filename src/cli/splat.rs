@@ -86,7 +86,11 @@ pub fn load_input(scene_path: &std::path::Path) -> anyhow::Result<VolumeInput> {
 
 /// Runs `pvrsim splat`.
 pub fn run(a: SplatArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(a.sigma > 0.0 && a.sigma.is_finite(), "--sigma must be > 0, got {}", a.sigma);
+    anyhow::ensure!(
+        a.sigma > 0.0 && a.sigma.is_finite(),
+        "--sigma must be > 0, got {}",
+        a.sigma
+    );
     let mut input = load_input(&a.scene)?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
@@ -120,7 +124,10 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         let diff = Image::difference(&img, &r, 8.0);
         let out = a.output.with_file_name(format!(
             "{}-compare.png",
-            a.output.file_stem().and_then(|s| s.to_str()).unwrap_or("splat")
+            a.output
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("splat")
         ));
         Image::side_by_side(&[&img, &r, &diff], 4).save_png(&out)?;
     }

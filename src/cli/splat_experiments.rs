@@ -11,6 +11,7 @@ use std::sync::Arc;
 use clap::Args;
 use plotters::prelude::*;
 
+use super::bench_orderings::thread_cpu_s;
 use crate::data::{Volume, Voxels};
 use crate::image::Image;
 use crate::render::grid_reference;
@@ -31,7 +32,11 @@ pub struct ExperimentArgs {
     #[arg(long, default_value = "../shared/data")]
     pub data_dir: PathBuf,
     /// Only these parts (comma-separated): sweep, fill, fill256, reference.
-    #[arg(long, value_delimiter = ',', default_value = "sweep,fill,fill256,reference")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "sweep,fill,fill256,reference"
+    )]
     pub parts: Vec<String>,
 }
 
@@ -51,7 +56,11 @@ pub fn hydrogen_like(n: u64) -> Volume {
                 );
                 let r2 = x * x + y * y + z * z;
                 let r = r2.sqrt();
-                let ang = if r2 > 0.0 { 3.0 * z * z / r2 - 1.0 } else { 0.0 };
+                let ang = if r2 > 0.0 {
+                    3.0 * z * z / r2 - 1.0
+                } else {
+                    0.0
+                };
                 let d = r2 * r2 * (-2.0 * r / 3.0).exp() * ang * ang / 5000.0 + (-2.0 * r).exp();
                 rho.push(d);
             }
@@ -91,7 +100,9 @@ fn scene_for(vol: &Volume, az: f64, el: f64, size: u32, tf: TransferFunction) ->
             eye: std::array::from_fn(|a| c[a] + 2.0 * diag * d[a]),
             target: c,
             up: [0.0, 0.0, 1.0],
-            projection: Projection::Orthographic { height: diag * 1.02 },
+            projection: Projection::Orthographic {
+                height: diag * 1.02,
+            },
         },
         image: ImageSpec {
             width: size,
@@ -133,8 +144,16 @@ pub fn run(a: ExperimentArgs) -> anyhow::Result<()> {
     }
     if part("fill") {
         let vol = Arc::new(hydrogen_like(128));
-        println!("\n## Time against fill rate, hydrogen-like 128^3, 512^2, azimuth 30, elevation 25\n");
-        fill_table(&vol, &[0.93, 0.85, 0.75, 0.62, 0.52, 0.42, 0.3], 512, vol.spacing[0])?;
+        println!(
+            "\n## Time against fill rate, hydrogen-like 128^3, 512^2, azimuth 30, elevation 25\n"
+        );
+        fill_table(
+            &vol,
+            &[0.01, 0.02, 0.04, 0.08, 0.135, 0.2, 0.33],
+            512,
+            vol.spacing[0],
+            3,
+        )?;
     }
     if part("fill256") {
         let path = a.data_dir.join("mni152_t1.nhdr");
@@ -144,7 +163,13 @@ pub fn run(a: ExperimentArgs) -> anyhow::Result<()> {
             let src = crate::data::io::read_volume(&path, "")?;
             let vol = Arc::new(resample(&src, 256));
             println!("\n## Time against fill rate, MNI152 resampled to 256^3, 512^2\n");
-            fill_table(&vol, &[0.6, 0.5, 0.42, 0.36, 0.3, 0.2], 512, vol.spacing[0])?;
+            fill_table(
+                &vol,
+                &[0.0144, 0.0423, 0.123, 0.257],
+                512,
+                vol.spacing[0],
+                1,
+            )?;
         }
     }
     if part("reference") {
@@ -165,7 +190,12 @@ pub fn resample(src: &Volume, n: u64) -> Volume {
                 let sg: [f64; 3] = std::array::from_fn(|a| {
                     (g[a] * sp[a] / src.spacing[a]).min((src.dims[a] - 1) as f64)
                 });
-                v.push(src.trilinear_grid(sg).unwrap_or(0.0).round().clamp(0.0, 255.0) as u8);
+                v.push(
+                    src.trilinear_grid(sg)
+                        .unwrap_or(0.0)
+                        .round()
+                        .clamp(0.0, 255.0) as u8,
+                );
             }
         }
     }
@@ -173,27 +203,70 @@ pub fn resample(src: &Volume, n: u64) -> Volume {
         .expect("resampled volume is valid")
 }
 
-fn fill_table(vol: &Arc<Volume>, thresholds: &[f64], size: u32, unit: f64) -> anyhow::Result<()> {
-    println!("| fill rate | drawn | dda ms (order + splat) | quicksort ms | radix ms | axis ms | dda fps | quicksort fps |");
+/// The normalised threshold above which about `fill` of the (u8) voxels lie.
+fn threshold_for(vol: &Volume, fill: f64) -> f64 {
+    let Voxels::U8(v) = &vol.voxels else {
+        unreachable!("the experiments use u8 volumes")
+    };
+    let mut hist = [0u64; 256];
+    v.iter().for_each(|&x| hist[x as usize] += 1);
+    let want = (fill * v.len() as f64) as u64;
+    let mut above = 0u64;
+    for t in (0..256).rev() {
+        if above + hist[t] > want {
+            // Voxels with value > t are kept (opacity 0 at and below t).
+            return t as f64 / 255.0;
+        }
+        above += hist[t];
+    }
+    0.0
+}
+
+/// Time against fill rate: for each target fill rate, a threshold from the
+/// histogram (the paper's fill rates), then dda / quicksort / radix / axis
+/// frames (median of 3, ms of ordering + projection and of splatting).
+fn fill_table(
+    vol: &Arc<Volume>,
+    fills: &[f64],
+    size: u32,
+    unit: f64,
+    repeats: usize,
+) -> anyhow::Result<()> {
+    let thresholds: Vec<f64> = fills
+        .iter()
+        .map(|&f| threshold_for(vol, f) + 0.5 / 255.0)
+        .collect();
+    println!("| fill rate | drawn | dda CPU ms (order + splat) | quicksort CPU ms (order + splat) | radix CPU ms | axis CPU ms | dda fps | quicksort fps |");
     println!("|---|---|---|---|---|---|---|---|");
-    for &t in thresholds {
+    for &t in &thresholds {
         let inp = input(vol, scene_for(vol, 30.0, 25.0, size, ramp_tf(t, unit)));
         let mut row = Vec::new();
         let mut fill = 0.0;
         let mut drawn = 0;
         for order in [Order::Dda, Order::Quicksort, Order::Radix, Order::Axis] {
-            // Median of 3 frames.
-            let mut ms: Vec<(f64, f64)> = (0..3)
+            // Median of `repeats` frames, one thread, thread CPU time (the
+            // machine is shared: wall clock swings with others' load).
+            let mut ms: Vec<(f64, f64)> = (0..repeats)
                 .map(|_| {
-                    let (_, s) = render_splat(&inp, &SplatOptions { order, ..Default::default() })
-                        .expect("render");
-                    fill = s.fill_rate;
-                    drawn = s.voxels_drawn;
-                    (s.order_ms + s.splat_ms, s.order_ms)
+                    let opts = SplatOptions {
+                        order,
+                        ..Default::default()
+                    };
+                    super::with_threads(1, || {
+                        let t0 = thread_cpu_s();
+                        let (_, s) = render_splat(&inp, &opts).expect("render");
+                        let total = (thread_cpu_s() - t0) * 1e3;
+                        // Split the CPU total by the wall-clock shares.
+                        let f = s.order_ms / (s.order_ms + s.splat_ms);
+                        fill = s.fill_rate;
+                        drawn = s.voxels_drawn;
+                        (total, total * f)
+                    })
+                    .expect("thread pool")
                 })
                 .collect();
             ms.sort_by(|x, y| x.0.total_cmp(&y.0));
-            row.push(ms[1]);
+            row.push(ms[ms.len() / 2]);
         }
         println!(
             "| {:.4} | {} | {:.0} ({:.0} + {:.0}) | {:.0} ({:.0} + {:.0}) | {:.0} | {:.0} | {:.1} | {:.1} |",
@@ -225,10 +298,19 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
         let imgs: Vec<Image> = angles
             .iter()
             .map(|&az| {
-                let inp = input(&vol, scene_for(&vol, az, 20.0, 256, ramp_tf(0.3, vol.spacing[0])));
-                render_splat(&inp, &SplatOptions { order, ..Default::default() })
-                    .expect("render")
-                    .0
+                let inp = input(
+                    &vol,
+                    scene_for(&vol, az, 20.0, 256, ramp_tf(0.3, vol.spacing[0])),
+                );
+                render_splat(
+                    &inp,
+                    &SplatOptions {
+                        order,
+                        ..Default::default()
+                    },
+                )
+                .expect("render")
+                .0
             })
             .collect();
         let d: Vec<f64> = imgs.windows(2).map(|w| rmse(&w[0], &w[1])).collect();
@@ -244,6 +326,7 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(out)?;
     let png = out.join("splatting-45deg.png");
+    crate::experiment::plot::register_fonts();
     let ymax = series
         .iter()
         .flat_map(|s| s.1.iter().cloned())
@@ -252,7 +335,10 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     let root = BitMapBackend::new(&png, (800, 450)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
-        .caption("Image change between views 0.5 deg apart", ("sans-serif", 22))
+        .caption(
+            "Image change between views 0.5 deg apart",
+            ("sans-serif", 22),
+        )
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
@@ -292,14 +378,23 @@ fn reference() -> anyhow::Result<()> {
     println!("| view | order | max-abs (1/255) | RMSE (1/255) | vs quicksort max-abs | vs quicksort RMSE |");
     println!("|---|---|---|---|---|---|");
     for (az, el) in [(30.0, 25.0), (45.0, 20.0)] {
-        let inp = input(&vol, scene_for(&vol, az, el, 160, ramp_tf(0.3, vol.spacing[0])));
+        let inp = input(
+            &vol,
+            scene_for(&vol, az, el, 160, ramp_tf(0.3, vol.spacing[0])),
+        );
         let (r, _) = grid_reference::render(&inp, &Default::default());
         let imgs: Vec<(Order, Image)> = Order::ALL
             .iter()
             .map(|&o| {
-                let i = render_splat(&inp, &SplatOptions { order: o, ..Default::default() })
-                    .expect("render")
-                    .0;
+                let i = render_splat(
+                    &inp,
+                    &SplatOptions {
+                        order: o,
+                        ..Default::default()
+                    },
+                )
+                .expect("render")
+                .0;
                 (o, i)
             })
             .collect();
@@ -314,8 +409,11 @@ fn reference() -> anyhow::Result<()> {
         }
         let tag = format!("az{az:.0}");
         let dda = &imgs[1].1;
-        Image::side_by_side(&[dda, &r, &Image::difference(dda, &r, 8.0)], 4)
-            .save_png(Path::new(&format!("docs/experiments/splatting-vs-reference-{tag}.png")))?;
+        Image::side_by_side(&[dda, &r, &Image::difference(dda, &r, 8.0)], 4).save_png(
+            Path::new(&format!(
+                "docs/experiments/splatting-vs-reference-{tag}.png"
+            )),
+        )?;
     }
     Ok(())
 }

@@ -12,4 +12,7 @@ pub mod footprint;
 pub mod order;
 pub mod render;
 
+#[cfg(test)]
+mod tests;
+
 pub use render::{render_splat, SplatOptions, SplatStats};

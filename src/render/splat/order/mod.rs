@@ -256,7 +256,14 @@ pub fn visit_kept(
     keep: impl Fn(u64) -> bool,
     f: impl FnMut(u64),
 ) {
-    visit_with(order, dims, view, keep, &mut sort::SortScratch::default(), f)
+    visit_with(
+        order,
+        dims,
+        view,
+        keep,
+        &mut sort::SortScratch::default(),
+        f,
+    )
 }
 
 /// [`visit_kept`] with the sorts' buffers kept by the caller (reused

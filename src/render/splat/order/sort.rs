@@ -82,9 +82,7 @@ pub fn sorted(
     out.clear();
     let tab = depth_tables(dims, view);
     let ext = |pick: fn(f64, f64) -> f64| -> f64 {
-        tab.iter()
-            .map(|t| t.iter().cloned().fold(t[0], pick))
-            .sum()
+        tab.iter().map(|t| t.iter().cloned().fold(t[0], pick)).sum()
     };
     let (lo, hi) = (ext(f64::min), ext(f64::max));
     let inv_span = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
@@ -142,7 +140,11 @@ pub fn sorted(
         let mut seq = 0u64;
         walk_kept(boxes, dims, keep, |idx, g| {
             let q = (progress(g) * scale) as u64;
-            let key = if rank_bits == 0 { q } else { (q << rank_bits) | seq };
+            let key = if rank_bits == 0 {
+                q
+            } else {
+                (q << rank_bits) | seq
+            };
             pairs.push((key, idx));
             seq += 1;
         });
