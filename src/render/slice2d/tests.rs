@@ -26,18 +26,12 @@ fn lod_reduces_memory_and_a_far_plane_changes_nothing() {
     let inp = blob(PERSP);
     let (full, sf) = render(&inp, &Default::default()).unwrap();
     // D beyond every slice: all at level 0, same image.
-    let far = Slice2dOptions {
-        lod: Some(1e6),
-        ..Default::default()
-    };
+    let far = Slice2dOptions { lod: Some(1e6), ..Default::default() };
     let (same, ss) = render(&inp, &far).unwrap();
     assert_eq!(full, same);
     assert_eq!(sf.texture_bytes, ss.texture_bytes);
     // D of a tenth of the eye distance: levels >= 3, far less memory.
-    let near = Slice2dOptions {
-        lod: Some(4.0),
-        ..Default::default()
-    };
+    let near = Slice2dOptions { lod: Some(4.0), ..Default::default() };
     let (img, sn) = render(&inp, &near).unwrap();
     assert!(sn.texture_bytes * 4 < sf.texture_bytes, "{sn:?} vs {sf:?}");
     assert!(sn.slices_per_level.as_ref().unwrap().len() > 2);
@@ -66,8 +60,6 @@ fn the_45_degree_axis_switch_jumps() {
     let (sb, _) = render(&b, &Default::default()).unwrap();
     let d_ref = ra.error_against(&rb).rmse;
     let d_2d = sa.error_against(&sb).rmse;
-    println!(
-        "44 -> 46 degrees: reference changes by RMSE {d_ref:.3}/255, slice2d by {d_2d:.3}/255"
-    );
+    println!("44 -> 46 degrees: reference changes by RMSE {d_ref:.3}/255, slice2d by {d_2d:.3}/255");
     assert!(d_2d > 1.5 * d_ref, "{d_2d} vs {d_ref}");
 }
