@@ -32,6 +32,10 @@ pub struct BenchArgs {
     /// Write the measurements as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Instead: time the splatting visit orders (axis, dda, quicksort,
+    /// radix) on 64^3..256^3 grids, the paper's Table 1 (no data needed).
+    #[arg(long)]
+    pub orderings: bool,
 }
 
 /// One timed configuration.
@@ -64,6 +68,9 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Runs `pvrsim bench`.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    if a.orderings {
+        return super::bench_orderings::run(a.json.as_deref());
+    }
     anyhow::ensure!(
         a.data_dir.join("aorta.vtk").exists(),
         "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data folder \

@@ -12,6 +12,7 @@
 //! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
+pub mod bench_orderings;
 pub mod calibrate;
 pub mod calibrate_network;
 pub mod cluster;
@@ -23,6 +24,9 @@ pub mod memory;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod render_grid;
+pub mod splat;
+pub mod splat_experiments;
 pub mod sweep;
 pub mod validate;
 pub mod transport_args;
@@ -53,6 +57,10 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a PNG with the cell-projection or the reference renderer.
     Render(render::RenderArgs),
+    /// Render a grid scene by EWA splatting (--order axis|dda|sort|radix).
+    Splat(splat::SplatArgs),
+    /// The splatting experiments of docs/experiments/splatting.md (generated data; the 256^3 grid needs ../shared/data).
+    SplatExperiments(splat_experiments::ExperimentArgs),
     /// Render on a simulated PC cluster (N nodes + manager): ERT, weak sharing, DLB, compositing; image, report, timeline.
     Cluster(cluster::ClusterArgs),
     /// Print a mesh file's counts, bounds, fields and mesh quality.
@@ -75,6 +83,8 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Splat(a) => splat::run(a),
+        Command::SplatExperiments(a) => splat_experiments::run(a),
         Command::Cluster(a) => cluster::run(a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),

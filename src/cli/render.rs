@@ -19,8 +19,13 @@ use crate::render::{reference, RenderInput};
 pub enum RendererKind {
     /// Cell projection with ray-segment lists (fast; the paper's algorithm).
     Cell,
-    /// f64 ray walking with adaptive quadrature (slow; the oracle).
+    /// The f64 oracle (slow): ray walking with adaptive quadrature through
+    /// the mesh, or through the voxel cells of a grid.
     Reference,
+    /// Regular grids: view-aligned slices through a 3D texture (trilinear).
+    Slice3d,
+    /// Regular grids: object-aligned slices (bilinear), per-slice LOD.
+    Slice2d,
 }
 
 /// Options of `pvrsim render`.
@@ -31,9 +36,34 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(short, long, default_value = "out.png")]
     pub output: PathBuf,
-    /// Renderer.
-    #[arg(long, value_enum, default_value_t = RendererKind::Cell)]
-    pub renderer: RendererKind,
+    /// Renderer. Default: picked from the data, `cell` for a tetrahedral
+    /// mesh, `slice3d` for a regular grid.
+    #[arg(long, value_enum)]
+    pub renderer: Option<RendererKind>,
+    /// Grids: classify after interpolating the scalar (`post`, the scene
+    /// contract's field; default) or classify voxels into an RGBA8 texture
+    /// and interpolate that (`pre`, as the papers' hardware did).
+    #[arg(long, value_enum)]
+    pub classify: Option<crate::render::slicing::Classify>,
+    /// Grids (slicers): compositing order; `back-to-front` blends with
+    /// (1, 1 - A_s) as the paper, without ERT. Default `front-to-back`.
+    #[arg(long, value_enum)]
+    pub order: Option<crate::render::slicing::Order>,
+    /// Grids (slice3d): number of view-aligned slices across the volume's
+    /// depth. Default: the volume's largest dimension.
+    #[arg(long, value_name = "N", conflicts_with = "spacing")]
+    pub slices: Option<u64>,
+    /// Grids (slice3d): distance between slices, world units.
+    #[arg(long, value_name = "DELTA")]
+    pub spacing: Option<f64>,
+    /// Grids (slice2d): per-slice level of detail, D = distance from the eye
+    /// to the projection plane (world units): slice x at distance d_x gets
+    /// R_org / 2^floor(log2(d_x / D)). Default: off (full resolution).
+    #[arg(long, value_name = "D")]
+    pub lod: Option<f64>,
+    /// Grids (slicers): do not skip transparent min-max blocks.
+    #[arg(long)]
+    pub no_empty_skip: bool,
     /// Segment integrator of the cell renderer: `exact` (closed form per
     /// transfer-function piece, within 1e-4) or `midpoint` (one lookup).
     #[arg(long, value_enum, default_value_t = Integrator::Exact)]
@@ -136,7 +166,7 @@ impl Validate for RenderArgs {
             ("--canonical", self.canonical),
             ("--no-partial-composition", self.no_partial_composition),
         ];
-        match self.renderer {
+        match self.renderer.unwrap_or(RendererKind::Cell) {
             RendererKind::Reference => {
                 for (flag, given) in cell_only {
                     if given {
@@ -157,7 +187,7 @@ impl Validate for RenderArgs {
                     }
                 }
             }
-            RendererKind::Cell => {}
+            RendererKind::Cell | RendererKind::Slice3d | RendererKind::Slice2d => {}
         }
         Ok(())
     }
@@ -176,6 +206,12 @@ pub fn compare_path(output: &std::path::Path) -> PathBuf {
 /// any option `render` has, under the same name.
 pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     validate::check(a)?;
+    let scene = crate::scene::Scene::load(&a.scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if super::render_grid::is_grid_scene(&scene) {
+        return super::render_grid::execute(a, scene, quiet);
+    }
+    refuse_grid_options(a)?;
     let (mut input, load_s) = RenderInput::load(&a.scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
@@ -218,7 +254,8 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         oracle: a.oracle,
         canonical: a.canonical,
     };
-    let (image, mut stats) = match a.renderer {
+    let (image, mut stats) = match a.renderer.unwrap_or(RendererKind::Cell) {
+        RendererKind::Slice3d | RendererKind::Slice2d => unreachable!("refused above"),
         RendererKind::Cell => {
             let (image, mut stats) =
                 super::with_threads(a.threads, || cell::render(&input, &opts))?;
@@ -251,7 +288,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         !image.has_non_finite(),
         "internal error: the image has NaN or infinite pixels"
     );
-    if a.compare && a.renderer == RendererKind::Cell {
+    if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
         let adjacency = input.mesh.adjacency();
         let (reference, rs) = super::with_threads(a.threads, || {
             reference::render(&input, &adjacency, &Default::default())
@@ -286,6 +323,28 @@ impl RenderArgs {
     }
 }
 
+/// Grid-only options given for a mesh: refused, never silently ignored.
+fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !matches!(a.renderer, Some(RendererKind::Slice3d | RendererKind::Slice2d)),
+        "--renderer slice3d/slice2d draws regular grids; scene {} renders a tetrahedral mesh \
+         (use cell or reference)",
+        a.scene.display()
+    );
+    anyhow::ensure!(
+        a.classify.is_none()
+            && a.order.is_none()
+            && a.slices.is_none()
+            && a.spacing.is_none()
+            && a.lod.is_none()
+            && !a.no_empty_skip,
+        "--classify, --order, --slices, --spacing, --lod and --no-empty-skip apply to regular \
+         grids only; scene {} renders a tetrahedral mesh",
+        a.scene.display()
+    );
+    Ok(())
+}
+
 /// Runs `pvrsim render`: checks the options and every output path, renders,
 /// warns when the image is empty, writes.
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
@@ -294,7 +353,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.stats {
         prepare_output("--stats", p, OutputKind::Json)?;
     }
-    if a.compare && a.renderer == RendererKind::Cell {
+    if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
         prepare_output("--compare", &compare_path(&a.output), OutputKind::Png)?;
     }
     let out = execute(&a, false)?;

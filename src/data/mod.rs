@@ -1,5 +1,7 @@
-//! Data: the tetrahedral mesh, its readers, and the built-in demo dataset.
+//! Data: the tetrahedral mesh, the regular grid (volume), their readers,
+//! and the built-in demo datasets.
 
+pub mod dataset;
 pub mod demo;
 pub mod io;
 pub mod lattice;
@@ -7,5 +9,6 @@ pub mod mesh;
 pub mod quality;
 pub mod volume;
 
+pub use dataset::{read_dataset, Dataset};
 pub use mesh::{Adjacency, Field, TetMesh, NO_NEIGHBOR};
 pub use volume::{Volume, VoxelType, Voxels};

@@ -1,4 +1,6 @@
-//! Mesh readers, one file per format, and the legacy VTK writer.
+//! Mesh readers, one file per format, and the legacy VTK writer; volume
+//! readers and writers are in [`volume`] ([`read_volume`]), and
+//! [`read_dataset`] reads either kind.
 //!
 //! [`read_mesh`] picks the reader by file extension:
 //!
@@ -16,6 +18,7 @@
 pub mod avs_ucd;
 pub mod decompose;
 pub mod numeric;
+pub mod volume;
 pub mod vtk_legacy;
 pub mod vtk_write;
 pub mod vtu;
@@ -25,6 +28,8 @@ use std::path::Path;
 use crate::data::TetMesh;
 use crate::error::{Error, Result};
 
+pub use crate::data::dataset::read_dataset;
+pub use volume::read_volume;
 pub use vtk_write::write_vtk_legacy;
 
 /// The extensions [`read_mesh`] understands, for messages.

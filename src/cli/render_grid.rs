@@ -1,0 +1,233 @@
+//! `pvrsim render` for regular grids: the grid reference, `slice3d` and
+//! `slice2d`. [`render`](super::render) hands a scene over here when its
+//! data file is a volume; this file owns the grid options' meaning.
+
+use std::sync::Arc;
+
+use anyhow::Context;
+
+use super::render::{RenderArgs, RenderOutcome, RendererKind};
+use crate::image::Image;
+use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
+use crate::render::slice2d::{self, Slice2dOptions};
+use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
+use crate::render::slicing::{Classify, Order};
+use crate::render::{grid_reference, VolumeInput};
+use crate::scene::Scene;
+
+/// True when the scene's data file is not a mesh (so a volume reader owns it).
+pub fn is_grid_scene(scene: &Scene) -> bool {
+    !matches!(scene.data.path.extension().and_then(|e| e.to_str()), Some("vtk" | "vtu" | "inp")) // GRIDDATA
+}
+
+/// Loads the volume of a scene; returns the input and the load seconds.
+pub fn load(a: &RenderArgs, scene: Scene) -> anyhow::Result<(VolumeInput, f64)> {
+    let t = std::time::Instant::now();
+    let vol: crate::error::Result<crate::data::Volume> = Err(crate::error::Error::Invalid("GRIDDATA".into())); let vol = vol
+        .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
+    let load_s = t.elapsed().as_secs_f64();
+    let mut input = VolumeInput::new(scene, Arc::new(vol))?;
+    if let (Some(w), Some(h)) = (a.width, a.height) {
+        anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
+        input = input.with_size(w, h);
+    }
+    Ok((input, load_s))
+}
+
+/// Mesh-only options given for a grid: refused, never silently ignored.
+fn refuse_mesh_options(a: &RenderArgs) -> anyhow::Result<()> {
+    // Options with defaults are refused when they differ from the default
+    // (an explicit default changes nothing either way).
+    let mut bad = Vec::new();
+    if a.integrator != Integrator::Exact {
+        bad.push("--integrator");
+    }
+    if a.cell_order != CellOrder::FrontToBack {
+        bad.push("--cell-order");
+    }
+    if a.no_partial_composition {
+        bad.push("--no-partial-composition");
+    }
+    if a.canonical {
+        bad.push("--canonical");
+    }
+    if a.tile != 32 {
+        bad.push("--tile");
+    }
+    if a.ert_table.is_some() || a.ert_entry_px.is_some() || a.ert_update != 100 {
+        bad.push("--ert-table/--ert-entry-px/--ert-update");
+    }
+    if a.ert_span != ErtSpan::Multi || a.ert_structure != ErtStructure::Pyramid {
+        bad.push("--ert-span/--ert-structure");
+    }
+    if a.oracle {
+        bad.push("--oracle");
+    }
+    anyhow::ensure!(
+        bad.is_empty(),
+        "{} appl{} to tetrahedral meshes only; scene {} renders a regular grid",
+        bad.join(", "),
+        if bad.len() == 1 { "ies" } else { "y" },
+        a.scene.display()
+    );
+    Ok(())
+}
+
+/// The slice count of the options.
+fn slice_count(a: &RenderArgs) -> SliceCount {
+    match (a.slices, a.spacing) {
+        (Some(n), _) => SliceCount::Count(n),
+        (None, Some(d)) => SliceCount::Spacing(d),
+        (None, None) => SliceCount::Default,
+    }
+}
+
+fn slice3d_options(a: &RenderArgs) -> Slice3dOptions {
+    Slice3dOptions {
+        classify: a.classify.unwrap_or(Classify::Post),
+        order: a.order.unwrap_or(Order::FrontToBack),
+        ert: a.ert,
+        slices: slice_count(a),
+        empty_skip: !a.no_empty_skip,
+    }
+}
+
+fn slice2d_options(a: &RenderArgs) -> Slice2dOptions {
+    Slice2dOptions {
+        classify: a.classify.unwrap_or(Classify::Post),
+        order: a.order.unwrap_or(Order::FrontToBack),
+        ert: a.ert,
+        lod: a.lod,
+        empty_skip: !a.no_empty_skip,
+    }
+}
+
+/// Renders a grid scene as `pvrsim render` does.
+pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
+    refuse_mesh_options(a)?;
+    let kind = a.renderer.unwrap_or(RendererKind::Slice3d);
+    anyhow::ensure!(
+        kind != RendererKind::Cell,
+        "--renderer cell draws tetrahedral meshes; scene {} renders a regular grid \
+         (use slice3d, slice2d or reference)",
+        a.scene.display()
+    );
+    anyhow::ensure!(
+        a.lod.is_none() || kind == RendererKind::Slice2d,
+        "--lod applies to --renderer slice2d only"
+    );
+    anyhow::ensure!(
+        a.slices.is_none() && a.spacing.is_none() || kind == RendererKind::Slice3d,
+        "--slices and --spacing apply to --renderer slice3d only (slice2d draws one slice per \
+         grid plane)"
+    );
+    anyhow::ensure!(
+        kind != RendererKind::Reference
+            || (a.classify.is_none() && a.order.is_none() && !a.no_empty_skip),
+        "--classify, --order and --no-empty-skip apply to the slicers, not the reference"
+    );
+    let (input, load_s) = load(a, scene)?;
+    let (image, mut stats) = render_with(a, kind, &input, quiet)?;
+    stats["time_load_s"] = serde_json::json!(load_s);
+    stats["mesh_keys"] = serde_json::json!(
+        "absent: a regular grid has no cells, segments or lists (cells_*, segments_*, list_len_*)"
+    );
+    anyhow::ensure!(
+        !image.has_non_finite(),
+        "internal error: the image has NaN or infinite pixels"
+    );
+    if a.compare {
+        let (reference, rs) =
+            super::with_threads(a.threads, || grid_reference::render(&input, &Default::default()))?;
+        let err = image.error_against(&reference);
+        stats["error_vs_reference"] = serde_json::to_value(err)?;
+        stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
+        if !quiet {
+            println!("against the grid reference ({:.2} s): {err}", rs.time_s);
+            write_compare(a, &image, &reference)?;
+        }
+    }
+    Ok(RenderOutcome { image, stats })
+}
+
+fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Result<()> {
+    let diff = Image::difference(image, reference, 10.0);
+    let side = Image::side_by_side(&[image, reference, &diff], 4);
+    let path = a.output.with_file_name(format!(
+        "{}-compare.png",
+        a.output.file_stem().unwrap_or_default().to_string_lossy()
+    ));
+    side.save_png(&path)?;
+    println!("wrote {} (this | reference | 10x difference)", path.display());
+    Ok(())
+}
+
+/// Renders with one grid renderer; returns the image and the stats JSON.
+pub fn render_with(
+    a: &RenderArgs,
+    kind: RendererKind,
+    input: &VolumeInput,
+    quiet: bool,
+) -> anyhow::Result<(Image, serde_json::Value)> {
+    let vol = &input.volume;
+    let name = a.scene.display();
+    match kind {
+        RendererKind::Reference => {
+            let (img, st) =
+                super::with_threads(a.threads, || grid_reference::render(input, &Default::default()))?;
+            if !quiet {
+                println!(
+                    "grid reference of {name}: {}x{} in {:.3} s ({} cells walked, {} skipped empty)",
+                    img.width, img.height, st.time_s, st.cells_visited, st.cells_skipped_empty
+                );
+            }
+            let mut v = serde_json::to_value(&st)?;
+            v["renderer"] = serde_json::json!("reference");
+            v["voxels"] = serde_json::json!(vol.len());
+            v["time_total_s"] = serde_json::json!(st.time_s);
+            Ok((img, v))
+        }
+        RendererKind::Slice3d | RendererKind::Slice2d => {
+            let (img, st) = if kind == RendererKind::Slice3d {
+                let o = slice3d_options(a);
+                super::with_threads(a.threads, || slice3d::render(input, &o))??
+            } else {
+                let o = slice2d_options(a);
+                super::with_threads(a.threads, || slice2d::render(input, &o))??
+            };
+            if !quiet {
+                let taken = st.samples_taken as f64;
+                let all = taken + (st.samples_skipped_empty + st.samples_skipped_ert) as f64;
+                println!(
+                    "{} of {name} ({}x{}, {} classification, {} slices, spacing {:.4}, {} threads): \
+                     prepare {:.3} s, frame {:.3} s",
+                    st.renderer,
+                    img.width,
+                    img.height,
+                    match st.classify {
+                        Some(Classify::Pre) => "pre",
+                        _ => "post",
+                    },
+                    st.slices,
+                    st.slice_spacing,
+                    st.threads,
+                    st.time_prepare_s,
+                    st.time_render_s
+                );
+                println!(
+                    "  samples: {} taken ({:.1} M/s), {:.1} % skipped as empty space, {:.1} % by ERT; \
+                     texture {:.1} MiB",
+                    st.samples_taken,
+                    taken / st.time_render_s.max(1e-12) / 1e6,
+                    100.0 * st.samples_skipped_empty as f64 / all.max(1.0),
+                    100.0 * st.samples_skipped_ert as f64 / all.max(1.0),
+                    st.texture_bytes as f64 / (1 << 20) as f64
+                );
+            }
+            let mut v = serde_json::to_value(&st)?;
+            v["time_total_s"] = serde_json::json!(st.time_prepare_s + st.time_render_s);
+            Ok((img, v))
+        }
+        RendererKind::Cell => unreachable!("refused by execute"),
+    }
+}

@@ -1,0 +1,65 @@
+//! slice2d against the grid reference; LOD memory and image; the 45° jump.
+
+use super::*;
+use crate::render::grid_reference;
+use crate::render::slice3d::tests::blob;
+
+const ORTHO: &str = "eye = [30, -20, 25]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nprojection = \"orthographic\"\nheight = 34";
+const PERSP: &str = "eye = [30, -20, 25]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nprojection = \"perspective\"\nfov_y_deg = 45";
+
+#[test]
+fn close_to_the_reference_and_reports_its_error() {
+    for cam in [ORTHO, PERSP] {
+        let inp = blob(cam);
+        let (r, _) = grid_reference::render(&inp, &Default::default());
+        let (img, st) = render(&inp, &Default::default()).unwrap();
+        let e = img.error_against(&r);
+        println!("slice2d {cam:?}: {e}");
+        assert!(st.samples_taken > 0);
+        assert_eq!(st.slicing_axis, Some(0), "{st:?}");
+        assert!(e.rmse <= 3.0 && e.max_abs <= 24.0, "{e}");
+    }
+}
+
+#[test]
+fn lod_reduces_memory_and_a_far_plane_changes_nothing() {
+    let inp = blob(PERSP);
+    let (full, sf) = render(&inp, &Default::default()).unwrap();
+    // D beyond every slice: all at level 0, same image.
+    let far = Slice2dOptions { lod: Some(1e6), ..Default::default() };
+    let (same, ss) = render(&inp, &far).unwrap();
+    assert_eq!(full, same);
+    assert_eq!(sf.texture_bytes, ss.texture_bytes);
+    // D of a tenth of the eye distance: levels >= 3, far less memory.
+    let near = Slice2dOptions { lod: Some(4.0), ..Default::default() };
+    let (img, sn) = render(&inp, &near).unwrap();
+    assert!(sn.texture_bytes * 4 < sf.texture_bytes, "{sn:?} vs {sf:?}");
+    assert!(sn.slices_per_level.as_ref().unwrap().len() > 2);
+    assert_ne!(img, full);
+}
+
+/// Turning the camera about z from 44° to 46° off the x axis switches the
+/// slicing axis from x to y: the slice2d image jumps far more than the
+/// reference image changes.
+#[test]
+fn the_45_degree_axis_switch_jumps() {
+    let cam = |deg: f64| {
+        let (s, c) = deg.to_radians().sin_cos();
+        format!(
+            "eye = [{}, {}, 8]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nprojection = \"orthographic\"\nheight = 34",
+            40.0 * c,
+            40.0 * s
+        )
+    };
+    let (a, b) = (blob(&cam(44.0)), blob(&cam(46.0)));
+    assert_eq!(slicing_axis(&a), 0);
+    assert_eq!(slicing_axis(&b), 1);
+    let (ra, _) = grid_reference::render(&a, &Default::default());
+    let (rb, _) = grid_reference::render(&b, &Default::default());
+    let (sa, _) = render(&a, &Default::default()).unwrap();
+    let (sb, _) = render(&b, &Default::default()).unwrap();
+    let d_ref = ra.error_against(&rb).rmse;
+    let d_2d = sa.error_against(&sb).rmse;
+    println!("44 -> 46 degrees: reference changes by RMSE {d_ref:.3}/255, slice2d by {d_2d:.3}/255");
+    assert!(d_2d > 1.5 * d_ref, "{d_2d} vs {d_ref}");
+}

@@ -1,0 +1,223 @@
+//! View-aligned texture slicing in software (the 3D-texture method of the
+//! papers, `parallel-texture-vr-rle.txt`), on the CPU.
+//!
+//! Planes perpendicular to the view direction are drawn through the volume
+//! ([`planes`]); on each plane every pixel fetches the 3D texture
+//! trilinearly and classifies the sample ([`sample`]: post- or
+//! pre-classification), corrects its opacity for the slice distance along
+//! its ray, `α = 1 - (1 - o)^(δ / unit_distance)`, and blends it, back to
+//! front with factors `(1, 1 - A_s)` as in the paper or front to back with
+//! early ray termination ([`march`]). Min–max blocks of the volume are
+//! tested against the transfer function once per frame, and samples in
+//! transparent blocks are skipped per ray.
+//!
+//! Rows of pixels are rendered in parallel (rayon); the hot loop is f32 with
+//! positions `start + k step` per ray and a [`Lut`] for the classification;
+//! the image does not depend on the thread count.
+
+pub mod march;
+pub mod planes;
+pub mod sample;
+
+#[cfg(test)]
+pub(crate) mod tests;
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::render::slicing::{Classify, Lut, MinMaxBlocks, Order, SampleCounts, SliceStats};
+use crate::render::VolumeInput;
+use crate::scene::Projection;
+use crate::with_texels;
+
+pub use planes::SliceCount;
+
+/// Options of the 3D slicer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slice3dOptions {
+    /// Post- (default) or pre-classification.
+    pub classify: Classify,
+    /// Front to back with ERT (default) or back to front.
+    pub order: Order,
+    /// ERT threshold in `(0, 1]`; 1 = off (default 0.99, the scene contract).
+    pub ert: f32,
+    /// Slice count or spacing.
+    pub slices: SliceCount,
+    /// Skip samples in transparent min–max blocks (default on).
+    pub empty_skip: bool,
+}
+
+impl Default for Slice3dOptions {
+    fn default() -> Self {
+        Slice3dOptions {
+            classify: Classify::Post,
+            order: Order::FrontToBack,
+            ert: 0.99,
+            slices: SliceCount::Default,
+            empty_skip: true,
+        }
+    }
+}
+
+/// What does not change from frame to frame: the min–max blocks and, for
+/// pre-classification, the classified RGBA8 texture.
+pub struct Prepared {
+    /// Per-block scalar ranges.
+    pub blocks: MinMaxBlocks,
+    /// Pre-classified texture (`None` for post-classification).
+    pub rgba: Option<Vec<[u8; 4]>>,
+    /// Seconds spent building it.
+    pub time_s: f64,
+}
+
+/// Builds the frame-independent data for `classify`.
+pub fn prepare(input: &VolumeInput, classify: Classify) -> Prepared {
+    let t = Instant::now();
+    let vol = &*input.volume;
+    let blocks = with_texels!(&vol.voxels, d => MinMaxBlocks::new(d, vol.dims));
+    let rgba = (classify == Classify::Pre).then(|| {
+        let lut = Lut::new(&input.scene.transfer, input.range);
+        with_texels!(&vol.voxels, d => sample::classify_voxels(d, &lut))
+    });
+    Prepared {
+        blocks,
+        rgba,
+        time_s: t.elapsed().as_secs_f64(),
+    }
+}
+
+/// Checks options that can be wrong.
+pub fn check(opts: &Slice3dOptions) -> Result<()> {
+    if !(opts.ert > 0.0 && opts.ert <= 1.0) {
+        return Err(Error::Invalid(format!("--ert must be in (0, 1], got {}", opts.ert)));
+    }
+    match opts.slices {
+        SliceCount::Count(0) => Err(Error::Invalid("--slices must be >= 1".into())),
+        SliceCount::Spacing(d) if !(d > 0.0 && d.is_finite()) => Err(Error::Invalid(format!(
+            "--spacing must be a finite distance > 0, got {d}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Renders `input` (prepare + frame); the stats hold both times.
+pub fn render(input: &VolumeInput, opts: &Slice3dOptions) -> Result<(Image, SliceStats)> {
+    check(opts)?;
+    let prep = prepare(input, opts.classify);
+    let (img, mut st) = render_prepared(input, &prep, opts)?;
+    st.time_prepare_s = prep.time_s;
+    Ok((img, st))
+}
+
+/// Renders one frame with data from [`prepare`] (which must have been
+/// built for `opts.classify`).
+pub fn render_prepared(
+    input: &VolumeInput,
+    prep: &Prepared,
+    opts: &Slice3dOptions,
+) -> Result<(Image, SliceStats)> {
+    check(opts)?;
+    let start = Instant::now();
+    let scene = &input.scene;
+    let vol = &*input.volume;
+    let (w, h) = (scene.image.width, scene.image.height);
+    let view = scene.camera.view(w, h);
+    let bg = scene.image.background.map(|x| x as f32);
+    let tf = &scene.transfer;
+    let mut st = SliceStats {
+        renderer: "slice3d",
+        voxels: vol.len(),
+        classify: Some(opts.classify),
+        order: Some(opts.order),
+        ert_threshold: opts.ert as f64,
+        ert_error_bound: if opts.ert < 1.0 && opts.order == Order::FrontToBack {
+            (1.0 - opts.ert as f64) * tf.max_radiance()
+        } else {
+            0.0
+        },
+        threads: rayon::current_num_threads(),
+        blocks: prep.blocks.range.len() as u64,
+        ..Default::default()
+    };
+    let mut image = Image::new(w, h);
+    for p in &mut image.pixels {
+        *p = [bg[0], bg[1], bg[2], 0.0];
+    }
+    let Some(planes) = planes::Planes::new(&view, vol, opts.slices) else {
+        st.time_render_s = start.elapsed().as_secs_f64();
+        return Ok((image, st));
+    };
+    st.slices = planes.n;
+    st.slice_spacing = planes.delta;
+    let lut = Lut::new(tf, input.range);
+    let opaque = if opts.empty_skip {
+        prep.blocks.opaque(&lut)
+    } else {
+        vec![true; prep.blocks.range.len()]
+    };
+    st.blocks_empty = opaque.iter().filter(|&&o| !o).count() as u64;
+    let nb = prep.blocks.nb.map(|x| x as usize);
+    let grid = march::Grid {
+        dims: vol.dims.map(|x| x as usize),
+        nb,
+        opaque: &opaque,
+        ert: if opts.order == Order::FrontToBack { opts.ert } else { 2.0 },
+    };
+    let nx = vol.dims[0] as usize;
+    let nxy = nx * vol.dims[1] as usize;
+    let ud = tf.unit_distance;
+    let ortho = matches!(scene.camera.projection, Projection::Orthographic { .. });
+
+    let run = |s: &(dyn Fn(&planes::RaySamples, &mut SampleCounts) -> [f32; 4] + Sync),
+               image: &mut Image| {
+        image
+            .pixels
+            .par_chunks_mut(w as usize)
+            .enumerate()
+            .map(|(j, row)| {
+                let mut n = SampleCounts::default();
+                for (i, px) in row.iter_mut().enumerate() {
+                    let Some(r) = planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32)
+                    else {
+                        continue;
+                    };
+                    n.covered += 1;
+                    let [c0, c1, c2, a] = s(&r, &mut n);
+                    let t = 1.0 - a;
+                    *px = [c0 + t * bg[0], c1 + t * bg[1], c2 + t * bg[2], a];
+                }
+                n
+            })
+            .reduce(SampleCounts::default, SampleCounts::add)
+    };
+
+    let counts = match opts.classify {
+        Classify::Post => with_texels!(&vol.voxels, data => {
+            if ortho {
+                let baked = lut.baked((planes.delta / ud) as f32);
+                let s = sample::PostBaked { data, nx, nxy, lut: &lut, baked: &baked };
+                run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
+            } else {
+                let s = sample::PostSigma { data, nx, nxy, lut: &lut };
+                run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
+            }
+        }),
+        Classify::Pre => {
+            let rgba = prep.rgba.as_deref().ok_or_else(|| {
+                Error::Invalid("internal: slice3d prepared for post-classification".into())
+            })?;
+            let s = sample::Pre { rgba, nx, nxy };
+            run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
+        }
+    };
+    st.add_counts(&counts);
+    st.texture_bytes = match &prep.rgba {
+        Some(t) => 4 * t.len() as u64,
+        None => vol.voxels.bytes(),
+    };
+    st.time_render_s = start.elapsed().as_secs_f64();
+    Ok((image, st))
+}

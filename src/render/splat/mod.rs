@@ -1,0 +1,18 @@
+//! Splatting of regular grids (issue 11): every voxel is drawn as an EWA
+//! Gaussian footprint, back to front, in one of the visit orders of
+//! [`order`] (axis-aligned, the paper's DDA, or a full depth sort).
+//!
+//! - [`classify`]: per-sample extinction and colour, threshold culling;
+//! - [`footprint`]: the EWA projection and the opacity contract;
+//! - [`order`]: the visit orders;
+//! - [`render`]: the frame (order + project, then banded rasterising).
+
+pub mod classify;
+pub mod footprint;
+pub mod order;
+pub mod render;
+
+#[cfg(test)]
+mod tests;
+
+pub use render::{render_splat, SplatOptions, SplatStats};
