@@ -2,6 +2,7 @@
 //! option documents its default; `pvrsim help COMMAND` shows it all.
 
 pub mod bench;
+pub mod bench_grid;
 pub mod calibrate;
 pub mod cluster;
 pub mod demo;

@@ -17,13 +17,13 @@ use crate::scene::Scene;
 
 /// True when the scene's data file is not a mesh (so a volume reader owns it).
 pub fn is_grid_scene(scene: &Scene) -> bool {
-    !matches!(scene.data.path.extension().and_then(|e| e.to_str()), Some("vtk" | "vtu" | "inp")) // GRIDDATA
+    !crate::data::dataset::is_mesh_file(&scene.data.path)
 }
 
 /// Loads the volume of a scene; returns the input and the load seconds.
 pub fn load(a: &RenderArgs, scene: Scene) -> anyhow::Result<(VolumeInput, f64)> {
     let t = std::time::Instant::now();
-    let vol: crate::error::Result<crate::data::Volume> = Err(crate::error::Error::Invalid("GRIDDATA".into())); let vol = vol
+    let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
         .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
     let load_s = t.elapsed().as_secs_f64();
     let mut input = VolumeInput::new(scene, Arc::new(vol))?;

@@ -9,6 +9,14 @@ use crate::render::{grid_reference, VolumeInput};
 /// A smooth blob (a sum of two Gaussians) on a 24 x 20 x 16 grid, u8, seen
 /// obliquely; TF with a transparent low end (so blocks get skipped).
 pub(crate) fn blob(projection: &str) -> VolumeInput {
+    blob_tf(
+        projection,
+        "unit_distance = 2\npoints = [[0, 0, 0, 0, 0], [0.15, 0.2, 0.3, 1, 0], [0.5, 1, 0.6, 0.2, 0.15], [1, 1, 1, 1, 0.6]]",
+    )
+}
+
+/// The blob with another transfer function.
+pub(crate) fn blob_tf(projection: &str, transfer: &str) -> VolumeInput {
     let v = volume([24, 20, 16], [1.0, 1.2, 1.5], [-11.5, -11.4, -11.25], |p| {
         let g = |c: [f64; 3], r: f64| {
             (-((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)) / (r * r)).exp()
@@ -30,7 +38,7 @@ pub(crate) fn blob(projection: &str) -> VolumeInput {
     .unwrap();
     let sc = scene(
         projection,
-        "unit_distance = 2\npoints = [[0, 0, 0, 0, 0], [0.15, 0.2, 0.3, 1, 0], [0.5, 1, 0.6, 0.2, 0.15], [1, 1, 1, 1, 0.6]]",
+        transfer,
         48,
         Some([0.0, 255.0]),
     );
@@ -94,7 +102,7 @@ fn back_to_front_equals_front_to_back_without_ert() {
 fn ert_stays_within_its_bound_and_skips() {
     let inp = blob(ORTHO);
     let off = Slice3dOptions { ert: 1.0, ..Default::default() };
-    let on = Slice3dOptions { ert: 0.9, ..Default::default() };
+    let on = Slice3dOptions { ert: 0.3, ..Default::default() };
     let (a, _) = render(&inp, &off).unwrap();
     let (b, sb) = render(&inp, &on).unwrap();
     assert!(sb.samples_skipped_ert > 0);
