@@ -26,15 +26,30 @@ fn marschner_lobb(n: u64) -> Volume {
     for k in 0..n {
         for j in 0..n {
             for i in 0..n {
-                let (x, y, z) = (-1.0 + i as f64 * h, -1.0 + j as f64 * h, -1.0 + k as f64 * h);
+                let (x, y, z) = (
+                    -1.0 + i as f64 * h,
+                    -1.0 + j as f64 * h,
+                    -1.0 + k as f64 * h,
+                );
                 let r = (x * x + y * y).sqrt();
-                let rho = (2.0 * std::f64::consts::PI * fm * (std::f64::consts::PI * r / 2.0).cos()).cos();
-                let s = (1.0 - (std::f64::consts::PI * z / 2.0).sin() + a * (1.0 + rho)) / (2.0 * (1.0 + a));
+                let rho =
+                    (2.0 * std::f64::consts::PI * fm * (std::f64::consts::PI * r / 2.0).cos())
+                        .cos();
+                let s = (1.0 - (std::f64::consts::PI * z / 2.0).sin() + a * (1.0 + rho))
+                    / (2.0 * (1.0 + a));
                 v.push((s * 255.0).round().clamp(0.0, 255.0) as u8);
             }
         }
     }
-    Volume::new(Path::new("marschner-lobb"), [n; 3], [h; 3], [-1.0; 3], "s", Voxels::U8(v)).unwrap()
+    Volume::new(
+        Path::new("marschner-lobb"),
+        [n; 3],
+        [h; 3],
+        [-1.0; 3],
+        "s",
+        Voxels::U8(v),
+    )
+    .unwrap()
 }
 
 fn ml_scene() -> VolumeInput {

@@ -66,13 +66,30 @@ fn median(v: &mut [f64]) -> f64 {
 pub const GRID_SCENES: &str = "mni152-view.toml,colin27-brain-view.toml,frog-view.toml";
 
 /// Runs the grid benchmark over `scenes` in `data_dir`.
-pub fn run(data_dir: &Path, scenes: &[String], repeats: usize) -> anyhow::Result<Vec<GridBenchRow>> {
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+pub fn run(
+    data_dir: &Path,
+    scenes: &[String],
+    repeats: usize,
+) -> anyhow::Result<Vec<GridBenchRow>> {
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
     let mut rows = Vec::new();
     println!(
         "{:<24} {:<8} {:>5} {:>3} {:>9} {:>8} {:>8} {:>8} {:>10} {:>7} {:>7} {:>8} {:>7}",
-        "scene", "renderer", "size", "thr", "median ms", "min ms", "cpu ms", "prep ms", "Msmp/s/cpu",
-        "empty%", "ERT%", "max/255", "RMSE"
+        "scene",
+        "renderer",
+        "size",
+        "thr",
+        "median ms",
+        "min ms",
+        "cpu ms",
+        "prep ms",
+        "Msmp/s/cpu",
+        "empty%",
+        "ERT%",
+        "max/255",
+        "RMSE"
     );
     for name in scenes {
         let path = data_dir.join(name);
@@ -189,7 +206,10 @@ pub fn lod_table() -> Vec<lod::TableRow> {
     let rows = lod::table2(1024, 4, &[0.5, 0.75, 1.0, 1.25, 1.5]);
     println!("Table 2 (slice-lod-memory): 1024^3 voxels over (-1,-1,-1)..(1,1,1), 1024 slices, 4 B/voxel;");
     println!("slice x at d_x = D + 2x/1024, R_x = 1024 / 2^floor(log2(d_x / D))");
-    println!("{:>6} {:>14} {:>14} {:>10}", "D", "U1 (LOD) MB", "U2 (none) MB", "sigma %");
+    println!(
+        "{:>6} {:>14} {:>14} {:>10}",
+        "D", "U1 (LOD) MB", "U2 (none) MB", "sigma %"
+    );
     for r in &rows {
         println!(
             "{:>6} {:>14} {:>14} {:>10.3}",

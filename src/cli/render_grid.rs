@@ -137,8 +137,9 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         "internal error: the image has NaN or infinite pixels"
     );
     if a.compare {
-        let (reference, rs) =
-            super::with_threads(a.threads, || grid_reference::render(&input, &Default::default()))?;
+        let (reference, rs) = super::with_threads(a.threads, || {
+            grid_reference::render(&input, &Default::default())
+        })?;
         let err = image.error_against(&reference);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
@@ -158,7 +159,10 @@ fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Re
         a.output.file_stem().unwrap_or_default().to_string_lossy()
     ));
     side.save_png(&path)?;
-    println!("wrote {} (this | reference | 10x difference)", path.display());
+    println!(
+        "wrote {} (this | reference | 10x difference)",
+        path.display()
+    );
     Ok(())
 }
 
@@ -173,8 +177,9 @@ pub fn render_with(
     let name = a.scene.display();
     match kind {
         RendererKind::Reference => {
-            let (img, st) =
-                super::with_threads(a.threads, || grid_reference::render(input, &Default::default()))?;
+            let (img, st) = super::with_threads(a.threads, || {
+                grid_reference::render(input, &Default::default())
+            })?;
             if !quiet {
                 println!(
                     "grid reference of {name}: {}x{} in {:.3} s ({} cells walked, {} skipped empty)",

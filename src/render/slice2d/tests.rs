@@ -26,12 +26,18 @@ fn lod_reduces_memory_and_a_far_plane_changes_nothing() {
     let inp = blob(PERSP);
     let (full, sf) = render(&inp, &Default::default()).unwrap();
     // D beyond every slice: all at level 0, same image.
-    let far = Slice2dOptions { lod: Some(1e6), ..Default::default() };
+    let far = Slice2dOptions {
+        lod: Some(1e6),
+        ..Default::default()
+    };
     let (same, ss) = render(&inp, &far).unwrap();
     assert_eq!(full, same);
     assert_eq!(sf.texture_bytes, ss.texture_bytes);
     // D of a tenth of the eye distance: levels >= 3, far less memory.
-    let near = Slice2dOptions { lod: Some(4.0), ..Default::default() };
+    let near = Slice2dOptions {
+        lod: Some(4.0),
+        ..Default::default()
+    };
     let (img, sn) = render(&inp, &near).unwrap();
     assert!(sn.texture_bytes * 4 < sf.texture_bytes, "{sn:?} vs {sf:?}");
     assert!(sn.slices_per_level.as_ref().unwrap().len() > 2);
@@ -70,5 +76,8 @@ fn the_45_degree_axis_switch_jumps() {
          slice2d by {d_2d:.3}/255 (max {:.2}/255)",
         sa.error_against(&sb).max_abs
     );
-    assert!(d_2d > 2.0 * d_ref && d_2d > 2.0 * d_3d, "{d_2d} vs {d_ref}, {d_3d}");
+    assert!(
+        d_2d > 2.0 * d_ref && d_2d > 2.0 * d_3d,
+        "{d_2d} vs {d_ref}, {d_3d}"
+    );
 }

@@ -94,7 +94,11 @@ pub fn march<S: Sampler>(
             r.step[2].mul_add(kf, r.start[2]),
         ];
         let (c, f) = locate(p, g.dims);
-        let b = [c[0] / BLOCK as usize, c[1] / BLOCK as usize, c[2] / BLOCK as usize];
+        let b = [
+            c[0] / BLOCK as usize,
+            c[1] / BLOCK as usize,
+            c[2] / BLOCK as usize,
+        ];
         let remaining = (end - k) * dir; // samples after this one
         if !g.opaque[(b[2] * g.nb[1] + b[1]) * g.nb[0] + b[0]] {
             // Fractional number of steps until the block is left.
@@ -133,7 +137,12 @@ pub fn march<S: Sampler>(
             }
             Order::BackToFront => {
                 let w = 1.0 - a;
-                acc = [cr + w * acc[0], cg + w * acc[1], cb + w * acc[2], a + w * acc[3]];
+                acc = [
+                    cr + w * acc[0],
+                    cg + w * acc[1],
+                    cb + w * acc[2],
+                    a + w * acc[3],
+                ];
             }
         }
         if remaining == 0 {

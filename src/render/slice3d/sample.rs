@@ -92,7 +92,8 @@ pub struct PostSigma<'a, T> {
 impl<T: Texel> Sampler for PostSigma<'_, T> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], k: f32) -> [f32; 4] {
-        let [r, g, b, sg] = self.lut.sigma[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))];
+        let [r, g, b, sg] =
+            self.lut.sigma[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))];
         if sg == 0.0 {
             return [0.0; 4];
         }
