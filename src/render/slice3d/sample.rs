@@ -21,7 +21,8 @@ use crate::render::slicing::{Lut, Texel};
 
 #[inline(always)]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    (b - a).mul_add(t, a)
+    // Not `mul_add`: without a target FMA unit it is a slow library call.
+    (b - a) * t + a
 }
 
 /// Base index and the eight corner offsets' texels of cell `c`.

@@ -62,7 +62,7 @@ impl Lut {
     /// The entry of raw scalar `s`.
     #[inline(always)]
     pub fn index(&self, s: f32) -> usize {
-        let x = s.mul_add(self.scale, self.offset);
+        let x = s * self.scale + self.offset; // not mul_add: a libm call without FMA
         (x.max(0.0) as usize).min(LUT_SIZE - 1)
     }
 
