@@ -210,7 +210,7 @@ fn render_c<const C: usize>(
             }
             n
         })
-        .reduce(SampleCounts::default, SampleCounts::add);
+        .reduce(SampleCounts::default, SampleCounts::merge);
 
     let bpt = if C == 1 {
         vol.voxels.voxel_type().size() as u64

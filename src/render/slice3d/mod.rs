@@ -198,7 +198,7 @@ pub fn render_prepared(
                 }
                 n
             })
-            .reduce(SampleCounts::default, SampleCounts::add)
+            .reduce(SampleCounts::default, SampleCounts::merge)
     };
 
     let counts = match opts.classify {
