@@ -56,3 +56,56 @@ fn frog_nhdr_gzip() {
     assert_eq!(v.value_range(), [0.0, 29.0]);
     assert!(zero_fraction(&v) > 0.5);
 }
+
+#[test]
+fn mni152_nifti_equals_nrrd() {
+    let (Some(a), Some(b)) = (load("mni152_t1.nhdr"), load("mni152_t1.nii.gz")) else {
+        return;
+    };
+    assert_eq!(a.dims, b.dims);
+    assert_eq!(a.spacing, b.spacing);
+    assert_eq!(a.origin, b.origin);
+    assert_eq!(a.voxels, b.voxels, "voxels differ");
+}
+
+#[test]
+fn frog_vti_equals_nrrd() {
+    let (Some(a), Some(b)) = (load("frog.nhdr"), load("frog_tissues.vti")) else {
+        return;
+    };
+    assert_eq!(b.field, "MetaImage");
+    assert_eq!((a.dims, a.spacing, a.origin), (b.dims, b.spacing, b.origin));
+    assert_eq!(a.voxels, b.voxels, "voxels differ");
+    // The scene's field selects the same array; a wrong name lists the real one.
+    let p = shared("frog_tissues.vti").unwrap();
+    assert_eq!(read_volume(&p, "MetaImage").unwrap().voxels, b.voxels);
+    let e = read_volume(&p, "speed").unwrap_err().to_string();
+    assert!(e.contains("\"MetaImage\""), "{e}");
+}
+
+#[test]
+fn lobster_fld() {
+    let Some(v) = load("lobster.fld") else { return };
+    assert_eq!(v.dims, [120, 120, 34]);
+    assert_eq!(v.voxels.voxel_type(), VoxelType::U8);
+    assert_eq!((v.spacing, v.origin), ([1.0; 3], [0.0; 3]));
+    // The first non-zero bytes after the header's two form feeds (checked
+    // with python: bytes 16 and 17 of the data are 44 and 38).
+    assert_eq!((v.get(16, 0, 0), v.get(17, 0, 0)), (44.0, 38.0));
+    assert_eq!(v.get(15, 0, 0), 0.0);
+}
+
+#[test]
+fn colin27_nifti() {
+    let Some(v) = load("colin27-brain.nii.gz") else {
+        return;
+    };
+    assert_eq!(v.dims, [301, 370, 316]);
+    assert_eq!(v.voxels.voxel_type(), VoxelType::U8);
+    assert_eq!(v.spacing, [0.5; 3]);
+    assert_eq!(v.origin, [-75.0, -107.0, -69.5]);
+    let z = zero_fraction(&v);
+    assert!((z - 0.63).abs() < 0.01, "zero fraction {z}");
+    let [lo, hi] = v.value_range();
+    assert!(lo == 0.0 && (125.0..=140.0).contains(&hi), "{lo} {hi}");
+}

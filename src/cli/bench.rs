@@ -36,6 +36,18 @@ pub struct BenchArgs {
     /// radix) on 64^3..256^3 grids, the paper's Table 1 (no data needed).
     #[arg(long)]
     pub orderings: bool,
+    /// Time the grid renderers (slice3d, slice2d) instead, on the shared
+    /// grid scenes (`--grid-scenes`), 256^2 and 512^2, 1 and all threads,
+    /// beside the grid reference's error.
+    #[arg(long)]
+    pub grids: bool,
+    /// Grid scenes for `--grids` (file names in the data folder).
+    #[arg(long, value_delimiter = ',', default_value = super::bench_grid::GRID_SCENES)]
+    pub grid_scenes: Vec<String>,
+    /// Print Table 2 of the LOD paper (slice memory with and without
+    /// per-slice LOD for a 1024^3 volume; arithmetic only) and exit.
+    #[arg(long)]
+    pub lod_table: bool,
 }
 
 /// One timed configuration.
@@ -70,6 +82,21 @@ fn median(v: &mut [f64]) -> f64 {
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if a.orderings {
         return super::bench_orderings::run(a.json.as_deref());
+    }
+    if a.lod_table {
+        let rows = super::bench_grid::lod_table();
+        if let Some(path) = &a.json {
+            std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+        }
+        return Ok(());
+    }
+    if a.grids {
+        let rows = super::bench_grid::run(&a.data_dir, &a.grid_scenes, a.repeats)?;
+        if let Some(path) = &a.json {
+            std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+            println!("wrote {}", path.display());
+        }
+        return Ok(());
     }
     anyhow::ensure!(
         a.data_dir.join("aorta.vtk").exists(),

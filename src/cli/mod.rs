@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod bench_orderings;
+pub mod bench_grid;
 pub mod calibrate;
 pub mod calibrate_network;
 pub mod cluster;

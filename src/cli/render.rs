@@ -326,7 +326,10 @@ impl RenderArgs {
 /// Grid-only options given for a mesh: refused, never silently ignored.
 fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
-        !matches!(a.renderer, Some(RendererKind::Slice3d | RendererKind::Slice2d)),
+        !matches!(
+            a.renderer,
+            Some(RendererKind::Slice3d | RendererKind::Slice2d)
+        ),
         "--renderer slice3d/slice2d draws regular grids; scene {} renders a tetrahedral mesh \
          (use cell or reference)",
         a.scene.display()

@@ -17,13 +17,13 @@ use crate::scene::Scene;
 
 /// True when the scene's data file is not a mesh (so a volume reader owns it).
 pub fn is_grid_scene(scene: &Scene) -> bool {
-    !matches!(scene.data.path.extension().and_then(|e| e.to_str()), Some("vtk" | "vtu" | "inp")) // GRIDDATA
+    !crate::data::dataset::is_mesh_file(&scene.data.path)
 }
 
 /// Loads the volume of a scene; returns the input and the load seconds.
 pub fn load(a: &RenderArgs, scene: Scene) -> anyhow::Result<(VolumeInput, f64)> {
     let t = std::time::Instant::now();
-    let vol: crate::error::Result<crate::data::Volume> = Err(crate::error::Error::Invalid("GRIDDATA".into())); let vol = vol
+    let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
         .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
     let load_s = t.elapsed().as_secs_f64();
     let mut input = VolumeInput::new(scene, Arc::new(vol))?;
@@ -137,8 +137,9 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         "internal error: the image has NaN or infinite pixels"
     );
     if a.compare {
-        let (reference, rs) =
-            super::with_threads(a.threads, || grid_reference::render(&input, &Default::default()))?;
+        let (reference, rs) = super::with_threads(a.threads, || {
+            grid_reference::render(&input, &Default::default())
+        })?;
         let err = image.error_against(&reference);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
@@ -158,7 +159,10 @@ fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Re
         a.output.file_stem().unwrap_or_default().to_string_lossy()
     ));
     side.save_png(&path)?;
-    println!("wrote {} (this | reference | 10x difference)", path.display());
+    println!(
+        "wrote {} (this | reference | 10x difference)",
+        path.display()
+    );
     Ok(())
 }
 
@@ -173,8 +177,9 @@ pub fn render_with(
     let name = a.scene.display();
     match kind {
         RendererKind::Reference => {
-            let (img, st) =
-                super::with_threads(a.threads, || grid_reference::render(input, &Default::default()))?;
+            let (img, st) = super::with_threads(a.threads, || {
+                grid_reference::render(input, &Default::default())
+            })?;
             if !quiet {
                 println!(
                     "grid reference of {name}: {}x{} in {:.3} s ({} cells walked, {} skipped empty)",

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 pub enum Dataset {
     /// Tetrahedra with point fields (`.vtk`, `.vtu`, `.inp`).
     Mesh(TetMesh),
-    /// A regular grid (`.nrrd`, `.nhdr`, ...).
+    /// A regular grid (`.nrrd`, `.nhdr`, `.nii`, `.nii.gz`, `.vti`, `.fld`).
     Volume(Volume),
 }
 

@@ -39,7 +39,7 @@ pub fn read(path: &Path) -> Result<TetMesh> {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Format {
+pub(crate) enum Format {
     Ascii,
     Binary,
     Appended,
@@ -47,36 +47,40 @@ enum Format {
 
 /// One `<DataArray>` as declared, with its inline text.
 #[derive(Debug, Clone)]
-struct ArrayDesc {
-    name: String,
+pub(crate) struct ArrayDesc {
+    pub(crate) name: String,
     parent: String,
-    ty: NumType,
-    ncomp: usize,
-    format: Format,
+    pub(crate) ty: NumType,
+    pub(crate) ncomp: usize,
+    pub(crate) format: Format,
     offset: usize,
     text: Vec<u8>,
 }
 
 impl ArrayDesc {
-    fn loc(&self) -> String {
+    pub(crate) fn loc(&self) -> String {
         format!("<DataArray Name=\"{}\"> in <{}>", self.name, self.parent)
     }
 }
 
 #[derive(Debug, Default)]
-struct PieceDesc {
+pub(crate) struct PieceDesc {
+    /// The `<Piece>` element's attributes (kept for non-mesh kinds).
+    pub(crate) attrs: Vec<(String, String)>,
+    /// The `<PointData>` element's attributes (`Scalars=` names the active array).
+    pub(crate) point_data_attrs: Vec<(String, String)>,
     npoints: usize,
     ncells: usize,
     points: Option<ArrayDesc>,
     conn: Option<ArrayDesc>,
     offsets: Option<ArrayDesc>,
     types: Option<ArrayDesc>,
-    point_data: Vec<ArrayDesc>,
+    pub(crate) point_data: Vec<ArrayDesc>,
 }
 
-struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     path: &'a Path,
-    big_endian: bool,
+    pub(crate) big_endian: bool,
     header_u64: bool,
     zlib: bool,
     /// The bytes after the `_` of `<AppendedData>`, and whether they are base64.
@@ -97,7 +101,7 @@ fn attr_map(e: &quick_xml::events::BytesStart) -> Vec<(String, String)> {
         .collect()
 }
 
-fn get<'v>(attrs: &'v [(String, String)], key: &str) -> Option<&'v str> {
+pub(crate) fn get<'v>(attrs: &'v [(String, String)], key: &str) -> Option<&'v str> {
     attrs
         .iter()
         .find(|(k, _)| k == key)
@@ -110,6 +114,27 @@ fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
 
 /// Parses the bytes of a `.vtu` file; `path` is only used in errors.
 pub fn parse(d: &[u8], path: &Path) -> Result<TetMesh> {
+    let s = scan(d, path, "UnstructuredGrid")?;
+    assemble(&s.ctx, s.pieces)
+}
+
+/// A VTK XML file's structure: the decoding context, the pieces with their
+/// arrays (not yet decoded), and the attributes of the dataset element
+/// (`<ImageData WholeExtent=... Origin=... Spacing=...>`).
+pub(crate) struct Scanned<'a> {
+    pub(crate) ctx: Ctx<'a>,
+    pub(crate) pieces: Vec<PieceDesc>,
+    pub(crate) dataset_attrs: Vec<(String, String)>,
+}
+
+/// Scans a VTK XML file of dataset type `kind` (`UnstructuredGrid`,
+/// `ImageData`): checks the header attributes and collects the pieces and
+/// their arrays. Pieces of an `UnstructuredGrid` need `NumberOfPoints` and
+/// `NumberOfCells`; other kinds keep the piece's attributes in
+/// [`PieceDesc::attrs`].
+pub(crate) fn scan<'a>(d: &'a [u8], path: &'a Path, kind: &str) -> Result<Scanned<'a>> {
+    let mesh = kind == "UnstructuredGrid";
+    let mut dataset_attrs = Vec::new();
     // Raw appended data is not XML: parse the XML only up to its start tag.
     let app_tag = find(d, b"<AppendedData");
     let (xml, app_start) = match app_tag {
@@ -196,8 +221,17 @@ pub fn parse(d: &[u8], path: &Path) -> Result<TetMesh> {
             "VTKFile" => {
                 seen_vtkfile = true;
                 let ty = get(&attrs, "type").unwrap_or("");
-                if ty != "UnstructuredGrid" {
-                    return Err(Error::data(path, "<VTKFile>", format!("type=\"{ty}\" is not supported: pvrsim reads UnstructuredGrid (.vtu) files")));
+                if ty != kind {
+                    let what = if mesh {
+                        "UnstructuredGrid (.vtu) files as meshes"
+                    } else {
+                        "ImageData (.vti) files as volumes"
+                    };
+                    return Err(Error::data(
+                        path,
+                        "<VTKFile>",
+                        format!("type=\"{ty}\" is not supported here: pvrsim reads {what}"),
+                    ));
                 }
                 ctx.big_endian = match get(&attrs, "byte_order").unwrap_or("LittleEndian") {
                     "LittleEndian" => false,
@@ -227,6 +261,16 @@ pub fn parse(d: &[u8], path: &Path) -> Result<TetMesh> {
                     o => return Err(Error::data(path, "<VTKFile>", format!("compressor=\"{o}\" is not supported (only vtkZLibDataCompressor; re-save without compression or with zlib)"))),
                 };
             }
+            k if k == kind => dataset_attrs = attrs.clone(),
+            "PointData" => {
+                if let Some(p) = pieces.last_mut() {
+                    p.point_data_attrs = attrs.clone();
+                }
+            }
+            "Piece" if !mesh => pieces.push(PieceDesc {
+                attrs: attrs.clone(),
+                ..Default::default()
+            }),
             "Piece" => {
                 let count = |k: &str| -> Result<usize> {
                     let v = get(&attrs, k).ok_or_else(|| {
@@ -365,13 +409,13 @@ pub fn parse(d: &[u8], path: &Path) -> Result<TetMesh> {
     ctx.appended_offsets.sort_unstable();
     ctx.appended_offsets.dedup();
     if pieces.is_empty() {
-        return Err(Error::data(
-            path,
-            "<UnstructuredGrid>",
-            "no <Piece> element",
-        ));
+        return Err(Error::data(path, format!("<{kind}>"), "no <Piece> element"));
     }
-    assemble(&ctx, pieces)
+    Ok(Scanned {
+        ctx,
+        pieces,
+        dataset_attrs,
+    })
 }
 
 /// Files a finished `<DataArray>` under its piece.
@@ -404,7 +448,7 @@ fn place(a: ArrayDesc, stack: &[String], pieces: &mut [PieceDesc], path: &Path) 
 }
 
 impl Ctx<'_> {
-    fn err(&self, a: &ArrayDesc, msg: impl Into<String>) -> Error {
+    pub(crate) fn err(&self, a: &ArrayDesc, msg: impl Into<String>) -> Error {
         Error::data(self.path, a.loc(), msg)
     }
 
@@ -545,7 +589,8 @@ impl Ctx<'_> {
         Ok(out)
     }
 
-    fn bytes(&self, a: &ArrayDesc) -> Result<Vec<u8>> {
+    /// The decoded bytes of a binary or appended array (empty for ascii).
+    pub(crate) fn bytes(&self, a: &ArrayDesc) -> Result<Vec<u8>> {
         match a.format {
             Format::Binary => {
                 let raw = self.base64(a, &a.text)?;
@@ -583,7 +628,8 @@ impl Ctx<'_> {
         }
     }
 
-    fn ascii<T: std::str::FromStr>(&self, a: &ArrayDesc, what: &str) -> Result<Vec<T>> {
+    /// The values of an ascii array.
+    pub(crate) fn ascii<T: std::str::FromStr>(&self, a: &ArrayDesc, what: &str) -> Result<Vec<T>> {
         let text =
             std::str::from_utf8(&a.text).map_err(|_| self.err(a, "ascii data is not text"))?;
         text.split_ascii_whitespace()

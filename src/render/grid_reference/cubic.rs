@@ -145,6 +145,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    #[allow(clippy::needless_range_loop)]
     fn direct(s: &[[[f64; 2]; 2]; 2], g: [f64; 3]) -> f64 {
         let mut v = 0.0;
         for k in 0..2 {

@@ -25,7 +25,12 @@ pub(crate) fn scene(camera: &str, transfer: &str, size: u32, range: Option<[f64;
     .unwrap()
 }
 
-pub(crate) fn volume(dims: [u64; 3], spacing: [f64; 3], origin: [f64; 3], f: impl Fn([f64; 3]) -> f32) -> Volume {
+pub(crate) fn volume(
+    dims: [u64; 3],
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    f: impl Fn([f64; 3]) -> f32,
+) -> Volume {
     let mut v = Vec::new();
     for k in 0..dims[2] {
         for j in 0..dims[1] {
@@ -87,7 +92,11 @@ fn constant_slab_in_perspective_follows_the_path_length() {
             let len = 3.0 / d[2];
             let t = 0.8f64.powf(len);
             let a = img.get(i, j)[3] as f64;
-            assert!((a - (1.0 - t)).abs() < 1e-6, "({i},{j}) alpha {a} vs {}", 1.0 - t);
+            assert!(
+                (a - (1.0 - t)).abs() < 1e-6,
+                "({i},{j}) alpha {a} vs {}",
+                1.0 - t
+            );
         }
     }
 }
@@ -112,7 +121,12 @@ fn linear_ramp_is_closed_form() {
     let depth = 3.0 * (((1.0 - a) * (1.0 - a).ln() + a) / a);
     let t = (-depth).exp();
     for p in &img.pixels {
-        assert!((p[3] as f64 - (1.0 - t)).abs() < 1e-6, "{} vs {}", p[3], 1.0 - t);
+        assert!(
+            (p[3] as f64 - (1.0 - t)).abs() < 1e-6,
+            "{} vs {}",
+            p[3],
+            1.0 - t
+        );
         assert!((p[0] as f64 - ((1.0 - t) + 0.2 * t)).abs() < 1e-6);
     }
 }
@@ -130,7 +144,10 @@ fn opacity_one_gives_the_colour() {
     let (img, _) = render(&inp, &Default::default());
     for p in &img.pixels {
         // T = (1e-6)^2 over 2 units.
-        assert!((p[0] - 0.3).abs() < 1e-6 && (p[2] - 0.9).abs() < 1e-6, "{p:?}");
+        assert!(
+            (p[0] - 0.3).abs() < 1e-6 && (p[2] - 0.9).abs() < 1e-6,
+            "{p:?}"
+        );
         assert!((p[3] - 1.0).abs() < 1e-6);
     }
 }
@@ -216,7 +233,10 @@ fn image_does_not_depend_on_threads() {
         None,
     );
     let inp = VolumeInput::new(sc, Arc::new(vol)).unwrap();
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let (a, _) = one.install(|| render(&inp, &Default::default()));
     let (b, _) = render(&inp, &Default::default());
     assert_eq!(a, b);

@@ -93,7 +93,10 @@ pub fn slicing_axis(input: &VolumeInput) -> usize {
 /// Renders `input` with the 2D slicer.
 pub fn render(input: &VolumeInput, opts: &Slice2dOptions) -> Result<(Image, SliceStats)> {
     if !(opts.ert > 0.0 && opts.ert <= 1.0) {
-        return Err(Error::Invalid(format!("--ert must be in (0, 1], got {}", opts.ert)));
+        return Err(Error::Invalid(format!(
+            "--ert must be in (0, 1], got {}",
+            opts.ert
+        )));
     }
     if let Some(d) = opts.lod {
         if !(d > 0.0 && d.is_finite()) {
@@ -108,7 +111,10 @@ pub fn render(input: &VolumeInput, opts: &Slice2dOptions) -> Result<(Image, Slic
     }
 }
 
-fn render_c<const C: usize>(input: &VolumeInput, opts: &Slice2dOptions) -> Result<(Image, SliceStats)> {
+fn render_c<const C: usize>(
+    input: &VolumeInput,
+    opts: &Slice2dOptions,
+) -> Result<(Image, SliceStats)> {
     let t_prep = Instant::now();
     let scene = &input.scene;
     let vol = &*input.volume;
@@ -183,7 +189,11 @@ fn render_c<const C: usize>(input: &VolumeInput, opts: &Slice2dOptions) -> Resul
     let (w, h) = (scene.image.width, scene.image.height);
     let bg = scene.image.background.map(|x| x as f32);
     let ud = tf.unit_distance;
-    let ert = if opts.order == Order::FrontToBack { opts.ert } else { 2.0 };
+    let ert = if opts.order == Order::FrontToBack {
+        opts.ert
+    } else {
+        2.0
+    };
     let mut image = Image::new(w, h);
     let counts = image
         .pixels
@@ -192,15 +202,21 @@ fn render_c<const C: usize>(input: &VolumeInput, opts: &Slice2dOptions) -> Resul
         .map(|(j, row)| {
             let mut n = SampleCounts::default();
             for (i, px) in row.iter_mut().enumerate() {
-                let [c0, c1, c2, al] = ray(input, &view, a, &slices, &lut, ud, opts.order, ert, i as u32, j as u32, &mut n);
+                let [c0, c1, c2, al] = ray(
+                    input, &view, a, &slices, &lut, ud, opts.order, ert, i as u32, j as u32, &mut n,
+                );
                 let t = 1.0 - al;
                 *px = [c0 + t * bg[0], c1 + t * bg[1], c2 + t * bg[2], al];
             }
             n
         })
-        .reduce(SampleCounts::default, SampleCounts::add);
+        .reduce(SampleCounts::default, SampleCounts::merge);
 
-    let bpt = if C == 1 { vol.voxels.voxel_type().size() as u64 } else { 4 };
+    let bpt = if C == 1 {
+        vol.voxels.voxel_type().size() as u64
+    } else {
+        4
+    };
     let mut per_level = vec![0u64; max_level as usize + 1];
     let mut used_bytes = 0;
     for s in &slices {
@@ -225,7 +241,11 @@ fn render_c<const C: usize>(input: &VolumeInput, opts: &Slice2dOptions) -> Resul
         texture_bytes_three_stacks: Some(3 * vol.len() * bpt),
         lod_d: opts.lod,
         slices_per_level: Some(per_level),
-        blocks: slices.iter().flat_map(|s| &s.opaque).map(|o| o.len() as u64).sum(),
+        blocks: slices
+            .iter()
+            .flat_map(|s| &s.opaque)
+            .map(|o| o.len() as u64)
+            .sum(),
         blocks_empty: slices
             .iter()
             .flat_map(|s| &s.opaque)
@@ -310,7 +330,11 @@ fn ray<const C: usize>(
     let total = (hi_m - lo + 1) as u64;
     let mut done = 0u64;
     for step in 0..=(hi_m - lo) {
-        let m = if towards_higher { lo + step } else { hi_m - step };
+        let m = if towards_higher {
+            lo + step
+        } else {
+            hi_m - step
+        };
         let t = (m as f64 - g0[a]) / dg[a];
         let (u, v) = (g0[ua] + t * dg[ua], g0[va] + t * dg[va]);
         let sl = &slices[m as usize];
@@ -343,7 +367,12 @@ fn ray<const C: usize>(
         match order {
             Order::FrontToBack => {
                 let w = 1.0 - acc[3];
-                acc = [acc[0] + w * cr, acc[1] + w * cg, acc[2] + w * cb, acc[3] + w * al];
+                acc = [
+                    acc[0] + w * cr,
+                    acc[1] + w * cg,
+                    acc[2] + w * cb,
+                    acc[3] + w * al,
+                ];
                 if acc[3] >= ert {
                     n.skipped_ert += total - done;
                     break;
@@ -351,7 +380,12 @@ fn ray<const C: usize>(
             }
             Order::BackToFront => {
                 let w = 1.0 - al;
-                acc = [cr + w * acc[0], cg + w * acc[1], cb + w * acc[2], al + w * acc[3]];
+                acc = [
+                    cr + w * acc[0],
+                    cg + w * acc[1],
+                    cb + w * acc[2],
+                    al + w * acc[3],
+                ];
             }
         }
     }

@@ -65,7 +65,9 @@ impl<const C: usize> Level<C> {
                 let (i0, i1) = (2 * i, (2 * i + 1).min(self.n[0] - 1));
                 let g = |u: usize, v: usize| self.texels[v * self.n[0] + u];
                 let (a, b, c, d) = (g(i0, j0), g(i1, j0), g(i0, j1), g(i1, j1));
-                t.push(std::array::from_fn(|ch| 0.25 * (a[ch] + b[ch] + c[ch] + d[ch])));
+                t.push(std::array::from_fn(|ch| {
+                    0.25 * (a[ch] + b[ch] + c[ch] + d[ch])
+                }));
             }
         }
         Level::new(n, t)

@@ -92,7 +92,10 @@ pub fn prepare(input: &VolumeInput, classify: Classify) -> Prepared {
 /// Checks options that can be wrong.
 pub fn check(opts: &Slice3dOptions) -> Result<()> {
     if !(opts.ert > 0.0 && opts.ert <= 1.0) {
-        return Err(Error::Invalid(format!("--ert must be in (0, 1], got {}", opts.ert)));
+        return Err(Error::Invalid(format!(
+            "--ert must be in (0, 1], got {}",
+            opts.ert
+        )));
     }
     match opts.slices {
         SliceCount::Count(0) => Err(Error::Invalid("--slices must be >= 1".into())),
@@ -164,7 +167,11 @@ pub fn render_prepared(
         dims: vol.dims.map(|x| x as usize),
         nb,
         opaque: &opaque,
-        ert: if opts.order == Order::FrontToBack { opts.ert } else { 2.0 },
+        ert: if opts.order == Order::FrontToBack {
+            opts.ert
+        } else {
+            2.0
+        },
     };
     let nx = vol.dims[0] as usize;
     let nxy = nx * vol.dims[1] as usize;
@@ -191,7 +198,7 @@ pub fn render_prepared(
                 }
                 n
             })
-            .reduce(SampleCounts::default, SampleCounts::add)
+            .reduce(SampleCounts::default, SampleCounts::merge)
     };
 
     let counts = match opts.classify {
@@ -210,7 +217,10 @@ pub fn render_prepared(
                 Error::Invalid("internal: slice3d prepared for post-classification".into())
             })?;
             let s = sample::Pre { rgba, nx, nxy };
-            run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
+            run(
+                &|r, n| march::march(&s, &grid, r, opts.order, n),
+                &mut image,
+            )
         }
     };
     st.add_counts(&counts);

@@ -21,7 +21,8 @@ use crate::render::slicing::{Lut, Texel};
 
 #[inline(always)]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    (b - a).mul_add(t, a)
+    // Not `mul_add`: without a target FMA unit it is a slow library call.
+    (b - a) * t + a
 }
 
 /// Base index and the eight corner offsets' texels of cell `c`.
@@ -92,7 +93,8 @@ pub struct PostSigma<'a, T> {
 impl<T: Texel> Sampler for PostSigma<'_, T> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], k: f32) -> [f32; 4] {
-        let [r, g, b, sg] = self.lut.sigma[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))];
+        let [r, g, b, sg] =
+            self.lut.sigma[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))];
         if sg == 0.0 {
             return [0.0; 4];
         }

@@ -72,7 +72,11 @@ impl MinMaxBlocks {
 /// Blocks `b` that hold sample `i`: `B b <= i <= B b + B`, `b < nb`
 /// (one block, or two on a block boundary).
 fn block_span(i: u64, nb: u64) -> std::ops::Range<u64> {
-    let first = if i >= BLOCK { (i - BLOCK).div_ceil(BLOCK) } else { 0 };
+    let first = if i >= BLOCK {
+        (i - BLOCK).div_ceil(BLOCK)
+    } else {
+        0
+    };
     let last = (i / BLOCK).min(nb - 1);
     first..last + 1
 }

@@ -62,7 +62,7 @@ impl Lut {
     /// The entry of raw scalar `s`.
     #[inline(always)]
     pub fn index(&self, s: f32) -> usize {
-        let x = s.mul_add(self.scale, self.offset);
+        let x = s * self.scale + self.offset; // not mul_add: a libm call without FMA
         (x.max(0.0) as usize).min(LUT_SIZE - 1)
     }
 
@@ -94,7 +94,11 @@ mod tests {
     #[test]
     fn indices_and_transparency() {
         let tf = TransferFunction::from_rows(
-            &[[0.0, 1.0, 1.0, 1.0, 0.0], [0.5, 1.0, 1.0, 1.0, 0.0], [1.0, 1.0, 0.0, 0.0, 0.5]],
+            &[
+                [0.0, 1.0, 1.0, 1.0, 0.0],
+                [0.5, 1.0, 1.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0, 0.0, 0.5],
+            ],
             1.0,
         );
         let lut = Lut::new(&tf, [100.0, 200.0]);

@@ -115,7 +115,7 @@ pub struct SampleCounts {
 
 impl SampleCounts {
     /// Sum.
-    pub fn add(mut self, o: SampleCounts) -> SampleCounts {
+    pub fn merge(mut self, o: SampleCounts) -> SampleCounts {
         self.taken += o.taken;
         self.skipped_empty += o.skipped_empty;
         self.skipped_ert += o.skipped_ert;

@@ -5,6 +5,9 @@
 //! | name ends in | format | module |
 //! | --- | --- | --- |
 //! | `.nrrd`, `.nhdr` | NRRD, attached or detached; raw, gzip, ascii, hex | [`nrrd`] |
+//! | `.nii`, `.nii.gz` | NIfTI-1 single file, sform/qform axis-aligned | [`nifti`] |
+//! | `.vti` | VTK XML ImageData: ascii, base64, appended, zlib | [`vti`] |
+//! | `.fld` | AVS field, uniform, embedded or external binary | [`avs_field`] |
 //!
 //! Every reader returns a [`Volume`] in its compact voxel type with an
 //! axis-aligned placement (negative directions are flipped, see
@@ -12,9 +15,12 @@
 //! and the header line, field or byte offset at fault, and no reader
 //! allocates what a header claims before checking it against the file.
 
+pub mod avs_field;
+pub mod nifti;
 pub mod nrrd;
 pub mod placement;
 pub mod samples;
+pub mod vti;
 
 use std::path::Path;
 
@@ -22,13 +28,20 @@ use crate::data::Volume;
 use crate::error::{Error, Result};
 
 /// The file-name endings [`read_volume`] understands, for messages.
-pub const SUPPORTED: &str = ".nrrd / .nhdr (NRRD)";
+pub const SUPPORTED: &str =
+    ".nrrd / .nhdr (NRRD), .nii / .nii.gz (NIfTI-1), .vti (VTK XML ImageData), .fld (AVS field)";
 
 /// The volume formats, as recognised from a file name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum VolumeFormat {
     /// NRRD, attached (`.nrrd`) or detached (`.nhdr`).
     Nrrd,
+    /// NIfTI-1, `.nii` or `.nii.gz`.
+    Nifti,
+    /// VTK XML ImageData.
+    Vti,
+    /// AVS field.
+    AvsField,
 }
 
 /// The volume format a file name asks for, or `None`.
@@ -36,6 +49,12 @@ pub fn volume_format(path: &Path) -> Option<VolumeFormat> {
     let name = path.file_name()?.to_str()?.to_ascii_lowercase();
     if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         Some(VolumeFormat::Nrrd)
+    } else if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+        Some(VolumeFormat::Nifti)
+    } else if name.ends_with(".vti") {
+        Some(VolumeFormat::Vti)
+    } else if name.ends_with(".fld") {
+        Some(VolumeFormat::AvsField)
     } else {
         None
     }
@@ -48,6 +67,9 @@ pub fn volume_format(path: &Path) -> Option<VolumeFormat> {
 pub fn read_volume(path: &Path, field: &str) -> Result<Volume> {
     match volume_format(path) {
         Some(VolumeFormat::Nrrd) => nrrd::read(path, field),
+        Some(VolumeFormat::Nifti) => nifti::read(path, field),
+        Some(VolumeFormat::Vti) => vti::read(path, field),
+        Some(VolumeFormat::AvsField) => avs_field::read(path, field),
         None => Err(Error::data(
             path,
             "file name",
