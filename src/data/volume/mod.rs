@@ -11,6 +11,7 @@
 //! is x fastest: `idx = i + nx * (j + ny * k)`.
 
 pub mod generate;
+pub mod report;
 pub mod scene;
 
 use std::path::Path;
