@@ -1,5 +1,6 @@
 //! `pvrsim demo`: the quick start. Generates the built-in bifurcation dataset,
-//! writes it with its scene, renders it, then renders it again on the
+//! writes it with its scene (and the demo volume, a 64^3 hydrogen atom, with
+//! its scene), renders it, then renders it again on the
 //! simulated 8-node cluster (ERT + SHARE + DLB, virtual clock, `gbe`,
 //! `pentium4`), and prints what happened.
 
@@ -49,6 +50,31 @@ impl Validate for DemoArgs {
     }
 }
 
+/// Writes the demo's regular grid (hydrogen atom, 64^3 u8) as
+/// `hydrogen.nrrd` and its scene `hydrogen.toml`, and checks both load.
+fn write_demo_volume(a: &DemoArgs) -> anyhow::Result<()> {
+    let (vol, text) = crate::data::demo_volume::demo_volume_and_scene("hydrogen.nrrd");
+    let nrrd = a.out_dir.join("hydrogen.nrrd");
+    crate::data::io::volume::write_nrrd(
+        &vol,
+        &nrrd,
+        false,
+        "pvrsim demo: hydrogen atom (KVS formula), 64^3",
+    )?;
+    let scene_path = a.out_dir.join("hydrogen.toml");
+    std::fs::write(&scene_path, &text)
+        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    let scene = Scene::load(&scene_path)?;
+    crate::data::io::read_volume(&scene.data.path, &scene.data.field)?;
+    println!(
+        "wrote {} ({}^3 u8 grid) and {}",
+        nrrd.display(),
+        vol.dims[0],
+        scene_path.display()
+    );
+    Ok(())
+}
+
 /// Runs `pvrsim demo`.
 pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     validate::apply(&a)?;
@@ -79,6 +105,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     std::fs::write(&scene_path, &scene_text)
         .with_context(|| format!("cannot write {}", scene_path.display()))?;
     println!("wrote {} and {}", vtk.display(), scene_path.display());
+    write_demo_volume(&a)?;
 
     let scene = Scene::parse(&scene_text, &scene_path)?;
     let input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;

@@ -20,6 +20,7 @@ pub mod cluster;
 pub mod cluster_ert;
 pub mod compare;
 pub mod demo;
+pub mod generate;
 pub mod info;
 pub mod memory;
 pub mod output;
@@ -68,6 +69,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Generate the built-in demo dataset, render it, write demo.png and a stats summary.
     Demo(demo::DemoArgs),
+    /// Generate a test volume (hydrogen, marschner-lobb, resample) as .nrrd with its scene .toml.
+    Generate(generate::GenerateArgs),
     /// Time the renderers on the shared aorta scenes (needs ../shared/data).
     Bench(bench::BenchArgs),
     /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md); a progress bar on a terminal, one line per finished run when piped.
@@ -89,6 +92,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cluster(a) => cluster::run(a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Generate(a) => generate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),

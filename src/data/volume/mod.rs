@@ -10,6 +10,10 @@
 //! `[origin, origin + (dims - 1) * spacing]` and nowhere else. Index order
 //! is x fastest: `idx = i + nx * (j + ny * k)`.
 
+pub mod generate;
+pub mod report;
+pub mod scene;
+
 use std::path::Path;
 
 use crate::error::{Error, Result};

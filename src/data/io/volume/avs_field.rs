@@ -209,7 +209,13 @@ pub fn parse(d: &[u8], path: &Path, field: &str) -> Result<Volume> {
             let (file, skip) = parse_variable(spec)
                 .map_err(|m| Error::data(path, format!("line {line} (`variable`)"), m))?;
             let p = path.parent().unwrap_or(Path::new("")).join(file);
-            ext_data = read_bytes(&p)?;
+            ext_data = std::fs::read(&p).map_err(|e| {
+                Error::data(
+                    path,
+                    format!("line {line} (`variable`)"),
+                    format!("cannot read {}: {e}", p.display()),
+                )
+            })?;
             let s = (skip as usize).min(ext_data.len());
             (&ext_data[s..], p, format!("data (after skip={skip})"))
         }

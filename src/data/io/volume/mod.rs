@@ -18,9 +18,12 @@
 pub mod avs_field;
 pub mod nifti;
 pub mod nrrd;
+pub mod nrrd_write;
 pub mod placement;
 pub mod samples;
 pub mod vti;
+
+pub use nrrd_write::write_nrrd;
 
 use std::path::Path;
 

@@ -134,7 +134,13 @@ pub fn parse(file: &[u8], path: &Path, field: &str) -> Result<Volume> {
         Some((name, line)) => {
             let base = path.parent().unwrap_or(Path::new(""));
             data_path = resolve_data_file(path, base, name, *line)?;
-            data_owned = read_bytes(&data_path)?;
+            data_owned = std::fs::read(&data_path).map_err(|e| {
+                Error::data(
+                    path,
+                    loc(*line, "data file"),
+                    format!("cannot read {}: {e}", data_path.display()),
+                )
+            })?;
             &data_owned
         }
         None => {
