@@ -12,8 +12,8 @@
 //! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
-pub mod bench_orderings;
 pub mod bench_grid;
+pub mod bench_orderings;
 pub mod calibrate;
 pub mod calibrate_network;
 pub mod cluster;
@@ -25,13 +25,13 @@ pub mod info;
 pub mod memory;
 pub mod output;
 pub mod render;
-pub mod scene;
 pub mod render_grid;
+pub mod scene;
 pub mod splat;
 pub mod splat_experiments;
 pub mod sweep;
-pub mod validate;
 pub mod transport_args;
+pub mod validate;
 pub mod worker;
 
 use clap::{Parser, Subcommand};
@@ -137,7 +137,6 @@ pub fn plural(n: usize, noun: &str) -> String {
         format!("1 {noun}")
     } else {
         format!("{n} {noun}s")
-        
     }
 }
 
