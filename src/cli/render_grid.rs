@@ -152,15 +152,14 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
 }
 
 fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Result<()> {
-    let diff = Image::difference(image, reference, 10.0);
-    let side = Image::side_by_side(&[image, reference, &diff], 4);
-    let path = a.output.with_file_name(format!(
-        "{}-compare.png",
-        a.output.file_stem().unwrap_or_default().to_string_lossy()
-    ));
-    side.save_png(&path)?;
+    let path = super::render::compare_path(&a.output);
+    let label = a
+        .renderer
+        .and_then(|r| clap::ValueEnum::to_possible_value(&r))
+        .map_or("slice3d".to_string(), |v| v.get_name().to_string());
+    super::compare::write_strip(image, reference, &label, 10.0, &path)?;
     println!(
-        "wrote {} (this | reference | 10x difference)",
+        "wrote {} ({label} | reference | 10x difference, labelled)",
         path.display()
     );
     Ok(())
