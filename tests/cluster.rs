@@ -251,38 +251,56 @@ proptest! {
         let m = input.mesh.tets.len();
         let mut pts: Vec<usize> = cuts.iter().map(|c| (c * c * m as f64) as usize).collect();
         pts.sort_unstable();
-        let mut parts = Vec::new();
-        let mut prev = 0;
-        for p in pts.into_iter().chain([m]) {
-            parts.push((prev as u32..p as u32).collect::<Vec<u32>>());
-            prev = p;
-        }
-        let n = parts.len();
-        let placement = Placement::from_parts(parts);
+        let placement = placement_cut_at(pts, m);
+        let n = placement.parts.len();
         let mut cfg = config(n, NodeErt::PAPER, share, true, "binary-swap").phase1;
         cfg.policy.chunk = chunk;
         cfg.record_trace = false;
-        let profile = CostProfile::named("pentium4").unwrap();
-        let codec = Codec::default();
-        let nodes = phase1::build_nodes(&input, &placement, &cfg, &profile, codec).unwrap();
-        let model = NetworkModel::from_name("gbe").unwrap();
-        let p = phase1::run(nodes, &cfg, &model, &profile, codec).unwrap();
-        let mut seen = vec![false; m];
-        let mut culled = 0u64;
-        for a in &p.nodes {
-            prop_assert_eq!(a.renderer().remaining(), 0);
-            culled += a.renderer().totals().cells_culled;
-            for c in a.renderer().processed_cells() {
-                prop_assert!(!seen[c as usize], "cell {} processed twice", c);
-                seen[c as usize] = true;
-            }
-        }
-        let processed = seen.iter().filter(|&&s| s).count() as u64;
-        prop_assert_eq!(processed + culled, m as u64);
-        let given: u64 = p.nodes.iter().map(|a| a.stats().cells_given).sum();
-        let taken: u64 = p.nodes.iter().map(|a| a.stats().cells_taken).sum();
-        prop_assert_eq!(given, taken);
+        check_cells_conserved(&input, &placement, &cfg)?;
     }
+}
+
+/// Nodes holding the cells `[0, c_1), [c_1, c_2), ..., [c_k, m)` for the
+/// sorted cut points `pts` (empty nodes allowed).
+fn placement_cut_at(pts: Vec<usize>, m: usize) -> Placement {
+    let mut parts = Vec::new();
+    let mut prev = 0;
+    for p in pts.into_iter().chain([m]) {
+        parts.push((prev as u32..p as u32).collect::<Vec<u32>>());
+        prev = p;
+    }
+    Placement::from_parts(parts)
+}
+
+/// Runs phase 1 through the real protocol and checks that every cell was
+/// processed (or culled) exactly once and that every cell given was taken.
+fn check_cells_conserved(
+    input: &RenderInput,
+    placement: &Placement,
+    cfg: &Phase1Config,
+) -> Result<(), TestCaseError> {
+    let m = input.mesh.tets.len();
+    let profile = CostProfile::named("pentium4").unwrap();
+    let codec = Codec::default();
+    let nodes = phase1::build_nodes(input, placement, cfg, &profile, codec).unwrap();
+    let model = NetworkModel::from_name("gbe").unwrap();
+    let p = phase1::run(nodes, cfg, &model, &profile, codec).unwrap();
+    let mut seen = vec![false; m];
+    let mut culled = 0u64;
+    for a in &p.nodes {
+        prop_assert_eq!(a.renderer().remaining(), 0);
+        culled += a.renderer().totals().cells_culled;
+        for c in a.renderer().processed_cells() {
+            prop_assert!(!seen[c as usize], "cell {} processed twice", c);
+            seen[c as usize] = true;
+        }
+    }
+    let processed = seen.iter().filter(|&&s| s).count() as u64;
+    prop_assert_eq!(processed + culled, m as u64);
+    let given: u64 = p.nodes.iter().map(|a| a.stats().cells_given).sum();
+    let taken: u64 = p.nodes.iter().map(|a| a.stats().cells_taken).sum();
+    prop_assert_eq!(given, taken);
+    Ok(())
 }
 
 fn node_actor(input: &RenderInput) -> pvrsim::node::NodeActor {
@@ -551,38 +569,13 @@ proptest! {
         let m = input.mesh.tets.len();
         let mut pts: Vec<usize> = cuts.iter().map(|c| (c * m as f64) as usize).collect();
         pts.sort_unstable();
-        let mut parts = Vec::new();
-        let mut prev = 0;
-        for p in pts.into_iter().chain([m]) {
-            parts.push((prev as u32..p as u32).collect::<Vec<u32>>());
-            prev = p;
-        }
-        let n = parts.len();
-        let placement = Placement::from_parts(parts);
+        let placement = placement_cut_at(pts, m);
+        let n = placement.parts.len();
         let ert = NodeErt { structure: ErtStructure::Pyramid, share_levels: 4, ..NodeErt::PAPER };
         let mut cfg = config(n, ert, true, true, "binary-swap").phase1;
         cfg.policy.chunk = chunk;
         cfg.policy.help_gap = gap;
         cfg.record_trace = false;
-        let profile = CostProfile::named("pentium4").unwrap();
-        let codec = Codec::default();
-        let nodes = phase1::build_nodes(&input, &placement, &cfg, &profile, codec).unwrap();
-        let model = NetworkModel::from_name("gbe").unwrap();
-        let p = phase1::run(nodes, &cfg, &model, &profile, codec).unwrap();
-        let mut seen = vec![false; m];
-        let mut culled = 0u64;
-        for a in &p.nodes {
-            prop_assert_eq!(a.renderer().remaining(), 0);
-            culled += a.renderer().totals().cells_culled;
-            for c in a.renderer().processed_cells() {
-                prop_assert!(!seen[c as usize], "cell {} processed twice", c);
-                seen[c as usize] = true;
-            }
-        }
-        let processed = seen.iter().filter(|&&s| s).count() as u64;
-        prop_assert_eq!(processed + culled, m as u64);
-        let given: u64 = p.nodes.iter().map(|a| a.stats().cells_given).sum();
-        let taken: u64 = p.nodes.iter().map(|a| a.stats().cells_taken).sum();
-        prop_assert_eq!(given, taken);
+        check_cells_conserved(&input, &placement, &cfg)?;
     }
 }
