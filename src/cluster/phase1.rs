@@ -110,7 +110,7 @@ pub fn build_nodes(
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
             if cfg.share {
                 r.enable_level_sharing();
-                r.enable_pixel_sharing(depth_quant(input, &view));
+                r.enable_pixel_sharing(depth_quant(input));
             }
             let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
             let unit = WorkUnit::decode(&unit.encode())?;
@@ -139,11 +139,7 @@ pub fn build_nodes(
 /// vertices' smallest and largest depth (screen depth, or distance from the
 /// eye in perspective: convex, so no point of a cell is farther than its
 /// farthest vertex; nearer points get code 0, which rounds them up).
-fn depth_quant(
-    input: &RenderInput,
-    view: &crate::scene::View,
-) -> crate::node::pixel_share::DepthQuant {
-    let _ = view;
+fn depth_quant(input: &RenderInput) -> crate::node::pixel_share::DepthQuant {
     let [z0, z1] = depth_range(input);
     crate::node::pixel_share::DepthQuant::new(z0, z1)
 }

@@ -468,9 +468,15 @@ impl NodeRenderer {
         let rem = self.remaining();
         let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
         let given = self.records.split_off(self.records.len() - k);
+        self.pack(&given)
+    }
+
+    /// Packs cells taken out of the queue into a work unit with their
+    /// vertices, counting them in `work_cells_moved`.
+    fn pack(&mut self, given: &[CellRecord]) -> WorkUnit {
         let vertices = &self.vertices;
         let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
-        self.totals.work_cells_moved += k as u64;
+        self.totals.work_cells_moved += given.len() as u64;
         unit
     }
 
@@ -483,10 +489,7 @@ impl NodeRenderer {
         let rem = self.remaining();
         let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
         let given: Vec<CellRecord> = self.records.drain(self.next..self.next + k).collect();
-        let vertices = &self.vertices;
-        let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
-        self.totals.work_cells_moved += k as u64;
-        unit
+        self.pack(&given)
     }
 
     /// Nearest depth of the next unprocessed cell (`+inf`: none).
