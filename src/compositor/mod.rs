@@ -17,6 +17,7 @@
 
 pub mod codec;
 pub mod exec;
+pub mod layer;
 pub mod lists;
 pub mod region;
 pub mod schedule;

@@ -15,9 +15,10 @@
 //! kind: 'L' lists, 'P' pixels; codec: 'r' raw, 'R' rle; version 1
 //! ```
 
+pub mod layers;
 mod raw;
 mod rle;
-mod wire;
+pub(crate) mod wire;
 
 pub use raw::Raw;
 pub use rle::Rle;

@@ -139,6 +139,16 @@ impl<'a> Reader<'a> {
         Ok(s)
     }
 
+    /// The next `n` bytes (for codecs with byte-level payloads).
+    pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], DecodeError> {
+        self.take(n)
+    }
+
+    /// The byte at absolute offset `at`, if there is one (no advance).
+    pub fn peek_at(&self, at: usize) -> Option<u8> {
+        self.bytes.get(at).copied()
+    }
+
     /// Fails unless `n` more bytes are there (checked before allocating).
     pub fn need(&self, n: u64) -> Result<(), DecodeError> {
         if (self.left() as u64) < n {
