@@ -89,6 +89,7 @@ fn slice3d_options(a: &RenderArgs) -> Slice3dOptions {
         ert: a.ert,
         slices: slice_count(a),
         empty_skip: !a.no_empty_skip,
+        brick: None,
     }
 }
 

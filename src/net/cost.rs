@@ -85,7 +85,7 @@ use super::error::{NetError, NetResult};
 use super::message::NodeId;
 
 /// Names and TOML sources of the built-in presets.
-const PRESETS: [(&str, &str); 5] = [
+const PRESETS: [(&str, &str); 6] = [
     ("gbe", include_str!("../../configs/network/gbe.toml")),
     (
         "fast-ethernet",
@@ -97,6 +97,7 @@ const PRESETS: [(&str, &str); 5] = [
         include_str!("../../configs/network/infiniband.toml"),
     ),
     ("ideal", include_str!("../../configs/network/ideal.toml")),
+    ("100base", include_str!("../../configs/network/100base.toml")),
 ];
 
 /// Parameters of the network (see the module docs for the math).

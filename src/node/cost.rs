@@ -55,6 +55,21 @@ pub struct CostProfile {
     pub per_shared_entry: f64,
     /// Per cell packed into or unpacked from a work unit.
     pub per_work_cell: f64,
+    /// Grid nodes without a device model: per trilinear sample taken by the
+    /// software slicer (fetch, classify, blend).
+    pub per_sample: f64,
+    /// Device model (grid nodes): texture memory, bytes; bricks beyond it
+    /// are uploaded again every frame. 0: not modelled (all resident).
+    pub texture_bytes: f64,
+    /// Device model: fill rate, fragments (slice samples) per second. 0: no
+    /// device, the software slicer's `per_sample` is charged instead.
+    pub fill_rate: f64,
+    /// Device model: host-to-device bus bandwidth for texture uploads,
+    /// bytes per second. 0: uploads not charged.
+    pub upload_bytes_per_s: f64,
+    /// Device model: framebuffer read-back bandwidth (the subimage), bytes
+    /// per second. 0: not charged.
+    pub readback_bytes_per_s: f64,
 }
 
 /// A profile file: a name, notes, and the unit costs.
@@ -113,6 +128,9 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
     }
 }
 
+/// The `radeon9700` profile file (device model), built in.
+pub const RADEON9700_TOML: &str = include_str!("../../configs/profiles/radeon9700.toml");
+
 /// The `pentium4` profile file, built in.
 pub const PENTIUM4_TOML: &str = include_str!("../../configs/profiles/pentium4.toml");
 
@@ -140,6 +158,8 @@ impl CostProfile {
             per_table_entry: self.per_table_entry * k_pixel,
             per_table_pixel: self.per_table_pixel * k_pixel,
             per_shared_entry: self.per_shared_entry * k_pixel,
+            per_sample: self.per_sample * k_pixel,
+            ..*self
         }
     }
 
@@ -161,6 +181,11 @@ impl CostProfile {
             c.per_table_pixel,
             c.per_shared_entry,
             c.per_work_cell,
+            c.per_sample,
+            c.texture_bytes,
+            c.fill_rate,
+            c.upload_bytes_per_s,
+            c.readback_bytes_per_s,
         ];
         anyhow::ensure!(
             all.iter().all(|v| v.is_finite() && *v >= 0.0),
@@ -177,11 +202,12 @@ impl CostProfile {
         CostProfile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
     }
 
-    /// A built-in profile by name: `pentium4`.
+    /// A built-in profile by name: `pentium4`, `radeon9700`.
     pub fn named(name: &str) -> anyhow::Result<CostProfile> {
         match name {
             "pentium4" => Ok(CostProfile::parse(PENTIUM4_TOML)?.costs),
-            _ => anyhow::bail!("unknown profile {name:?} (built in: pentium4)"),
+            "radeon9700" => Ok(CostProfile::parse(RADEON9700_TOML)?.costs),
+            _ => anyhow::bail!("unknown profile {name:?} (built in: pentium4, radeon9700)"),
         }
     }
 }

@@ -24,6 +24,7 @@
 
 pub mod actor;
 pub mod calibration;
+pub mod grid;
 pub mod cost;
 pub mod levels;
 pub mod lsq;

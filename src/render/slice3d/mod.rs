@@ -15,6 +15,7 @@
 //! positions `start + k step` per ray and a [`Lut`] for the classification;
 //! the image does not depend on the thread count.
 
+pub mod brick;
 pub mod march;
 pub mod planes;
 pub mod sample;
@@ -48,6 +49,10 @@ pub struct Slice3dOptions {
     pub slices: SliceCount,
     /// Skip samples in transparent min–max blocks (default on).
     pub empty_skip: bool,
+    /// Render the input as one brick of a larger volume (sort-last
+    /// parallel rendering): the whole's slice planes, only the samples the
+    /// brick owns, only the pixels of its rectangle. `None`: the whole.
+    pub brick: Option<brick::BrickFrame>,
 }
 
 impl Default for Slice3dOptions {
@@ -58,6 +63,7 @@ impl Default for Slice3dOptions {
             ert: 0.99,
             slices: SliceCount::Default,
             empty_skip: true,
+            brick: None,
         }
     }
 }
@@ -149,7 +155,11 @@ pub fn render_prepared(
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];
     }
-    let Some(planes) = planes::Planes::new(&view, vol, opts.slices) else {
+    let planes = match &opts.brick {
+        Some(b) => Some(b.planes),
+        None => planes::Planes::new(&view, vol, opts.slices),
+    };
+    let Some(planes) = planes else {
         st.time_render_s = start.elapsed().as_secs_f64();
         return Ok((image, st));
     };
@@ -187,8 +197,17 @@ pub fn render_prepared(
             .map(|(j, row)| {
                 let mut n = SampleCounts::default();
                 for (i, px) in row.iter_mut().enumerate() {
-                    let Some(r) = planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32)
-                    else {
+                    let r = match &opts.brick {
+                        None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
+                        Some(b) => {
+                            let (x, y) = (i as u32, j as u32);
+                            if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
+                                continue;
+                            }
+                            brick::ray_samples(&view, b, ud, x, y)
+                        }
+                    };
+                    let Some(r) = r else {
                         continue;
                     };
                     n.covered += 1;

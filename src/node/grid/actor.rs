@@ -1,0 +1,148 @@
+//! The grid node as a [`crate::net::Actor`]: on `Start` it renders its
+//! bricks into layers (the real work, inside `handle`), charges the modelled
+//! time ([`super::device`]) as one `Compute`, and stops. Grid nodes need no
+//! manager traffic: sort-last rendering of bricks has no load exchange.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::compositor::layer::Layer;
+use crate::data::Volume;
+use crate::net::{Action, Activity, Actor, Event};
+use crate::node::CostProfile;
+use crate::render::slice3d::planes::Planes;
+use crate::render::slice3d::Slice3dOptions;
+use crate::render::VolumeInput;
+
+use super::bricks::Brick;
+use super::device::{frame_time, BrickWork, DeviceTime};
+use super::render::{render_brick, BrickRenderer};
+
+/// What a grid node did.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct GridNodeStats {
+    /// Rank.
+    pub rank: usize,
+    /// Brick ids rendered.
+    pub bricks: Vec<u32>,
+    /// Modelled time by part.
+    pub device: DeviceTime,
+    /// Slice samples inside the node's bricks (fragments).
+    pub fragments: u64,
+    /// Samples the slicer took.
+    pub samples_taken: u64,
+    /// Subimage pixels.
+    pub pixels: u64,
+    /// Host seconds spent rendering.
+    pub host_s: f64,
+    /// The error that stopped the node, if any.
+    pub error: Option<String>,
+}
+
+/// One grid node.
+pub struct GridNodeActor {
+    whole: Arc<VolumeInput>,
+    planes: Option<Planes>,
+    bricks: Vec<(Brick, Arc<Volume>, u32)>,
+    opts: Slice3dOptions,
+    profile: CostProfile,
+    renderer: BrickRenderer,
+    layers: Vec<Layer>,
+    stats: GridNodeStats,
+}
+
+impl GridNodeActor {
+    /// A node of rank `rank` holding `bricks` (brick, its samples, its
+    /// visibility rank), rendering with the whole's `planes`.
+    pub fn new(
+        rank: usize,
+        whole: Arc<VolumeInput>,
+        planes: Option<Planes>,
+        bricks: Vec<(Brick, Arc<Volume>, u32)>,
+        opts: Slice3dOptions,
+        profile: CostProfile,
+        renderer: BrickRenderer,
+    ) -> GridNodeActor {
+        let stats = GridNodeStats {
+            rank,
+            bricks: bricks.iter().map(|b| b.0.id).collect(),
+            ..Default::default()
+        };
+        GridNodeActor {
+            whole,
+            planes,
+            bricks,
+            opts,
+            profile,
+            renderer,
+            layers: Vec::new(),
+            stats,
+        }
+    }
+
+    /// The statistics.
+    pub fn stats(&self) -> &GridNodeStats {
+        &self.stats
+    }
+
+    /// The layers rendered (after the run).
+    pub fn take_layers(&mut self) -> Vec<Layer> {
+        std::mem::take(&mut self.layers)
+    }
+
+    fn render(&mut self) -> crate::error::Result<f64> {
+        let t = Instant::now();
+        let mut work = Vec::with_capacity(self.bricks.len());
+        if let Some(planes) = self.planes {
+            for (b, vol, rank) in &self.bricks {
+                let out = render_brick(
+                    &self.whole,
+                    planes,
+                    b,
+                    vol.clone(),
+                    *rank,
+                    &self.opts,
+                    &self.renderer,
+                )?;
+                let st = &out.stats;
+                let w = BrickWork {
+                    texture_bytes: st.texture_bytes,
+                    fragments: st.samples_taken + st.samples_skipped_empty + st.samples_skipped_ert,
+                    samples_taken: st.samples_taken,
+                    pixels: out.layer.px.len() as u64,
+                };
+                self.stats.fragments += w.fragments;
+                self.stats.samples_taken += w.samples_taken;
+                self.stats.pixels += w.pixels;
+                work.push(w);
+                self.layers.push(out.layer);
+            }
+        }
+        self.stats.device = frame_time(&work, &self.profile);
+        self.stats.host_s = t.elapsed().as_secs_f64();
+        Ok(self.stats.device.total())
+    }
+}
+
+impl Actor for GridNodeActor {
+    fn handle(&mut self, _now: f64, event: Event) -> Vec<Action> {
+        match event {
+            Event::Start => match self.render() {
+                Ok(s) => vec![
+                    Action::Compute {
+                        seconds: s,
+                        activity: Activity::Scan,
+                    },
+                    Action::Stop,
+                ],
+                Err(e) => {
+                    self.stats.error = Some(e.to_string());
+                    vec![Action::Stop]
+                }
+            },
+            _ => Vec::new(),
+        }
+    }
+}

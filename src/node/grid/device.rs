@@ -1,0 +1,140 @@
+//! The compute-time model of a grid node (virtual clock), from the
+//! [`CostProfile`]:
+//!
+//! - with a device (`fill_rate > 0`): fill `F / fill_rate`, where `F` is the
+//!   fragments drawn (every slice sample inside the brick: a GPU neither
+//!   skips empty blocks nor terminates rays early); texture upload of the
+//!   bricks that do not fit in `texture_bytes` (bricks are made resident in
+//!   id order while they fit; the others are uploaded again every frame,
+//!   the steady state of a frame loop): `U / upload_bytes_per_s`; read-back
+//!   of the subimage `4 · pixels / readback_bytes_per_s`;
+//! - without: `samples taken · per_sample` (the software slicer).
+//!
+//! Blending a received subimage: per pixel `1 / fill_rate + 4 /
+//! upload_bytes_per_s` (a textured quad, uploaded), or `per_sample`.
+
+use serde::Serialize;
+
+use crate::node::CostProfile;
+
+/// A brick's work, as the model sees it.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BrickWork {
+    /// Texture bytes of the brick.
+    pub texture_bytes: u64,
+    /// Slice samples inside the brick along covered rays (fragments).
+    pub fragments: u64,
+    /// Samples the software slicer actually took.
+    pub samples_taken: u64,
+    /// Pixels of the subimage.
+    pub pixels: u64,
+}
+
+/// Modelled seconds of one node's frame, by part.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct DeviceTime {
+    /// Fill (device) or sampling (software).
+    pub fill_s: f64,
+    /// Texture uploads of non-resident bricks.
+    pub upload_s: f64,
+    /// Subimage read-back.
+    pub readback_s: f64,
+    /// Texture bytes that stay resident.
+    pub resident_bytes: u64,
+    /// Texture bytes uploaded every frame.
+    pub uploaded_bytes: u64,
+}
+
+impl DeviceTime {
+    /// The sum of the parts.
+    pub fn total(&self) -> f64 {
+        self.fill_s + self.upload_s + self.readback_s
+    }
+}
+
+/// Whether `p` can cost a grid frame at all.
+pub fn check(p: &CostProfile, name: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        p.fill_rate > 0.0 || p.per_sample > 0.0,
+        "profile {name} has no grid costs (neither fill_rate nor per_sample is set): \
+         use --profile radeon9700 or a profile with per_sample"
+    );
+    Ok(())
+}
+
+/// The modelled time of a node rendering `bricks` (in residency order).
+pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
+    let mut t = DeviceTime::default();
+    if p.fill_rate <= 0.0 {
+        t.fill_s = bricks.iter().map(|b| b.samples_taken as f64).sum::<f64>() * p.per_sample;
+        return t;
+    }
+    let mut used = 0u64;
+    for b in bricks {
+        t.fill_s += b.fragments as f64 / p.fill_rate;
+        if p.texture_bytes <= 0.0 || (used + b.texture_bytes) as f64 <= p.texture_bytes {
+            used += b.texture_bytes;
+            t.resident_bytes += b.texture_bytes;
+        } else {
+            t.uploaded_bytes += b.texture_bytes;
+        }
+        if p.readback_bytes_per_s > 0.0 {
+            t.readback_s += 4.0 * b.pixels as f64 / p.readback_bytes_per_s;
+        }
+    }
+    if p.upload_bytes_per_s > 0.0 {
+        t.upload_s = t.uploaded_bytes as f64 / p.upload_bytes_per_s;
+    }
+    t
+}
+
+/// Modelled seconds to blend `pixels` received pixels.
+pub fn blend_time(pixels: u64, p: &CostProfile) -> f64 {
+    let per = if p.fill_rate > 0.0 {
+        1.0 / p.fill_rate
+            + if p.upload_bytes_per_s > 0.0 {
+                4.0 / p.upload_bytes_per_s
+            } else {
+                0.0
+            }
+    } else {
+        p.per_sample
+    };
+    pixels as f64 * per
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bricks_beyond_texture_memory_are_uploaded_every_frame() {
+        let p = CostProfile {
+            texture_bytes: 100.0,
+            fill_rate: 10.0,
+            upload_bytes_per_s: 20.0,
+            ..Default::default()
+        };
+        let b = |bytes| BrickWork {
+            texture_bytes: bytes,
+            fragments: 5,
+            samples_taken: 1,
+            pixels: 1,
+        };
+        let t = frame_time(&[b(60), b(30), b(40)], &p);
+        assert_eq!(t.resident_bytes, 90);
+        assert_eq!(t.uploaded_bytes, 40);
+        assert!((t.upload_s - 2.0).abs() < 1e-12);
+        assert!((t.fill_s - 1.5).abs() < 1e-12);
+        // Everything fits: no upload.
+        let t = frame_time(&[b(60), b(30)], &p);
+        assert_eq!((t.uploaded_bytes, t.upload_s), (0, 0.0));
+        // No device: the software slicer's per-sample cost.
+        let cpu = CostProfile {
+            per_sample: 2.0,
+            ..Default::default()
+        };
+        assert_eq!(frame_time(&[b(60), b(30)], &cpu).total(), 4.0);
+        assert!(check(&CostProfile::default(), "x").is_err());
+    }
+}

@@ -1,0 +1,96 @@
+//! One brick into one layer: the brick renderer is any function with the
+//! shape of [`slice3d::render`] (a `VolumeInput` and options to an image and
+//! [`SliceStats`]) that honours [`Slice3dOptions::brick`]; the node crops its
+//! image to the brick's screen rectangle and quantises it to RGBA8.
+
+use std::sync::Arc;
+
+use crate::compositor::layer::Layer;
+use crate::data::Volume;
+use crate::error::Result;
+use crate::image::Image;
+use crate::render::slice3d::brick::BrickFrame;
+use crate::render::slice3d::planes::Planes;
+use crate::render::slice3d::{self, Slice3dOptions};
+use crate::render::slicing::SliceStats;
+use crate::render::VolumeInput;
+
+use super::bricks::{screen_rect, Brick};
+
+/// A brick renderer: `slice3d::render`, or an adaptive one with the same shape.
+pub type BrickRenderer =
+    Arc<dyn Fn(&VolumeInput, &Slice3dOptions) -> Result<(Image, SliceStats)> + Send + Sync>;
+
+/// The default brick renderer: [`slice3d::render`].
+pub fn slice3d_renderer() -> BrickRenderer {
+    Arc::new(|i, o| slice3d::render(i, o))
+}
+
+/// A brick's layer and what it cost.
+#[derive(Debug)]
+pub struct BrickOutput {
+    /// The subimage (premultiplied RGBA8 over the brick's rectangle).
+    pub layer: Layer,
+    /// The renderer's statistics.
+    pub stats: SliceStats,
+}
+
+/// The whole volume's slice planes for the frame (`None`: behind the eye).
+pub fn whole_planes(whole: &VolumeInput, opts: &Slice3dOptions) -> Option<Planes> {
+    let s = &whole.scene;
+    Planes::new(
+        &s.camera.view(s.image.width, s.image.height),
+        &whole.volume,
+        opts.slices,
+    )
+}
+
+/// Renders brick `b` (its samples in `vol`) of `whole` with visibility
+/// rank `rank` into a layer. The brick's scene has a black background, so
+/// its pixels are premultiplied RGBA without background.
+pub fn render_brick(
+    whole: &VolumeInput,
+    planes: Planes,
+    b: &Brick,
+    vol: Arc<Volume>,
+    rank: u32,
+    opts: &Slice3dOptions,
+    renderer: &BrickRenderer,
+) -> Result<BrickOutput> {
+    let s = &whole.scene;
+    let view = s.camera.view(s.image.width, s.image.height);
+    let rect = screen_rect(&view, &whole.volume, b);
+    let mut scene = s.clone();
+    scene.image.background = [0.0; 3];
+    let input = VolumeInput {
+        scene,
+        volume: vol,
+        range: whole.range,
+    };
+    let frame = BrickFrame {
+        planes,
+        origin: whole.volume.origin,
+        spacing: whole.volume.spacing,
+        whole_dims: whole.volume.dims,
+        lo: b.lo,
+        dims: b.dims,
+        rect,
+    };
+    let (img, stats) = renderer(
+        &input,
+        &Slice3dOptions {
+            brick: Some(frame),
+            ..*opts
+        },
+    )?;
+    let w = img.width as usize;
+    let mut px = Vec::with_capacity(rect.width() as usize * rect.height() as usize);
+    for y in rect.y0..rect.y1 {
+        let row = y as usize * w;
+        px.extend_from_slice(&img.pixels[row + rect.x0 as usize..row + rect.x1 as usize]);
+    }
+    Ok(BrickOutput {
+        layer: Layer::quantize(rect, rank, &px),
+        stats,
+    })
+}
