@@ -4,9 +4,11 @@
 
 mod binary_swap;
 mod direct_send;
+mod master;
 
 pub use binary_swap::BinarySwap;
 pub use direct_send::DirectSend;
+pub use master::Master;
 
 use crate::render::cell::scan::Rect;
 
@@ -36,6 +38,10 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
             "binary-swap",
             "log2(n) rounds of pairwise half swaps (rank XOR 2^i); extra nodes of a non-power-of-two count fold into a partner first; then gather",
         ),
+        (
+            "master",
+            "every node sends all it holds to rank 0 (the master), which composites alone (the sort-last grid paper); 1 round, n-1 messages",
+        ),
     ]
 }
 
@@ -44,6 +50,7 @@ pub fn from_name(name: &str) -> Result<Box<dyn Strategy>, String> {
     match name {
         "direct-send" | "direct" => Ok(Box::new(DirectSend::default())),
         "binary-swap" | "bswap" => Ok(Box::new(BinarySwap)),
+        "master" => Ok(Box::new(Master)),
         _ => Err(format!(
             "unknown compositing strategy `{name}`; choose one of: {}",
             list()

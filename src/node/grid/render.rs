@@ -33,6 +33,9 @@ pub struct BrickOutput {
     pub layer: Layer,
     /// The renderer's statistics.
     pub stats: SliceStats,
+    /// The subimage before quantisation (premultiplied f32, row-major over
+    /// the layer's rectangle).
+    pub exact: Vec<[f32; 4]>,
 }
 
 /// The whole volume's slice planes for the frame (`None`: behind the eye).
@@ -92,5 +95,6 @@ pub fn render_brick(
     Ok(BrickOutput {
         layer: Layer::quantize(rect, rank, &px),
         stats,
+        exact: px,
     })
 }
