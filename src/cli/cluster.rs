@@ -79,10 +79,13 @@ pub struct ClusterArgs {
     /// node with the most unprocessed cells.
     #[arg(long)]
     pub dlb: bool,
-    /// Compositing strategy of phase 2: `binary-swap` or `direct-send`.
+    /// Compositing strategy of phase 2: `binary-swap`, `direct-send` or
+    /// `master` (everything to rank 0).
     #[arg(long, default_value = "binary-swap")]
     pub compositor: String,
-    /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`.
+    /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`;
+    /// grid scenes: `raw` (RGBA8), `rle-paper` (the paper's RLE; `rle` means
+    /// it there) or `sparse` (IceT's active runs).
     #[arg(long, default_value = "rle")]
     pub codec: String,
     /// Network model: a preset (gbe, fast-ethernet, 10gbe, infiniband,
@@ -165,6 +168,9 @@ pub struct ClusterArgs {
     /// Write the Chrome trace JSON (open in Perfetto) here.
     #[arg(long)]
     pub trace: Option<PathBuf>,
+    /// Grid scenes (sort-last bricks).
+    #[command(flatten)]
+    pub grid: super::cluster_grid::GridArgs,
     /// Where the nodes run (`--transport`, `--workers`, ...).
     #[command(flatten)]
     pub net: super::transport_args::TransportArgs,
@@ -209,7 +215,7 @@ pub fn load_profile(name: &str) -> anyhow::Result<(CostProfile, String)> {
     Ok((p.costs, shown))
 }
 
-fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
+pub(crate) fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
     if NetworkModel::preset_names().any(|n| n == name) {
         return Ok(NetworkModel::from_name(name)?);
     }
@@ -363,6 +369,12 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             prepare_output(flag, p, kind)?;
         }
     }
+    let scene = crate::scene::Scene::load(&a.scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if super::render_grid::is_grid_scene(&scene) {
+        return super::cluster_grid::run(&a, scene);
+    }
+    super::cluster_grid::refuse_on_mesh(&a.grid)?;
     let out = execute(&a)?;
     super::output::warn_if_empty(
         &out.image,

@@ -17,6 +17,7 @@ pub mod bench_orderings;
 pub mod calibrate;
 pub mod calibrate_network;
 pub mod cluster;
+pub mod cluster_grid;
 pub mod cluster_ert;
 pub mod compare;
 pub mod demo;

@@ -14,6 +14,7 @@
 //! same ERT mode, same cost model) and the `Base` cluster (same `N`, ERT,
 //! sharing and DLB off, phase 1 only).
 
+pub mod grid;
 pub mod phase1;
 pub mod phase2;
 pub mod remote;

@@ -215,38 +215,7 @@ pub fn run(
     let (stopped_at, trace, traffic) = {
         let mut ranks: Vec<Rank> = nodes.iter_mut().map(Rank::Node).collect();
         ranks.push(Rank::Manager(&mut manager));
-        match cfg.clock {
-            ClockKind::Virtual => {
-                let rep = Simulation::new(model.clone(), ranks)
-                    .with_options(SimOptions {
-                        record_trace: cfg.record_trace,
-                        ..Default::default()
-                    })
-                    .run()?;
-                anyhow::ensure!(
-                    rep.unfinished().is_empty(),
-                    "phase 1 deadlocked: ranks {:?} never finished",
-                    rep.unfinished()
-                );
-                (rep.stopped_at, rep.trace, rep.traffic)
-            }
-            ClockKind::Wall => {
-                let transports = ChannelNetwork::new(n + 1);
-                let rep = run_threads(
-                    &transports,
-                    ranks,
-                    WallOptions {
-                        compute: ComputeMode::Skip,
-                        ..Default::default()
-                    },
-                )?;
-                (
-                    rep.stopped_at.into_iter().map(Some).collect(),
-                    rep.trace,
-                    rep.traffic,
-                )
-            }
-        }
+        drive(ranks, cfg.clock, model, cfg.record_trace, "phase 1")?
     };
     let host_s = t0.elapsed().as_secs_f64();
     if let Some(e) = &manager.stats().error {
@@ -271,5 +240,51 @@ pub fn run(
         trace,
         traffic,
         host_s,
+    })
+}
+
+/// The one phase-1 driver, for any node kind: runs `ranks` under the
+/// discrete-event simulator (virtual clock) or on threads over channels
+/// (wall clock, compute charged as the real work done); returns per rank
+/// when it stopped, the timeline and the traffic.
+pub fn drive<A: Actor + Send>(
+    ranks: Vec<A>,
+    clock: ClockKind,
+    model: &NetworkModel,
+    record_trace: bool,
+    what: &str,
+) -> anyhow::Result<(Vec<Option<f64>>, SimTrace, TrafficStats)> {
+    let n = ranks.len();
+    Ok(match clock {
+        ClockKind::Virtual => {
+            let rep = Simulation::new(model.clone(), ranks)
+                .with_options(SimOptions {
+                    record_trace,
+                    ..Default::default()
+                })
+                .run()?;
+            anyhow::ensure!(
+                rep.unfinished().is_empty(),
+                "{what} deadlocked: ranks {:?} never finished",
+                rep.unfinished()
+            );
+            (rep.stopped_at, rep.trace, rep.traffic)
+        }
+        ClockKind::Wall => {
+            let transports = ChannelNetwork::new(n);
+            let rep = run_threads(
+                &transports,
+                ranks,
+                WallOptions {
+                    compute: ComputeMode::Skip,
+                    ..Default::default()
+                },
+            )?;
+            (
+                rep.stopped_at.into_iter().map(Some).collect(),
+                rep.trace,
+                rep.traffic,
+            )
+        }
     })
 }

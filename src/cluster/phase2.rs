@@ -31,10 +31,13 @@ use crate::node::CostProfile;
 
 /// One round of one node in the replay.
 #[derive(Debug, Clone, Default)]
-struct RoundPlan {
-    before: f64,
-    sends: Vec<(usize, usize, MessageKind)>,
-    expect: usize,
+pub(crate) struct RoundPlan {
+    /// Compute before the round's sends.
+    pub before: f64,
+    /// `(to, bytes, kind)` of the round's messages.
+    pub sends: Vec<(usize, usize, MessageKind)>,
+    /// Messages the round brings this node.
+    pub expect: usize,
 }
 
 /// What phase 2 produced.
@@ -172,6 +175,25 @@ pub fn run(
         r += 1;
     }
     let (image, stats) = run.finish()?;
+    let sim = replay(plans, costs, model, record_trace)?;
+    Ok(Phase2 {
+        image,
+        stats,
+        sim,
+        bytes_sent,
+        busy_s: busy,
+    })
+}
+
+/// Replays per-node round plans (and per-message merge costs, keyed by
+/// `(round, sender)`) on the simulated network: the phase-2 timeline of
+/// any partial kind.
+pub(crate) fn replay(
+    plans: Vec<Vec<RoundPlan>>,
+    costs: Vec<BTreeMap<(u32, u32), f64>>,
+    model: &NetworkModel,
+    record_trace: bool,
+) -> anyhow::Result<SimReport> {
     let actors: Vec<Replay> = plans
         .into_iter()
         .zip(costs)
@@ -193,11 +215,5 @@ pub fn run(
         "phase-2 replay deadlocked: ranks {:?} never finished",
         sim.unfinished()
     );
-    Ok(Phase2 {
-        image,
-        stats,
-        sim,
-        bytes_sent,
-        busy_s: busy,
-    })
+    Ok(sim)
 }

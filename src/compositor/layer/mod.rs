@@ -20,8 +20,7 @@
 //! rounding to nearest, which is monotone, so premultiplied `RGB <= A` holds
 //! after quantisation and `A = 0` implies `RGB = 0` (the codecs rely on it).
 
-// pub mod exec;
-// pub mod schedule;
+pub mod exec;
 
 use crate::render::cell::scan::Rect;
 
