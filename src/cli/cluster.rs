@@ -196,7 +196,7 @@ pub fn calibrated_path() -> PathBuf {
 /// Resolves a profile name or file (read at run time); returns the profile
 /// and the name the report shows (a file's path).
 pub fn load_profile(name: &str) -> anyhow::Result<(CostProfile, String)> {
-    if name == "pentium4" {
+    if name == "pentium4" || name == "radeon9700" {
         return Ok((CostProfile::named(name)?, name.to_string()));
     }
     let path = if name == "calibrated" {
@@ -210,7 +210,7 @@ pub fn load_profile(name: &str) -> anyhow::Result<(CostProfile, String)> {
         name.to_string()
     };
     let p = CostProfile::load(&path).with_context(|| {
-        format!("--profile {name}: not pentium4, calibrated, or a readable profile TOML file")
+        format!("--profile {name}: not pentium4, radeon9700, calibrated, or a readable profile TOML file")
     })?;
     Ok((p.costs, shown))
 }
