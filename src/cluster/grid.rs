@@ -122,6 +122,7 @@ pub struct GridReport {
 }
 
 /// What a grid run produced.
+#[derive(Debug)]
 pub struct GridOutcome {
     /// The image at the root.
     pub image: Image,
@@ -134,12 +135,17 @@ pub struct GridOutcome {
 /// Runs one frame of `input` on the grid cluster.
 pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
     anyhow::ensure!(cfg.nodes >= 1, "--nodes must be at least 1");
-    anyhow::ensure!(cfg.nodes <= 4096, "--nodes {} is more than grid runs support (4096)", cfg.nodes);
+    anyhow::ensure!(
+        cfg.nodes <= 4096,
+        "--nodes {} is more than grid runs support (4096)",
+        cfg.nodes
+    );
     if cfg.clock == ClockKind::Virtual {
         check(&cfg.profile, &cfg.profile_name)?;
     }
     crate::render::slice3d::check(&cfg.slice)?;
-    let strategy = crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy =
+        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
     let codec = layer_codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let d = cfg.subvolumes;
     let bricks = split(input.volume.dims, d)?;
@@ -152,7 +158,10 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
     let s = &input.scene;
     let view = s.camera.view(s.image.width, s.image.height);
     let ranks = visibility_ranks(&view, &input.volume, d, &bricks);
-    let vols: Vec<Arc<crate::data::Volume>> = bricks.iter().map(|b| Arc::new(extract(&input.volume, b))).collect();
+    let vols: Vec<Arc<crate::data::Volume>> = bricks
+        .iter()
+        .map(|b| Arc::new(extract(&input.volume, b)))
+        .collect();
     // Balanced placement weighs a brick by its voxels the TF makes visible.
     let lut = Lut::new(&s.transfer, input.range);
     let weight: Vec<u64> = vols
@@ -173,10 +182,20 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
     let total = cfg.nodes + off;
     let mut actors: Vec<GridNodeActor> = Vec::with_capacity(total);
     for k in 0..total {
-        let mine = if k < off { &[][..] } else { &parts[k - off][..] };
+        let mine = if k < off {
+            &[][..]
+        } else {
+            &parts[k - off][..]
+        };
         let held = mine
             .iter()
-            .map(|&b| (bricks[b as usize], vols[b as usize].clone(), ranks[b as usize]))
+            .map(|&b| {
+                (
+                    bricks[b as usize],
+                    vols[b as usize].clone(),
+                    ranks[b as usize],
+                )
+            })
             .collect();
         actors.push(GridNodeActor::new(
             k,
@@ -189,11 +208,20 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         ));
     }
     let t1 = std::time::Instant::now();
-    let (stopped, trace1, _traffic1) =
-        drive(actors.iter_mut().collect::<Vec<_>>(), cfg.clock, &cfg.network, cfg.record_trace, "grid phase 1")?;
+    let (stopped, trace1, _traffic1) = drive(
+        actors.iter_mut().collect::<Vec<_>>(),
+        cfg.clock,
+        &cfg.network,
+        cfg.record_trace,
+        "grid phase 1",
+    )?;
     let host1 = t1.elapsed().as_secs_f64();
     if let Some(a) = actors.iter().find(|a| a.stats().error.is_some()) {
-        anyhow::bail!("grid node {} failed: {}", a.stats().rank, a.stats().error.as_deref().unwrap_or(""));
+        anyhow::bail!(
+            "grid node {} failed: {}",
+            a.stats().rank,
+            a.stats().error.as_deref().unwrap_or("")
+        );
     }
     let ends: Vec<f64> = stopped.iter().map(|t| t.unwrap_or(0.0)).collect();
     let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
@@ -217,12 +245,17 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         }
         let (mut rb, mut rr) = (0, 0);
         for m in &lr.messages {
-            plans[m.from][r].sends.push((m.to, m.bytes as usize, MessageKind::Image));
+            plans[m.from][r]
+                .sends
+                .push((m.to, m.bytes as usize, MessageKind::Image));
             plans[m.to][r].expect += 1;
             // Received subimages are blended in the composite round, except
             // the final gather's pieces, which are pasted (one blend).
             if !lr.composite && lr.label == "gather" {
-                costs[m.to].insert((r as u32, m.from as u32), blend_time(m.pixels, &cfg.profile));
+                costs[m.to].insert(
+                    (r as u32, m.from as u32),
+                    blend_time(m.pixels, &cfg.profile),
+                );
             }
             bytes_sent[m.from] += m.bytes;
             rb += m.bytes;
@@ -232,7 +265,12 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         raw += rr;
         round_rows.push((lr.label.clone(), lr.messages.len(), rb, rr));
     }
-    let sim = replay(plans, costs, &cfg.network, cfg.record_trace && cfg.clock == ClockKind::Virtual)?;
+    let sim = replay(
+        plans,
+        costs,
+        &cfg.network,
+        cfg.record_trace && cfg.clock == ClockKind::Virtual,
+    )?;
     let host2 = t2.elapsed().as_secs_f64();
     let composite_s = match cfg.clock {
         ClockKind::Virtual => sim.end_time,
@@ -265,7 +303,11 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         composite_s,
         bytes_total: bytes,
         bytes_by_kind: by_kind,
-        codec_ratio: if raw > 0 { bytes as f64 / raw as f64 } else { 1.0 },
+        codec_ratio: if raw > 0 {
+            bytes as f64 / raw as f64
+        } else {
+            1.0
+        },
         rounds: round_rows,
         nodes: actors
             .iter()
@@ -279,7 +321,11 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
             .collect(),
         host_s: [host1, host2],
     };
-    Ok(GridOutcome { image, report, trace })
+    Ok(GridOutcome {
+        image,
+        report,
+        trace,
+    })
 }
 
 /// A one-paragraph summary for the terminal.
@@ -313,4 +359,92 @@ pub fn summary(r: &GridReport) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::node::grid::tests::{seam_input, OBLIQUE, PERSP};
+
+    fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
+        GridConfig {
+            nodes: 4,
+            subvolumes: 2,
+            master,
+            placement: BrickPlacement::RoundRobin,
+            compositor: compositor.into(),
+            codec: codec.into(),
+            slice: Slice3dOptions {
+                ert: 1.0,
+                ..Default::default()
+            },
+            renderer: crate::node::grid::render::slice3d_renderer(),
+            clock: ClockKind::Virtual,
+            network: NetworkModel::from_name("100base").unwrap(),
+            network_name: "100base".into(),
+            profile: CostProfile::named("radeon9700").unwrap(),
+            profile_name: "radeon9700".into(),
+            record_trace: false,
+        }
+    }
+
+    #[test]
+    fn every_strategy_and_codec_gives_the_single_node_image() {
+        for cam in [OBLIQUE, PERSP] {
+            let inp = seam_input(cam, 48);
+            let (one, _) = crate::render::slice3d::render(
+                &inp,
+                &Slice3dOptions {
+                    ert: 1.0,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let mut raw_bytes = None;
+            for (comp, master) in [
+                ("master", true),
+                ("master", false),
+                ("binary-swap", false),
+                ("direct-send", false),
+            ] {
+                for codec in ["raw", "rle-paper", "sparse"] {
+                    let out = run(&inp, &cfg(comp, codec, master)).unwrap();
+                    let e = out.image.error_against(&one);
+                    // Four layers at most along a ray at d = 2, plus the
+                    // gathered piece's own rounding (binary swap, direct send).
+                    assert!(e.max_abs <= 5.0 && e.rmse <= 0.5, "{comp} {codec}: {e}");
+                    if comp == "master" && master {
+                        if codec == "raw" {
+                            raw_bytes = Some(out.report.bytes_total);
+                            assert_eq!(out.report.codec_ratio, 1.0);
+                        } else {
+                            assert!(out.report.bytes_total < raw_bytes.unwrap(), "{codec}");
+                        }
+                    }
+                    let again = run(&inp, &cfg(comp, codec, master)).unwrap();
+                    assert_eq!(again.image.pixels, out.image.pixels, "deterministic");
+                    assert_eq!(again.report.frame_s, out.report.frame_s, "deterministic");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_combinations_are_refused() {
+        let inp = seam_input(OBLIQUE, 16);
+        let mut c = cfg("master", "rle", true);
+        assert!(run(&inp, &c).unwrap_err().to_string().contains("rle-paper"));
+        c.codec = "raw".into();
+        c.subvolumes = 1;
+        assert!(run(&inp, &c)
+            .unwrap_err()
+            .to_string()
+            .contains("bricks for 4 nodes"));
+        c.subvolumes = 2;
+        c.profile = CostProfile::named("pentium4").unwrap();
+        assert!(run(&inp, &c)
+            .unwrap_err()
+            .to_string()
+            .contains("no grid costs"));
+    }
 }

@@ -97,7 +97,10 @@ const PRESETS: [(&str, &str); 6] = [
         include_str!("../../configs/network/infiniband.toml"),
     ),
     ("ideal", include_str!("../../configs/network/ideal.toml")),
-    ("100base", include_str!("../../configs/network/100base.toml")),
+    (
+        "100base",
+        include_str!("../../configs/network/100base.toml"),
+    ),
 ];
 
 /// Parameters of the network (see the module docs for the math).

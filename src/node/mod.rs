@@ -24,8 +24,8 @@
 
 pub mod actor;
 pub mod calibration;
-pub mod grid;
 pub mod cost;
+pub mod grid;
 pub mod levels;
 pub mod lsq;
 pub mod manager_table;

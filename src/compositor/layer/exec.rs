@@ -67,7 +67,11 @@ fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>> {
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
     };
     let n = word(0)?;
-    anyhow::ensure!(n <= bytes.len() / 4, "layer message: {n} layers in {} bytes", bytes.len());
+    anyhow::ensure!(
+        n <= bytes.len() / 4,
+        "layer message: {n} layers in {} bytes",
+        bytes.len()
+    );
     let mut at = 4;
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
@@ -86,7 +90,11 @@ fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>> {
         );
         at += 4 + len;
     }
-    anyhow::ensure!(at == bytes.len(), "layer message: {} trailing bytes", bytes.len() - at);
+    anyhow::ensure!(
+        at == bytes.len(),
+        "layer message: {} trailing bytes",
+        bytes.len() - at
+    );
     Ok(out)
 }
 
@@ -100,7 +108,11 @@ pub fn run(
 ) -> anyhow::Result<(Image, Vec<LayerRound>)> {
     schedule.validate().map_err(|e| anyhow::anyhow!(e))?;
     let n = schedule.nodes;
-    anyhow::ensure!(held.len() == n, "{} nodes' layers for {n} ranks", held.len());
+    anyhow::ensure!(
+        held.len() == n,
+        "{} nodes' layers for {n} ranks",
+        held.len()
+    );
     let img = schedule.image;
     let mut pieces: Vec<Option<(crate::render::cell::scan::Rect, Vec<[f32; 4]>)>> = vec![None; n];
     let mut rounds = Vec::new();

@@ -66,8 +66,7 @@ pub fn split(dims: [u64; 3], d: u32) -> Result<Vec<Brick>> {
             for i in 0..d {
                 let idx = [i, j, k];
                 let lo: [u64; 3] = std::array::from_fn(|a| c[a][idx[a] as usize]);
-                let dims: [u64; 3] =
-                    std::array::from_fn(|a| c[a][idx[a] as usize + 1] - lo[a] + 1);
+                let dims: [u64; 3] = std::array::from_fn(|a| c[a][idx[a] as usize + 1] - lo[a] + 1);
                 out.push(Brick {
                     id: i + d * (j + d * k),
                     idx,
@@ -119,7 +118,12 @@ pub fn screen_rect(view: &View, whole: &Volume, b: &Brick) -> Rect {
         x1: view.width,
         y1: view.height,
     };
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut y0, mut x1, mut y1) = (
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    );
     for c in 0..8 {
         let g: [f64; 3] = std::array::from_fn(|a| {
             (b.lo[a] + if c >> a & 1 == 1 { b.dims[a] - 1 } else { 0 }) as f64
@@ -192,7 +196,9 @@ pub fn visibility_ranks(view: &View, whole: &Volume, d: u32, bricks: &[Brick]) -
                     } else {
                         (d - 1 - b.idx[a]) as f64
                     }
-                } else if view.forward[a] == 0.0 && matches!(view.projection, Projection::Orthographic { .. }) {
+                } else if view.forward[a] == 0.0
+                    && matches!(view.projection, Projection::Orthographic { .. })
+                {
                     0.0
                 } else {
                     (b.idx[a] as f64 - e[a]).abs()

@@ -16,7 +16,7 @@ pub mod device;
 pub mod render;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use actor::{GridNodeActor, GridNodeStats};
 pub use bricks::{Brick, BrickPlacement};

@@ -35,7 +35,12 @@ pub(crate) const PERSP: &str = "eye = [40, -25, 30]\ntarget = [0, 0, 0]\nup = [0
 
 /// Renders `inp` as `d^3` bricks and composites their layers over the
 /// background: RGBA8 layers (`exact` false) or the f32 subimages.
-pub(crate) fn bricked(inp: &VolumeInput, d: u32, opts: &Slice3dOptions, exact: bool) -> crate::image::Image {
+pub(crate) fn bricked(
+    inp: &VolumeInput,
+    d: u32,
+    opts: &Slice3dOptions,
+    exact: bool,
+) -> crate::image::Image {
     let s = &inp.scene;
     let view = s.camera.view(s.image.width, s.image.height);
     let bricks = split(inp.volume.dims, d).unwrap();
@@ -92,7 +97,10 @@ fn bricks_cutting_the_densest_feature_show_no_seam() {
     for cam in [OBLIQUE, AXIS, PERSP] {
         let inp = seam_input(cam, 64);
         let (one, _) = slice3d::render(&inp, &opts).unwrap();
-        assert!(one.pixels.iter().any(|p| p[3] > 0.5), "the feature must be dense");
+        assert!(
+            one.pixels.iter().any(|p| p[3] > 0.5),
+            "the feature must be dense"
+        );
         for d in [1, 2, 3] {
             // Exact subimages: the same samples in the same order, so the
             // same image up to f32 regrouping of "over".
@@ -104,8 +112,14 @@ fn bricks_cutting_the_densest_feature_show_no_seam() {
             // included); a ray crosses at most 3d - 2 bricks.
             let e = bricked(&inp, d, &opts, false).error_against(&one);
             let bound = (3 * d - 2) as f64 + 0.01;
-            assert!(e.max_abs <= bound, "{cam} d={d} RGBA8 layers: {e} (bound {bound})");
-            eprintln!("{} d={d} RGBA8 layers vs slice3d: {e}", cam.lines().last().unwrap());
+            assert!(
+                e.max_abs <= bound,
+                "{cam} d={d} RGBA8 layers: {e} (bound {bound})"
+            );
+            eprintln!(
+                "{} d={d} RGBA8 layers vs slice3d: {e}",
+                cam.lines().last().unwrap()
+            );
         }
     }
 }
@@ -205,8 +219,14 @@ fn placement_round_robin_and_balanced() {
     );
     let w = [10, 1, 1, 1, 9, 1, 1, 0];
     let p = place(8, 2, BrickPlacement::Balanced, &w);
-    let load: Vec<u64> = p.iter().map(|v| v.iter().map(|&b| w[b as usize]).sum()).collect();
+    let load: Vec<u64> = p
+        .iter()
+        .map(|v| v.iter().map(|&b| w[b as usize]).sum())
+        .collect();
     assert_eq!(load.iter().sum::<u64>(), 24);
-    assert!(load.iter().max().unwrap() - load.iter().min().unwrap() <= 1, "{load:?}");
+    assert!(
+        load.iter().max().unwrap() - load.iter().min().unwrap() <= 1,
+        "{load:?}"
+    );
     assert!(split([2, 5, 5], 2).is_err());
 }

@@ -69,7 +69,7 @@ impl LayerCodec for RlePaper {
             }
             if short_run_before {
                 return Err(bad(
-                    "run after a run shorter than 2^24 - 1 (not canonical)".into(),
+                    "run after a run shorter than 2^24 - 1 (not canonical)".into()
                 ));
             }
             if k as usize > n - px.len() {

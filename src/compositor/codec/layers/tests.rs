@@ -23,7 +23,12 @@ fn layer() -> impl Strategy<Value = Layer> {
     (0u32..12, 0u32..12, 0u32..40, 0u32..40, 0u32..20, 0u32..3).prop_flat_map(
         |(w, h, x0, y0, lo, span)| {
             prop::collection::vec(pixel(), (w * h) as usize).prop_map(move |px| Layer {
-                rect: Rect { x0, y0, x1: x0 + w, y1: y0 + h },
+                rect: Rect {
+                    x0,
+                    y0,
+                    x1: x0 + w,
+                    y1: y0 + h,
+                },
                 ranks: [lo, lo + span],
                 px,
             })
@@ -74,9 +79,24 @@ proptest! {
 
 fn checkerboard(w: u32, h: u32) -> Layer {
     let px = (0..w * h)
-        .map(|i| if (i % w + i / w) % 2 == 0 { [10, 20, 30, 40] } else { [0; 4] })
+        .map(|i| {
+            if (i % w + i / w) % 2 == 0 {
+                [10, 20, 30, 40]
+            } else {
+                [0; 4]
+            }
+        })
         .collect();
-    Layer { rect: Rect { x0: 0, y0: 0, x1: w, y1: h }, ranks: [0, 0], px }
+    Layer {
+        rect: Rect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        },
+        ranks: [0, 0],
+        px,
+    }
 }
 
 #[test]
@@ -94,7 +114,15 @@ fn checkerboard_is_bounded_by_raw_plus_header() {
 
 #[test]
 fn empty_frame_compresses_to_a_few_words() {
-    let l = Layer::empty(Rect { x0: 0, y0: 0, x1: 512, y1: 512 }, 3);
+    let l = Layer::empty(
+        Rect {
+            x0: 0,
+            y0: 0,
+            x1: 512,
+            y1: 512,
+        },
+        3,
+    );
     assert_eq!(enc(&RlePaper, &l).len(), LAYER_HEADER_BYTES + 4);
     assert_eq!(enc(&Sparse, &l).len(), LAYER_HEADER_BYTES + 4);
     assert_eq!(HEADER_BYTES + 8, LAYER_HEADER_BYTES);
@@ -103,13 +131,27 @@ fn empty_frame_compresses_to_a_few_words() {
 #[test]
 fn runs_longer_than_24_bits_are_split() {
     // 4100^2 = 16,810,000 > 2^24 - 1 = 16,777,215 transparent pixels.
-    let l = Layer::empty(Rect { x0: 0, y0: 0, x1: 4100, y1: 4100 }, 0);
+    let l = Layer::empty(
+        Rect {
+            x0: 0,
+            y0: 0,
+            x1: 4100,
+            y1: 4100,
+        },
+        0,
+    );
     let b = enc(&RlePaper, &l);
     assert_eq!(b.len(), LAYER_HEADER_BYTES + 8);
     let w = &b[LAYER_HEADER_BYTES..];
     assert_eq!(&w[..4], &[0xff, 0xff, 0xff, 0]);
-    assert_eq!(u32::from_le_bytes([w[4], w[5], w[6], 0]), 16_810_000 - 16_777_215);
-    let lim = Limits { max_pixels: 1 << 25, ..Limits::default() };
+    assert_eq!(
+        u32::from_le_bytes([w[4], w[5], w[6], 0]),
+        16_810_000 - 16_777_215
+    );
+    let lim = Limits {
+        max_pixels: 1 << 25,
+        ..Limits::default()
+    };
     assert_eq!(RlePaper.decode(&b, &lim).unwrap(), l);
     // Two short runs in a row are not canonical.
     let mut bad = b[..LAYER_HEADER_BYTES].to_vec();
@@ -121,7 +163,15 @@ fn runs_longer_than_24_bits_are_split() {
 
 #[test]
 fn non_premultiplied_and_bad_runs_are_rejected() {
-    let mut l = Layer::empty(Rect { x0: 0, y0: 0, x1: 3, y1: 1 }, 0);
+    let mut l = Layer::empty(
+        Rect {
+            x0: 0,
+            y0: 0,
+            x1: 3,
+            y1: 1,
+        },
+        0,
+    );
     l.px[1] = [9, 9, 9, 9];
     let good = enc(&RlePaper, &l);
     // [1,0,0,0] run, [9,9,9,9] pixel, [1,0,0,0] run.
@@ -131,11 +181,23 @@ fn non_premultiplied_and_bad_runs_are_rejected() {
     assert!(e.to_string().contains("premultiplied"), "{e}");
     let mut b = good.clone();
     b[LAYER_HEADER_BYTES] = 0; // run of length 0
-    assert!(RlePaper.decode(&b, &Limits::default()).unwrap_err().to_string().contains("length 0"));
+    assert!(RlePaper
+        .decode(&b, &Limits::default())
+        .unwrap_err()
+        .to_string()
+        .contains("length 0"));
     let mut b = good.clone();
     b[LAYER_HEADER_BYTES + 8] = 2; // overrun
-    assert!(RlePaper.decode(&b, &Limits::default()).unwrap_err().to_string().contains("overruns"));
+    assert!(RlePaper
+        .decode(&b, &Limits::default())
+        .unwrap_err()
+        .to_string()
+        .contains("overruns"));
     let mut b = good;
     b.push(0);
-    assert!(RlePaper.decode(&b, &Limits::default()).unwrap_err().to_string().contains("trailing"));
+    assert!(RlePaper
+        .decode(&b, &Limits::default())
+        .unwrap_err()
+        .to_string()
+        .contains("trailing"));
 }
