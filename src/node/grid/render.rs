@@ -23,7 +23,7 @@ pub type BrickRenderer =
 
 /// The default brick renderer: [`slice3d::render`].
 pub fn slice3d_renderer() -> BrickRenderer {
-    Arc::new(|i, o| slice3d::render(i, o))
+    Arc::new(slice3d::render)
 }
 
 /// A brick's layer and what it cost.

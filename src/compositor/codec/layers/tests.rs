@@ -80,7 +80,7 @@ proptest! {
 fn checkerboard(w: u32, h: u32) -> Layer {
     let px = (0..w * h)
         .map(|i| {
-            if (i % w + i / w) % 2 == 0 {
+            if (i % w + i / w).is_multiple_of(2) {
                 [10, 20, 30, 40]
             } else {
                 [0; 4]
