@@ -26,6 +26,11 @@ pub enum RendererKind {
     Slice3d,
     /// Regular grids: object-aligned slices (bilinear), per-slice LOD.
     Slice2d,
+    /// Regular grids: slice3d over adaptive blocks (`--blocks B`, b^3
+    /// blocks halved while their RMS error <= `--tolerance` x the scalar
+    /// range); prints the size ratio, the preprocessing time and the image
+    /// error against full-resolution slice3d and the grid reference.
+    Adaptive,
 }
 
 /// Options of `pvrsim render`.
@@ -56,6 +61,14 @@ pub struct RenderArgs {
     /// Grids (slice3d): distance between slices, world units.
     #[arg(long, value_name = "DELTA")]
     pub spacing: Option<f64>,
+    /// Grids (--renderer adaptive): blocks per axis b (b^3 blocks) [default: 8].
+    #[arg(long, value_name = "B")]
+    pub blocks: Option<u64>,
+    /// Grids (--renderer adaptive): a block is halved while its RMS error
+    /// against the original stays <= T x the scalar range R of the transfer
+    /// function (the paper's 5 %) [default: 0.05].
+    #[arg(long, value_name = "T")]
+    pub tolerance: Option<f64>,
     /// Grids (slice2d): per-slice level of detail, D = distance from the eye
     /// to the projection plane (world units): slice x at distance d_x gets
     /// R_org / 2^floor(log2(d_x / D)). Default: off (full resolution).
@@ -187,7 +200,10 @@ impl Validate for RenderArgs {
                     }
                 }
             }
-            RendererKind::Cell | RendererKind::Slice3d | RendererKind::Slice2d => {}
+            RendererKind::Cell
+            | RendererKind::Slice3d
+            | RendererKind::Slice2d
+            | RendererKind::Adaptive => {}
         }
         Ok(())
     }
@@ -255,7 +271,9 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         canonical: a.canonical,
     };
     let (image, mut stats) = match a.renderer.unwrap_or(RendererKind::Cell) {
-        RendererKind::Slice3d | RendererKind::Slice2d => unreachable!("refused above"),
+        RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::Adaptive => {
+            unreachable!("refused above")
+        }
         RendererKind::Cell => {
             let (image, mut stats) =
                 super::with_threads(a.threads, || cell::render(&input, &opts))?;
@@ -328,9 +346,10 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         !matches!(
             a.renderer,
-            Some(RendererKind::Slice3d | RendererKind::Slice2d)
-        ),
-        "--renderer slice3d/slice2d draws regular grids; scene {} renders a tetrahedral mesh \
+            Some(RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::Adaptive)
+        ) && a.blocks.is_none()
+            && a.tolerance.is_none(),
+        "--renderer slice3d/slice2d/adaptive (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
          (use cell or reference)",
         a.scene.display()
     );

@@ -110,14 +110,16 @@ impl<T: Texel> Field<'_, T> {
             let x0 = c[a] - blk.origin[a] as usize;
             let (k00, k01, w0) = t[x0];
             let (k10, k11, w1) = t[x0 + 1];
-            let k = k00 as usize;
+            // x sitting exactly on the last centre has (k, k) while x + 1
+            // extrapolates from (k - 1, k): start at the lower index.
+            let k = k00.min(k10) as usize;
             base[a] = k;
             let g = 1.0 - f[a];
-            wt[a][0] += g * (1.0 - w0);
+            wt[a][k00 as usize - k] += g * (1.0 - w0);
             wt[a][k01 as usize - k] += g * w0;
             wt[a][k10 as usize - k] += f[a] * (1.0 - w1);
             wt[a][k11 as usize - k] += f[a] * w1;
-            cnt[a] = k11 as usize - k + 1;
+            cnt[a] = k01.max(k11) as usize - k + 1;
         }
         let d = &self.data[blk.offset as usize + base[0] + base[1] * nx + base[2] * nxy..];
         let mut s = 0.0f32;
