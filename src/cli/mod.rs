@@ -12,6 +12,7 @@
 //! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
+pub mod bench_adaptive;
 pub mod bench_grid;
 pub mod bench_orderings;
 pub mod calibrate;
