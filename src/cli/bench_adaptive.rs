@@ -67,7 +67,8 @@ fn paper_tf(unit_distance: f64) -> TransferFunction {
 
 fn load(data_dir: &Path, name: &str) -> anyhow::Result<Option<VolumeInput>> {
     if name == "ml64" {
-        let dir = std::env::temp_dir().join(format!("pvrsim-bench-adaptive-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("pvrsim-bench-adaptive-{}", std::process::id()));
         std::fs::create_dir_all(&dir)?;
         let v = crate::data::volume::generate::marschner_lobb(64);
         let path = dir.join("ml64.nrrd");
@@ -102,8 +103,17 @@ pub fn run(
     let mut rows = Vec::new();
     println!(
         "{:<22} {:<6} {:>4} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>9}",
-        "scene", "tf", "b", "ratio%", "build_s", "frame_s", "scal%R", "max|full", "rms|full",
-        "max|ref", "rms|ref"
+        "scene",
+        "tf",
+        "b",
+        "ratio%",
+        "build_s",
+        "frame_s",
+        "scal%R",
+        "max|full",
+        "rms|full",
+        "max|ref",
+        "rms|ref"
     );
     for name in scenes {
         let Some(base) = load(data_dir, name)? else {

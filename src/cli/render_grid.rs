@@ -8,8 +8,8 @@ use anyhow::Context;
 
 use super::render::{RenderArgs, RenderOutcome, RendererKind};
 use crate::image::Image;
-use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::adaptive::{self, AdaptiveOptions};
+use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::slice2d::{self, Slice2dOptions};
 use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
 use crate::render::slicing::{Classify, Order};
@@ -127,10 +127,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         "--lod applies to --renderer slice2d only"
     );
     anyhow::ensure!(
-        a.slices.is_none()
-            && a.spacing.is_none()
-            && a.blocks.is_none()
-            && a.tolerance.is_none()
+        a.slices.is_none() && a.spacing.is_none() && a.blocks.is_none() && a.tolerance.is_none()
             || matches!(kind, RendererKind::Slice3d | RendererKind::Adaptive),
         "--slices and --spacing apply to --renderer slice3d and adaptive only (slice2d draws \
          one slice per grid plane)"

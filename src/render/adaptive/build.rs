@@ -381,8 +381,8 @@ fn reduce_block<'t, T: Store>(
         } else {
             let mut u: Vec<f32> = q.iter().map(|t| t.f()).collect();
             let mut un = n;
-            for a in 0..3 {
-                (u, un) = expand_axis(&u, un, a, table(m[a], l));
+            for (a, &ma) in m.iter().enumerate() {
+                (u, un) = expand_axis(&u, un, a, table(ma, l));
             }
             debug_assert_eq!(un, m);
             let e2 = v
