@@ -26,6 +26,7 @@ pub mod memory;
 pub mod output;
 pub mod render;
 pub mod render_grid;
+pub mod render_splat;
 pub mod scene;
 pub mod splat;
 pub mod splat_experiments;

@@ -7,11 +7,12 @@ use std::sync::Arc;
 use anyhow::Context;
 
 use super::render::{RenderArgs, RenderOutcome, RendererKind};
+use super::render_splat::GridOrder;
 use crate::image::Image;
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::slice2d::{self, Slice2dOptions};
 use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
-use crate::render::slicing::{Classify, Order};
+use crate::render::slicing::Classify;
 use crate::render::{grid_reference, VolumeInput};
 use crate::scene::Scene;
 
@@ -82,24 +83,24 @@ fn slice_count(a: &RenderArgs) -> SliceCount {
     }
 }
 
-fn slice3d_options(a: &RenderArgs) -> Slice3dOptions {
-    Slice3dOptions {
-        classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+fn slice3d_options(a: &RenderArgs) -> anyhow::Result<Slice3dOptions> {
+    Ok(Slice3dOptions {
+        classify: a.classify.unwrap_or(Slice3dOptions::default().classify),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         slices: slice_count(a),
         empty_skip: !a.no_empty_skip,
-    }
+    })
 }
 
-fn slice2d_options(a: &RenderArgs) -> Slice2dOptions {
-    Slice2dOptions {
+fn slice2d_options(a: &RenderArgs) -> anyhow::Result<Slice2dOptions> {
+    Ok(Slice2dOptions {
         classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         lod: a.lod,
         empty_skip: !a.no_empty_skip,
-    }
+    })
 }
 
 /// Renders a grid scene as `pvrsim render` does.
@@ -193,10 +194,10 @@ pub fn render_with(
         }
         RendererKind::Slice3d | RendererKind::Slice2d => {
             let (img, st) = if kind == RendererKind::Slice3d {
-                let o = slice3d_options(a);
+                let o = slice3d_options(a)?;
                 super::with_threads(a.threads, || slice3d::render(input, &o))??
             } else {
-                let o = slice2d_options(a);
+                let o = slice2d_options(a)?;
                 super::with_threads(a.threads, || slice2d::render(input, &o))??
             };
             if !quiet {
@@ -210,6 +211,7 @@ pub fn render_with(
                     img.height,
                     match st.classify {
                         Some(Classify::Pre) => "pre",
+                        Some(Classify::Preint) => "pre-integrated",
                         _ => "post",
                     },
                     st.slices,
@@ -232,6 +234,7 @@ pub fn render_with(
             v["time_total_s"] = serde_json::json!(st.time_prepare_s + st.time_render_s);
             Ok((img, v))
         }
+        RendererKind::Splat => super::render_splat::render(a, input, quiet),
         RendererKind::Cell => unreachable!("refused by execute"),
     }
 }
