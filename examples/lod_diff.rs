@@ -41,7 +41,10 @@ fn reference(input: &VolumeInput, cache: Option<&str>) -> Image {
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    anyhow::ensure!(args.len() >= 2, "usage: lod_diff SCENE D1,D2,... [REF_CACHE]");
+    anyhow::ensure!(
+        args.len() >= 2,
+        "usage: lod_diff SCENE D1,D2,... [REF_CACHE]"
+    );
     let scene = Scene::load(Path::new(&args[0]))?;
     let vol = pvrsim::data::io::read_volume(&scene.data.path, &scene.data.field)?;
     let input = VolumeInput::new(scene, Arc::new(vol))?;

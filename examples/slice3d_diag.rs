@@ -53,7 +53,9 @@ fn main() -> anyhow::Result<()> {
         Some(Ok(n)) => SliceCount::Count(n),
         Some(Err(e)) => anyhow::bail!("{e}"),
     };
-    let ert: f32 = std::env::var("ERT").ok().map_or(0.99, |v| v.parse().unwrap());
+    let ert: f32 = std::env::var("ERT")
+        .ok()
+        .map_or(0.99, |v| v.parse().unwrap());
     let refimg = reference(&input, args.get(2).map(|s| s.as_str()));
     let classify = match std::env::var("CLASSIFY").as_deref() {
         Ok("post") => pvrsim::render::slicing::Classify::Post,
@@ -68,14 +70,22 @@ fn main() -> anyhow::Result<()> {
     };
     let (img, st) = slice3d::render(&input, &opts)?;
     let err = img.error_against(&refimg);
-    println!("{err}; slices {} spacing {:.4}", st.slices, st.slice_spacing);
+    println!(
+        "{err}; slices {} spacing {:.4}",
+        st.slices, st.slice_spacing
+    );
     let w = img.width as usize;
     let mut e: Vec<(f32, usize)> = img
         .pixels
         .iter()
         .zip(&refimg.pixels)
         .enumerate()
-        .map(|(k, (a, b))| ((0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max) * 255.0, k))
+        .map(|(k, (a, b))| {
+            (
+                (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max) * 255.0,
+                k,
+            )
+        })
         .collect();
     e.sort_by(|a, b| b.0.total_cmp(&a.0));
     for &(v, k) in e.iter().take(12) {
@@ -98,7 +108,10 @@ fn main() -> anyhow::Result<()> {
     let vol = &*input.volume;
     let pl = planes::Planes::new(&view, vol, opts.slices).unwrap();
     let r = planes::ray_samples(&view, &pl, vol, input.scene.transfer.unit_distance, i, j).unwrap();
-    println!("pixel ({i},{j}): k {}..{} step {:?}", r.k_first, r.k_last, r.step);
+    println!(
+        "pixel ({i},{j}): k {}..{} step {:?}",
+        r.k_first, r.k_last, r.step
+    );
     let tri = |p: [f64; 3]| -> f64 {
         let c = [0, 1, 2].map(|a| (p[a].floor() as i64).clamp(0, vol.dims[a] as i64 - 2) as u64);
         let f = [0, 1, 2].map(|a| p[a] - c[a] as f64);
@@ -114,8 +127,12 @@ fn main() -> anyhow::Result<()> {
     };
     let tf = &input.scene.transfer;
     let lut = pvrsim::render::slicing::Lut::new(tf, input.range);
-    let table = slice3d::preint::PreintTable::new(&lut, input.range, (pl.delta / tf.unit_distance) as f32);
-    println!("head {} tail {} k_ud {} table k {}", r.head, r.tail, r.k_ud, table.k);
+    let table =
+        slice3d::preint::PreintTable::new(&lut, input.range, (pl.delta / tf.unit_distance) as f32);
+    println!(
+        "head {} tail {} k_ud {} table k {}",
+        r.head, r.tail, r.k_ud, table.k
+    );
     let mut sprev = 0.0f32;
     // Fine profile: 8 sub-steps per slice.
     let mut acc_a = 0.0f64;
@@ -134,11 +151,14 @@ fn main() -> anyhow::Result<()> {
             omax = omax.max(oq);
             line += &format!("{:5.1} ", sq);
         }
-        let seg = table.baked[table.index(sprev) * slice3d::preint::PREINT_SIZE + table.index(s as f32)];
+        let seg =
+            table.baked[table.index(sprev) * slice3d::preint::PREINT_SIZE + table.index(s as f32)];
         sprev = s as f32;
         if omax > 0.0 || o > 0.0 {
             acc_a += (1.0 - acc_a) * a;
-            println!("  k {k}: s {s:6.1} o {o:.3} a {a:.3} A {acc_a:.3} seg {seg:?} | fine s: {line}");
+            println!(
+                "  k {k}: s {s:6.1} o {o:.3} a {a:.3} A {acc_a:.3} seg {seg:?} | fine s: {line}"
+            );
         }
         if acc_a > 0.995 {
             break;
