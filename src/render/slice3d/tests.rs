@@ -186,53 +186,8 @@ fn bad_options_are_refused() {
     }
 }
 
-/// A constant field: pre-integration covers exactly the ray's path in the
-/// box (the end segments included), so every pixel is `1 - (1 - o)^(L/ud)`
-/// as in the reference; point samples give each sample a whole slab and
-/// are off by up to one slab at the box's faces.
-#[test]
-fn preint_is_exact_on_a_constant_field() {
-    for cam in [ORTHO, PERSP] {
-        let v = volume([9, 7, 6], [1.0, 1.3, 1.7], [-4.0, -4.0, -4.0], |_| 100.0);
-        let tf = "unit_distance = 3\npoints = [[0, 1, 0.5, 0.2, 0.3], [1, 1, 0.5, 0.2, 0.3]]";
-        let inp = VolumeInput::new(scene(cam, tf, 40, Some([0.0, 255.0])), Arc::new(v)).unwrap();
-        let (r, _) = grid_reference::render(&inp, &Default::default());
-        let off = Slice3dOptions {
-            ert: 1.0,
-            ..Default::default()
-        };
-        let (a, _) = render(&inp, &off).unwrap();
-        let e = a.error_against(&r);
-        assert!(e.max_abs < 0.05, "{cam}: preint {e}");
-        let post = Slice3dOptions {
-            classify: Classify::Post,
-            ..off
-        };
-        let (b, _) = render(&inp, &post).unwrap();
-        let ep = b.error_against(&r);
-        assert!(ep.max_abs > 10.0 * e.max_abs.max(0.01), "{cam}: post {ep}");
-    }
-}
-
-/// A thin opaque band of the transfer function (a shell in the field):
-/// point samples at the default spacing miss or hit it, pre-integration
-/// sees every scalar a segment passes.
-#[test]
-fn preint_beats_point_samples_on_a_steep_transfer_function() {
-    let tf = "unit_distance = 1\npoints = [[0, 1, 1, 1, 0], [0.55, 1, 1, 1, 0], [0.57, 1, 0.8, 0.5, 0.9], [0.59, 1, 1, 1, 0], [1, 1, 1, 1, 0]]";
-    for cam in [ORTHO, PERSP] {
-        let inp = blob_tf(cam, tf);
-        let (r, _) = grid_reference::render(&inp, &Default::default());
-        let (a, _) = render(&inp, &Default::default()).unwrap();
-        let post = Slice3dOptions {
-            classify: Classify::Post,
-            ..Default::default()
-        };
-        let (b, _) = render(&inp, &post).unwrap();
-        let (ea, eb) = (a.error_against(&r), b.error_against(&r));
-        assert!(ea.rmse < 0.5 * eb.rmse, "{cam}: preint {ea} post {eb}");
-    }
-}
+// The pre-integration tests (constant field, steep TF) are in
+// tests/slice3d_preint.rs.
 
 #[test]
 fn slice2d_refuses_preint() {
