@@ -43,7 +43,8 @@ impl GridOrder {
             Some(x) => anyhow::bail!(
                 "--order {} is a splatting order (--renderer splat); the slicers take \
                  front-to-back or back-to-front",
-                x.to_possible_value().map_or(String::new(), |v| v.get_name().into())
+                x.to_possible_value()
+                    .map_or(String::new(), |v| v.get_name().into())
             ),
         }
     }
@@ -59,7 +60,8 @@ impl GridOrder {
             Some(x) => anyhow::bail!(
                 "--order {} is a slicer's compositing order; --renderer splat takes \
                  axis, dda, sort or radix (splats are always composited back to front)",
-                x.to_possible_value().map_or(String::new(), |v| v.get_name().into())
+                x.to_possible_value()
+                    .map_or(String::new(), |v| v.get_name().into())
             ),
         }
     }

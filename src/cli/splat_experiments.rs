@@ -252,7 +252,9 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     let vol = Arc::new(hydrogen(64));
     let angles: Vec<f64> = (0..=40).map(|k| 35.0 + 0.5 * k as f64).collect();
     let mut series: Vec<(Order, Vec<f64>)> = Vec::new();
-    println!("\n## 45-degree sweep, hydrogen (KVS, generate::hydrogen) 64^3, 256^2, elevation 20\n");
+    println!(
+        "\n## 45-degree sweep, hydrogen (KVS, generate::hydrogen) 64^3, 256^2, elevation 20\n"
+    );
     for order in [Order::Axis, Order::Dda, Order::Quicksort] {
         let imgs: Vec<Image> = angles
             .iter()

@@ -157,8 +157,9 @@ pub fn render_prepared(
     st.slices = planes.n;
     st.slice_spacing = planes.delta;
     let lut = Lut::new(tf, input.range);
-    let table = (opts.classify == Classify::Preint)
-        .then(|| preint::PreintTable::new(&lut, input.range, (planes.delta / tf.unit_distance) as f32));
+    let table = (opts.classify == Classify::Preint).then(|| {
+        preint::PreintTable::new(&lut, input.range, (planes.delta / tf.unit_distance) as f32)
+    });
     let opaque = if opts.empty_skip {
         match &table {
             Some(t) => prep

@@ -90,7 +90,8 @@ fn prefix(lut: &Lut) -> (Vec<f64>, Vec<[f64; 3]>) {
         let (x, y) = (lut.sigma[e - 1], lut.sigma[e]);
         p[e] = p[e - 1] + 0.5 * h * (x[3] as f64 + y[3] as f64);
         for c in 0..3 {
-            q[e][c] = q[e - 1][c] + 0.5 * h * (x[c] as f64 * x[3] as f64 + y[c] as f64 * y[3] as f64);
+            q[e][c] =
+                q[e - 1][c] + 0.5 * h * (x[c] as f64 * x[3] as f64 + y[c] as f64 * y[3] as f64);
         }
     }
     (p, q)
@@ -152,8 +153,17 @@ impl PreintTable {
                     let al = 1.0 - (1.0 - a1) * (1.0 - a2);
                     let c: [f64; 3] = std::array::from_fn(|x| c1[x] * a1 + (1.0 - a1) * c2[x] * a2);
                     baked.push([c[0] as f32, c[1] as f32, c[2] as f32, al as f32]);
-                    let mean = if al > 0.0 { c.map(|x| x / al) } else { [0.0; 3] };
-                    tau.push([mean[0] as f32, mean[1] as f32, mean[2] as f32, (t1 + t2) as f32]);
+                    let mean = if al > 0.0 {
+                        c.map(|x| x / al)
+                    } else {
+                        [0.0; 3]
+                    };
+                    tau.push([
+                        mean[0] as f32,
+                        mean[1] as f32,
+                        mean[2] as f32,
+                        (t1 + t2) as f32,
+                    ]);
                 }
                 (baked, tau)
             })
