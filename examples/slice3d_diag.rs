@@ -7,7 +7,9 @@
 //! ```
 //!
 //! `REF_CACHE` (a file path) keeps the reference image between runs (raw
-//! f32 RGBA, written when absent).
+//! f32 RGBA, written when absent). Environment: `CLASSIFY=post|pre|preint`
+//! (default: slice3d's), `ERT=threshold` (1 = off), `PROFILE=1` (print the
+//! worst pixel's ray), `PIXEL=index` (profile that pixel instead).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -60,7 +62,8 @@ fn main() -> anyhow::Result<()> {
     let classify = match std::env::var("CLASSIFY").as_deref() {
         Ok("post") => pvrsim::render::slicing::Classify::Post,
         Ok("pre") => pvrsim::render::slicing::Classify::Pre,
-        _ => pvrsim::render::slicing::Classify::Preint,
+        Ok("preint") => pvrsim::render::slicing::Classify::Preint,
+        _ => Slice3dOptions::default().classify,
     };
     let opts = Slice3dOptions {
         slices,
