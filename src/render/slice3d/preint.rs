@@ -138,7 +138,9 @@ impl PreintTable {
         let p1: Vec<[f64; 1]> = p.iter().map(|&x| [x]).collect();
         let n = PREINT_SIZE;
         let kd = k as f64;
-        let rows: Vec<(Vec<[f32; 4]>, Vec<[f32; 4]>)> = (0..n)
+        // Per row i: its baked and tau entries.
+        type Row = Vec<[f32; 4]>;
+        let rows: Vec<(Row, Row)> = (0..n)
             .into_par_iter()
             .map(|i| {
                 let a = i as f64 / (n - 1) as f64;
