@@ -11,7 +11,7 @@ use pvrsim::manager::protocol::{Control, ErtReply, ErtShare, WorkGrant};
 use pvrsim::manager::{ManagerActor, ManagerConfig};
 use pvrsim::net::{Action, Actor, Codec, Envelope, Event, MessageKind, NetworkModel, NodeId};
 use pvrsim::node::renderer::NodeErt;
-use pvrsim::node::{CostProfile, NodeOptions, NodePolicy, Placement, PlacementMethod};
+use pvrsim::node::{CostProfile, DataMode, NodeOptions, NodePolicy, Placement, PlacementMethod};
 use pvrsim::render::cell::{self, CellOptions, ErtOptions};
 use pvrsim::render::RenderInput;
 
@@ -33,6 +33,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             share,
             overlap: false,
             dlb,
+            data: DataMode::Partitioned,
             policy: NodePolicy::default(),
             clock: ClockKind::Virtual,
             record_trace: true,

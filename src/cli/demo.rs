@@ -153,6 +153,7 @@ fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
             share: true,
             overlap: false,
             dlb: true,
+            data: crate::node::DataMode::Replicated,
             policy: NodePolicy::default(),
             clock: ClockKind::Virtual,
             record_trace: true,
