@@ -398,6 +398,8 @@ impl NodeActor {
                     let ops = OpCounts {
                         work_cells_moved: after.work_cells_moved - before.work_cells_moved,
                         cell_ids_moved: after.cell_ids_moved - before.cell_ids_moved,
+                        cells_tested: after.cells_tested - before.cells_tested,
+                        cells_skipped_ert: after.cells_skipped_ert - before.cells_skipped_ert,
                         ..Default::default()
                     };
                     let s = self.secs(&ops);
@@ -408,10 +410,16 @@ impl NodeActor {
                     });
                     let n = unit.len() as u64;
                     self.stats.cells_given += n;
-                    let g = WorkGrant {
-                        unit: unit.encode(),
-                    };
-                    self.send(out, m.requester as usize, &g);
+                    // Every cell may have been skipped before giving
+                    // (`NodeRenderer::give`): a DLB requester then gets no
+                    // grant, as for a refusal (`Gave { cells: 0 }`); a
+                    // help requester gets an empty one.
+                    if n > 0 || m.front {
+                        let g = WorkGrant {
+                            unit: unit.encode(),
+                        };
+                        self.send(out, m.requester as usize, &g);
+                    }
                     n
                 } else {
                     if m.front {

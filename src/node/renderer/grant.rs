@@ -10,6 +10,7 @@ use crate::node::replica::{IdUnit, Replica};
 use crate::node::work::{WorkError, WorkUnit};
 use crate::render::cell::bin::{cell_record, CellRecord, Culled};
 use crate::render::cell::project::ProjectedVertices;
+use crate::render::cell::ert::ErtSpan;
 use crate::render::cell::CellOrder;
 
 /// Cells given away: what a work grant carries.
@@ -71,17 +72,52 @@ impl NodeRenderer {
     /// (DLB, see the module docs). Partitioned data: a work unit, packing
     /// counted in `work_cells_moved`; replicated data: their ids, counted in
     /// `cell_ids_moved`. Both added to [`NodeRenderer::totals`].
+    ///
+    /// With the pyramid structure a DLB donor first tests the cells it is
+    /// about to give against its current termination depths (the test
+    /// [`NodeRenderer::step`] does, counted the same way): the far cells
+    /// given are the likeliest to be behind terminated pixels already, and a
+    /// test costs far less than moving a cell and building its record on the
+    /// receiver. Those are skipped here and only the others are given.
+    /// Front-first help gives the nearest cells, which are rarely behind
+    /// anything: no test.
     pub fn give(&mut self, fraction: f64, front: bool) -> Given {
-        if !self.replicated() {
-            return Given::Cells(if front {
-                self.give_front_work(fraction)
-            } else {
-                self.give_work(fraction)
-            });
+        let mut given = self.take_out(fraction, front);
+        if !front && self.pyramid.is_some() && self.opts.ert.enabled() {
+            given = self.skip_before_giving(given);
         }
-        let given = self.take_out(fraction, front);
-        self.totals.cell_ids_moved += given.len() as u64;
-        Given::Ids(IdUnit::new(given.iter().map(|c| c.cell).collect()))
+        if self.replicated() {
+            self.totals.cell_ids_moved += given.len() as u64;
+            Given::Ids(IdUnit::new(given.iter().map(|c| c.cell).collect()))
+        } else {
+            Given::Cells(self.pack(&given))
+        }
+    }
+
+    /// Tests `cells` (taken out of the queue) against the table and the
+    /// pyramid; keeps the skipped ones as processed, returns the others.
+    fn skip_before_giving(&mut self, cells: Vec<CellRecord>) -> Vec<CellRecord> {
+        let span = self.opts.ert.span;
+        let mut ops = OpCounts::default();
+        let mut keep = Vec::with_capacity(cells.len());
+        for c in cells {
+            ops.cells_tested += 1;
+            let skip = match span {
+                ErtSpan::Single => self.table.skip_single(c.range, c.near),
+                ErtSpan::Multi => self.table.skip_multi(c.range, c.near),
+            } || self
+                .pyramid
+                .as_ref()
+                .is_some_and(|p| p.skip(c.range, c.near));
+            if skip {
+                ops.cells_skipped_ert += 1;
+                self.pre_skipped.push(c.cell);
+            } else {
+                keep.push(c);
+            }
+        }
+        self.totals.add(&ops);
+        keep
     }
 
     /// Takes the bytes of a grant ([`Given::encode`] in this node's data

@@ -220,6 +220,9 @@ pub struct NodeRenderer {
     /// ids ([`super::replica`]). `None`: partitioned, cells travel with
     /// their vertices.
     replica: Option<Arc<Replica>>,
+    /// Cells skipped by ERT out of order, when a DLB donor tested the cells
+    /// it was about to give (`grant.rs`): processed, not in `records`.
+    pre_skipped: Vec<u32>,
 }
 
 impl NodeRenderer {
@@ -262,6 +265,7 @@ impl NodeRenderer {
             pixel_levels: None,
             footprint: [u32::MAX, 0, u32::MAX, 0],
             replica: None,
+            pre_skipped: Vec::new(),
         }
     }
 
@@ -303,7 +307,7 @@ impl NodeRenderer {
 
     /// Cells processed so far (tested, skipped or scanned).
     pub fn processed(&self) -> usize {
-        self.next
+        self.next + self.pre_skipped.len()
     }
 
     /// Everything counted so far.
@@ -500,9 +504,12 @@ impl NodeRenderer {
     }
 
     /// Global ids of the processed cells (tested, skipped or scanned), in
-    /// processing order.
+    /// processing order, then those a DLB donor skipped before giving.
     pub fn processed_cells(&self) -> impl Iterator<Item = u32> + '_ {
-        self.records[..self.next].iter().map(|c| c.cell)
+        self.records[..self.next]
+            .iter()
+            .map(|c| c.cell)
+            .chain(self.pre_skipped.iter().copied())
     }
 
     /// Runs the node to completion alone: steps, and updates at every update
