@@ -15,8 +15,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use pvrsim::node::replica::{IdUnit, Replica};
 use pvrsim::node::renderer::Given;
+use pvrsim::node::replica::{IdUnit, Replica};
 use pvrsim::node::{NodeOptions, NodeRenderer, WorkUnit};
 use pvrsim::render::cell::PreparedTf;
 use pvrsim::render::RenderInput;
@@ -59,9 +59,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> anyhow::Result<()> {
-    let scene = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(|| {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/aorta-small-view-b.toml")
-    });
+    let scene = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/aorta-small-view-b.toml")
+        });
     let (input, _) = RenderInput::load(&scene)?;
     let (mut cells, mut ids) = (Vec::new(), Vec::new());
     for _ in 0..7 {

@@ -632,7 +632,10 @@ fn replicated_data_within_bound_and_deterministic() {
             );
             assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
             let rep = out.report.replication.expect("replication cost reported");
-            assert_eq!(rep.distribution_bytes, n as u64 * (rep.distribution_bytes / n as u64));
+            assert_eq!(
+                rep.distribution_bytes,
+                n as u64 * (rep.distribution_bytes / n as u64)
+            );
             assert!(rep.node_bytes > 0 && rep.distribution_s > 0.0);
             let processed: u64 = out.report.nodes.iter().map(|x| x.cells_processed).sum();
             let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();

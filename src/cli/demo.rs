@@ -126,7 +126,10 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         let ert_text = crate::data::demo_ert::ert_scene_toml(&scene_text, &scene_path)?;
         std::fs::write(&ert_path, &ert_text)
             .with_context(|| format!("cannot write {}", ert_path.display()))?;
-        println!("wrote {} (opaque vessel walls: ERT pays)", ert_path.display());
+        println!(
+            "wrote {} (opaque vessel walls: ERT pays)",
+            ert_path.display()
+        );
         let ert_scene = Scene::parse(&ert_text, &ert_path)?;
         let ert_input = RenderInput::new(ert_scene, input.mesh.clone())?;
         super::demo_cluster::run_cluster(&a.out_dir, &ert_path, &ert_input, a.nodes, a.threads)?;

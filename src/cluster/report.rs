@@ -706,7 +706,10 @@ pub fn summary(r: &ClusterReport) -> String {
             r.network
         );
     } else {
-        let _ = writeln!(s, "data: partitioned (DLB and help move cells with their vertices)");
+        let _ = writeln!(
+            s,
+            "data: partitioned (DLB and help move cells with their vertices)"
+        );
     }
     if let Some(b) = r.base_tsc_max_s {
         let _ = writeln!(

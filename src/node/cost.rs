@@ -113,8 +113,7 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
             + f(o.table_entries_updated, p.per_table_entry)
             + f(o.table_pixels_read, p.per_table_pixel),
         share: f(o.shared_entries_merged, p.per_shared_entry),
-        work: f(o.work_cells_moved, p.per_work_cell)
-            + f(o.cell_ids_moved, p.cell_id_cost()),
+        work: f(o.work_cells_moved, p.per_work_cell) + f(o.cell_ids_moved, p.cell_id_cost()),
     }
 }
 

@@ -9,8 +9,8 @@ use crate::node::ops::OpCounts;
 use crate::node::replica::{IdUnit, Replica};
 use crate::node::work::{WorkError, WorkUnit};
 use crate::render::cell::bin::{cell_record, CellRecord, Culled};
-use crate::render::cell::project::ProjectedVertices;
 use crate::render::cell::ert::ErtSpan;
+use crate::render::cell::project::ProjectedVertices;
 use crate::render::cell::CellOrder;
 
 /// Cells given away: what a work grant carries.

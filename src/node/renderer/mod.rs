@@ -269,7 +269,6 @@ impl NodeRenderer {
         }
     }
 
-
     /// The options.
     pub fn options(&self) -> &NodeOptions {
         &self.opts
@@ -279,7 +278,6 @@ impl NodeRenderer {
     pub fn view(&self) -> &View {
         &self.view
     }
-
 
     /// Nearest depth of the next unprocessed cell (`+inf`: none).
     pub fn front_depth(&self) -> f32 {
