@@ -20,6 +20,7 @@ pub mod cluster;
 pub mod cluster_ert;
 pub mod compare;
 pub mod demo;
+mod demo_cluster;
 pub mod generate;
 pub mod info;
 pub mod memory;
