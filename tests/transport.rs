@@ -218,6 +218,141 @@ fn same_image_on_threads_processes_and_tcp() {
     }
 }
 
+/// The frame on `n` worker processes (loopback, fresh token).
+fn on_processes(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::ClusterOutcome {
+    let n = cfg.phase1.nodes;
+    let workers = LocalWorkers::spawn(Path::new(EXE), n, &[], Duration::from_secs(30)).unwrap();
+    Coordinator {
+        workers: workers.addrs.clone(),
+        token: workers.token().clone(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+    }
+    .run(input, cfg)
+    .unwrap()
+    .0
+}
+
+/// The same frame on the wall-clock threads.
+fn on_threads(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::ClusterOutcome {
+    let mut wall = cfg.clone();
+    wall.phase1.clock = pvrsim::cluster::ClockKind::Wall;
+    pvrsim::cluster::run(input, &wall).unwrap()
+}
+
+/// Largest channel difference, in 1/255 units.
+fn max_diff_255(a: &pvrsim::image::Image, b: &pvrsim::image::Image) -> f64 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y).abs() as f64))
+        .fold(0.0, f64::max)
+        * 255.0
+}
+
+/// ERT on, no sharing, no DLB: every node's schedule (its cells, its own
+/// table, its update points) is fixed by the placement, so the image is the
+/// same bit for bit on the virtual clock, threads, processes and TCP
+/// workers (aorta-small view B at ERT 0.9 skips 3038 of 20169 cells on 3
+/// nodes).
+#[test]
+fn same_image_with_ert_on_where_the_schedule_is_deterministic() {
+    let scene = data("aorta-small-view-b.toml");
+    let (input, cfg) = config(&scene, &["--nodes", "3", "--canonical", "--ert", "0.9"]);
+    let virt = pvrsim::cluster::run(&input, &cfg).unwrap();
+    assert!(
+        virt.report.cells_skipped_ert > 0,
+        "ERT must skip cells here, else the test shows nothing"
+    );
+    assert_eq!(bits(&on_threads(&input, &cfg).image), bits(&virt.image));
+    assert_eq!(bits(&on_processes(&input, &cfg).image), bits(&virt.image));
+    let dir = tempfile::tempdir().unwrap();
+    let tok = token_file(dir.path(), "token");
+    let ws: Vec<WorkerProc> = (0..3).map(|_| WorkerProc::start(Some(&tok), &[])).collect();
+    let (tcp_out, _) = Coordinator {
+        workers: ws.iter().map(|w| w.addr.clone()).collect(),
+        token: Token::load(&tok).unwrap(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+    }
+    .run(&input, &cfg)
+    .unwrap();
+    assert_eq!(bits(&tcp_out.image), bits(&virt.image));
+    assert_eq!(tcp_out.report.cells_skipped_ert, virt.report.cells_skipped_ert);
+}
+
+/// spx in cluster mode, ERT off, canonical: 1 and 8 virtual nodes and 5
+/// worker processes give one image, bit for bit. The regression test of
+/// `tests/data/spx.toml` in cluster mode: its cell 0 repeats a vertex, and
+/// the work unit used to refuse it ("cell 0 has a bad vertex index").
+#[test]
+fn spx_renders_in_cluster_mode_with_any_node_count() {
+    let scene = data("spx.toml");
+    let (input, cfg1) = config(&scene, &["--nodes", "1", "--canonical", "--ert", "1"]);
+    let one = pvrsim::cluster::run(&input, &cfg1).unwrap();
+    assert!(one.image.pixels.iter().any(|p| p[3] > 0.1), "spx is not empty");
+    let (_, cfg8) = config(&scene, &["--nodes", "8", "--canonical", "--ert", "1"]);
+    let eight = pvrsim::cluster::run(&input, &cfg8).unwrap();
+    assert_eq!(bits(&eight.image), bits(&one.image));
+    assert_eq!(eight.report.cells_processed, one.report.cells_processed);
+    let (_, cfg5) = config(&scene, &["--nodes", "5", "--canonical", "--ert", "1"]);
+    assert_eq!(bits(&on_processes(&input, &cfg5).image), bits(&one.image));
+}
+
+/// ERT on with sharing through the manager and DLB: which cells a node
+/// skips depends on when the merged tables arrive, so the images of the
+/// real transports may differ from the virtual one, but each stays within
+/// the ERT bound `(1 - threshold) x max radiance` of the ERT-off image.
+#[test]
+fn ert_with_sharing_and_dlb_stays_within_the_bound_on_every_transport() {
+    let scene = data("aorta-small-view-b.toml");
+    let (input, off) = config(&scene, &["--nodes", "4", "--canonical", "--ert", "1"]);
+    let full = pvrsim::cluster::run(&input, &off).unwrap();
+    let (_, cfg) = config(
+        &scene,
+        &["--nodes", "4", "--canonical", "--ert", "0.9", "--share", "--dlb"],
+    );
+    let bound = pvrsim::render::cell::ert::error_bound(
+        0.9,
+        input.scene.transfer.max_radiance(),
+        input.scene.image.background,
+    ) * 255.0;
+    for (name, out) in [
+        ("virtual", pvrsim::cluster::run(&input, &cfg).unwrap()),
+        ("threads", on_threads(&input, &cfg)),
+        ("processes", on_processes(&input, &cfg)),
+    ] {
+        let d = max_diff_255(&out.image, &full.image);
+        eprintln!("{name}: max-abs {d:.3}/255 vs ERT off (bound {bound:.3}/255)");
+        assert!(d <= bound + 1e-3, "{name}: {d}/255 > bound {bound}/255");
+    }
+}
+
+/// `--clock virtual` with a real transport is refused, not overridden.
+#[test]
+fn clock_virtual_with_a_transport_is_an_error() {
+    let scene = data("spx.toml");
+    for t in ["threads", "processes"] {
+        let (ok, err, _) = cluster_cli(
+            &[
+                scene.to_str().unwrap(),
+                "--transport",
+                t,
+                "--clock",
+                "virtual",
+                "-o",
+                "/nonexistent-dir/x.png",
+            ],
+            Duration::from_secs(30),
+        );
+        assert!(!ok);
+        assert!(
+            err.contains("--clock virtual") && err.contains(&format!("--transport {t}")),
+            "{err}"
+        );
+    }
+}
+
 #[test]
 fn a_worker_keeps_its_cells_between_sessions() {
     let (input, cfg) = config(

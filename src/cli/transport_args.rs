@@ -23,6 +23,17 @@ pub enum TransportKind {
     Tcp,
 }
 
+impl TransportKind {
+    /// The name `--transport` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransportKind::Threads => "threads",
+            TransportKind::Processes => "processes",
+            TransportKind::Tcp => "tcp",
+        }
+    }
+}
+
 /// What happens when a worker fails mid-frame (`--on-failure`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OnFailure {
@@ -123,7 +134,7 @@ impl TransportArgs {
                     eprintln!(
                         "note: the sequential and Base references are not run with --transport {}; \
                          the report's ratios are null (pass --no-baselines to silence this)",
-                        if k == TransportKind::Tcp { "tcp" } else { "processes" }
+                        k.name()
                     );
                     cfg.baselines = false;
                 }
