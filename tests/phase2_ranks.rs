@@ -22,7 +22,9 @@ fn lists(n: usize, k: usize, w: u32, h: u32) -> RegionLists {
     for y in 0..h {
         for x in 0..w {
             let mut hsh = (x as u64 * 73856093) ^ (y as u64 * 19349663) ^ (k as u64 * 83492791);
-            hsh = hsh.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            hsh = hsh
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let count = (hsh >> 60) as usize % 4;
             let v: Vec<Segment> = (0..count)
                 .map(|j| {

@@ -58,15 +58,22 @@ struct WorkerProc {
 
 impl WorkerProc {
     fn start(token: Option<&Path>, extra: &[&str]) -> WorkerProc {
+        Self::start_with(token, extra, true)
+    }
+
+    /// `once`: serve one session (`--once`), else serve until killed.
+    fn start_with(token: Option<&Path>, extra: &[&str], once: bool) -> WorkerProc {
         let mut c = Command::new(EXE);
         c.args([
             "worker",
             "--listen",
             "127.0.0.1:0",
-            "--once",
             "--accept-timeout",
             "60",
         ]);
+        if once {
+            c.arg("--once");
+        }
         if let Some(t) = token {
             c.arg("--token-file").arg(t);
         }
@@ -194,6 +201,7 @@ fn same_image_on_threads_processes_and_tcp() {
             token: workers.token().clone(),
             tcp: TcpOptions::default(),
             recv_timeout: Duration::from_secs(60),
+            reassign: false,
         }
         .run(&input, &cfg)
         .unwrap();
@@ -210,6 +218,7 @@ fn same_image_on_threads_processes_and_tcp() {
             token: Token::load(&tok).unwrap(),
             tcp: TcpOptions::default(),
             recv_timeout: Duration::from_secs(60),
+            reassign: false,
         }
         .run(&input, &cfg)
         .unwrap();
@@ -227,6 +236,7 @@ fn on_processes(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::Cl
         token: workers.token().clone(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
+        reassign: false,
     }
     .run(input, cfg)
     .unwrap()
@@ -269,16 +279,31 @@ fn same_image_with_ert_on_where_the_schedule_is_deterministic() {
     let dir = tempfile::tempdir().unwrap();
     let tok = token_file(dir.path(), "token");
     let ws: Vec<WorkerProc> = (0..3).map(|_| WorkerProc::start(Some(&tok), &[])).collect();
-    let (tcp_out, _) = Coordinator {
+    let (tcp_out, m) = Coordinator {
         workers: ws.iter().map(|w| w.addr.clone()).collect(),
         token: Token::load(&tok).unwrap(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
+        reassign: false,
     }
     .run(&input, &cfg)
     .unwrap();
     assert_eq!(bits(&tcp_out.image), bits(&virt.image));
-    assert_eq!(tcp_out.report.cells_skipped_ert, virt.report.cells_skipped_ert);
+    assert_eq!(
+        tcp_out.report.cells_skipped_ert,
+        virt.report.cells_skipped_ert
+    );
+    // Phase 2 ran worker to worker: the schedule's messages and bytes are
+    // the in-process ones, and the transport counted the model's bytes
+    // (plus headers and the root's hand-off, which the section takes off).
+    assert_eq!(tcp_out.report.compositing, virt.report.compositing);
+    let sec =
+        pvrsim::cluster::remote::transport_section(&input, &cfg, &tcp_out, m.clone()).unwrap();
+    assert!(sec.phase1_bytes_match, "{:?}", sec.phase1_by_kind);
+    assert!(sec.phase2_bytes_match, "{:?}", sec.phase2_by_kind);
+    let segs = &sec.phase2_by_kind["segments"];
+    assert!(segs.measured.messages > 0 && segs.measured.bytes > segs.modelled.bytes);
+    assert!(m.phase2_handoff_bytes > 0);
 }
 
 /// spx in cluster mode, ERT off, canonical: 1 and 8 virtual nodes and 5
@@ -290,7 +315,10 @@ fn spx_renders_in_cluster_mode_with_any_node_count() {
     let scene = data("spx.toml");
     let (input, cfg1) = config(&scene, &["--nodes", "1", "--canonical", "--ert", "1"]);
     let one = pvrsim::cluster::run(&input, &cfg1).unwrap();
-    assert!(one.image.pixels.iter().any(|p| p[3] > 0.1), "spx is not empty");
+    assert!(
+        one.image.pixels.iter().any(|p| p[3] > 0.1),
+        "spx is not empty"
+    );
     let (_, cfg8) = config(&scene, &["--nodes", "8", "--canonical", "--ert", "1"]);
     let eight = pvrsim::cluster::run(&input, &cfg8).unwrap();
     assert_eq!(bits(&eight.image), bits(&one.image));
@@ -310,7 +338,15 @@ fn ert_with_sharing_and_dlb_stays_within_the_bound_on_every_transport() {
     let full = pvrsim::cluster::run(&input, &off).unwrap();
     let (_, cfg) = config(
         &scene,
-        &["--nodes", "4", "--canonical", "--ert", "0.9", "--share", "--dlb"],
+        &[
+            "--nodes",
+            "4",
+            "--canonical",
+            "--ert",
+            "0.9",
+            "--share",
+            "--dlb",
+        ],
     );
     let bound = pvrsim::render::cell::ert::error_bound(
         0.9,
@@ -353,6 +389,72 @@ fn clock_virtual_with_a_transport_is_an_error() {
     }
 }
 
+/// `--on-failure reassign`: worker 1 kills itself (SIGKILL, the hidden
+/// test hook) after 3 chunks of phase 1; its cells go to the two survivors,
+/// the frame runs again on them and gives the undisturbed image bit for bit
+/// (canonical, ERT off: the image does not depend on the placement). The
+/// measured bytes equal the model's for the survivors' placement.
+#[test]
+fn reassign_after_kill_9_mid_frame_gives_the_same_image() {
+    let scene = data("aorta-small-view-b.toml");
+    let (input, cfg) = config(&scene, &["--nodes", "3", "--canonical", "--ert", "1"]);
+    let virt = pvrsim::cluster::run(&input, &cfg).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let tok = token_file(dir.path(), "token");
+    let ws: Vec<WorkerProc> = (0..3)
+        .map(|k| {
+            let hook: &[&str] = if k == 1 {
+                &["--test-kill-after-chunks", "3"]
+            } else {
+                &[]
+            };
+            WorkerProc::start_with(Some(&tok), hook, false)
+        })
+        .collect();
+    let c = Coordinator {
+        workers: ws.iter().map(|w| w.addr.clone()).collect(),
+        token: Token::load(&tok).unwrap(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+        reassign: true,
+    };
+    let t = Instant::now();
+    let (out, m) = c.run(&input, &cfg).unwrap();
+    assert!(ws[1].wait_line("killing itself after 3 chunks", Duration::from_secs(5)));
+    assert!(t.elapsed() < Duration::from_secs(40), "{:?}", t.elapsed());
+    assert_eq!(bits(&out.image), bits(&virt.image));
+    assert_eq!(out.report.n_nodes, 2);
+    let r = m.reassigned.clone().expect("reassigned");
+    assert_eq!(r.lost.len(), 1);
+    assert!(r.lost[0].starts_with("worker 1 "), "{:?}", r.lost);
+    assert!(r.cells > 0 && r.first_error.contains("worker 1"), "{r:?}");
+    assert_eq!(
+        r.parts.iter().map(Vec::len).sum::<usize>(),
+        input.mesh.tets.len()
+    );
+    let sec = pvrsim::cluster::remote::transport_section(&input, &cfg, &out, m).unwrap();
+    assert!(sec.phase1_bytes_match && sec.phase2_bytes_match);
+    // Without reassign, the same failure is an error naming worker 1.
+    let ws: Vec<WorkerProc> = (0..3)
+        .map(|k| {
+            let hook: &[&str] = if k == 1 {
+                &["--test-kill-after-chunks", "3"]
+            } else {
+                &[]
+            };
+            WorkerProc::start(Some(&tok), hook)
+        })
+        .collect();
+    let e = Coordinator {
+        workers: ws.iter().map(|w| w.addr.clone()).collect(),
+        reassign: false,
+        ..c
+    }
+    .run(&input, &cfg)
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("worker 1"), "{e:#}");
+}
+
 #[test]
 fn a_worker_keeps_its_cells_between_sessions() {
     let (input, cfg) = config(
@@ -385,6 +487,7 @@ fn a_worker_keeps_its_cells_between_sessions() {
         token: Token::load(&tok).unwrap(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
+        reassign: false,
     };
     let (a, m1) = c.run(&input, &cfg).unwrap();
     let (b, m2) = c.run(&input, &cfg).unwrap();
@@ -502,6 +605,7 @@ fn garbage_on_the_port_does_not_stop_a_worker() {
         token: Token::load(&tok).unwrap(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
+        reassign: false,
     }
     .run(&input, &cfg)
     .unwrap();
@@ -559,6 +663,7 @@ fn hostile(bytes: Vec<u8>) -> String {
         token,
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
+        reassign: false,
     }
     .run(&input, &cfg)
     .unwrap_err();
@@ -605,6 +710,7 @@ fn garbage_instead_of_a_handshake_is_an_error() {
         token: Token::random().unwrap(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(30),
+        reassign: false,
     }
     .run(&input, &cfg)
     .unwrap_err();

@@ -57,6 +57,9 @@ pub struct TransportSection {
     pub setup_s: f64,
     /// Seconds to collect the nodes' results.
     pub collect_s: f64,
+    /// Set when `--on-failure reassign` re-ran the frame on the survivors
+    /// (the model then runs their placement).
+    pub reassigned: Option<super::coordinator::Reassigned>,
     /// Phase 2 (worker to worker) per message kind, sent by all workers.
     pub phase2_by_kind: BTreeMap<String, KindLine>,
     /// Of the measured phase-2 payload: message headers.
@@ -93,12 +96,22 @@ pub fn transport_section(
     p1.clock = ClockKind::Virtual;
     p1.record_trace = false;
     let codec = Codec::default();
-    let placement = Placement::new(
-        &input.mesh,
-        p1.nodes,
-        cfg.placement,
-        Some(&input.scene.view()),
-    );
+    // After `--on-failure reassign`, the model runs the placement that
+    // completed, on the survivors.
+    let placement = match &m.reassigned {
+        Some(r) => {
+            p1.nodes = r.parts.len();
+            Placement {
+                parts: r.parts.clone(),
+            }
+        }
+        None => Placement::new(
+            &input.mesh,
+            p1.nodes,
+            cfg.placement,
+            Some(&input.scene.view()),
+        ),
+    };
     let nodes = phase1::build_nodes(input, &placement, &p1, &cfg.profile, codec)?;
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
     let model2 = {
@@ -135,7 +148,8 @@ pub fn transport_section(
     let header = msgs2 * super::phase2::HEADER_BYTES as u64;
     let handoff = Counter {
         messages: m.phase2_handoff_messages,
-        bytes: m.phase2_handoff_bytes + m.phase2_handoff_messages * super::phase2::HEADER_BYTES as u64,
+        bytes: m.phase2_handoff_bytes
+            + m.phase2_handoff_messages * super::phase2::HEADER_BYTES as u64,
     };
     let phase2_bytes_match = by_kind2.iter().all(|(k, l)| {
         let mut c = l.measured;
@@ -165,6 +179,7 @@ pub fn transport_section(
         setup_cells_cached: m.cells_cached,
         setup_s: m.setup_s,
         collect_s: m.collect_s,
+        reassigned: m.reassigned.clone(),
         phase2_by_kind: by_kind2,
         phase2_header_bytes: header,
         phase2_handoff: handoff,

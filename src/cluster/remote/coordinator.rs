@@ -19,8 +19,8 @@ use anyhow::Context;
 use super::guard::SessionGuard;
 use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
 use super::session::{sha256, NodeResult, Session, WorkerSetup};
-use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
 use crate::cluster::phase2::Phase2;
+use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
 use crate::manager::{ManagerActor, ManagerConfig};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
 use crate::net::{
@@ -42,6 +42,40 @@ pub struct Coordinator {
     pub tcp: TcpOptions,
     /// Longest wait for a message in phase 1 (a protocol deadlock).
     pub recv_timeout: Duration,
+    /// `--on-failure reassign`: when workers die in phase 1, the frame runs
+    /// again on the survivors with the dead workers' cells split among them
+    /// (the workers must serve more than one session: not `--once`).
+    pub reassign: bool,
+}
+
+/// Workers that died in phase 1 (their links ended without `Goodbye`),
+/// attached to the error of a failed frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LostWorkers {
+    /// Their ranks.
+    pub ranks: Vec<usize>,
+    /// Their names.
+    pub names: Vec<String>,
+}
+
+impl std::fmt::Display for LostWorkers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "phase 1: lost {}", self.names.join(", "))
+    }
+}
+
+/// What `--on-failure reassign` did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct Reassigned {
+    /// The workers lost, by name.
+    pub lost: Vec<String>,
+    /// Their cells, given to the survivors.
+    pub cells: u64,
+    /// The error that ended the first attempt.
+    pub first_error: String,
+    /// The placement of the run that completed (survivors by new rank).
+    #[serde(skip)]
+    pub parts: Vec<Vec<u32>>,
 }
 
 /// What the transport measured, beside the report.
@@ -68,10 +102,34 @@ pub struct Measured {
     pub phase2_handoff_messages: u64,
     /// Seconds from the start of phase 2 to the last pixels in.
     pub phase2_s: f64,
+    /// Set when `--on-failure reassign` re-ran the frame on survivors.
+    pub reassigned: Option<Reassigned>,
+}
+
+/// The placement after losing `lost`: each survivor keeps its cells and
+/// takes a contiguous share of the lost workers' cells (ascending ids);
+/// survivors in rank order become ranks `0..`.
+pub fn reassign_parts(parts: &[Vec<u32>], lost: &[usize]) -> Vec<Vec<u32>> {
+    let orphans: Vec<u32> = lost
+        .iter()
+        .flat_map(|&k| parts[k].iter().copied())
+        .collect();
+    let mut out: Vec<Vec<u32>> = (0..parts.len())
+        .filter(|k| !lost.contains(k))
+        .map(|k| parts[k].clone())
+        .collect();
+    let s = out.len().max(1);
+    for (i, part) in out.iter_mut().enumerate() {
+        let (a, b) = (orphans.len() * i / s, orphans.len() * (i + 1) / s);
+        part.extend_from_slice(&orphans[a..b]);
+        part.sort_unstable();
+    }
+    out
 }
 
 impl Coordinator {
-    /// Runs one frame on the workers.
+    /// Runs one frame on the workers; with [`Coordinator::reassign`], once
+    /// more on the survivors if workers die in phase 1.
     pub fn run(
         &self,
         input: &RenderInput,
@@ -83,13 +141,82 @@ impl Coordinator {
             "{} worker addresses for --nodes {n}: give one worker per node",
             self.workers.len()
         );
+        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
+        let e = match self.run_placed(input, cfg, &placement) {
+            Ok(x) => return Ok(x),
+            Err(e) => e,
+        };
+        let Some(lost) = e.downcast_ref::<LostWorkers>().cloned() else {
+            return Err(e);
+        };
+        if !self.reassign || lost.ranks.is_empty() || lost.ranks.len() >= n {
+            return Err(e);
+        }
+        let parts = reassign_parts(&placement.parts, &lost.ranks);
+        let cells: u64 = lost
+            .ranks
+            .iter()
+            .map(|&k| placement.parts[k].len() as u64)
+            .sum();
+        eprintln!(
+            "note: {e:#}\nnote: --on-failure reassign: {cells} cells of {} go to the {} survivors; the frame runs again on them",
+            lost.names.join(", "),
+            parts.len()
+        );
+        let survivors = Coordinator {
+            workers: (0..n)
+                .filter(|k| !lost.ranks.contains(k))
+                .map(|k| self.workers[k].clone())
+                .collect(),
+            reassign: false,
+            ..self.clone()
+        };
+        let mut cfg2 = cfg.clone();
+        cfg2.phase1.nodes = parts.len();
+        let placement2 = Placement {
+            parts: parts.clone(),
+        };
+        let (out, mut m) = survivors
+            .run_placed(input, &cfg2, &placement2)
+            .context("the frame on the survivors (--on-failure reassign)")?;
+        m.reassigned = Some(Reassigned {
+            lost: lost.names,
+            cells,
+            first_error: format!("{e:#}"),
+            parts,
+        });
+        Ok((out, m))
+    }
+
+    /// The workers whose links ended without `Goodbye` (waiting for the
+    /// survivors to give up too), as an error context.
+    fn lost_in_phase1(&self, t: &TcpTransport, n: usize, e: anyhow::Error) -> anyhow::Error {
+        if !self.reassign {
+            return e;
+        }
+        let endings = t.link_endings(self.tcp.deadline * 2 + Duration::from_secs(2));
+        let ranks: Vec<usize> = (0..n).filter(|&k| endings[k] == Some(false)).collect();
+        let names = ranks
+            .iter()
+            .map(|&k| t.peer_name(NodeId::from(k)))
+            .collect();
+        e.context(LostWorkers { ranks, names })
+    }
+
+    /// One frame on the workers with this placement.
+    fn run_placed(
+        &self,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+        placement: &Placement,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let n = cfg.phase1.nodes;
         let mut cfg = cfg.clone();
         cfg.phase1.clock = ClockKind::Wall;
         let p1 = cfg.phase1;
         let codec = Codec::default();
         let rt = tcp::runtime()?;
         let t_setup = Instant::now();
-        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
         let overlap = p1.overlap && !p1.share && p1.node.ert.enabled();
         let pairwise = if overlap {
             placement.footprints(input).pairwise
@@ -243,51 +370,59 @@ impl Coordinator {
         let mut manager = manager_for(input, &cfg, initial)?;
         let wire0 = t.stats();
         let t1 = Instant::now();
-        let (m_stop, m_trace, m_traffic) = run_actor(
-            &SessionGuard::new(&t, codec),
-            &mut manager,
-            WallClock::start(),
-            WallOptions {
-                compute: ComputeMode::Skip,
-                recv_timeout: self.recv_timeout,
-            },
-        )
-        .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
-        if let Some(e) = &manager.stats().error {
-            anyhow::bail!("phase 1 failed at the manager: {e}");
-        }
-
-        // Results.
-        let t_collect = Instant::now();
-        let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
-        while results.iter().any(Option::is_none) {
-            let e = t
-                .recv_timeout(self.recv_timeout)
-                .context("collecting the nodes' results")?
-                .ok_or_else(|| {
-                    let missing: Vec<usize> = (0..n).filter(|&k| results[k].is_none()).collect();
-                    anyhow::anyhow!(
-                        "collecting results: workers {missing:?} sent nothing within {:?}",
-                        self.recv_timeout
-                    )
-                })?;
-            let k = e.from.index();
-            match codec.decode::<Session>(&e.payload) {
-                Ok(Session::Failed(why)) => {
-                    anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
-                }
-                Ok(Session::Result(r)) if k < n => {
-                    results[k] = Some(*r);
-                }
-                // Late phase-1 traffic to the stopped manager is dropped,
-                // as in the other drivers.
-                _ if e.kind != MessageKind::Session => {}
-                _ => anyhow::bail!(
-                    "collecting results: {} sent a message that is not its result",
-                    t.peer_name(e.from)
-                ),
+        let phase1 = (|| {
+            let (m_stop, m_trace, m_traffic) = run_actor(
+                &SessionGuard::new(&t, codec),
+                &mut manager,
+                WallClock::start(),
+                WallOptions {
+                    compute: ComputeMode::Skip,
+                    recv_timeout: self.recv_timeout,
+                },
+            )
+            .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
+            if let Some(e) = &manager.stats().error {
+                anyhow::bail!("phase 1 failed at the manager: {e}");
             }
-        }
+
+            // Results.
+            let t_collect = Instant::now();
+            let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
+            while results.iter().any(Option::is_none) {
+                let e = t
+                    .recv_timeout(self.recv_timeout)
+                    .context("collecting the nodes' results")?
+                    .ok_or_else(|| {
+                        let missing: Vec<usize> =
+                            (0..n).filter(|&k| results[k].is_none()).collect();
+                        anyhow::anyhow!(
+                            "collecting results: workers {missing:?} sent nothing within {:?}",
+                            self.recv_timeout
+                        )
+                    })?;
+                let k = e.from.index();
+                match codec.decode::<Session>(&e.payload) {
+                    Ok(Session::Failed(why)) => {
+                        anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
+                    }
+                    Ok(Session::Result(r)) if k < n => {
+                        results[k] = Some(*r);
+                    }
+                    // Late phase-1 traffic to the stopped manager is dropped,
+                    // as in the other drivers.
+                    _ if e.kind != MessageKind::Session => {}
+                    _ => anyhow::bail!(
+                        "collecting results: {} sent a message that is not its result",
+                        t.peer_name(e.from)
+                    ),
+                }
+            }
+            Ok((m_stop, m_trace, m_traffic, results, t_collect))
+        })();
+        let (m_stop, m_trace, m_traffic, results, t_collect) = match phase1 {
+            Ok(x) => x,
+            Err(e) => return Err(self.lost_in_phase1(&t, n, e)),
+        };
         let host_s = t1.elapsed().as_secs_f64();
         measured.collect_s = t_collect.elapsed().as_secs_f64();
         let wire_m = {

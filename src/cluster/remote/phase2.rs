@@ -85,7 +85,9 @@ pub fn decode_message(bytes: &[u8]) -> Result<(u32, Payload, &[u8]), String> {
         y1: u(17),
     };
     if rect.x0 > rect.x1 || rect.y0 > rect.y1 {
-        return Err(format!("a phase-2 message for the inverted rectangle {rect:?}"));
+        return Err(format!(
+            "a phase-2 message for the inverted rectangle {rect:?}"
+        ));
     }
     let what = match bytes[4] {
         0 => Payload::Lists(rect),
@@ -475,4 +477,3 @@ pub fn replay_plan(
     }
     plan
 }
-

@@ -20,8 +20,8 @@ use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{
-    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, TrafficStats, Transport, WallClock,
-    WallOptions,
+    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, TrafficStats, Transport,
+    WallClock, WallOptions,
 };
 use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
 use crate::render::cell::PreparedTf;
@@ -39,6 +39,38 @@ pub struct Worker {
     cache: VecDeque<([u8; 32], Vec<u8>)>,
     /// Give up if no session starts within this (`None`: wait forever).
     pub accept_timeout: Option<Duration>,
+    /// Test hook (hidden `--test-kill-after-chunks K`): the process kills
+    /// itself with SIGKILL when its node starts chunk `K + 1` of phase 1,
+    /// a deterministic `kill -9` mid-frame.
+    pub kill_after_chunks: Option<u64>,
+}
+
+/// The node actor, counting its chunks (`Start` and every `Wake`) for
+/// [`Worker::kill_after_chunks`].
+struct Chunks<'a> {
+    node: &'a mut NodeActor,
+    kill_after: Option<u64>,
+    seen: u64,
+}
+
+impl crate::net::Actor for Chunks<'_> {
+    fn handle(&mut self, now: f64, event: crate::net::Event) -> Vec<crate::net::Action> {
+        if matches!(event, crate::net::Event::Start | crate::net::Event::Wake(_)) {
+            if self.kill_after == Some(self.seen) {
+                eprintln!(
+                    "pvrsim worker: killing itself after {} chunks (--test-kill-after-chunks)",
+                    self.seen
+                );
+                // SAFETY: getpid and kill have no preconditions; this is a
+                // test hook that ends the process on purpose.
+                unsafe {
+                    libc::kill(libc::getpid(), libc::SIGKILL);
+                }
+            }
+            self.seen += 1;
+        }
+        self.node.handle(now, event)
+    }
 }
 
 impl Worker {
@@ -65,6 +97,7 @@ impl Worker {
             opts,
             cache: VecDeque::new(),
             accept_timeout: None,
+            kill_after_chunks: None,
         })
     }
 
@@ -231,7 +264,11 @@ impl Worker {
         let wire0 = t.stats();
         let run = run_actor(
             &early,
-            &mut actor,
+            Chunks {
+                node: &mut actor,
+                kill_after: self.kill_after_chunks,
+                seen: 0,
+            },
             clock,
             WallOptions {
                 compute: ComputeMode::Skip,
@@ -328,10 +365,7 @@ fn wait_composite(
                 Ok(Session::Failed(why)) => {
                     anyhow::bail!("{} failed: {why}", t.peer_name(e.from))
                 }
-                _ => anyhow::bail!(
-                    "{} sent a session message out of turn",
-                    t.peer_name(e.from)
-                ),
+                _ => anyhow::bail!("{} sent a session message out of turn", t.peer_name(e.from)),
             }
         }
     }
@@ -346,8 +380,8 @@ fn phase2(
     early: Vec<crate::net::Envelope>,
     timeout: Duration,
 ) -> anyhow::Result<super::phase2::RankLog> {
-    let strategy =
-        crate::compositor::strategy::from_name(&setup.compositor).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
+        .map_err(|e| anyhow::anyhow!(e))?;
     let codec =
         crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
     let schedule = strategy.schedule(
