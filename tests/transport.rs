@@ -455,6 +455,43 @@ fn reassign_after_kill_9_mid_frame_gives_the_same_image() {
     assert!(format!("{e:#}").contains("worker 1"), "{e:#}");
 }
 
+/// A worker killed (SIGKILL) when phase 2 starts: the frame fails with an
+/// error naming it and phase 2, within the deadline, even with
+/// `reassign` (which only covers phase 1).
+#[test]
+fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
+    let (input, cfg) = config(
+        &data("aorta-small-view-b.toml"),
+        &["--nodes", "3", "--canonical", "--ert", "1"],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let tok = token_file(dir.path(), "token");
+    let ws: Vec<WorkerProc> = (0..3)
+        .map(|k| {
+            let hook: &[&str] = if k == 2 {
+                &["--test-kill-in-phase2"]
+            } else {
+                &[]
+            };
+            WorkerProc::start(Some(&tok), hook)
+        })
+        .collect();
+    let t = Instant::now();
+    let e = Coordinator {
+        workers: ws.iter().map(|w| w.addr.clone()).collect(),
+        token: Token::load(&tok).unwrap(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+        reassign: true,
+    }
+    .run(&input, &cfg)
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(e.contains("phase 2") && e.contains("worker 2"), "{e}");
+    assert!(t.elapsed() < Duration::from_secs(30), "{:?}", t.elapsed());
+    assert!(ws[2].wait_line("at the start of phase 2", Duration::from_secs(5)));
+}
+
 #[test]
 fn a_worker_keeps_its_cells_between_sessions() {
     let (input, cfg) = config(

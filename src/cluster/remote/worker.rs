@@ -43,6 +43,19 @@ pub struct Worker {
     /// itself with SIGKILL when its node starts chunk `K + 1` of phase 1,
     /// a deterministic `kill -9` mid-frame.
     pub kill_after_chunks: Option<u64>,
+    /// Test hook (hidden `--test-kill-in-phase2`): SIGKILL when phase 2
+    /// starts, a deterministic death in phase 2.
+    pub kill_in_phase2: bool,
+}
+
+/// The test hooks' way to die: SIGKILL, as `kill -9` would.
+fn kill_self(why: &str) {
+    eprintln!("pvrsim worker: killing itself {why}");
+    // SAFETY: getpid and kill have no preconditions; this is a test hook
+    // that ends the process on purpose.
+    unsafe {
+        libc::kill(libc::getpid(), libc::SIGKILL);
+    }
 }
 
 /// The node actor, counting its chunks (`Start` and every `Wake`) for
@@ -57,15 +70,10 @@ impl crate::net::Actor for Chunks<'_> {
     fn handle(&mut self, now: f64, event: crate::net::Event) -> Vec<crate::net::Action> {
         if matches!(event, crate::net::Event::Start | crate::net::Event::Wake(_)) {
             if self.kill_after == Some(self.seen) {
-                eprintln!(
-                    "pvrsim worker: killing itself after {} chunks (--test-kill-after-chunks)",
+                kill_self(&format!(
+                    "after {} chunks (--test-kill-after-chunks)",
                     self.seen
-                );
-                // SAFETY: getpid and kill have no preconditions; this is a
-                // test hook that ends the process on purpose.
-                unsafe {
-                    libc::kill(libc::getpid(), libc::SIGKILL);
-                }
+                ));
             }
             self.seen += 1;
         }
@@ -98,6 +106,7 @@ impl Worker {
             cache: VecDeque::new(),
             accept_timeout: None,
             kill_after_chunks: None,
+            kill_in_phase2: false,
         })
     }
 
@@ -313,6 +322,9 @@ impl Worker {
         // Phase 2, once every node is done with phase 1.
         let wire0 = t.stats();
         let r = wait_composite(&t, coord, codec, timeout).and_then(|early| {
+            if self.kill_in_phase2 {
+                kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+            }
             let log = phase2(&t, &setup, &scene, lists, early, timeout)?;
             let mut wire = t.stats();
             wire.wire_bytes_sent -= wire0.wire_bytes_sent;
