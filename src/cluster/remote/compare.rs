@@ -59,7 +59,7 @@ pub struct TransportSection {
     pub collect_s: f64,
     /// Set when `--on-failure reassign` re-ran the frame on the survivors
     /// (the model then runs their placement).
-    pub reassigned: Option<super::coordinator::Reassigned>,
+    pub reassigned: Option<super::reassign::Reassigned>,
     /// Phase 2 (worker to worker) per message kind, sent by all workers.
     pub phase2_by_kind: BTreeMap<String, KindLine>,
     /// Of the measured phase-2 payload: message headers.
