@@ -100,8 +100,10 @@ pub struct ClusterArgs {
     pub network: Option<String>,
     /// `virtual`: discrete-event simulation, modelled times, deterministic.
     /// `wall`: real threads, wall-clock times, compute as really done.
-    #[arg(long, value_enum, default_value_t = ClockKind::Virtual)]
-    pub clock: ClockKind,
+    /// Default: virtual; `--transport` runs on wall time (with it, only
+    /// `--clock wall` may be given).
+    #[arg(long, value_enum, value_name = "CLOCK")]
+    pub clock: Option<ClockKind>,
     /// Compute cost profile: `pentium4` (the paper's machine, fitted to its
     /// Table 1; built in), `calibrated` (this machine: profiles/calibrated.toml
     /// as `pvrsim calibrate` writes it, else the shipped
@@ -272,7 +274,16 @@ impl Validate for ClusterArgs {
                 "--paper moves cells with their vertices, as the paper's nodes did",
             );
         }
-        if self.clock == ClockKind::Wall {
+        if let Some(t) = self.net.transport {
+            anyhow::ensure!(
+                self.clock != Some(ClockKind::Virtual),
+                "--clock virtual cannot be combined with --transport {}: a real transport runs \
+                 on wall time (drop --clock, or drop --transport for the simulation)",
+                t.name()
+            );
+        }
+        let threads = self.net.transport == Some(super::transport_args::TransportKind::Threads);
+        if self.clock == Some(ClockKind::Wall) || threads {
             let why = "--clock wall measures times on this host; the network and cost models only set times on the virtual clock";
             if let Some(n) = &self.network {
                 c.ignored(&format!("--network {n}"), why);
@@ -327,7 +338,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 help_gap: mode.help_gap,
                 help_fraction: a.ert_mode.help_fraction,
             },
-            clock: a.clock,
+            clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },
         placement: a.placement,

@@ -660,7 +660,13 @@ pub fn summary(r: &ClusterReport) -> String {
         100.0 * r.imbalance,
         r.phase1_s,
         r.composite_s,
-        if wall { " (host, all nodes on one thread)" } else { "" },
+        if r.transport.is_some() {
+            " (wall clock, worker to worker)"
+        } else if wall {
+            " (host, all nodes on one thread)"
+        } else {
+            ""
+        },
         r.frame_s
     );
     let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
