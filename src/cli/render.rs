@@ -31,6 +31,8 @@ pub enum RendererKind {
     /// range); prints the size ratio, the preprocessing time and the image
     /// error against full-resolution slice3d and the grid reference.
     Adaptive,
+    /// Regular grids: EWA splatting, `--order axis|dda|sort|radix`.
+    Splat,
 }
 
 /// Options of `pvrsim render`.
@@ -46,16 +48,20 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     pub renderer: Option<RendererKind>,
     /// Grids: classify after interpolating the scalar (`post`, the scene
-    /// contract's field; default) or classify voxels into an RGBA8 texture
-    /// and interpolate that (`pre`, as the papers' hardware did).
+    /// contract's field; default), classify voxels into an RGBA8 texture and
+    /// interpolate that (`pre`, as the papers' hardware did), or integrate
+    /// the transfer function between consecutive samples (`preint`, slice3d
+    /// only: pre-integrated, for label volumes with step transfer functions).
     #[arg(long, value_enum)]
     pub classify: Option<crate::render::slicing::Classify>,
-    /// Grids (slicers): compositing order; `back-to-front` blends with
-    /// (1, 1 - A_s) as the paper, without ERT. Default `front-to-back`.
+    /// Grids: the slicers' compositing order (`front-to-back`, default,
+    /// with ERT; `back-to-front` blends with (1, 1 - A_s) as the paper), or
+    /// splatting's visit order (`axis`, `dda` default, `sort`, `radix`).
     #[arg(long, value_enum)]
-    pub order: Option<crate::render::slicing::Order>,
+    pub order: Option<super::render_splat::GridOrder>,
     /// Grids (slice3d): number of view-aligned slices across the volume's
-    /// depth. Default: the volume's largest dimension.
+    /// depth. Default: one per voxel layer a ray along the view direction
+    /// crosses (the papers' largest dimension for an axis-aligned view).
     #[arg(long, value_name = "N", conflicts_with = "spacing")]
     pub slices: Option<u64>,
     /// Grids (slice3d): distance between slices, world units.
@@ -203,7 +209,8 @@ impl Validate for RenderArgs {
             RendererKind::Cell
             | RendererKind::Slice3d
             | RendererKind::Slice2d
-            | RendererKind::Adaptive => {}
+            | RendererKind::Adaptive
+            | RendererKind::Splat => {}
         }
         Ok(())
     }
@@ -271,7 +278,10 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         canonical: a.canonical,
     };
     let (image, mut stats) = match a.renderer.unwrap_or(RendererKind::Cell) {
-        RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::Adaptive => {
+        RendererKind::Slice3d
+        | RendererKind::Slice2d
+        | RendererKind::Adaptive
+        | RendererKind::Splat => {
             unreachable!("refused above")
         }
         RendererKind::Cell => {
@@ -346,10 +356,15 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         !matches!(
             a.renderer,
-            Some(RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::Adaptive)
+            Some(
+                RendererKind::Slice3d
+                    | RendererKind::Slice2d
+                    | RendererKind::Adaptive
+                    | RendererKind::Splat
+            )
         ) && a.blocks.is_none()
             && a.tolerance.is_none(),
-        "--renderer slice3d/slice2d/adaptive (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
+        "--renderer slice3d/slice2d/adaptive/splat (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
          (use cell or reference)",
         a.scene.display()
     );

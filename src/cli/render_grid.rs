@@ -7,12 +7,13 @@ use std::sync::Arc;
 use anyhow::Context;
 
 use super::render::{RenderArgs, RenderOutcome, RendererKind};
+use super::render_splat::GridOrder;
 use crate::image::Image;
 use crate::render::adaptive::{self, AdaptiveOptions};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::slice2d::{self, Slice2dOptions};
 use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
-use crate::render::slicing::{Classify, Order};
+use crate::render::slicing::Classify;
 use crate::render::{grid_reference, VolumeInput};
 use crate::scene::Scene;
 
@@ -83,14 +84,14 @@ fn slice_count(a: &RenderArgs) -> SliceCount {
     }
 }
 
-fn slice3d_options(a: &RenderArgs) -> Slice3dOptions {
-    Slice3dOptions {
-        classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+fn slice3d_options(a: &RenderArgs) -> anyhow::Result<Slice3dOptions> {
+    Ok(Slice3dOptions {
+        classify: a.classify.unwrap_or(Slice3dOptions::default().classify),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         slices: slice_count(a),
         empty_skip: !a.no_empty_skip,
-    }
+    })
 }
 
 /// `--blocks` and `--tolerance` with their defaults.
@@ -102,14 +103,14 @@ pub fn adaptive_options(a: &RenderArgs) -> AdaptiveOptions {
     }
 }
 
-fn slice2d_options(a: &RenderArgs) -> Slice2dOptions {
-    Slice2dOptions {
+fn slice2d_options(a: &RenderArgs) -> anyhow::Result<Slice2dOptions> {
+    Ok(Slice2dOptions {
         classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         lod: a.lod,
         empty_skip: !a.no_empty_skip,
-    }
+    })
 }
 
 /// Renders a grid scene as `pvrsim render` does.
@@ -208,10 +209,10 @@ pub fn render_with(
         }
         RendererKind::Slice3d | RendererKind::Slice2d => {
             let (img, st) = if kind == RendererKind::Slice3d {
-                let o = slice3d_options(a);
+                let o = slice3d_options(a)?;
                 super::with_threads(a.threads, || slice3d::render(input, &o))??
             } else {
-                let o = slice2d_options(a);
+                let o = slice2d_options(a)?;
                 super::with_threads(a.threads, || slice2d::render(input, &o))??
             };
             if !quiet {
@@ -225,6 +226,7 @@ pub fn render_with(
                     img.height,
                     match st.classify {
                         Some(Classify::Pre) => "pre",
+                        Some(Classify::Preint) => "pre-integrated",
                         _ => "post",
                     },
                     st.slices,
@@ -248,6 +250,7 @@ pub fn render_with(
             Ok((img, v))
         }
         RendererKind::Adaptive => render_adaptive(a, input, quiet),
+        RendererKind::Splat => super::render_splat::render(a, input, quiet),
         RendererKind::Cell => unreachable!("refused by execute"),
     }
 }
@@ -260,7 +263,7 @@ fn render_adaptive(
     input: &VolumeInput,
     quiet: bool,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
-    let o = slice3d_options(a);
+    let o = slice3d_options(a)?;
     let ad = adaptive_options(a);
     let (img, st) = super::with_threads(a.threads, || adaptive::render(input, &o, &ad))??;
     let (full, fst) = super::with_threads(a.threads, || slice3d::render(input, &o))??;
