@@ -3,9 +3,10 @@
 # Linux network namespace, joined through a bridge in a "switch" namespace by
 # veth pairs whose egress is rate-limited with tbf (1 Gbit/s, then
 # 100 Mbit/s). Checks that the frame completes, that the image is identical
-# to the threads run, and that the phase-1 bytes measured at the transport
-# equal the virtual model's bytes; prints a table (measured vs modelled
-# time) for docs/experiments/transports.md.
+# to the threads run, and that the phase-1 bytes and the phase-2 (worker to
+# worker compositing) bytes measured at the transport equal the virtual
+# model's bytes; prints a table (measured vs modelled time) for
+# docs/experiments/transports.md.
 #
 # Needs root, iproute2 (ip, tc) and python3. Only addresses inside the
 # namespaces it creates (10.77.0.0/24) are used; everything is removed on
@@ -65,8 +66,8 @@ chmod 600 "$WORK/token"
 PROFILE=pentium4
 [ -f configs/profiles/calibrated.toml ] && PROFILE=calibrated
 echo "profile: $PROFILE"
-printf '| link | nodes | image identical | phase-1 bytes = model | phase-1 measured (s) | phase-1 modelled (s) | frame (s) | set-up (s) | wire bytes phase 1 | cells bytes | ping-pong fit |\n'
-printf '|---|---|---|---|---|---|---|---|---|---|---|\n'
+printf '| link | nodes | image identical | phase-1 bytes = model | phase-1 measured (s) | phase-1 modelled (s) | phase-2 bytes = model | phase-2 payload bytes (measured / modelled) | phase-2 measured (s) | phase-2 modelled (s) | frame (s) | set-up (s) | cells bytes | ping-pong fit |\n'
+printf '|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n'
 status=0
 round=0
 for spec in "1gbit gbe" "100mbit fast-ethernet"; do
@@ -96,10 +97,15 @@ for spec in "1gbit gbe" "100mbit fast-ethernet"; do
   cat > "$WORK/row.py" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1])); t = r["transport"]
+meas = sum(l["measured"]["bytes"] for l in t["phase2_by_kind"].values())
+model = sum(l["modelled"]["bytes"] for l in t["phase2_by_kind"].values())
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {sys.argv[4]} | {'yes' if t['phase1_bytes_match'] else 'NO'} | "
-      f"{t['phase1_measured_s']:.4f} | {t['phase1_modelled_s']:.4f} | {r['frame_s']:.4f} | {t['setup_s']:.4f} | "
-      f"{t['phase1_wire_bytes']} | {t['setup_cells_bytes']} | {sys.argv[5]} |")
-sys.exit(0 if t["phase1_bytes_match"] and sys.argv[4] == "yes" else 1)
+      f"{t['phase1_measured_s']:.4f} | {t['phase1_modelled_s']:.4f} | "
+      f"{'yes' if t['phase2_bytes_match'] else 'NO'} | {meas} / {model} (headers {t['phase2_header_bytes']}, root hand-off {t['phase2_handoff']['bytes']}) | "
+      f"{t['phase2_measured_s']:.4f} | {t['phase2_modelled_s']:.4f} | {r['frame_s']:.4f} | {t['setup_s']:.4f} | "
+      f"{t['setup_cells_bytes']} | {sys.argv[5]} |")
+ok = t["phase1_bytes_match"] and t["phase2_bytes_match"] and sys.argv[4] == "yes"
+sys.exit(0 if ok else 1)
 PY
   # ping-pong over the same link: coordinator namespace -> worker 0's
   ip netns exec ${P}w0 "$PVRSIM" worker --listen 10.77.0.1:7701 --token-file "$WORK/token" \

@@ -11,7 +11,7 @@ use pvrsim::manager::protocol::{Control, ErtReply, ErtShare, WorkGrant};
 use pvrsim::manager::{ManagerActor, ManagerConfig};
 use pvrsim::net::{Action, Actor, Codec, Envelope, Event, MessageKind, NetworkModel, NodeId};
 use pvrsim::node::renderer::NodeErt;
-use pvrsim::node::{CostProfile, NodeOptions, NodePolicy, Placement, PlacementMethod};
+use pvrsim::node::{CostProfile, DataMode, NodeOptions, NodePolicy, Placement, PlacementMethod};
 use pvrsim::render::cell::{self, CellOptions, ErtOptions};
 use pvrsim::render::RenderInput;
 
@@ -33,6 +33,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             share,
             overlap: false,
             dlb,
+            data: DataMode::Partitioned,
             policy: NodePolicy::default(),
             clock: ClockKind::Virtual,
             record_trace: true,
@@ -577,5 +578,80 @@ proptest! {
         cfg.policy.help_gap = gap;
         cfg.record_trace = false;
         check_cells_conserved(&input, &placement, &cfg)?;
+    }
+
+    /// Replicated data (DLB and help move cell ids, not cells): the same
+    /// conservation, with and without help, and the grants carry ids only
+    /// (a few bytes per cell moved, far below a work unit's ~26).
+    #[test]
+    fn replicated_data_conserves_cells(cuts in proptest::collection::vec(0.0f64..1.0, 1..7), gap in 0.0f32..0.5, frac in 0.1f64..0.7, chunk in 20usize..300) {
+        use pvrsim::render::cell::ert::ErtStructure;
+        let input = small("b");
+        let m = input.mesh.tets.len();
+        let mut pts: Vec<usize> = cuts.iter().map(|c| (c * m as f64) as usize).collect();
+        pts.sort_unstable();
+        let placement = placement_cut_at(pts, m);
+        let n = placement.parts.len();
+        let ert = NodeErt { structure: ErtStructure::Pyramid, share_levels: 4, ..NodeErt::PAPER };
+        let mut cfg = config(n, ert, true, true, "binary-swap").phase1;
+        cfg.data = DataMode::Replicated;
+        cfg.policy.chunk = chunk;
+        cfg.policy.help_gap = gap;
+        cfg.policy.help_fraction = frac;
+        cfg.record_trace = false;
+        check_cells_conserved(&input, &placement, &cfg)?;
+    }
+}
+
+/// Replicated data on 1, 3 and 8 nodes, both small views: the image stays
+/// within the ERT bound of the sequential ERT-off image, the run is
+/// deterministic, no cell is lost, cells moved cost id bytes only, and the
+/// report carries the one-time replication cost.
+#[test]
+fn replicated_data_within_bound_and_deterministic() {
+    use pvrsim::render::cell::ert::ErtStructure;
+    let pyramid = NodeErt {
+        structure: ErtStructure::Pyramid,
+        share_levels: 4,
+        ..NodeErt::PAPER
+    };
+    for view in ["a", "b"] {
+        let input = small(view);
+        let (full, bound) = full_image_and_bound(&input);
+        for n in [1, 3, 8] {
+            let mut cfg = config(n, pyramid, true, true, "binary-swap");
+            cfg.phase1.data = DataMode::Replicated;
+            cfg.phase1.policy.help_gap = 0.3;
+            let out = cluster::run(&input, &cfg).unwrap();
+            let d = max_diff(&out.image, &full);
+            eprintln!(
+                "view {view} N {n} replicated: {d:.4} (bound {bound:.4}), skipped {}, moved {}, grant bytes {:?}",
+                out.report.cells_skipped_ert,
+                out.report.cells_moved,
+                out.report.bytes_by_kind.get("work-grant")
+            );
+            assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
+            let rep = out.report.replication.expect("replication cost reported");
+            assert_eq!(
+                rep.distribution_bytes,
+                n as u64 * (rep.distribution_bytes / n as u64)
+            );
+            assert!(rep.node_bytes > 0 && rep.distribution_s > 0.0);
+            let processed: u64 = out.report.nodes.iter().map(|x| x.cells_processed).sum();
+            let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();
+            assert_eq!(processed + culled, out.report.cells_total, "no cell lost");
+            if out.report.cells_moved > 0 {
+                let grant = out.report.bytes_by_kind["work-grant"];
+                assert!(
+                    grant < 8 * out.report.cells_moved + 64 * n as u64 * n as u64,
+                    "view {view} N {n}: {grant} grant bytes for {} cells",
+                    out.report.cells_moved
+                );
+            }
+            let again = cluster::run(&input, &cfg).unwrap();
+            assert_eq!(bits(&out.image), bits(&again.image));
+            assert_eq!(out.report.frame_s, again.report.frame_s);
+            assert_eq!(out.report.cells_skipped_ert, again.report.cells_skipped_ert);
+        }
     }
 }

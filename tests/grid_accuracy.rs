@@ -5,8 +5,7 @@
 //!   8/255 on a generated scene (the Marschner–Lobb field built here, u8,
 //!   96^3, f_M = 6 (a ripple of 8 voxels), perspective, a translucent smooth TF) — always;
 //! - the same measured on `mni152-view.toml` when the shared data are
-//!   present (skipped with a message otherwise): RMSE is asserted, max-abs
-//!   is printed (see docs/experiments/grids.md for what it is);
+//!   present (skipped with a message otherwise), the same bounds;
 //! - `slice2d`'s error is measured and held to a loose bound.
 
 use std::path::Path;
@@ -86,9 +85,13 @@ fn slice3d_default_within_rmse_1_and_max_8_on_a_generated_scene() {
     assert_eq!(rs.quadrature_depth_limited, 0);
     let (got, st) = slice3d::render(&inp, &Slice3dOptions::default()).unwrap();
     assert!(!got.has_non_finite());
-    assert_eq!(st.slices, 96);
+    // One slice per voxel layer crossed: at least the papers' 96.
+    assert!(st.slices >= 96, "{st:?}");
     let e = got.error_against(&want);
-    println!("slice3d (96 slices) vs reference on Marschner-Lobb 96^3: {e}");
+    println!(
+        "slice3d ({} slices) vs reference on Marschner-Lobb 96^3: {e}",
+        st.slices
+    );
     assert!(e.rmse <= 1.0 && e.max_abs <= 8.0, "{e}");
     let (g2, _) = slice2d::render(&inp, &Slice2dOptions::default()).unwrap();
     let e2 = g2.error_against(&want);
@@ -110,5 +113,5 @@ fn mni152_when_the_shared_data_are_present() {
     let (got, _) = slice3d::render(&inp, &Slice3dOptions::default()).unwrap();
     let e = got.error_against(&want);
     println!("slice3d (default) vs reference on mni152-view: {e}");
-    assert!(e.rmse <= 1.0, "{e}");
+    assert!(e.rmse <= 1.0 && e.max_abs <= 8.0, "{e}");
 }

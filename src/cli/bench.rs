@@ -48,6 +48,22 @@ pub struct BenchArgs {
     /// per-slice LOD for a 1024^3 volume; arithmetic only) and exit.
     #[arg(long)]
     pub lod_table: bool,
+    /// Adaptive block sampling by block count (the paper's Table 3 shape):
+    /// size ratio, build time, frame time and image error against
+    /// full-resolution slice3d and the reference, per scene, for the
+    /// scene's TF and the paper's (opacity = value).
+    #[arg(long)]
+    pub adaptive: bool,
+    /// Scenes for `--adaptive` (file names in the data folder; `ml64` =
+    /// a generated 64^3 Marschner-Lobb grid).
+    #[arg(long, value_delimiter = ',', default_value = super::bench_adaptive::ADAPTIVE_SCENES)]
+    pub adaptive_scenes: Vec<String>,
+    /// Blocks per axis for `--adaptive`.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
+    pub adaptive_blocks: Vec<u64>,
+    /// Tolerance for `--adaptive` (fraction of the scalar range).
+    #[arg(long, default_value_t = 0.05)]
+    pub adaptive_tolerance: f64,
 }
 
 /// One timed configuration.
@@ -87,6 +103,19 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         let rows = super::bench_grid::lod_table();
         if let Some(path) = &a.json {
             std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+        }
+        return Ok(());
+    }
+    if a.adaptive {
+        let rows = super::bench_adaptive::run(
+            &a.data_dir,
+            &a.adaptive_scenes,
+            &a.adaptive_blocks,
+            a.adaptive_tolerance,
+        )?;
+        if let Some(path) = &a.json {
+            std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+            println!("wrote {}", path.display());
         }
         return Ok(());
     }

@@ -14,7 +14,7 @@ use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::{self, ClockKind, ClusterConfig, ClusterOutcome, Phase1Config};
 use crate::net::NetworkModel;
 use crate::node::renderer::NodeErt;
-use crate::node::{CostProfile, NodeOptions, NodePolicy, PlacementMethod};
+use crate::node::{CostProfile, DataMode, NodeOptions, NodePolicy, PlacementMethod};
 use crate::render::cell::{CellOrder, ErtSpan, Integrator};
 use crate::render::RenderInput;
 
@@ -79,6 +79,14 @@ pub struct ClusterArgs {
     /// node with the most unprocessed cells.
     #[arg(long)]
     pub dlb: bool,
+    /// Where the cells live. `replicated` (default): every node holds the
+    /// whole mesh (memory and the one-time distribution are printed), so
+    /// DLB and front-first help move cell ids only (measured on aorta view
+    /// B, 8 nodes: docs/experiments/cluster.md). `partitioned`: each node
+    /// holds its part and cells move with their vertices (the paper; what
+    /// `--paper` uses, and the only mode of the remote transports).
+    #[arg(long, value_enum)]
+    pub data: Option<crate::node::DataMode>,
     /// Compositing strategy of phase 2: `binary-swap`, `direct-send` or
     /// `master` (everything to rank 0).
     #[arg(long, default_value = "binary-swap")]
@@ -95,8 +103,10 @@ pub struct ClusterArgs {
     pub network: Option<String>,
     /// `virtual`: discrete-event simulation, modelled times, deterministic.
     /// `wall`: real threads, wall-clock times, compute as really done.
-    #[arg(long, value_enum, default_value_t = ClockKind::Virtual)]
-    pub clock: ClockKind,
+    /// Default: virtual; `--transport` runs on wall time (with it, only
+    /// `--clock wall` may be given).
+    #[arg(long, value_enum, value_name = "CLOCK")]
+    pub clock: Option<ClockKind>,
     /// Compute cost profile: `pentium4` (the paper's machine, fitted to its
     /// Table 1; built in), `calibrated` (this machine: profiles/calibrated.toml
     /// as `pvrsim calibrate` writes it, else the shipped
@@ -264,7 +274,22 @@ impl Validate for ClusterArgs {
             ert.is_on() && mode == Sharing::Manager,
             "sharing through the manager: add --share (or --sharing manager) and --ert < 1",
         )?;
-        if self.clock == ClockKind::Wall {
+        if self.ert_mode.paper && self.data == Some(DataMode::Replicated) {
+            c.ignored(
+                "--data replicated",
+                "--paper moves cells with their vertices, as the paper's nodes did",
+            );
+        }
+        if let Some(t) = self.net.transport {
+            anyhow::ensure!(
+                self.clock != Some(ClockKind::Virtual),
+                "--clock virtual cannot be combined with --transport {}: a real transport runs \
+                 on wall time (drop --clock, or drop --transport for the simulation)",
+                t.name()
+            );
+        }
+        let threads = self.net.transport == Some(super::transport_args::TransportKind::Threads);
+        if self.clock == Some(ClockKind::Wall) || threads {
             let why = "--clock wall measures times on this host; the network and cost models only set times on the virtual clock";
             if let Some(n) = &self.network {
                 c.ignored(&format!("--network {n}"), why);
@@ -305,6 +330,11 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             share: a.sharing_mode() == Sharing::Manager,
             overlap: a.sharing_mode() == Sharing::Overlap,
             dlb: a.dlb,
+            data: if paper {
+                DataMode::Partitioned
+            } else {
+                a.data.unwrap_or_default()
+            },
             policy: NodePolicy {
                 chunk: a.chunk,
                 give_fraction: 1.0 / 3.0,
@@ -314,7 +344,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 help_gap: mode.help_gap,
                 help_fraction: a.ert_mode.help_fraction,
             },
-            clock: a.clock,
+            clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },
         placement: a.placement,
@@ -347,6 +377,14 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
     match a.net.apply(&mut cfg)? {
         None => cluster::run(&input, &cfg),
         Some(kind) => {
+            if cfg.phase1.data == DataMode::Replicated {
+                anyhow::ensure!(
+                    a.data.is_none(),
+                    "--data replicated runs on the simulated cluster only: remote workers receive their part of the mesh, not all of it; give --data partitioned"
+                );
+                eprintln!("note: remote workers hold their part of the mesh only: --data partitioned (cells move with their vertices)");
+                cfg.phase1.data = DataMode::Partitioned;
+            }
             let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
             out.report.transport = Some(crate::cluster::remote::transport_section(
                 &input, &cfg, &out, measured,

@@ -10,6 +10,7 @@ use clap::Args;
 
 use super::cluster::{load_profile, ClusterArgs};
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
+use crate::cluster::ClockKind;
 use crate::node::grid::render::slice3d_renderer;
 use crate::node::grid::BrickPlacement;
 use crate::render::slice3d::Slice3dOptions;
@@ -68,11 +69,24 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     if a.no_partial_composition {
         bad.push("--no-partial-composition");
     }
+    if a.data.is_some() {
+        bad.push("--data");
+    }
     anyhow::ensure!(
         bad.is_empty(),
         "{} apply to cell projection (mesh scenes) only; grid nodes render bricks",
         bad.join(", ")
     );
+    use super::transport_args::TransportKind;
+    let threads = match a.net.transport {
+        None => false,
+        Some(TransportKind::Threads) => true,
+        Some(t) => anyhow::bail!(
+            "--transport {} is not available for grid scenes yet: grid nodes run on the \
+             virtual clock or as threads (--transport threads or --clock wall)",
+            t.name()
+        ),
+    };
     let g = &a.grid;
     let compositor = if g.master {
         anyhow::ensure!(
@@ -104,7 +118,11 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
             ..Default::default()
         },
         renderer: slice3d_renderer(),
-        clock: a.clock,
+        clock: if threads {
+            ClockKind::Wall
+        } else {
+            a.clock.unwrap_or(ClockKind::Virtual)
+        },
         network: super::cluster::load_network(network)?,
         network_name: network.to_string(),
         profile,

@@ -1,8 +1,9 @@
 //! `pvrsim demo`: the quick start. Generates the built-in bifurcation dataset,
 //! writes it with its scene (and the demo volume, a 64^3 hydrogen atom, with
-//! its scene), renders it, then renders it again on the
-//! simulated 8-node cluster (ERT + SHARE + DLB, virtual clock, `gbe`,
-//! `pentium4`), and prints what happened.
+//! its scene), renders it, then renders its ERT variant (`demo-ert.toml`:
+//! opaque vessel walls) on the simulated 8-node cluster (ERT + SHARE + DLB,
+//! virtual clock, `gbe`, `pentium4`; `demo_cluster.rs`), and prints Base
+//! beside ERT+DLB+SHARE.
 
 use std::path::PathBuf;
 
@@ -121,7 +122,17 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     );
     println!("wrote {} and {}", png.display(), stats_path.display());
     if a.nodes > 0 {
-        run_cluster(&a, &input)?;
+        let ert_path = a.out_dir.join("demo-ert.toml");
+        let ert_text = crate::data::demo_ert::ert_scene_toml(&scene_text, &scene_path)?;
+        std::fs::write(&ert_path, &ert_text)
+            .with_context(|| format!("cannot write {}", ert_path.display()))?;
+        println!(
+            "wrote {} (opaque vessel walls: ERT pays)",
+            ert_path.display()
+        );
+        let ert_scene = Scene::parse(&ert_text, &ert_path)?;
+        let ert_input = RenderInput::new(ert_scene, input.mesh.clone())?;
+        super::demo_cluster::run_cluster(&a.out_dir, &ert_path, &ert_input, a.nodes, a.threads)?;
     }
     println!(
         "next: pvrsim render {} -o out.png --compare",
@@ -129,80 +140,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     );
     println!(
         "      pvrsim cluster {} --nodes 16 --ert 0.9 --share --dlb --timeline t.png",
-        scene_path.display()
-    );
-    Ok(())
-}
-
-/// The cluster part: 8 nodes (by default) with ERT 0.9, weak sharing through
-/// the manager and DLB, virtual clock, gbe, pentium4; writes the image, the
-/// timeline and the report, and prints a short summary.
-fn run_cluster(a: &DemoArgs, input: &RenderInput) -> anyhow::Result<()> {
-    use crate::cluster::{self, timeline, ClockKind, ClusterConfig, Phase1Config};
-    use crate::net::NetworkModel;
-    use crate::node::renderer::NodeErt;
-    use crate::node::{CostProfile, NodeOptions, NodePolicy, PlacementMethod};
-
-    let cfg = ClusterConfig {
-        phase1: Phase1Config {
-            nodes: a.nodes,
-            node: NodeOptions {
-                ert: NodeErt::PAPER,
-                ..Default::default()
-            },
-            share: true,
-            overlap: false,
-            dlb: true,
-            policy: NodePolicy::default(),
-            clock: ClockKind::Virtual,
-            record_trace: true,
-        },
-        placement: PlacementMethod::Rcb,
-        compositor: "binary-swap".into(),
-        codec: "rle".into(),
-        network: NetworkModel::from_name("gbe")?,
-        network_name: "gbe".into(),
-        profile: CostProfile::named("pentium4")?,
-        profile_name: "pentium4".into(),
-        baselines: true,
-    };
-    let t = std::time::Instant::now();
-    let out = super::with_threads(a.threads, || cluster::run(input, &cfg))??;
-    let host_s = t.elapsed().as_secs_f64();
-    let png = a.out_dir.join("cluster.png");
-    out.image.save_png(&png)?;
-    let tl = a.out_dir.join("timeline.png");
-    timeline::draw(&out.trace, out.report.n_nodes, &tl)?;
-    let rep = a.out_dir.join("cluster-report.json");
-    std::fs::write(&rep, serde_json::to_string_pretty(&out.report)?)
-        .with_context(|| format!("cannot write {}", rep.display()))?;
-    let r = &out.report;
-    println!(
-        "simulated cluster: {} nodes + manager, ERT {} + SHARE + DLB, gbe, pentium4 (virtual clock, {:.2} s on this machine)",
-        r.n_nodes, r.ert_threshold, host_s
-    );
-    println!(
-        "  frame {:.3} s (phase 1 {:.3} s, compositing {:.3} s); slowest node's Tsc {:.3} s, imbalance {:.1} %",
-        r.frame_s,
-        r.phase1_s,
-        r.composite_s,
-        r.tsc_max_s,
-        100.0 * r.imbalance
-    );
-    if let (Some(seq), Some(sp), Some(spf)) = (r.sequential_s, r.speedup, r.speedup_frame) {
-        println!(
-            "  one modelled node: {seq:.3} s; speed-up {spf:.2} by frame time (sequential / frame), {sp:.2} by Tsc (sequential / slowest node's scan time, the paper's measure)"
-        );
-    }
-    println!(
-        "  cells: {} skipped by ERT, {} moved by DLB; bytes on the wire: {} ({} in phase 2)",
-        r.cells_skipped_ert, r.cells_moved, r.bytes_total, r.compositing.bytes_total
-    );
-    println!(
-        "wrote {}, {} and {}",
-        png.display(),
-        tl.display(),
-        rep.display()
+        a.out_dir.join("demo-ert.toml").display()
     );
     Ok(())
 }

@@ -22,6 +22,29 @@ pub enum Kind {
     MarschnerLobb,
     /// An existing grid (--input) resampled to --size over the same box.
     Resample,
+    /// Stand-in for the paper's Engine, 256x256x128 u8: --input resampled
+    /// (e.g. ../shared/data/mni152_t1.nii.gz), the paper's TF (opacity = value).
+    PaperEngine,
+    /// Stand-in for Bonsai, 256^3 u8 (e.g. from colin27-brain.nii.gz).
+    PaperBonsai,
+    /// Stand-in for Chest, 512^3 u8 (e.g. from colin27-brain.nii.gz).
+    PaperChest,
+    /// Stand-in for Tree, 512x512x1024 u8 (256 MiB; e.g. from
+    /// colin27-brain.nii.gz stretched along z: no shared grid has its shape).
+    PaperTree,
+}
+
+impl Kind {
+    /// The paper's size of a `paper-*` preset.
+    pub fn paper_size(self) -> Option<[u64; 3]> {
+        match self {
+            Kind::PaperEngine => Some([256, 256, 128]),
+            Kind::PaperBonsai => Some([256, 256, 256]),
+            Kind::PaperChest => Some([512, 512, 512]),
+            Kind::PaperTree => Some([512, 512, 1024]),
+            _ => None,
+        }
+    }
 }
 
 /// Resampling filter for `generate resample`.
@@ -75,6 +98,9 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
             "--output {}: the generator writes attached NRRD; name the file *.nrrd",
             a.output.display()
         );
+    }
+    if let Some(size) = a.kind.paper_size() {
+        return paper(&a, size);
     }
     let size = parse_size(&a.size)?;
     if a.input.is_some() && a.kind != Kind::Resample {
@@ -130,6 +156,9 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
             );
             (v, s, c)
         }
+        Kind::PaperEngine | Kind::PaperBonsai | Kind::PaperChest | Kind::PaperTree => {
+            unreachable!("handled by paper() above")
+        }
     };
     let gen_s = t.elapsed().as_secs_f64();
     write_nrrd(&vol, &a.output, a.gzip, &comment)?;
@@ -181,4 +210,80 @@ fn ramp_scene(name: &str, v: &Volume, input: &Path) -> String {
             ],
         },
     )
+}
+
+/// `generate paper-*`: `--input` resampled to the paper's size as u8 (the
+/// source's value range onto 0..255), with a scene using the paper's
+/// transfer function: grey, opacity equal to the normalised voxel value
+/// (per unit distance = the smallest new spacing).
+fn paper(a: &GenerateArgs, size: [u64; 3]) -> anyhow::Result<()> {
+    let ext = a.output.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("nrrd") {
+        bail!(
+            "--output {}: the generator writes attached NRRD; name the file *.nrrd",
+            a.output.display()
+        );
+    }
+    if a.size != "64" {
+        bail!("--size: `generate paper-*` has the paper's size ({size:?}); drop --size");
+    }
+    let input = a.input.as_ref().with_context(|| {
+        "`generate paper-*` needs --input GRID (a shared grid, e.g. \
+         ../shared/data/colin27-brain.nii.gz or mni152_t1.nii.gz)"
+    })?;
+    let t = std::time::Instant::now();
+    let src = crate::data::io::read_volume(input, "")?;
+    let f = match a.filter {
+        FilterArg::Trilinear => Filter::Trilinear,
+        FilterArg::Box => Filter::Box,
+    };
+    let v = generate::resample_u8(&src, size, f)?;
+    let name = file_name(&a.output)?;
+    let rows = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0, 1.0]];
+    let unit = v.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let what = format!("{:?}", a.kind);
+    let scene = volume_scene_toml(
+        &name,
+        &v,
+        &VolumeSceneSpec {
+            about: vec![
+                format!(
+                    "pvrsim generate {what}: a stand-in of the paper's size {}x{}x{}, NOT the paper's data:",
+                    size[0], size[1], size[2]
+                ),
+                format!(
+                    "{} ({}x{}x{}) resampled ({:?}), its value range mapped onto u8 0..255.",
+                    input.display(),
+                    src.dims[0],
+                    src.dims[1],
+                    src.dims[2],
+                    a.filter
+                ),
+            ],
+            view_dir: [-1.0, 0.55, 0.45],
+            up: [0.0, 0.0, 1.0],
+            size: (256, 256),
+            tf_rows: &rows,
+            unit_distance: unit,
+            tf_about: vec![
+                "The paper's transfer function: grey, opacity equal to the normalised voxel value".into(),
+                "(per unit distance = the smallest spacing).".into(),
+            ],
+        },
+    );
+    let gen_s = t.elapsed().as_secs_f64();
+    let comment = format!("pvrsim generate {what} from {}", input.display());
+    write_nrrd(&v, &a.output, a.gzip, &comment)?;
+    let scene_path = a.output.with_extension("toml");
+    std::fs::write(&scene_path, scene)
+        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    println!(
+        "generated {}x{}x{} u8 in {gen_s:.2} s; wrote {} and {}",
+        v.dims[0],
+        v.dims[1],
+        v.dims[2],
+        a.output.display(),
+        scene_path.display()
+    );
+    Ok(())
 }

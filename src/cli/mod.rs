@@ -12,6 +12,7 @@
 //! - [`compare`]: `render --compare`'s verdict and labelled strip.
 
 pub mod bench;
+pub mod bench_adaptive;
 pub mod bench_grid;
 pub mod bench_orderings;
 pub mod calibrate;
@@ -21,12 +22,14 @@ pub mod cluster_ert;
 pub mod cluster_grid;
 pub mod compare;
 pub mod demo;
+mod demo_cluster;
 pub mod generate;
 pub mod info;
 pub mod memory;
 pub mod output;
 pub mod render;
 pub mod render_grid;
+pub mod render_splat;
 pub mod scene;
 pub mod splat;
 pub mod splat_experiments;

@@ -26,6 +26,13 @@ pub enum RendererKind {
     Slice3d,
     /// Regular grids: object-aligned slices (bilinear), per-slice LOD.
     Slice2d,
+    /// Regular grids: slice3d over adaptive blocks (`--blocks B`, b^3
+    /// blocks halved while their RMS error <= `--tolerance` x the scalar
+    /// range); prints the size ratio, the preprocessing time and the image
+    /// error against full-resolution slice3d and the grid reference.
+    Adaptive,
+    /// Regular grids: EWA splatting, `--order axis|dda|sort|radix`.
+    Splat,
 }
 
 /// Options of `pvrsim render`.
@@ -41,21 +48,33 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     pub renderer: Option<RendererKind>,
     /// Grids: classify after interpolating the scalar (`post`, the scene
-    /// contract's field; default) or classify voxels into an RGBA8 texture
-    /// and interpolate that (`pre`, as the papers' hardware did).
+    /// contract's field; default), classify voxels into an RGBA8 texture and
+    /// interpolate that (`pre`, as the papers' hardware did), or integrate
+    /// the transfer function between consecutive samples (`preint`, slice3d
+    /// only: pre-integrated, for label volumes with step transfer functions).
     #[arg(long, value_enum)]
     pub classify: Option<crate::render::slicing::Classify>,
-    /// Grids (slicers): compositing order; `back-to-front` blends with
-    /// (1, 1 - A_s) as the paper, without ERT. Default `front-to-back`.
+    /// Grids: the slicers' compositing order (`front-to-back`, default,
+    /// with ERT; `back-to-front` blends with (1, 1 - A_s) as the paper), or
+    /// splatting's visit order (`axis`, `dda` default, `sort`, `radix`).
     #[arg(long, value_enum)]
-    pub order: Option<crate::render::slicing::Order>,
+    pub order: Option<super::render_splat::GridOrder>,
     /// Grids (slice3d): number of view-aligned slices across the volume's
-    /// depth. Default: the volume's largest dimension.
+    /// depth. Default: one per voxel layer a ray along the view direction
+    /// crosses (the papers' largest dimension for an axis-aligned view).
     #[arg(long, value_name = "N", conflicts_with = "spacing")]
     pub slices: Option<u64>,
     /// Grids (slice3d): distance between slices, world units.
     #[arg(long, value_name = "DELTA")]
     pub spacing: Option<f64>,
+    /// Grids (--renderer adaptive): blocks per axis b (b^3 blocks) [default: 8].
+    #[arg(long, value_name = "B")]
+    pub blocks: Option<u64>,
+    /// Grids (--renderer adaptive): a block is halved while its RMS error
+    /// against the original stays <= T x the scalar range R of the transfer
+    /// function (the paper's 5 %) [default: 0.05].
+    #[arg(long, value_name = "T")]
+    pub tolerance: Option<f64>,
     /// Grids (slice2d): per-slice level of detail, D = distance from the eye
     /// to the projection plane (world units): slice x at distance d_x gets
     /// R_org / 2^floor(log2(d_x / D)). Default: off (full resolution).
@@ -187,7 +206,11 @@ impl Validate for RenderArgs {
                     }
                 }
             }
-            RendererKind::Cell | RendererKind::Slice3d | RendererKind::Slice2d => {}
+            RendererKind::Cell
+            | RendererKind::Slice3d
+            | RendererKind::Slice2d
+            | RendererKind::Adaptive
+            | RendererKind::Splat => {}
         }
         Ok(())
     }
@@ -255,7 +278,12 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         canonical: a.canonical,
     };
     let (image, mut stats) = match a.renderer.unwrap_or(RendererKind::Cell) {
-        RendererKind::Slice3d | RendererKind::Slice2d => unreachable!("refused above"),
+        RendererKind::Slice3d
+        | RendererKind::Slice2d
+        | RendererKind::Adaptive
+        | RendererKind::Splat => {
+            unreachable!("refused above")
+        }
         RendererKind::Cell => {
             let (image, mut stats) =
                 super::with_threads(a.threads, || cell::render(&input, &opts))?;
@@ -328,9 +356,15 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         !matches!(
             a.renderer,
-            Some(RendererKind::Slice3d | RendererKind::Slice2d)
-        ),
-        "--renderer slice3d/slice2d draws regular grids; scene {} renders a tetrahedral mesh \
+            Some(
+                RendererKind::Slice3d
+                    | RendererKind::Slice2d
+                    | RendererKind::Adaptive
+                    | RendererKind::Splat
+            )
+        ) && a.blocks.is_none()
+            && a.tolerance.is_none(),
+        "--renderer slice3d/slice2d/adaptive/splat (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
          (use cell or reference)",
         a.scene.display()
     );

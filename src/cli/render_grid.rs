@@ -7,11 +7,13 @@ use std::sync::Arc;
 use anyhow::Context;
 
 use super::render::{RenderArgs, RenderOutcome, RendererKind};
+use super::render_splat::GridOrder;
 use crate::image::Image;
+use crate::render::adaptive::{self, AdaptiveOptions};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::slice2d::{self, Slice2dOptions};
 use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
-use crate::render::slicing::{Classify, Order};
+use crate::render::slicing::Classify;
 use crate::render::{grid_reference, VolumeInput};
 use crate::scene::Scene;
 
@@ -82,25 +84,34 @@ fn slice_count(a: &RenderArgs) -> SliceCount {
     }
 }
 
-fn slice3d_options(a: &RenderArgs) -> Slice3dOptions {
-    Slice3dOptions {
-        classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+fn slice3d_options(a: &RenderArgs) -> anyhow::Result<Slice3dOptions> {
+    Ok(Slice3dOptions {
+        classify: a.classify.unwrap_or(Slice3dOptions::default().classify),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         slices: slice_count(a),
         empty_skip: !a.no_empty_skip,
         brick: None,
+    })
+}
+
+/// `--blocks` and `--tolerance` with their defaults.
+pub fn adaptive_options(a: &RenderArgs) -> AdaptiveOptions {
+    let d = AdaptiveOptions::default();
+    AdaptiveOptions {
+        blocks: a.blocks.unwrap_or(d.blocks),
+        tolerance: a.tolerance.unwrap_or(d.tolerance),
     }
 }
 
-fn slice2d_options(a: &RenderArgs) -> Slice2dOptions {
-    Slice2dOptions {
+fn slice2d_options(a: &RenderArgs) -> anyhow::Result<Slice2dOptions> {
+    Ok(Slice2dOptions {
         classify: a.classify.unwrap_or(Classify::Post),
-        order: a.order.unwrap_or(Order::FrontToBack),
+        order: GridOrder::compositing(a.order)?,
         ert: a.ert,
         lod: a.lod,
         empty_skip: !a.no_empty_skip,
-    }
+    })
 }
 
 /// Renders a grid scene as `pvrsim render` does.
@@ -118,9 +129,14 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         "--lod applies to --renderer slice2d only"
     );
     anyhow::ensure!(
-        a.slices.is_none() && a.spacing.is_none() || kind == RendererKind::Slice3d,
-        "--slices and --spacing apply to --renderer slice3d only (slice2d draws one slice per \
-         grid plane)"
+        a.slices.is_none() && a.spacing.is_none() && a.blocks.is_none() && a.tolerance.is_none()
+            || matches!(kind, RendererKind::Slice3d | RendererKind::Adaptive),
+        "--slices and --spacing apply to --renderer slice3d and adaptive only (slice2d draws \
+         one slice per grid plane)"
+    );
+    anyhow::ensure!(
+        a.blocks.is_none() && a.tolerance.is_none() || kind == RendererKind::Adaptive,
+        "--blocks and --tolerance apply to --renderer adaptive only"
     );
     anyhow::ensure!(
         kind != RendererKind::Reference
@@ -194,10 +210,10 @@ pub fn render_with(
         }
         RendererKind::Slice3d | RendererKind::Slice2d => {
             let (img, st) = if kind == RendererKind::Slice3d {
-                let o = slice3d_options(a);
+                let o = slice3d_options(a)?;
                 super::with_threads(a.threads, || slice3d::render(input, &o))??
             } else {
-                let o = slice2d_options(a);
+                let o = slice2d_options(a)?;
                 super::with_threads(a.threads, || slice2d::render(input, &o))??
             };
             if !quiet {
@@ -211,6 +227,7 @@ pub fn render_with(
                     img.height,
                     match st.classify {
                         Some(Classify::Pre) => "pre",
+                        Some(Classify::Preint) => "pre-integrated",
                         _ => "post",
                     },
                     st.slices,
@@ -233,6 +250,58 @@ pub fn render_with(
             v["time_total_s"] = serde_json::json!(st.time_prepare_s + st.time_render_s);
             Ok((img, v))
         }
+        RendererKind::Adaptive => render_adaptive(a, input, quiet),
+        RendererKind::Splat => super::render_splat::render(a, input, quiet),
         RendererKind::Cell => unreachable!("refused by execute"),
     }
+}
+
+/// `--renderer adaptive`: builds the blocks, renders, and measures the
+/// image error against full-resolution slice3d with the same options (the
+/// grid reference is compared by `--compare`, as for every renderer).
+fn render_adaptive(
+    a: &RenderArgs,
+    input: &VolumeInput,
+    quiet: bool,
+) -> anyhow::Result<(Image, serde_json::Value)> {
+    let o = slice3d_options(a)?;
+    let ad = adaptive_options(a);
+    let (img, st) = super::with_threads(a.threads, || adaptive::render(input, &o, &ad))??;
+    let (full, fst) = super::with_threads(a.threads, || slice3d::render(input, &o))??;
+    let err = img.error_against(&full);
+    let s = &st.adaptive;
+    if !quiet {
+        println!(
+            "adaptive of {} ({}x{}, {} blocks = {}x{}x{}, tolerance {} x R = {:.4}): \
+             build {:.3} s, frame {:.3} s (slice3d full: {:.3} s)",
+            a.scene.display(),
+            img.width,
+            img.height,
+            s.blocks,
+            s.blocks_per_axis[0],
+            s.blocks_per_axis[1],
+            s.blocks_per_axis[2],
+            s.tolerance,
+            s.tolerance * s.range,
+            s.build_s,
+            st.slice.time_render_s,
+            fst.time_render_s
+        );
+        println!(
+            "  size ratio {:.1} % ({:.2} of {:.2} MiB), blocks per level {:?}, \
+             scalar RMS error {:.3} % of R (worst block {:.3} %)",
+            100.0 * s.size_ratio,
+            s.bytes_reduced as f64 / (1 << 20) as f64,
+            s.bytes_original as f64 / (1 << 20) as f64,
+            s.levels,
+            100.0 * s.rms_error_rel,
+            100.0 * s.max_block_rms_rel
+        );
+        println!("  against full-resolution slice3d: {err}");
+    }
+    let mut v = serde_json::to_value(&st)?;
+    v["time_total_s"] = serde_json::json!(st.slice.time_prepare_s + st.slice.time_render_s);
+    v["error_vs_slice3d"] = serde_json::to_value(err)?;
+    v["slice3d_time_render_s"] = serde_json::json!(fst.time_render_s);
+    Ok((img, v))
 }

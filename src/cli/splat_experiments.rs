@@ -2,7 +2,7 @@
 //! `docs/experiments/splatting.md` (issue 11), printed as markdown tables:
 //! the 45° sweep (image change between neighbouring view angles, axis vs
 //! DDA, plotted), time against fill rate (Tables 2-3's shape) on a
-//! generated hydrogen-like 128^3 grid and on the MNI152 template resampled
+//! generated hydrogen (KVS, generate::hydrogen) 128^3 grid and on the MNI152 template resampled
 //! to 256^3, and the images against the grid reference.
 
 use std::path::{Path, PathBuf};
@@ -12,6 +12,7 @@ use clap::Args;
 use plotters::prelude::*;
 
 use super::bench_orderings::thread_cpu_s;
+use crate::data::volume::generate::hydrogen;
 use crate::data::{Volume, Voxels};
 use crate::image::Image;
 use crate::render::grid_reference;
@@ -38,48 +39,6 @@ pub struct ExperimentArgs {
         default_value = "sweep,fill,fill256,reference"
     )]
     pub parts: Vec<String>,
-}
-
-/// A hydrogen-like orbital density on an `n^3` grid (u8): `|ψ_320|² ∝
-/// r⁴ e^{-2r/3} (3 cos²θ - 1)²` plus a 1s core `e^{-2r}`, over `[-20, 20]`
-/// Bohr radii, stored as `255 (ρ/ρ_max)^{1/4}`.
-pub fn hydrogen_like(n: u64) -> Volume {
-    let h = 40.0 / (n - 1) as f64;
-    let mut rho = Vec::with_capacity((n * n * n) as usize);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = (
-                    -20.0 + i as f64 * h,
-                    -20.0 + j as f64 * h,
-                    -20.0 + k as f64 * h,
-                );
-                let r2 = x * x + y * y + z * z;
-                let r = r2.sqrt();
-                let ang = if r2 > 0.0 {
-                    3.0 * z * z / r2 - 1.0
-                } else {
-                    0.0
-                };
-                let d = r2 * r2 * (-2.0 * r / 3.0).exp() * ang * ang / 5000.0 + (-2.0 * r).exp();
-                rho.push(d);
-            }
-        }
-    }
-    let max = rho.iter().cloned().fold(0.0, f64::max);
-    let v = rho
-        .iter()
-        .map(|d| (255.0 * (d / max).powf(0.25)).round() as u8)
-        .collect();
-    Volume::new(
-        Path::new("hydrogen-like"),
-        [n; 3],
-        [h; 3],
-        [-20.0; 3],
-        "density",
-        Voxels::U8(v),
-    )
-    .expect("generated volume is valid")
 }
 
 /// An orthographic scene looking at the volume's centre from azimuth `az`
@@ -143,9 +102,9 @@ pub fn run(a: ExperimentArgs) -> anyhow::Result<()> {
         sweep(&a.out)?;
     }
     if part("fill") {
-        let vol = Arc::new(hydrogen_like(128));
+        let vol = Arc::new(hydrogen(128));
         println!(
-            "\n## Time against fill rate, hydrogen-like 128^3, 512^2, azimuth 30, elevation 25\n"
+            "\n## Time against fill rate, hydrogen (KVS, generate::hydrogen) 128^3, 512^2, azimuth 30, elevation 25\n"
         );
         fill_table(
             &vol,
@@ -290,10 +249,12 @@ fn fill_table(
 /// The 45° sweep: azimuth 35..55° in 1° steps at elevation 20°; RMSE
 /// between neighbouring angles for the axis and the DDA orders; plot.
 fn sweep(out: &Path) -> anyhow::Result<()> {
-    let vol = Arc::new(hydrogen_like(64));
+    let vol = Arc::new(hydrogen(64));
     let angles: Vec<f64> = (0..=40).map(|k| 35.0 + 0.5 * k as f64).collect();
     let mut series: Vec<(Order, Vec<f64>)> = Vec::new();
-    println!("\n## 45-degree sweep, hydrogen-like 64^3, 256^2, elevation 20\n");
+    println!(
+        "\n## 45-degree sweep, hydrogen (KVS, generate::hydrogen) 64^3, 256^2, elevation 20\n"
+    );
     for order in [Order::Axis, Order::Dda, Order::Quicksort] {
         let imgs: Vec<Image> = angles
             .iter()
@@ -371,10 +332,10 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Splat images against the grid reference (hydrogen-like 64^3, 160^2).
+/// Splat images against the grid reference (hydrogen (KVS, generate::hydrogen) 64^3, 160^2).
 fn reference() -> anyhow::Result<()> {
-    let vol = Arc::new(hydrogen_like(64));
-    println!("\n## Against the grid reference, hydrogen-like 64^3, 160^2\n");
+    let vol = Arc::new(hydrogen(64));
+    println!("\n## Against the grid reference, hydrogen (KVS, generate::hydrogen) 64^3, 160^2\n");
     println!("| view | order | max-abs (1/255) | RMSE (1/255) | vs quicksort max-abs | vs quicksort RMSE |");
     println!("|---|---|---|---|---|---|");
     for (az, el) in [(30.0, 25.0), (45.0, 20.0)] {

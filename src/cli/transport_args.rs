@@ -23,11 +23,26 @@ pub enum TransportKind {
     Tcp,
 }
 
+impl TransportKind {
+    /// The name `--transport` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransportKind::Threads => "threads",
+            TransportKind::Processes => "processes",
+            TransportKind::Tcp => "tcp",
+        }
+    }
+}
+
 /// What happens when a worker fails mid-frame (`--on-failure`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OnFailure {
     /// The frame fails with an error naming the worker and the phase.
     Abort,
+    /// Workers that die in phase 1 have their cells split among the
+    /// survivors, and the frame runs again on them (same image with
+    /// `--canonical` and ERT off; within the ERT bound otherwise).
+    Reassign,
 }
 
 /// Transport options of `pvrsim cluster`.
@@ -53,7 +68,9 @@ pub struct TransportArgs {
     #[arg(long, value_name = "FILE")]
     pub token_file: Option<PathBuf>,
     /// When a worker fails mid-frame: `abort` (an error naming the worker
-    /// and the phase, non-zero exit).
+    /// and the phase, non-zero exit) or `reassign` (workers lost in phase 1:
+    /// their cells go to the survivors and the frame runs again on them;
+    /// `tcp` workers must then serve more than one frame, i.e. not `--once`).
     #[arg(long, value_enum, default_value_t = OnFailure::Abort)]
     pub on_failure: OnFailure,
     /// Seconds without a frame or heartbeat before a worker is declared
@@ -123,7 +140,7 @@ impl TransportArgs {
                     eprintln!(
                         "note: the sequential and Base references are not run with --transport {}; \
                          the report's ratios are null (pass --no-baselines to silence this)",
-                        if k == TransportKind::Tcp { "tcp" } else { "processes" }
+                        k.name()
                     );
                     cfg.baselines = false;
                 }
@@ -157,15 +174,25 @@ impl TransportArgs {
                     "--heartbeat-timeout".to_string(),
                     self.heartbeat_timeout.to_string(),
                 ];
-                let mut workers = LocalWorkers::spawn(&exe, n, &extra, Duration::from_secs(30))?;
+                let reassign = self.on_failure == OnFailure::Reassign;
+                // Reassigning needs workers that serve a second session.
+                let mut workers = LocalWorkers::spawn_serving(
+                    &exe,
+                    n,
+                    &extra,
+                    Duration::from_secs(30),
+                    !reassign,
+                )?;
                 let c = Coordinator {
                     workers: workers.addrs.clone(),
                     token: workers.token().clone(),
                     tcp: self.tcp_options(),
                     recv_timeout,
+                    reassign,
                 };
                 let r = c.run(input, cfg);
-                if r.is_ok() {
+                // Workers serving more sessions are stopped and reaped on drop.
+                if r.is_ok() && !reassign {
                     let bad = workers.finish(Duration::from_secs(10));
                     anyhow::ensure!(
                         bad.is_empty(),
@@ -197,6 +224,7 @@ impl TransportArgs {
                     token,
                     tcp: self.tcp_options(),
                     recv_timeout,
+                    reassign: self.on_failure == OnFailure::Reassign,
                 }
                 .run(input, cfg)
             }

@@ -32,6 +32,13 @@ pub struct WorkerArgs {
     /// many seconds (`--transport processes` sets it so orphans end).
     #[arg(long, value_name = "SECONDS")]
     pub accept_timeout: Option<f64>,
+    /// Test hook: SIGKILL this process when its node starts chunk K+1 of
+    /// phase 1 (a deterministic `kill -9` mid-frame). Hidden.
+    #[arg(long, value_name = "K", hide = true)]
+    pub test_kill_after_chunks: Option<u64>,
+    /// Test hook: SIGKILL this process when phase 2 starts. Hidden.
+    #[arg(long, hide = true)]
+    pub test_kill_in_phase2: bool,
 }
 
 /// Runs `pvrsim worker`.
@@ -57,6 +64,8 @@ pub fn run(a: WorkerArgs) -> anyhow::Result<()> {
     };
     let mut w = Worker::bind(&a.listen, token, opts)?;
     w.accept_timeout = accept;
+    w.kill_after_chunks = a.test_kill_after_chunks;
+    w.kill_in_phase2 = a.test_kill_in_phase2;
     let mut out = std::io::stdout().lock();
     writeln!(out, "{}", w.local_addr()?)?;
     out.flush()?;

@@ -230,7 +230,7 @@ pub struct Phase1Parts {
 pub fn finish(
     input: &RenderInput,
     cfg: &ClusterConfig,
-    p: Phase1Parts,
+    mut p: Phase1Parts,
     refs: Option<report::References>,
 ) -> anyhow::Result<ClusterOutcome> {
     let p1 = &cfg.phase1;
@@ -240,20 +240,10 @@ pub fn finish(
         crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let partial = p1.node.partial_composition;
     let t2 = std::time::Instant::now();
-    let Phase1Parts {
-        nodes: node_stats,
-        lists,
-        manager,
-        end_s,
-        stopped_at,
-        trace: trace1,
-        traffic: traffic1,
-        host_s,
-    } = p;
     let ph2 = phase2::run(
         strategy.as_ref(),
         list_codec.as_ref(),
-        lists,
+        std::mem::take(&mut p.lists),
         ExecOptions {
             partial,
             background: input.scene.image.background.map(|c| c as f32),
@@ -263,7 +253,30 @@ pub fn finish(
         &cfg.network,
         p1.record_trace,
     )?;
-    let host2_s = t2.elapsed().as_secs_f64();
+    finish_with(input, cfg, p, refs, ph2, t2.elapsed().as_secs_f64())
+}
+
+/// The report over phase 1's parts (their `lists` unused) and a phase 2
+/// that already ran (`host2_s` host seconds), e.g. worker to worker.
+pub fn finish_with(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    p: Phase1Parts,
+    refs: Option<report::References>,
+    ph2: phase2::Phase2,
+    host2_s: f64,
+) -> anyhow::Result<ClusterOutcome> {
+    let p1 = &cfg.phase1;
+    let Phase1Parts {
+        nodes: node_stats,
+        lists: _,
+        manager,
+        end_s,
+        stopped_at,
+        trace: trace1,
+        traffic: traffic1,
+        host_s,
+    } = p;
     let mut trace = trace1;
     if p1.record_trace && p1.clock == ClockKind::Virtual {
         for mut e in ph2.sim.trace.events.iter().cloned() {

@@ -11,7 +11,8 @@ use crate::net::{
     SimOptions, SimTrace, Simulation, TrafficStats, WallOptions,
 };
 use crate::node::{
-    CostProfile, NodeActor, NodeConfig, NodeOptions, NodePolicy, NodeRenderer, Placement, WorkUnit,
+    CostProfile, DataMode, NodeActor, NodeConfig, NodeOptions, NodePolicy, NodeRenderer, Placement,
+    Replica, WorkUnit,
 };
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
@@ -43,6 +44,9 @@ pub struct Phase1Config {
     pub overlap: bool,
     /// Dynamic load balancing.
     pub dlb: bool,
+    /// Where the cells live: replicated (every node holds the mesh; DLB and
+    /// help move ids) or partitioned (cells move with their vertices).
+    pub data: DataMode,
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
     /// Clock.
@@ -85,7 +89,9 @@ impl Actor for Rank<'_> {
 }
 
 /// Builds the nodes of a run: placement, one work unit per node (encoded and
-/// decoded, as on the wire), each loaded into its renderer.
+/// decoded, as on the wire), each loaded into its renderer; with replicated
+/// data every node also gets the whole mesh (its distribution is a one-time
+/// cost per dataset, reported apart: [`crate::node::replica`]).
 pub fn build_nodes(
     input: &RenderInput,
     placement: &Placement,
@@ -102,12 +108,17 @@ pub fn build_nodes(
     } else {
         Vec::new()
     };
+    let replica = (cfg.data == DataMode::Replicated)
+        .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
     placement
         .parts
         .iter()
         .enumerate()
         .map(|(k, part)| {
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
+            if let Some(rep) = &replica {
+                r.set_replica(rep.clone());
+            }
             if cfg.share {
                 r.enable_level_sharing();
                 r.enable_pixel_sharing(depth_quant(input));

@@ -134,54 +134,31 @@ pub fn run(
 ) -> anyhow::Result<Phase2> {
     let n = lists.len();
     let mut run = LocalRun::new(strategy, codec, lists, opts)?;
-    let nr = run.schedule().rounds.len();
-    let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); nr]; n];
-    let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); n];
-    let mut bytes_sent = vec![0u64; n];
-    let mut busy = vec![0f64; n];
+    let mut plan = ReplayPlan::new(n, run.schedule().rounds.len());
     let mut r = 0usize;
     while let Some(round) = run.next_round() {
-        let kind = round.kind;
-        if kind == RoundKind::Composite {
-            for (k, plan) in plans.iter_mut().enumerate() {
+        if round.kind == RoundKind::Composite {
+            for k in 0..n {
                 if let Some((px, segs)) = run.held(k) {
-                    let c = px as f64 * profile.per_list_walked
-                        + segs as f64 * profile.per_list_entry_walked;
-                    plan[r].before = c;
-                    busy[k] += c;
+                    plan.composite(r, k, px, segs, profile);
                 }
             }
         }
         let msgs = run.outgoing()?;
         for m in &msgs {
-            let (mk, cost) = match m.what {
-                Payload::Lists(rect) => {
-                    let px = rect.width() as u64 * rect.height() as u64;
-                    let segs = m.raw_bytes.saturating_sub(24 + 4 * px) / 24;
-                    (MessageKind::Segments, segs as f64 * profile.per_segment)
-                }
-                Payload::Pixels(rect) => {
-                    let px = rect.width() as f64 * rect.height() as f64;
-                    (MessageKind::Image, px * profile.per_list_walked)
-                }
-            };
-            plans[m.from][r].sends.push((m.to, m.bytes.len(), mk));
-            plans[m.to][r].expect += 1;
-            costs[m.to].insert((r as u32, m.from as u32), cost);
-            bytes_sent[m.from] += m.bytes.len() as u64;
-            busy[m.to] += cost;
+            plan.message(r, m.from, m.to, m.what, m.bytes.len(), m.raw_bytes, profile);
         }
         run.deliver(msgs)?;
         r += 1;
     }
     let (image, stats) = run.finish()?;
-    let sim = replay(plans, costs, model, record_trace)?;
+    let (sim, bytes_sent, busy_s) = plan.run(model, record_trace)?;
     Ok(Phase2 {
         image,
         stats,
         sim,
         bytes_sent,
-        busy_s: busy,
+        busy_s,
     })
 }
 
@@ -216,4 +193,75 @@ pub(crate) fn replay(
         sim.unfinished()
     );
     Ok(sim)
+}
+
+/// The replay of a phase 2 on the network model, built message by message
+/// (from an in-process run, or from the logs of ranks that ran it over a
+/// real transport), with the compute costs of the module docs.
+#[derive(Debug, Clone)]
+pub struct ReplayPlan {
+    plans: Vec<Vec<RoundPlan>>,
+    costs: Vec<BTreeMap<(u32, u32), f64>>,
+    bytes_sent: Vec<u64>,
+    busy: Vec<f64>,
+}
+
+impl ReplayPlan {
+    /// An empty plan for `n` ranks and `rounds` rounds.
+    pub fn new(n: usize, rounds: usize) -> ReplayPlan {
+        ReplayPlan {
+            plans: vec![vec![RoundPlan::default(); rounds]; n],
+            costs: vec![BTreeMap::new(); n],
+            bytes_sent: vec![0; n],
+            busy: vec![0.0; n],
+        }
+    }
+
+    /// Rank `k` composites `px` pixels holding `segs` list entries in round `r`.
+    pub fn composite(&mut self, r: usize, k: usize, px: usize, segs: usize, profile: &CostProfile) {
+        let c = px as f64 * profile.per_list_walked + segs as f64 * profile.per_list_entry_walked;
+        self.plans[k][r].before = c;
+        self.busy[k] += c;
+    }
+
+    /// A message of round `r`: `len` encoded bytes, `raw_bytes` under the raw codec.
+    #[allow(clippy::too_many_arguments)]
+    pub fn message(
+        &mut self,
+        r: usize,
+        from: usize,
+        to: usize,
+        what: Payload,
+        len: usize,
+        raw_bytes: u64,
+        profile: &CostProfile,
+    ) {
+        let (mk, cost) = match what {
+            Payload::Lists(rect) => {
+                let px = rect.width() as u64 * rect.height() as u64;
+                let segs = raw_bytes.saturating_sub(24 + 4 * px) / 24;
+                (MessageKind::Segments, segs as f64 * profile.per_segment)
+            }
+            Payload::Pixels(rect) => {
+                let px = rect.width() as f64 * rect.height() as f64;
+                (MessageKind::Image, px * profile.per_list_walked)
+            }
+        };
+        self.plans[from][r].sends.push((to, len, mk));
+        self.plans[to][r].expect += 1;
+        self.costs[to].insert((r as u32, from as u32), cost);
+        self.bytes_sent[from] += len as u64;
+        self.busy[to] += cost;
+    }
+
+    /// Replays the plan on `model`: the simulation, payload bytes sent and
+    /// modelled compute seconds per rank.
+    pub fn run(
+        self,
+        model: &NetworkModel,
+        record_trace: bool,
+    ) -> anyhow::Result<(SimReport, Vec<u64>, Vec<f64>)> {
+        let sim = replay(self.plans, self.costs, model, record_trace)?;
+        Ok((sim, self.bytes_sent, self.busy))
+    }
 }

@@ -199,6 +199,14 @@ pub struct ClusterReport {
     pub help_gap: f32,
     /// Front-first help forwards the manager sent.
     pub help_forwards: u64,
+    /// Where the cells live: `replicated` (the whole mesh on every node;
+    /// DLB and help move cell ids) or `partitioned` (cells move with their
+    /// vertices).
+    pub data: crate::node::DataMode,
+    /// Replicated data: the one-time cost of putting the whole mesh on every
+    /// node (not part of any frame time).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replication: Option<Replication>,
     /// DLB on.
     pub dlb: bool,
     /// Nodes kept canonical lists (image independent of the distribution).
@@ -304,6 +312,32 @@ pub struct Inputs<'a> {
     pub host_phase1_s: f64,
     /// Host seconds, phase 2.
     pub host_phase2_s: f64,
+}
+
+/// The one-time cost of replicated data ([`crate::node::replica`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Replication {
+    /// Bytes of mesh each node holds (`V · 28 + C · 16`).
+    pub node_bytes: u64,
+    /// Bytes sent to put the whole mesh on every node (one work unit each).
+    pub distribution_bytes: u64,
+    /// Seconds of that on the network model if one host sends the units in
+    /// turn (each waits for the previous one's arrival): once per dataset,
+    /// like the transports' cell cache, not per frame.
+    pub distribution_s: f64,
+}
+
+impl Replication {
+    /// The cost for `n` nodes on `model`.
+    pub fn new(input: &RenderInput, n: usize, model: &crate::net::NetworkModel) -> Replication {
+        let r = crate::node::Replica::new(input.mesh.clone(), &[]);
+        let unit = r.unit_bytes();
+        Replication {
+            node_bytes: r.node_bytes(),
+            distribution_bytes: r.distribution_bytes(n),
+            distribution_s: n as f64 * model.uncontended_arrival(0.0, unit),
+        }
+    }
 }
 
 /// Per rank (nodes, then the manager at index `n`), per kind, total seconds
@@ -496,6 +530,9 @@ pub fn build(i: Inputs) -> ClusterReport {
         .to_string(),
         help_gap: p1.policy.help_gap,
         help_forwards: i.manager.help_forwards,
+        data: p1.data,
+        replication: (p1.data == crate::node::DataMode::Replicated)
+            .then(|| Replication::new(i.input, n, &cfg.network)),
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s,
@@ -623,7 +660,13 @@ pub fn summary(r: &ClusterReport) -> String {
         100.0 * r.imbalance,
         r.phase1_s,
         r.composite_s,
-        if wall { " (host, all nodes on one thread)" } else { "" },
+        if r.transport.is_some() {
+            " (wall clock, worker to worker)"
+        } else if wall {
+            " (host, all nodes on one thread)"
+        } else {
+            ""
+        },
         r.frame_s
     );
     let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
@@ -659,6 +702,21 @@ pub fn summary(r: &ClusterReport) -> String {
         }
     }
     let opt = |v: Option<f64>, d: usize| v.map_or("n/a".to_string(), |v| format!("{v:.d$}"));
+    if let Some(rp) = &r.replication {
+        let _ = writeln!(
+            s,
+            "data: replicated (DLB and help move cell ids): the mesh takes {:.1} MB on every node; putting it there once per dataset sends {:.1} MB ({:.2} s from one host on {}), not part of any frame",
+            rp.node_bytes as f64 / 1e6,
+            rp.distribution_bytes as f64 / 1e6,
+            rp.distribution_s,
+            r.network
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "data: partitioned (DLB and help move cells with their vertices)"
+        );
+    }
     if let Some(b) = r.base_tsc_max_s {
         let _ = writeln!(
             s,

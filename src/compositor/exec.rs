@@ -130,10 +130,156 @@ pub struct CompositeStats {
     pub segments_merged: u64,
 }
 
+/// What one rank holds between rounds: lists (until its composite round),
+/// then composited pixels (and, at the root, the gathered ones).
 #[derive(Debug, Default)]
-struct NodeState {
-    lists: Option<RegionLists>,
-    pixels: Vec<RegionPixels>,
+pub struct NodeState {
+    /// Its segment lists, if it still holds any.
+    pub lists: Option<RegionLists>,
+    /// Its composited (and received) pixel regions.
+    pub pixels: Vec<RegionPixels>,
+}
+
+impl NodeState {
+    /// A rank that starts with `lists`.
+    pub fn new(lists: RegionLists) -> NodeState {
+        NodeState {
+            lists: Some(lists),
+            pixels: Vec::new(),
+        }
+    }
+
+    /// The encoded form of what this rank sends for `what`, and its size
+    /// under the raw codec.
+    pub fn encode_payload(
+        &self,
+        codec: &dyn Codec,
+        what: Payload,
+    ) -> Result<(Vec<u8>, u64), ExecError> {
+        let mut bytes = Vec::new();
+        let raw_bytes = match what {
+            Payload::Lists(r) => {
+                let held = self
+                    .lists
+                    .as_ref()
+                    .ok_or(ExecError::Sequence("sender holds no lists"))?;
+                let part = held.sub(r);
+                codec.encode_lists(&part, &mut bytes);
+                raw_lists_bytes(&part)
+            }
+            Payload::Pixels(r) => {
+                let p = self
+                    .pixels
+                    .iter()
+                    .find(|p| p.rect == r)
+                    .ok_or(ExecError::Sequence("sender holds no such pixels"))?;
+                codec.encode_pixels(p, &mut bytes);
+                raw_pixels_bytes(p)
+            }
+        };
+        Ok((bytes, raw_bytes))
+    }
+
+    /// The start of a lists round: keep only the lists of `keep`.
+    pub fn keep(&mut self, keep: Option<Rect>) {
+        self.lists = match (self.lists.take(), keep) {
+            (Some(l), Some(k)) if l.rect() == k => Some(l),
+            (Some(l), Some(k)) => Some(l.sub(k)),
+            _ => None,
+        };
+    }
+
+    /// A composite round: the lists held become pixels.
+    pub fn composite(&mut self) {
+        if let Some(l) = self.lists.take() {
+            self.pixels.push(l.composite());
+        }
+    }
+
+    /// Decodes message `m` (sent to this rank) and applies it: lists are
+    /// merged into the lists kept, pixels are stored. Counts into `st`.
+    pub fn apply(
+        &mut self,
+        codec: &dyn Codec,
+        opts: &ExecOptions,
+        m: &Message,
+        st: &mut RoundStats,
+    ) -> Result<(), ExecError> {
+        st.bytes += m.bytes.len() as u64;
+        st.bytes_uncompressed += m.raw_bytes;
+        match m.what {
+            Payload::Lists(_) => {
+                let got = codec
+                    .decode_lists(&m.bytes, &opts.limits)
+                    .map_err(|source| ExecError::Decode {
+                        from: m.from,
+                        to: m.to,
+                        source,
+                    })?;
+                st.segments += got.segments().len() as u64;
+                let mine = self
+                    .lists
+                    .as_mut()
+                    .ok_or(ExecError::Sequence("receiver keeps no lists"))?;
+                let (merges, removed) =
+                    mine.merge(&got, opts.partial)
+                        .map_err(|source| ExecError::Region {
+                            from: m.from,
+                            to: m.to,
+                            source,
+                        })?;
+                st.merges += merges;
+                st.segments_merged += removed;
+            }
+            Payload::Pixels(_) => {
+                let got = codec
+                    .decode_pixels(&m.bytes, &opts.limits)
+                    .map_err(|source| ExecError::Decode {
+                        from: m.from,
+                        to: m.to,
+                        source,
+                    })?;
+                if got.rect != m.what.rect() {
+                    return Err(ExecError::Region {
+                        from: m.from,
+                        to: m.to,
+                        source: RegionMismatch(got.rect, m.what.rect()),
+                    });
+                }
+                self.pixels.push(got);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The image `img` assembled from the root's `pixels`, over `background`;
+/// an error unless they cover it exactly.
+pub fn assemble(
+    img: Rect,
+    pixels: &[RegionPixels],
+    background: [f32; 3],
+) -> Result<Image, ExecError> {
+    let mut image = Image::new(img.width(), img.height());
+    let mut covered = 0;
+    for p in pixels {
+        let w = p.rect.width() as usize;
+        for (k, c) in p.px.iter().enumerate() {
+            let (x, y) = (
+                p.rect.x0 as usize + k % w.max(1),
+                p.rect.y0 as usize + k / w.max(1),
+            );
+            image.pixels[(y - img.y0 as usize) * img.width() as usize + x - img.x0 as usize] =
+                over_background(*c, background);
+        }
+        covered += area(&p.rect);
+    }
+    if covered != area(&img) {
+        return Err(ExecError::Sequence(
+            "the root did not receive the whole image",
+        ));
+    }
+    Ok(image)
 }
 
 /// A schedule being executed in-process.
@@ -173,13 +319,7 @@ impl<'a> LocalRun<'a> {
             nodes: node_lists.len(),
             ..Default::default()
         };
-        let nodes = node_lists
-            .into_iter()
-            .map(|l| NodeState {
-                lists: Some(l),
-                pixels: Vec::new(),
-            })
-            .collect();
+        let nodes = node_lists.into_iter().map(NodeState::new).collect();
         Ok(LocalRun {
             schedule,
             codec,
@@ -214,28 +354,7 @@ impl<'a> LocalRun<'a> {
             .ok_or(ExecError::Sequence("no round left"))?;
         let mut out = Vec::with_capacity(round.sends.len());
         for e in &round.sends {
-            let node = &self.nodes[e.from];
-            let mut bytes = Vec::new();
-            let raw_bytes = match e.what {
-                Payload::Lists(r) => {
-                    let held = node
-                        .lists
-                        .as_ref()
-                        .ok_or(ExecError::Sequence("sender holds no lists"))?;
-                    let part = held.sub(r);
-                    self.codec.encode_lists(&part, &mut bytes);
-                    raw_lists_bytes(&part)
-                }
-                Payload::Pixels(r) => {
-                    let p = node
-                        .pixels
-                        .iter()
-                        .find(|p| p.rect == r)
-                        .ok_or(ExecError::Sequence("sender holds no such pixels"))?;
-                    self.codec.encode_pixels(p, &mut bytes);
-                    raw_pixels_bytes(p)
-                }
-            };
+            let (bytes, raw_bytes) = self.nodes[e.from].encode_payload(self.codec, e.what)?;
             out.push(Message {
                 from: e.from,
                 to: e.to,
@@ -267,67 +386,16 @@ impl<'a> LocalRun<'a> {
         match round.kind {
             RoundKind::Lists => {
                 for (node, keep) in self.nodes.iter_mut().zip(&round.keep) {
-                    node.lists = match (node.lists.take(), keep) {
-                        (Some(l), Some(k)) if l.rect() == *k => Some(l),
-                        (Some(l), Some(k)) => Some(l.sub(*k)),
-                        _ => None,
-                    };
+                    node.keep(*keep);
                 }
                 for m in &messages {
-                    st.bytes += m.bytes.len() as u64;
-                    st.bytes_uncompressed += m.raw_bytes;
-                    let got = self
-                        .codec
-                        .decode_lists(&m.bytes, &self.opts.limits)
-                        .map_err(|source| ExecError::Decode {
-                            from: m.from,
-                            to: m.to,
-                            source,
-                        })?;
-                    st.segments += got.segments().len() as u64;
-                    let mine = self.nodes[m.to]
-                        .lists
-                        .as_mut()
-                        .ok_or(ExecError::Sequence("receiver keeps no lists"))?;
-                    let (merges, removed) =
-                        mine.merge(&got, self.opts.partial).map_err(|source| {
-                            ExecError::Region {
-                                from: m.from,
-                                to: m.to,
-                                source,
-                            }
-                        })?;
-                    st.merges += merges;
-                    st.segments_merged += removed;
+                    self.nodes[m.to].apply(self.codec, &self.opts, m, &mut st)?;
                 }
             }
-            RoundKind::Composite => {
-                for node in &mut self.nodes {
-                    if let Some(l) = node.lists.take() {
-                        node.pixels.push(l.composite());
-                    }
-                }
-            }
+            RoundKind::Composite => self.nodes.iter_mut().for_each(NodeState::composite),
             RoundKind::Gather => {
                 for m in &messages {
-                    st.bytes += m.bytes.len() as u64;
-                    st.bytes_uncompressed += m.raw_bytes;
-                    let got = self
-                        .codec
-                        .decode_pixels(&m.bytes, &self.opts.limits)
-                        .map_err(|source| ExecError::Decode {
-                            from: m.from,
-                            to: m.to,
-                            source,
-                        })?;
-                    if got.rect != m.what.rect() {
-                        return Err(ExecError::Region {
-                            from: m.from,
-                            to: m.to,
-                            source: RegionMismatch(got.rect, m.what.rect()),
-                        });
-                    }
-                    self.nodes[m.to].pixels.push(got);
+                    self.nodes[m.to].apply(self.codec, &self.opts, m, &mut st)?;
                 }
             }
         }
@@ -354,26 +422,11 @@ impl<'a> LocalRun<'a> {
         if self.next != self.schedule.rounds.len() {
             return Err(ExecError::Sequence("rounds left to run"));
         }
-        let img: Rect = self.schedule.image;
-        let mut image = Image::new(img.width(), img.height());
-        let mut covered = 0;
-        for p in &self.nodes[self.schedule.root].pixels {
-            let w = p.rect.width() as usize;
-            for (k, c) in p.px.iter().enumerate() {
-                let (x, y) = (
-                    p.rect.x0 as usize + k % w.max(1),
-                    p.rect.y0 as usize + k / w.max(1),
-                );
-                image.pixels[(y - img.y0 as usize) * img.width() as usize + x - img.x0 as usize] =
-                    over_background(*c, self.opts.background);
-            }
-            covered += area(&p.rect);
-        }
-        if covered != area(&img) {
-            return Err(ExecError::Sequence(
-                "the root did not receive the whole image",
-            ));
-        }
+        let image = assemble(
+            self.schedule.image,
+            &self.nodes[self.schedule.root].pixels,
+            self.opts.background,
+        )?;
         Ok((image, self.stats))
     }
 }

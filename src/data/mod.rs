@@ -3,6 +3,7 @@
 
 pub mod dataset;
 pub mod demo;
+pub mod demo_ert;
 pub mod demo_volume;
 pub mod io;
 pub mod lattice;

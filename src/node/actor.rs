@@ -8,9 +8,11 @@
 //!                      cells left: Wake(SCAN); none: Send(WorkRequest), wait
 //!                        with overlap sharing: Send(ErtReply) to each peer (no manager)
 //! ErtReply           → apply_shared (from the manager or a peer)     Compute(Share)
-//! WorkForward        → give_work(1/3), Send(WorkGrant) to the requester,
+//! WorkForward        → give(1/3, or the help fraction of the nearest cells):
+//!                      cells with vertices, or ids with replicated data;
+//!                      Send(WorkGrant) to the requester,
 //!                      Send(Gave) to the manager                      Compute(Steal)
-//! WorkGrant          → take_work, resume scanning                     Compute(Steal)
+//! WorkGrant          → take_grant, resume scanning                    Compute(Steal)
 //! Finish             → Stop
 //! ```
 //!
@@ -23,7 +25,7 @@
 
 use crate::manager::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkGrant, WorkRequest};
 use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, Message, MessageKind, NodeId};
-use crate::node::{compute_time, CostProfile, NodeRenderer, OpCounts, SharedTable, WorkUnit};
+use crate::node::{compute_time, CostProfile, NodeRenderer, OpCounts, SharedTable};
 
 const SCAN: u64 = 1;
 
@@ -390,14 +392,14 @@ impl NodeActor {
                 };
                 let k = (rem as f64 * fraction).floor() as usize;
                 let cells = if rem >= self.cfg.policy.min_grant.max(1) && k > 0 {
-                    let before = self.renderer.totals().work_cells_moved;
-                    let unit = if m.front {
-                        self.renderer.give_front_work(self.cfg.policy.help_fraction)
-                    } else {
-                        self.renderer.give_work(self.cfg.policy.give_fraction)
-                    };
+                    let before = self.renderer.totals();
+                    let unit = self.renderer.give(fraction, m.front);
+                    let after = self.renderer.totals();
                     let ops = OpCounts {
-                        work_cells_moved: self.renderer.totals().work_cells_moved - before,
+                        work_cells_moved: after.work_cells_moved - before.work_cells_moved,
+                        cell_ids_moved: after.cell_ids_moved - before.cell_ids_moved,
+                        cells_tested: after.cells_tested - before.cells_tested,
+                        cells_skipped_ert: after.cells_skipped_ert - before.cells_skipped_ert,
                         ..Default::default()
                     };
                     let s = self.secs(&ops);
@@ -408,17 +410,23 @@ impl NodeActor {
                     });
                     let n = unit.len() as u64;
                     self.stats.cells_given += n;
-                    let g = WorkGrant {
-                        unit: unit.encode(),
-                    };
-                    self.send(out, m.requester as usize, &g);
+                    // Every cell may have been skipped before giving
+                    // (`NodeRenderer::give`): a DLB requester then gets no
+                    // grant, as for a refusal (`Gave { cells: 0 }`); a
+                    // help requester gets an empty one.
+                    if n > 0 || m.front {
+                        let g = WorkGrant {
+                            unit: unit.encode(),
+                        };
+                        self.send(out, m.requester as usize, &g);
+                    }
                     n
                 } else {
                     if m.front {
                         // The helper is not waiting, but it must learn that
                         // nothing comes: an empty grant.
                         let g = WorkGrant {
-                            unit: WorkUnit::default().encode(),
+                            unit: self.renderer.empty_grant().encode(),
                         };
                         self.send(out, m.requester as usize, &g);
                     }
@@ -434,19 +442,18 @@ impl NodeActor {
             }
             MessageKind::WorkGrant => {
                 let m: WorkGrant = env.decode(&self.codec).map_err(|e| err(&e))?;
-                let unit = WorkUnit::decode(&m.unit).map_err(|e| err(&e))?;
                 self.help_pending = false;
-                if unit.is_empty() {
+                let (mut ops, n) = self.renderer.take_grant(&m.unit).map_err(|e| err(&e))?;
+                if n == 0 {
                     return Ok(());
                 }
-                let mut ops = self.renderer.take_work(&unit).map_err(|e| err(&e))?;
                 for (_, t) in std::mem::take(&mut self.deferred) {
                     ops.add(&self.renderer.apply_shared(&t).map_err(|e| err(&e))?);
                     self.stats.replies_applied += 1;
                 }
                 let s = self.secs(&ops);
                 self.stats.steal_s += s;
-                self.stats.cells_taken += unit.len() as u64;
+                self.stats.cells_taken += n as u64;
                 self.grants_taken += 1;
                 out.push(Action::Compute {
                     seconds: s,

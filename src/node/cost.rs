@@ -70,6 +70,10 @@ pub struct CostProfile {
     /// Device model: framebuffer read-back bandwidth (the subimage), bytes
     /// per second. 0: not charged.
     pub readback_bytes_per_s: f64,
+    /// Per cell id written into or read from an id unit (replicated data);
+    /// 0 = not measured for this profile: [`CostProfile::cell_id_cost`]
+    /// then derives it from `per_work_cell`.
+    pub per_cell_id: f64,
 }
 
 /// A profile file: a name, notes, and the unit costs.
@@ -124,7 +128,7 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
             + f(o.table_entries_updated, p.per_table_entry)
             + f(o.table_pixels_read, p.per_table_pixel),
         share: f(o.shared_entries_merged, p.per_shared_entry),
-        work: f(o.work_cells_moved, p.per_work_cell),
+        work: f(o.work_cells_moved, p.per_work_cell) + f(o.cell_ids_moved, p.cell_id_cost()),
     }
 }
 
@@ -150,6 +154,7 @@ impl CostProfile {
             per_cell_test: self.per_cell_test * k_cell,
             per_cell_setup: self.per_cell_setup * k_cell,
             per_work_cell: self.per_work_cell * k_cell,
+            per_cell_id: self.per_cell_id * k_cell,
             per_pixel_test: self.per_pixel_test * k_pixel,
             per_segment: self.per_segment * k_pixel,
             per_merge: self.per_merge * k_pixel,
@@ -160,6 +165,18 @@ impl CostProfile {
             per_shared_entry: self.per_shared_entry * k_pixel,
             per_sample: self.per_sample * k_pixel,
             ..*self
+        }
+    }
+
+    /// Seconds per cell id moved with replicated data: `per_cell_id` if
+    /// set, else `per_work_cell` × [`super::replica::ID_COST_RATIO`] (the
+    /// measured ratio of the two operations): never zero while moving a
+    /// cell costs anything.
+    pub fn cell_id_cost(&self) -> f64 {
+        if self.per_cell_id > 0.0 {
+            self.per_cell_id
+        } else {
+            self.per_work_cell * super::replica::ID_COST_RATIO
         }
     }
 
@@ -186,6 +203,7 @@ impl CostProfile {
             c.fill_rate,
             c.upload_bytes_per_s,
             c.readback_bytes_per_s,
+            c.per_cell_id,
         ];
         anyhow::ensure!(
             all.iter().all(|v| v.is_finite() && *v >= 0.0),

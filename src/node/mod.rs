@@ -19,6 +19,8 @@
 //! - [`actor`]: the [`NodeActor`], phase 1 of a cluster node as a
 //!   [`crate::net::Actor`] (scan in chunks, weak ERT sharing, DLB).
 //! - [`cost`]: the compute-time cost model, operation counts → seconds.
+//! - [`replica`]: replicated data: the whole mesh on every node, cell ids
+//!   that travel instead of cells ([`IdUnit`]).
 //! - [`union`]: a reference composition of all nodes' lists (for tests and
 //!   checks; the real compositor is `src/compositor/`).
 
@@ -33,6 +35,7 @@ pub mod ops;
 pub mod pixel_share;
 pub mod placement;
 pub mod renderer;
+pub mod replica;
 pub mod table;
 pub mod union;
 pub mod work;
@@ -43,5 +46,6 @@ pub use manager_table::merge_tables;
 pub use ops::OpCounts;
 pub use placement::{Placement, PlacementMethod};
 pub use renderer::{NodeOptions, NodeRenderer, StepReport};
+pub use replica::{DataMode, IdUnit, Replica};
 pub use table::SharedTable;
 pub use work::{WorkError, WorkUnit};

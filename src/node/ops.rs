@@ -39,6 +39,9 @@ pub struct OpCounts {
     pub shared_entries_merged: u64,
     /// Cells packed into or unpacked from work units given away or taken.
     pub work_cells_moved: u64,
+    /// Cell ids written into or read from id units (replicated data,
+    /// [`super::replica`]).
+    pub cell_ids_moved: u64,
 }
 
 impl OpCounts {
@@ -63,7 +66,8 @@ impl OpCounts {
             table_entries_updated,
             table_pixels_read,
             shared_entries_merged,
-            work_cells_moved
+            work_cells_moved,
+            cell_ids_moved
         );
     }
 

@@ -33,8 +33,10 @@
 //! (a length prefix larger than the bytes left fails instead of allocating),
 //! and [`WorkUnit::validate`] then checks every invariant scan conversion
 //! relies on: matching lengths, sorted unique vertex ids, local indices in
-//! range and pairwise distinct per cell, unique cell ids, finite positions
-//! and scalars.
+//! range, unique cell ids, finite positions and scalars. A cell may repeat a
+//! vertex (a collapsed tetrahedron, as `tests/data/spx.inp`'s cell 0 is, and
+//! as the mesh readers keep it): scan conversion sets it up as degenerate and
+//! counts it in `cells_degenerate`, as the single-machine renderer does.
 
 use std::collections::HashMap;
 
@@ -84,7 +86,7 @@ pub enum WorkError {
     /// Vertex ids not strictly ascending.
     #[error("work unit: vertex ids not sorted and unique at index {0}")]
     VertexOrder(usize),
-    /// A local vertex index out of range, or repeated within a cell.
+    /// A local vertex index out of range.
     #[error("work unit: cell {cell} has a bad vertex index")]
     CellVertex {
         /// Global cell id.
@@ -239,9 +241,7 @@ impl WorkUnit {
             }
         }
         for c in &self.cells {
-            let v = c.v;
-            let distinct = (0..4).all(|a| (a + 1..4).all(|b| v[a] != v[b]));
-            if !distinct || v.iter().any(|&l| l as usize >= nv) {
+            if c.v.iter().any(|&l| l as usize >= nv) {
                 return Err(WorkError::CellVertex { cell: c.id });
             }
         }
@@ -339,6 +339,10 @@ mod tests {
             u.validate(),
             Err(WorkError::CellVertex { cell: 7 })
         ));
+        // A collapsed cell (a repeated vertex) is the mesh's own business.
+        let mut u = unit();
+        u.cells[0].v[1] = u.cells[0].v[0];
+        assert_eq!(WorkUnit::decode(&u.encode()), Ok(u));
         let mut u = unit();
         u.cells[1].id = 7;
         assert_eq!(u.validate(), Err(WorkError::DuplicateCell(7)));

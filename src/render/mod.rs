@@ -11,6 +11,7 @@
 //! - [`slice2d`]: object-aligned slicing (bilinear) with per-slice LOD.
 //! - [`splat`]: EWA splatting of regular grids in axis, DDA or sorted order.
 
+pub mod adaptive;
 pub mod cell;
 pub mod grid_reference;
 pub mod input;

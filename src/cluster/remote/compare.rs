@@ -7,6 +7,13 @@
 //! heartbeats and goodbyes. Without sharing and DLB the phase-1 protocol is
 //! deterministic, so the counts must agree exactly; with them, the number
 //! of shares and grants depends on timing.
+//!
+//! Phase 2 runs worker to worker ([`super::phase2`]): its `Segments` and
+//! `Image` messages as the workers' transports counted them, beside the
+//! model's replay of the same frame's compositing. A measured message
+//! carries a 21-byte header the model does not have, and the root hands its
+//! own pixels to the coordinator (the model's schedule ends at the root);
+//! both are subtracted before the comparison (`phase2_bytes_match`).
 
 use std::collections::BTreeMap;
 
@@ -14,7 +21,7 @@ use serde::Serialize;
 
 use super::coordinator::Measured;
 use crate::cluster::{phase1, ClockKind, ClusterConfig, ClusterOutcome};
-use crate::net::{Codec, Counter};
+use crate::net::{Codec, Counter, MessageKind};
 use crate::node::Placement;
 use crate::render::RenderInput;
 
@@ -48,10 +55,27 @@ pub struct TransportSection {
     pub setup_cells_cached: usize,
     /// Seconds of connection, set-up and mesh.
     pub setup_s: f64,
-    /// Bytes of the nodes' lists gathered by the coordinator.
-    pub lists_gathered_bytes: u64,
-    /// Seconds to gather them.
-    pub gather_s: f64,
+    /// Seconds to collect the nodes' results.
+    pub collect_s: f64,
+    /// Set when `--on-failure reassign` re-ran the frame on the survivors
+    /// (the model then runs their placement).
+    pub reassigned: Option<super::reassign::Reassigned>,
+    /// Phase 2 (worker to worker) per message kind, sent by all workers.
+    pub phase2_by_kind: BTreeMap<String, KindLine>,
+    /// Of the measured phase-2 payload: message headers.
+    pub phase2_header_bytes: u64,
+    /// Of the measured phase-2 payload: the root's own pixels handed to the
+    /// coordinator (messages, codec bytes).
+    pub phase2_handoff: Counter,
+    /// True when, without headers and the hand-off, every phase-2 kind's
+    /// measured messages and bytes equal the model's.
+    pub phase2_bytes_match: bool,
+    /// Bytes written on the wire in phase 2 by the workers.
+    pub phase2_wire_bytes: u64,
+    /// Measured phase-2 wall seconds (coordinator: start to last pixels).
+    pub phase2_measured_s: f64,
+    /// Modelled phase-2 seconds (the replay on the `--network` model).
+    pub phase2_modelled_s: f64,
 }
 
 impl PartialEq for Measured {
@@ -72,14 +96,71 @@ pub fn transport_section(
     p1.clock = ClockKind::Virtual;
     p1.record_trace = false;
     let codec = Codec::default();
-    let placement = Placement::new(
-        &input.mesh,
-        p1.nodes,
-        cfg.placement,
-        Some(&input.scene.view()),
-    );
+    // After `--on-failure reassign`, the model runs the placement that
+    // completed, on the survivors.
+    let placement = match &m.reassigned {
+        Some(r) => {
+            p1.nodes = r.parts.len();
+            Placement {
+                parts: r.parts.clone(),
+            }
+        }
+        None => Placement::new(
+            &input.mesh,
+            p1.nodes,
+            cfg.placement,
+            Some(&input.scene.view()),
+        ),
+    };
     let nodes = phase1::build_nodes(input, &placement, &p1, &cfg.profile, codec)?;
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
+    let model2 = {
+        let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        let list_codec =
+            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let lists = sim
+            .nodes
+            .iter()
+            .map(|a| crate::cluster::node_lists(a.renderer(), input, p1.node))
+            .collect();
+        crate::cluster::phase2::run(
+            strategy.as_ref(),
+            list_codec.as_ref(),
+            lists,
+            super::phase2::exec_options(p1.node.partial_composition, &input.scene),
+            &cfg.profile,
+            &cfg.network,
+            false,
+        )?
+    };
+    let mut by_kind2: BTreeMap<String, KindLine> = BTreeMap::new();
+    let mut msgs2 = 0;
+    for (k, c) in &m.phase2.payload.sent_by_kind {
+        if matches!(k, MessageKind::Segments | MessageKind::Image) {
+            by_kind2.entry(k.name().to_string()).or_default().measured = *c;
+            msgs2 += c.messages;
+        }
+    }
+    for (k, c) in &model2.sim.traffic.sent_by_kind {
+        by_kind2.entry(k.name().to_string()).or_default().modelled = *c;
+    }
+    let header = msgs2 * super::phase2::HEADER_BYTES as u64;
+    let handoff = Counter {
+        messages: m.phase2_handoff_messages,
+        bytes: m.phase2_handoff_bytes
+            + m.phase2_handoff_messages * super::phase2::HEADER_BYTES as u64,
+    };
+    let phase2_bytes_match = by_kind2.iter().all(|(k, l)| {
+        let mut c = l.measured;
+        let hdr = c.messages * super::phase2::HEADER_BYTES as u64;
+        c.bytes = c.bytes.saturating_sub(hdr);
+        if k.as_str() == MessageKind::Image.name() {
+            c.messages = c.messages.saturating_sub(m.phase2_handoff_messages);
+            c.bytes = c.bytes.saturating_sub(m.phase2_handoff_bytes);
+        }
+        c == l.modelled
+    });
     let mut by_kind: BTreeMap<String, KindLine> = BTreeMap::new();
     for (k, c) in &m.phase1.payload.sent_by_kind {
         by_kind.entry(k.name().to_string()).or_default().measured = *c;
@@ -97,7 +178,14 @@ pub fn transport_section(
         setup_cells_bytes: m.cells_bytes_sent,
         setup_cells_cached: m.cells_cached,
         setup_s: m.setup_s,
-        lists_gathered_bytes: m.lists_bytes,
-        gather_s: m.collect_s,
+        collect_s: m.collect_s,
+        reassigned: m.reassigned.clone(),
+        phase2_by_kind: by_kind2,
+        phase2_header_bytes: header,
+        phase2_handoff: handoff,
+        phase2_bytes_match,
+        phase2_wire_bytes: m.phase2.wire_bytes_sent,
+        phase2_measured_s: m.phase2_s,
+        phase2_modelled_s: model2.sim.end_time,
     })
 }

@@ -1,8 +1,10 @@
 //! The coordinator: connects to `N` workers, gives each its node (cells by
 //! content hash), runs the [`ManagerActor`] as rank `N` on its own
 //! [`TcpTransport`] with the same driver loop as the threads
-//! ([`run_actor`]), collects every node's results, and runs phase 2 and the
-//! report with the same code as the other clocks ([`crate::cluster::finish`]).
+//! ([`run_actor`]), collects every node's results, starts phase 2, which
+//! runs worker to worker ([`super::phase2`]), takes the gathered pixels, and
+//! builds the report with the same code as the other clocks
+//! ([`crate::cluster::finish_with`]).
 //!
 //! Every failure names the worker and the phase and ends the run with an
 //! error; the caller (the CLI) exits non-zero. Nothing waits without a
@@ -15,9 +17,10 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 
 use super::guard::SessionGuard;
+use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
 use super::session::{sha256, NodeResult, Session, WorkerSetup};
+use crate::cluster::phase2::Phase2;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
-use crate::compositor::codec::Limits;
 use crate::manager::{ManagerActor, ManagerConfig};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
 use crate::net::{
@@ -39,6 +42,10 @@ pub struct Coordinator {
     pub tcp: TcpOptions,
     /// Longest wait for a message in phase 1 (a protocol deadlock).
     pub recv_timeout: Duration,
+    /// `--on-failure reassign`: when workers die in phase 1, the frame runs
+    /// again on the survivors with the dead workers' cells split among them
+    /// (the workers must serve more than one session: not `--once`).
+    pub reassign: bool,
 }
 
 /// What the transport measured, beside the report.
@@ -52,32 +59,38 @@ pub struct Measured {
     pub cells_cached: usize,
     /// Seconds to connect, set up and mesh.
     pub setup_s: f64,
-    /// Seconds to collect the results (lists included).
+    /// Seconds to collect the results.
     pub collect_s: f64,
-    /// Bytes of lists collected.
-    pub lists_bytes: u64,
+    /// Phase 2, all workers: bytes on the wire and payload per kind, as
+    /// their transports counted them (lists worker to worker, pixels to the
+    /// coordinator).
+    pub phase2: WireStats,
+    /// Codec bytes of the root's own pixels handed to the coordinator (not
+    /// a message of the schedule, which ends at the root).
+    pub phase2_handoff_bytes: u64,
+    /// Messages of that hand-off.
+    pub phase2_handoff_messages: u64,
+    /// Seconds from the start of phase 2 to the last pixels in.
+    pub phase2_s: f64,
+    /// Set when `--on-failure reassign` re-ran the frame on survivors.
+    pub reassigned: Option<super::reassign::Reassigned>,
 }
 
 impl Coordinator {
-    /// Runs one frame on the workers.
-    pub fn run(
+    /// One frame on the workers with this placement.
+    pub(super) fn run_placed(
         &self,
         input: &RenderInput,
         cfg: &ClusterConfig,
+        placement: &Placement,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
         let n = cfg.phase1.nodes;
-        anyhow::ensure!(
-            self.workers.len() == n,
-            "{} worker addresses for --nodes {n}: give one worker per node",
-            self.workers.len()
-        );
         let mut cfg = cfg.clone();
         cfg.phase1.clock = ClockKind::Wall;
         let p1 = cfg.phase1;
         let codec = Codec::default();
         let rt = tcp::runtime()?;
         let t_setup = Instant::now();
-        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
         let overlap = p1.overlap && !p1.share && p1.node.ert.enabled();
         let pairwise = if overlap {
             placement.footprints(input).pairwise
@@ -113,6 +126,7 @@ impl Coordinator {
                 overlap_peers: peers,
                 profile: cfg.profile,
                 list_codec: cfg.codec.clone(),
+                compositor: cfg.compositor.clone(),
                 max_message_bytes: codec.max_message_bytes,
                 cells_initial: part.len() as u64,
                 cells_sha256: sha256(&cells),
@@ -230,53 +244,59 @@ impl Coordinator {
         let mut manager = manager_for(input, &cfg, initial)?;
         let wire0 = t.stats();
         let t1 = Instant::now();
-        let (m_stop, m_trace, m_traffic) = run_actor(
-            &SessionGuard::new(&t, codec),
-            &mut manager,
-            WallClock::start(),
-            WallOptions {
-                compute: ComputeMode::Skip,
-                recv_timeout: self.recv_timeout,
-            },
-        )
-        .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
-        if let Some(e) = &manager.stats().error {
-            anyhow::bail!("phase 1 failed at the manager: {e}");
-        }
-
-        // Results.
-        let t_collect = Instant::now();
-        let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
-        while results.iter().any(Option::is_none) {
-            let e = t
-                .recv_timeout(self.recv_timeout)
-                .context("collecting the nodes' results")?
-                .ok_or_else(|| {
-                    let missing: Vec<usize> = (0..n).filter(|&k| results[k].is_none()).collect();
-                    anyhow::anyhow!(
-                        "collecting results: workers {missing:?} sent nothing within {:?}",
-                        self.recv_timeout
-                    )
-                })?;
-            let k = e.from.index();
-            match codec.decode::<Session>(&e.payload) {
-                Ok(Session::Failed(why)) => {
-                    anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
-                }
-                Ok(Session::Result(r)) if k < n => {
-                    measured.lists_bytes += r.lists.len() as u64;
-                    results[k] = Some(*r);
-                    t.set_essential(e.from, false);
-                }
-                // Late phase-1 traffic to the stopped manager is dropped,
-                // as in the other drivers.
-                _ if e.kind != MessageKind::Session => {}
-                _ => anyhow::bail!(
-                    "collecting results: {} sent a message that is not its result",
-                    t.peer_name(e.from)
-                ),
+        let phase1 = (|| {
+            let (m_stop, m_trace, m_traffic) = run_actor(
+                &SessionGuard::new(&t, codec),
+                &mut manager,
+                WallClock::start(),
+                WallOptions {
+                    compute: ComputeMode::Skip,
+                    recv_timeout: self.recv_timeout,
+                },
+            )
+            .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
+            if let Some(e) = &manager.stats().error {
+                anyhow::bail!("phase 1 failed at the manager: {e}");
             }
-        }
+
+            // Results.
+            let t_collect = Instant::now();
+            let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
+            while results.iter().any(Option::is_none) {
+                let e = t
+                    .recv_timeout(self.recv_timeout)
+                    .context("collecting the nodes' results")?
+                    .ok_or_else(|| {
+                        let missing: Vec<usize> =
+                            (0..n).filter(|&k| results[k].is_none()).collect();
+                        anyhow::anyhow!(
+                            "collecting results: workers {missing:?} sent nothing within {:?}",
+                            self.recv_timeout
+                        )
+                    })?;
+                let k = e.from.index();
+                match codec.decode::<Session>(&e.payload) {
+                    Ok(Session::Failed(why)) => {
+                        anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
+                    }
+                    Ok(Session::Result(r)) if k < n => {
+                        results[k] = Some(*r);
+                    }
+                    // Late phase-1 traffic to the stopped manager is dropped,
+                    // as in the other drivers.
+                    _ if e.kind != MessageKind::Session => {}
+                    _ => anyhow::bail!(
+                        "collecting results: {} sent a message that is not its result",
+                        t.peer_name(e.from)
+                    ),
+                }
+            }
+            Ok((m_stop, m_trace, m_traffic, results, t_collect))
+        })();
+        let (m_stop, m_trace, m_traffic, results, t_collect) = match phase1 {
+            Ok(x) => x,
+            Err(e) => return Err(self.lost_in_phase1(&t, n, e)),
+        };
         let host_s = t1.elapsed().as_secs_f64();
         measured.collect_s = t_collect.elapsed().as_secs_f64();
         let wire_m = {
@@ -286,30 +306,25 @@ impl Coordinator {
             w.payload = m_traffic.clone();
             w
         };
+        for (k, r) in results.iter().enumerate() {
+            if let Some(e) = r.as_ref().and_then(|r| r.raw.error()) {
+                anyhow::bail!("phase 1 failed at node {k} ({}): {e}", self.workers[k]);
+            }
+        }
+
+        // Phase 2, worker to worker; the pixels come here.
+        let t2 = Instant::now();
+        let (ph2, logs) = self.phase2(&t, input, &cfg, codec, &mut measured)?;
+        measured.phase2_s = t2.elapsed().as_secs_f64();
         t.close(Duration::from_secs(2));
 
-        let list_codec =
-            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
         let mut nodes = Vec::with_capacity(n);
-        let mut lists = Vec::with_capacity(n);
         let mut stopped_at = Vec::with_capacity(n + 1);
         let mut trace = SimTrace::default();
         let mut traffic = TrafficStats::default();
         let mut wire = WireStats::default();
         for (k, r) in results.into_iter().enumerate() {
             let r = r.ok_or_else(|| anyhow::anyhow!("no result from worker {k}"))?;
-            if let Some(e) = &r.raw.error() {
-                anyhow::bail!("phase 1 failed at node {k} ({}): {e}", self.workers[k]);
-            }
-            let limits = Limits {
-                max_pixels: input.scene.image.width as u64 * input.scene.image.height as u64,
-                ..Limits::default()
-            };
-            lists.push(
-                list_codec
-                    .decode_lists(&r.lists, &limits)
-                    .map_err(|e| anyhow::anyhow!("the lists of worker {k}: {e}"))?,
-            );
             nodes.push(r.raw);
             stopped_at.push(Some(r.stopped_at));
             trace.events.extend(r.trace.events);
@@ -328,12 +343,14 @@ impl Coordinator {
             .iter()
             .flatten()
             .fold(0.0f64, |a, &b| a.max(b));
-        let out = crate::cluster::finish(
+        measured.phase2_handoff_bytes = logs.iter().map(|l| l.handoff_bytes).sum();
+        measured.phase2_handoff_messages = logs.iter().map(|l| l.handoff_messages).sum();
+        let out = crate::cluster::finish_with(
             input,
             &cfg,
             Phase1Parts {
                 nodes,
-                lists,
+                lists: Vec::new(),
                 manager: manager.stats().clone(),
                 end_s,
                 stopped_at,
@@ -342,8 +359,90 @@ impl Coordinator {
                 host_s,
             },
             None,
+            ph2,
+            measured.phase2_s,
         )?;
         Ok((out, measured))
+    }
+
+    /// Starts phase 2 on every worker, takes the gathered pixels and every
+    /// worker's log; returns phase 2 as [`crate::cluster::phase2::run`]
+    /// would (image, counters, network replay) and the logs.
+    fn phase2(
+        &self,
+        t: &TcpTransport,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+        codec: Codec,
+        measured: &mut Measured,
+    ) -> anyhow::Result<(Phase2, Vec<RankLog>)> {
+        let n = cfg.phase1.nodes;
+        let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        let list_codec =
+            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let scene = &input.scene;
+        let schedule = strategy.schedule(
+            n,
+            crate::compositor::region::screen(scene.image.width, scene.image.height),
+        );
+        let opts = exec_options(cfg.phase1.node.partial_composition, scene);
+        let go = codec.encode(&Session::Composite)?;
+        for k in 0..n {
+            t.send(NodeId::from(k), MessageKind::Session, go.clone())
+                .context("phase 2 (starting it)")?;
+        }
+        let mut gather = Gather::new(&schedule, list_codec.as_ref(), opts);
+        let mut logs: Vec<Option<RankLog>> = vec![None; n];
+        while logs.iter().any(Option::is_none) {
+            let e = t
+                .recv_timeout(self.recv_timeout)
+                .context("phase 2 (compositing)")?
+                .ok_or_else(|| {
+                    let missing: Vec<usize> = (0..n).filter(|&k| logs[k].is_none()).collect();
+                    anyhow::anyhow!(
+                        "phase 2 (compositing): workers {missing:?} did not finish within {:?}",
+                        self.recv_timeout
+                    )
+                })?;
+            let k = e.from.index();
+            match e.kind {
+                MessageKind::Image if k < n => gather.take(k, &e.payload)?,
+                MessageKind::Session => match codec.decode::<Session>(&e.payload) {
+                    Ok(Session::Phase2Done(d)) if k < n && logs[k].is_none() => {
+                        let (log, wire) = *d;
+                        measured.phase2.merge(&wire);
+                        logs[k] = Some(log);
+                        t.set_essential(e.from, false);
+                    }
+                    Ok(Session::Failed(why)) => anyhow::bail!(
+                        "phase 2 (compositing): {} failed: {why}",
+                        t.peer_name(e.from)
+                    ),
+                    _ => anyhow::bail!(
+                        "phase 2 (compositing): {} sent a session message out of turn",
+                        t.peer_name(e.from)
+                    ),
+                },
+                // Late phase-1 traffic to the stopped manager is dropped.
+                _ => {}
+            }
+        }
+        let logs: Vec<RankLog> = logs.into_iter().flatten().collect();
+        let image = gather.image()?;
+        let stats = stats_from_logs(&schedule, strategy.name(), list_codec.name(), &logs);
+        let (sim, bytes_sent, busy_s) = replay_plan(&schedule, &logs, &cfg.profile)
+            .run(&cfg.network, cfg.phase1.record_trace)?;
+        Ok((
+            Phase2 {
+                image,
+                stats,
+                sim,
+                bytes_sent,
+                busy_s,
+            },
+            logs,
+        ))
     }
 }
 

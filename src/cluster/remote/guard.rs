@@ -89,6 +89,8 @@ fn variant(s: &Session) -> &'static str {
         Session::Go => "Go",
         Session::Result(_) => "its result",
         Session::Failed(_) => "a failure",
+        Session::Composite => "the start of phase 2",
+        Session::Phase2Done(_) => "its phase-2 log",
     }
 }
 

@@ -10,14 +10,18 @@
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the coordinator: set-up, manager, results, phase 2 |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
+//! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
 //! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
+//! | [`reassign`] | `--on-failure reassign`: lost workers' cells to the survivors, the frame again |
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
 //! | [`probe`] | the echo service for `pvrsim calibrate --network` |
 
 pub mod compare;
 pub mod coordinator;
 pub mod guard;
+pub mod phase2;
 pub mod probe;
+pub mod reassign;
 pub mod session;
 pub mod spawn;
 pub mod worker;

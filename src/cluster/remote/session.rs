@@ -11,7 +11,11 @@
 //! worker → coordinator  Ready        every peer link is up, the node is built
 //! coordinator → worker  Go           phase 1 starts (the worker's clock starts)
 //!      ... phase 1: NodeActor ⇄ ManagerActor and peers, unchanged ...
-//! worker → coordinator  Result       stats, traffic, timeline, canonical lists
+//! worker → coordinator  Result       stats, traffic, timeline
+//! coordinator → worker  Composite    every node is done: phase 2 starts
+//!      ... phase 2: the compositor's rounds worker to worker (remote::phase2),
+//!          the gathered pixels (MessageKind::Image) to the coordinator ...
+//! worker → coordinator  Phase2Done   its phase-2 log and transport counts
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -43,8 +47,13 @@ pub enum Session {
     /// The node's outcome.
     Result(Box<NodeResult>),
     /// The worker could not set up its node (bad set-up, bad cells, mesh
-    /// failed): the reason, for the coordinator's error.
+    /// failed) or failed later: the reason, for the coordinator's error.
     Failed(String),
+    /// Every node is done with phase 1: run phase 2 (coordinator → worker).
+    Composite,
+    /// The worker's phase 2 is done: what it sent and merged, and what its
+    /// transport counted in phase 2.
+    Phase2Done(Box<(super::phase2::RankLog, WireStats)>),
 }
 
 impl Message for Session {
@@ -201,8 +210,10 @@ pub struct WorkerSetup {
     pub overlap_peers: Vec<u32>,
     /// Compute cost profile (charged as in the thread driver: not slept).
     pub profile: CostProfile,
-    /// List codec for the results (`rle`, `raw`).
+    /// List codec of phase 2 (`rle`, `raw`).
     pub list_codec: String,
+    /// Compositing strategy of phase 2 (`binary-swap`, `direct-send`).
+    pub compositor: String,
     /// Payload limit of frames.
     pub max_message_bytes: u64,
     /// Cells placed on this node.
@@ -234,6 +245,8 @@ impl WorkerSetup {
         if let Some(p) = self.overlap_peers.iter().find(|&&p| p >= self.nodes) {
             return Err(format!("overlap peer {p} is not a node"));
         }
+        crate::compositor::codec::from_name(&self.list_codec)?;
+        crate::compositor::strategy::from_name(&self.compositor)?;
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("recv timeout {} s", self.recv_timeout_s));
         }
@@ -259,8 +272,6 @@ pub struct NodeResult {
     pub traffic: TrafficStats,
     /// Bytes its transport wrote and read in phase 1.
     pub wire: WireStats,
-    /// Its canonical lists over the whole screen, in the run's list codec.
-    pub lists: Vec<u8>,
 }
 
 #[cfg(test)]

@@ -27,6 +27,18 @@ impl LocalWorkers {
     /// --once --accept-timeout S` plus `extra` arguments, and reads each one's
     /// address from its first stdout line (within `wait`).
     pub fn spawn(exe: &Path, n: usize, extra: &[String], wait: Duration) -> anyhow::Result<Self> {
+        Self::spawn_serving(exe, n, extra, wait, true)
+    }
+
+    /// [`LocalWorkers::spawn`]; without `once`, the workers serve sessions
+    /// until they are stopped (on drop) or their accept timeout passes.
+    pub fn spawn_serving(
+        exe: &Path,
+        n: usize,
+        extra: &[String],
+        wait: Duration,
+        once: bool,
+    ) -> anyhow::Result<Self> {
         let pid = std::process::id();
         let tag: String = crate::net::tcp::auth::random_bytes::<6>()?
             .iter()
@@ -55,7 +67,8 @@ impl LocalWorkers {
         for k in 0..n {
             let mut c = Command::new(exe)
                 .arg("worker")
-                .args(["--listen", "127.0.0.1:0", "--once"])
+                .args(["--listen", "127.0.0.1:0"])
+                .args(once.then_some("--once"))
                 .arg("--token-file")
                 .arg(&token_path)
                 .args(["--accept-timeout", &accept_timeout.to_string()])

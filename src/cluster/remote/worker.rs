@@ -1,8 +1,10 @@
 //! The worker process (`pvrsim worker`): listens, authenticates the
 //! coordinator, builds its node from the set-up, joins the mesh of peers,
 //! runs the [`NodeActor`] with the same thread driver loop as `--clock wall`
-//! ([`run_actor`]) and sends its results. Then it serves the next session,
-//! or exits (`--once`). Cells are cached by SHA-256 across sessions.
+//! ([`run_actor`]) and sends its results; then, when the coordinator says
+//! every node is done, runs its part of phase 2 worker to worker
+//! ([`super::phase2`]). Then it serves the next session, or exits
+//! (`--once`). Cells are cached by SHA-256 across sessions.
 
 use std::collections::VecDeque;
 use std::path::Path;
@@ -18,7 +20,8 @@ use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{
-    run_actor, Codec, ComputeMode, MessageKind, NodeId, Transport, WallClock, WallOptions,
+    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, TrafficStats, Transport,
+    WallClock, WallOptions,
 };
 use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
 use crate::render::cell::PreparedTf;
@@ -36,6 +39,46 @@ pub struct Worker {
     cache: VecDeque<([u8; 32], Vec<u8>)>,
     /// Give up if no session starts within this (`None`: wait forever).
     pub accept_timeout: Option<Duration>,
+    /// Test hook (hidden `--test-kill-after-chunks K`): the process kills
+    /// itself with SIGKILL when its node starts chunk `K + 1` of phase 1,
+    /// a deterministic `kill -9` mid-frame.
+    pub kill_after_chunks: Option<u64>,
+    /// Test hook (hidden `--test-kill-in-phase2`): SIGKILL when phase 2
+    /// starts, a deterministic death in phase 2.
+    pub kill_in_phase2: bool,
+}
+
+/// The test hooks' way to die: SIGKILL, as `kill -9` would.
+fn kill_self(why: &str) {
+    eprintln!("pvrsim worker: killing itself {why}");
+    // SAFETY: getpid and kill have no preconditions; this is a test hook
+    // that ends the process on purpose.
+    unsafe {
+        libc::kill(libc::getpid(), libc::SIGKILL);
+    }
+}
+
+/// The node actor, counting its chunks (`Start` and every `Wake`) for
+/// [`Worker::kill_after_chunks`].
+struct Chunks<'a> {
+    node: &'a mut NodeActor,
+    kill_after: Option<u64>,
+    seen: u64,
+}
+
+impl crate::net::Actor for Chunks<'_> {
+    fn handle(&mut self, now: f64, event: crate::net::Event) -> Vec<crate::net::Action> {
+        if matches!(event, crate::net::Event::Start | crate::net::Event::Wake(_)) {
+            if self.kill_after == Some(self.seen) {
+                kill_self(&format!(
+                    "after {} chunks (--test-kill-after-chunks)",
+                    self.seen
+                ));
+            }
+            self.seen += 1;
+        }
+        self.node.handle(now, event)
+    }
 }
 
 impl Worker {
@@ -62,6 +105,8 @@ impl Worker {
             opts,
             cache: VecDeque::new(),
             accept_timeout: None,
+            kill_after_chunks: None,
+            kill_in_phase2: false,
         })
     }
 
@@ -228,7 +273,11 @@ impl Worker {
         let wire0 = t.stats();
         let run = run_actor(
             &early,
-            &mut actor,
+            Chunks {
+                node: &mut actor,
+                kill_after: self.kill_after_chunks,
+                seen: 0,
+            },
             clock,
             WallOptions {
                 compute: ComputeMode::Skip,
@@ -257,23 +306,132 @@ impl Worker {
         wire.wire_bytes_sent -= wire0.wire_bytes_sent;
         wire.wire_bytes_recv -= wire0.wire_bytes_recv;
         let scene = parse_scene(&setup)?;
-        let input_dims = (scene.image.width, scene.image.height);
-        let lists = worker_lists(&actor, &setup, input_dims)?;
+        let lists = worker_lists(&actor, &setup, (scene.image.width, scene.image.height));
         let result = NodeResult {
             raw: NodeRaw::from_actor(&actor),
             stopped_at: stop,
             trace,
             traffic,
             wire,
-            lists,
         };
         t.send(
             coord,
             MessageKind::Session,
             codec.encode(&Session::Result(Box::new(result)))?,
         )?;
-        t.close(Duration::from_secs(10));
-        Ok(())
+        // Phase 2, once every node is done with phase 1.
+        let wire0 = t.stats();
+        let r = wait_composite(&t, coord, codec, timeout).and_then(|early| {
+            if self.kill_in_phase2 {
+                kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+            }
+            let log = phase2(&t, &setup, &scene, lists, early, timeout)?;
+            let mut wire = t.stats();
+            wire.wire_bytes_sent -= wire0.wire_bytes_sent;
+            wire.wire_bytes_recv -= wire0.wire_bytes_recv;
+            wire.payload = diff_traffic(&wire.payload, &wire0.payload);
+            Ok((log, wire))
+        });
+        match r {
+            Ok(done) => {
+                t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Phase2Done(Box::new(done)))?,
+                )?;
+                t.close(Duration::from_secs(10));
+                Ok(())
+            }
+            Err(e) => {
+                let why = format!("node {} in phase 2: {e:#}", setup.rank);
+                let _ = t.send(
+                    coord,
+                    MessageKind::Session,
+                    codec.encode(&Session::Failed(why.clone()))?,
+                );
+                t.close(Duration::from_secs(2));
+                anyhow::bail!(why)
+            }
+        }
+    }
+}
+
+/// Waits for the coordinator's `Composite`; returns the phase-2 messages of
+/// peers that started first (late phase-1 messages are dropped).
+fn wait_composite(
+    t: &TcpTransport,
+    coord: NodeId,
+    codec: Codec,
+    wait: Duration,
+) -> anyhow::Result<Vec<crate::net::Envelope>> {
+    let mut early = Vec::new();
+    loop {
+        let e = t
+            .recv_timeout(wait)?
+            .ok_or_else(|| anyhow::anyhow!("no word from the coordinator within {wait:?}"))?;
+        if e.kind == MessageKind::Segments {
+            early.push(e);
+        } else if e.kind == MessageKind::Session {
+            match codec.decode::<Session>(&e.payload) {
+                Ok(Session::Composite) if e.from == coord => return Ok(early),
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("{} failed: {why}", t.peer_name(e.from))
+                }
+                _ => anyhow::bail!("{} sent a session message out of turn", t.peer_name(e.from)),
+            }
+        }
+    }
+}
+
+/// This rank's part of phase 2 (see [`super::phase2`]).
+fn phase2(
+    t: &TcpTransport,
+    setup: &WorkerSetup,
+    scene: &Scene,
+    lists: crate::compositor::RegionLists,
+    early: Vec<crate::net::Envelope>,
+    timeout: Duration,
+) -> anyhow::Result<super::phase2::RankLog> {
+    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    let codec =
+        crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
+    let schedule = strategy.schedule(
+        setup.nodes as usize,
+        crate::compositor::region::screen(scene.image.width, scene.image.height),
+    );
+    schedule.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    super::phase2::run_rank(
+        t,
+        setup.rank as usize,
+        NodeId(setup.nodes),
+        &schedule,
+        codec.as_ref(),
+        &super::phase2::exec_options(setup.node_options().partial_composition, scene),
+        lists,
+        early,
+        timeout,
+    )
+}
+
+/// `a - b`, per kind (counters only grow).
+fn diff_traffic(a: &TrafficStats, b: &TrafficStats) -> TrafficStats {
+    let mut out = TrafficStats::default();
+    for (k, c) in &a.sent_by_kind {
+        let b0 = b.sent_by_kind.get(k).copied().unwrap_or_default();
+        out.sent_by_kind.insert(*k, minus(c, &b0));
+    }
+    for (k, c) in &a.recv_by_kind {
+        let b0 = b.recv_by_kind.get(k).copied().unwrap_or_default();
+        out.recv_by_kind.insert(*k, minus(c, &b0));
+    }
+    out
+}
+
+fn minus(a: &Counter, b: &Counter) -> Counter {
+    Counter {
+        messages: a.messages - b.messages,
+        bytes: a.bytes - b.bytes,
     }
 }
 
@@ -308,13 +466,13 @@ pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor
     Ok(a)
 }
 
+/// The node's canonical lists over the whole screen (as
+/// [`crate::cluster`] takes them from its nodes).
 fn worker_lists(
     actor: &NodeActor,
     setup: &WorkerSetup,
     (w, h): (u32, u32),
-) -> anyhow::Result<Vec<u8>> {
-    let codec =
-        crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
+) -> crate::compositor::RegionLists {
     let full = crate::render::cell::scan::Rect {
         x0: 0,
         y0: 0,
@@ -323,14 +481,11 @@ fn worker_lists(
     };
     let opts = setup.node_options();
     let r = actor.renderer();
-    let lists = if opts.canonical {
+    if opts.canonical {
         crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
     } else {
         crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
-    };
-    let mut out = Vec::new();
-    codec.encode_lists(&lists, &mut out);
-    Ok(out)
+    }
 }
 
 /// Dials every lower rank and accepts every higher one, concurrently.

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::{Volume, VoxelType, Voxels};
-use crate::error::Result;
+use super::{checked_count, Volume, VoxelType, Voxels};
+use crate::error::{Error, Result};
 
 /// The hydrogen-atom volume of KVS (`kvs::HydrogenVolumeData`), used by the
 /// splatting paper: an `n^3` u8 grid over the 32-unit cube centred on the
@@ -110,6 +110,23 @@ pub enum Filter {
 /// an axis of one sample keeps its spacing). The voxel type is kept:
 /// integer types are rounded to nearest and clamped to the type's range.
 pub fn resample(src: &Volume, dims: [u64; 3], filter: Filter) -> Result<Volume> {
+    resample_as(src, dims, filter, None)
+}
+
+/// [`resample`] into u8: the source's value range `[lo, hi]` maps linearly
+/// onto `0..=255` (rounded), as 8-bit textures hold the data.
+pub fn resample_u8(src: &Volume, dims: [u64; 3], filter: Filter) -> Result<Volume> {
+    resample_as(src, dims, filter, Some(VoxelType::U8))
+}
+
+/// Resamples slab by slab straight into the output type (no full-size f64
+/// buffer: a 512 x 512 x 1024 u8 result holds 256 MiB, not 2 GiB).
+fn resample_as(
+    src: &Volume,
+    dims: [u64; 3],
+    filter: Filter,
+    to: Option<VoxelType>,
+) -> Result<Volume> {
     let n = src.dims;
     let ratio: [f64; 3] = std::array::from_fn(|a| {
         if dims[a] > 1 {
@@ -126,42 +143,59 @@ pub fn resample(src: &Volume, dims: [u64; 3], filter: Filter) -> Result<Volume> 
         }
     });
     let plane = (dims[0] * dims[1]) as usize;
-    let mut out = vec![0f64; plane * dims[2] as usize];
-    out.par_chunks_mut(plane).enumerate().for_each(|(k, slab)| {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let g = [
-                    i as f64 * ratio[0],
-                    j as f64 * ratio[1],
-                    k as f64 * ratio[2],
-                ];
-                let val = match filter {
-                    Filter::Box => box_mean(src, g, ratio),
-                    Filter::Trilinear => None,
-                }
-                .or_else(|| src.trilinear_grid(g.map(|x| x.max(0.0))))
-                .unwrap_or(0.0);
-                slab[(i + j * dims[0]) as usize] = val;
-            }
+    let total = checked_count(dims)
+        .ok_or_else(|| Error::Invalid(format!("resample: {dims:?} samples overflow")))?
+        as usize;
+    let value = |i: u64, j: u64, k: u64| -> f64 {
+        let g = [
+            i as f64 * ratio[0],
+            j as f64 * ratio[1],
+            k as f64 * ratio[2],
+        ];
+        match filter {
+            Filter::Box => box_mean(src, g, ratio),
+            Filter::Trilinear => None,
         }
-    });
-    let voxels = match src.voxels.voxel_type() {
-        VoxelType::U8 => Voxels::U8(
-            out.iter()
-                .map(|&x| x.round().clamp(0.0, 255.0) as u8)
-                .collect(),
-        ),
-        VoxelType::U16 => Voxels::U16(
-            out.iter()
-                .map(|&x| x.round().clamp(0.0, 65535.0) as u16)
-                .collect(),
-        ),
-        VoxelType::I16 => Voxels::I16(
-            out.iter()
-                .map(|&x| x.round().clamp(-32768.0, 32767.0) as i16)
-                .collect(),
-        ),
-        VoxelType::F32 => Voxels::F32(out.iter().map(|&x| x as f32).collect()),
+        .or_else(|| src.trilinear_grid(g.map(|x| x.max(0.0))))
+        .unwrap_or(0.0)
+    };
+    fn fill<T: Copy + Default + Send>(
+        total: usize,
+        plane: usize,
+        dims: [u64; 3],
+        value: &(dyn Fn(u64, u64, u64) -> f64 + Sync),
+        conv: impl Fn(f64) -> T + Sync,
+    ) -> Vec<T> {
+        let mut out = vec![T::default(); total];
+        out.par_chunks_mut(plane).enumerate().for_each(|(k, slab)| {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    slab[(i + j * dims[0]) as usize] = conv(value(i, j, k as u64));
+                }
+            }
+        });
+        out
+    }
+    let voxels = match to {
+        Some(VoxelType::U8) => {
+            let [lo, hi] = src.value_range();
+            let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
+            Voxels::U8(fill(total, plane, dims, &value, |x| {
+                ((x - lo) * scale).round().clamp(0.0, 255.0) as u8
+            }))
+        }
+        _ => match src.voxels.voxel_type() {
+            VoxelType::U8 => Voxels::U8(fill(total, plane, dims, &value, |x| {
+                x.round().clamp(0.0, 255.0) as u8
+            })),
+            VoxelType::U16 => Voxels::U16(fill(total, plane, dims, &value, |x| {
+                x.round().clamp(0.0, 65535.0) as u16
+            })),
+            VoxelType::I16 => Voxels::I16(fill(total, plane, dims, &value, |x| {
+                x.round().clamp(-32768.0, 32767.0) as i16
+            })),
+            VoxelType::F32 => Voxels::F32(fill(total, plane, dims, &value, |x| x as f32)),
+        },
     };
     Volume::new(
         Path::new("resample"),

@@ -28,8 +28,9 @@ use crate::net::error::{NetError, NetResult};
 
 /// First bytes on every connection.
 pub const MAGIC: [u8; 8] = *b"PVRSIM\r\n";
-/// Protocol version; both ends must speak the same.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// Protocol version; both ends must speak the same (2: phase 2 worker to
+/// worker, the set-up names the compositor).
+pub const PROTOCOL_VERSION: u16 = 2;
 /// Bytes of a preamble.
 pub const PREAMBLE_BYTES: usize = 15;
 

@@ -113,6 +113,7 @@ struct Peer {
     tx: Option<mpsc::UnboundedSender<Vec<u8>>>,
     name: String,
     said_goodbye: bool,
+    lost: bool,
     essential: bool,
 }
 
@@ -170,6 +171,7 @@ impl TcpTransport {
                 tx: Some(tx),
                 name: l.name,
                 said_goodbye: false,
+                lost: false,
                 essential: false,
             });
         }
@@ -233,7 +235,58 @@ impl TcpTransport {
         }
     }
 
+    /// How each rank's link ended, after waiting at most `wait` for the
+    /// links still open to end (messages read meanwhile are dropped):
+    /// `Some(true)` a clean `Goodbye`, `Some(false)` lost (closed without
+    /// `Goodbye`, an I/O or frame error, silence past the deadline), `None`
+    /// still open (or no link: this rank, or a rank never linked). For a
+    /// caller whose frame failed: which peers died, and which only gave up.
+    pub fn link_endings(&self, wait: Duration) -> Vec<Option<bool>> {
+        let until = std::time::Instant::now() + wait;
+        let endings = |peers: &[Option<Peer>]| -> Vec<Option<bool>> {
+            peers
+                .iter()
+                .map(|p| match p {
+                    Some(p) if p.lost => Some(false),
+                    Some(p) if p.said_goodbye => Some(true),
+                    _ => None,
+                })
+                .collect()
+        };
+        loop {
+            let open = lock(&self.peers)
+                .iter()
+                .any(|p| p.as_ref().is_some_and(|p| !p.lost && !p.said_goodbye));
+            let left = until.saturating_duration_since(std::time::Instant::now());
+            if !open || left.is_zero() {
+                return endings(&lock(&self.peers));
+            }
+            let item = match self.inbox.recv_timeout(left) {
+                Ok(i) => i,
+                Err(_) => return endings(&lock(&self.peers)),
+            };
+            let mut peers = lock(&self.peers);
+            match item {
+                Incoming::Msg(_) => {}
+                Incoming::Goodbye(r) => {
+                    if let Some(Some(p)) = peers.get_mut(r.index()) {
+                        p.said_goodbye = true;
+                    }
+                }
+                Incoming::Lost(r, _) => {
+                    if let Some(Some(p)) = peers.get_mut(r.index()) {
+                        p.lost = true;
+                    }
+                }
+            }
+        }
+    }
+
     fn fail(&self, peer: NodeId, reason: String) -> NetError {
+        if let Some(Some(p)) = lock(&self.peers).get_mut(peer.index()) {
+            // An essential peer's Goodbye is an error, not a loss.
+            p.lost |= !p.said_goodbye;
+        }
         let name = self.peer_name(peer);
         let mut f = lock(&self.failed);
         if f.is_none() {

@@ -108,6 +108,11 @@ pub fn render(input: &VolumeInput, opts: &Slice2dOptions) -> Result<(Image, Slic
     match opts.classify {
         Classify::Post => render_c::<1>(input, opts),
         Classify::Pre => render_c::<4>(input, opts),
+        Classify::Preint => Err(Error::Invalid(
+            "--classify preint is slice3d's (pre-integrated sample pairs); slice2d takes \
+             post or pre"
+                .into(),
+        )),
     }
 }
 

@@ -102,5 +102,10 @@ pub fn ray_samples(
         k_first: k0 as u64,
         k_last: k1 as u64,
         k_ud: (dt / unit_distance) as f32,
+        // The partial steps at the box's entry and exit are used only by
+        // pre-integrated classification, which brick rendering does not
+        // offer (the cluster slices with post-classification).
+        head: 0.0,
+        tail: 0.0,
     })
 }

@@ -52,7 +52,7 @@ pub struct Grid<'a> {
 
 /// Cell and fractions of grid position `p` (clamped into the grid).
 #[inline(always)]
-fn locate(p: [f32; 3], dims: [usize; 3]) -> ([usize; 3], [f32; 3]) {
+pub(crate) fn locate(p: [f32; 3], dims: [usize; 3]) -> ([usize; 3], [f32; 3]) {
     let mut c = [0usize; 3];
     let mut f = [0f32; 3];
     for a in 0..3 {
@@ -112,7 +112,9 @@ pub fn march<S: Sampler>(
                     m = m.min((p[a] - lo) / -step[a]);
                 }
             }
-            let extra = ((m - 1e-3).floor().max(0.0) as i64).min(remaining);
+            // Truncation after max(0) is floor, without floorf (a libm
+            // call on baseline x86-64).
+            let extra = ((m - 1e-3).max(0.0) as i64).min(remaining);
             n.skipped_empty += 1 + extra as u64;
             done += 1 + extra as u64;
             if extra >= remaining {

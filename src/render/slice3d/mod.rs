@@ -18,6 +18,7 @@
 pub mod brick;
 pub mod march;
 pub mod planes;
+pub mod preint;
 pub mod sample;
 
 #[cfg(test)]
@@ -39,7 +40,7 @@ pub use planes::SliceCount;
 /// Options of the 3D slicer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Slice3dOptions {
-    /// Post- (default) or pre-classification.
+    /// Post- (default), pre-classification or pre-integrated sample pairs.
     pub classify: Classify,
     /// Front to back with ERT (default) or back to front.
     pub order: Order,
@@ -166,8 +167,19 @@ pub fn render_prepared(
     st.slices = planes.n;
     st.slice_spacing = planes.delta;
     let lut = Lut::new(tf, input.range);
+    let table = (opts.classify == Classify::Preint).then(|| {
+        preint::PreintTable::new(&lut, input.range, (planes.delta / tf.unit_distance) as f32)
+    });
     let opaque = if opts.empty_skip {
-        prep.blocks.opaque(&lut)
+        match &table {
+            Some(t) => prep
+                .blocks
+                .range
+                .iter()
+                .map(|r| !t.transparent(r[0], r[1]))
+                .collect(),
+            None => prep.blocks.opaque(&lut),
+        }
     } else {
         vec![true; prep.blocks.range.len()]
     };
@@ -231,6 +243,19 @@ pub fn render_prepared(
                 run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
             }
         }),
+        Classify::Preint => {
+            let t = table.as_ref().expect("built for preint");
+            with_texels!(&vol.voxels, data => {
+                let v = preint::Scalars { data, nx, nxy, lut: &lut };
+                if ortho {
+                    let sg = preint::Baked(t);
+                    run(&|r, n| preint::march_pairs(&v, t, &sg, &grid, r, opts.order, n), &mut image)
+                } else {
+                    let sg = preint::Scaled(t);
+                    run(&|r, n| preint::march_pairs(&v, t, &sg, &grid, r, opts.order, n), &mut image)
+                }
+            })
+        }
         Classify::Pre => {
             let rgba = prep.rgba.as_deref().ok_or_else(|| {
                 Error::Invalid("internal: slice3d prepared for post-classification".into())

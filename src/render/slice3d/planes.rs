@@ -5,9 +5,29 @@
 //! Slices are planes perpendicular to the view direction `f`, at depths
 //! `z_k = z_start + (k + 1/2) Δ`, `k = 0 .. N`, measured from the eye along
 //! `f`; `[z_start, z_start + N Δ]` is the depth range of the volume box's
-//! corners (cut at the eye: nothing behind it is drawn). `N` defaults to the
-//! volume's largest dimension (the papers' choice); `--slices N` sets it,
-//! `--spacing Δ` sets `Δ` (then `N = ceil(extent / Δ)`, centred).
+//! corners (cut at the eye: nothing behind it is drawn). `--slices N` sets
+//! `N`, `--spacing Δ` sets `Δ` (then `N = ceil(extent / Δ)`, centred).
+//!
+//! # The default: one slice per voxel layer crossed
+//!
+//! The papers take as many slices as the volume's largest dimension: for a
+//! view along an axis, one sample per voxel layer the ray crosses. For an
+//! oblique view that count spread over the box's longer depth puts the
+//! samples more than a voxel apart (mni152-view: 233 slices over 336 mm,
+//! 1.44 voxels), and a ray crossing a sharp edge of the field (the brain's
+//! masked boundary: 0 to 180 within one voxel, through a steep transfer
+//! function) is undersampled (max-abs 10.2/255 against the reference). A
+//! ray along unit `f` crosses `Σ_a |f_a| / h_a` cell faces per unit
+//! length (`h` the voxel spacing); the default keeps one sample per face
+//! crossed:
+//!
+//! ```text
+//!   N = ceil(extent · Σ_a |f_a| / h_a),   Δ = extent / N
+//! ```
+//!
+//! which is the papers' count for an axis-aligned view (`N = dim - 1`) and
+//! up to √3 times more along a diagonal (mni152-view: 551 slices, 0.61 mm,
+//! max-abs 5.1/255).
 //!
 //! In perspective the slices stay **planes** (not spherical shells): that is
 //! what the papers' hardware drew (one textured polygon per plane), and the
@@ -44,7 +64,8 @@ pub struct Planes {
 /// How the slice count is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SliceCount {
-    /// The volume's largest dimension.
+    /// One slice per voxel layer crossed along the view direction (the
+    /// papers' "largest dimension" for an axis-aligned view).
     Default,
     /// Exactly this many.
     Count(u64),
@@ -80,7 +101,10 @@ impl Planes {
         }
         let (n, delta) = match count {
             SliceCount::Default => {
-                let n = *vol.dims.iter().max().unwrap_or(&1);
+                // Cell faces crossed per unit length along f.
+                let f = view.forward;
+                let cross: f64 = (0..3).map(|a| f[a].abs() / vol.spacing[a]).sum();
+                let n = (extent * cross).ceil().clamp(1.0, 1e9) as u64;
                 (n, extent / n as f64)
             }
             SliceCount::Count(n) => (n.max(1), extent / n.max(1) as f64),
@@ -132,6 +156,10 @@ pub struct RaySamples {
     pub k_last: u64,
     /// `δ / unit_distance` (δ = Δ / cos θ).
     pub k_ud: f32,
+    /// Sample steps from where the ray enters the box to sample `k_first`.
+    pub head: f32,
+    /// Sample steps from sample `k_last` to where the ray leaves the box.
+    pub tail: f32,
 }
 
 /// The samples of pixel `(i, j)`, or `None` if its ray misses the box.
@@ -151,7 +179,10 @@ pub fn ray_samples(
     let dg: [f64; 3] = std::array::from_fn(|a| d[a] / vol.spacing[a]);
     let hi = vol.dims.map(|n| (n - 1) as f64);
     let (t_in, t_out) = clip(g0, dg, hi)?;
-    let (k_first, k_last) = planes.range(z_o + t_in * cos, z_o + t_out * cos)?;
+    let (z_in, z_out) = (z_o + t_in * cos, z_o + t_out * cos);
+    let (k_first, k_last) = planes.range(z_in, z_out)?;
+    // Fractional slice index of a depth: z = z_start + (k + 1/2) Δ.
+    let kz = |z: f64| (z - planes.z_start) / planes.delta - 0.5;
     let t0 = (planes.z_start + 0.5 * planes.delta - z_o) / cos;
     let dt = planes.delta / cos;
     Some(RaySamples {
@@ -160,5 +191,7 @@ pub fn ray_samples(
         k_first,
         k_last,
         k_ud: (dt / unit_distance) as f32,
+        head: (k_first as f64 - kz(z_in)).max(0.0) as f32,
+        tail: (kz(z_out) - k_last as f64).max(0.0) as f32,
     })
 }

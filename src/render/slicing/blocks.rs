@@ -30,31 +30,44 @@ impl MinMaxBlocks {
     pub fn new<T: Texel>(data: &[T], dims: [u64; 3]) -> MinMaxBlocks {
         let nb: [u64; 3] = std::array::from_fn(|a| (dims[a] - 1).div_ceil(BLOCK).max(1));
         let (nx, ny) = (dims[0] as usize, dims[1] as usize);
-        let range: Vec<[f32; 2]> = (0..nb[2])
+        let b = BLOCK as usize;
+        // Per slab of blocks (z), two passes: (1) the min/max over the
+        // slab's z-range of samples, per (i, j) (a plane, row by row: a
+        // tight loop the compiler vectorises); (2) per block, the min/max of
+        // the plane over its (B + 1)^2 window. About 2 reads per voxel, no
+        // per-voxel block arithmetic.
+        let range: Vec<[f32; 2]> = (0..nb[2] as usize)
             .into_par_iter()
             .flat_map_iter(|bz| {
-                let mut slab = vec![[f32::INFINITY, f32::NEG_INFINITY]; (nb[0] * nb[1]) as usize];
-                let k0 = bz * BLOCK;
-                let k1 = (k0 + BLOCK).min(dims[2] - 1);
+                let k0 = bz * b;
+                let k1 = (k0 + b).min(dims[2] as usize - 1);
+                let mut mn = vec![f32::INFINITY; nx * ny];
+                let mut mx = vec![f32::NEG_INFINITY; nx * ny];
                 for k in k0..=k1 {
-                    for j in 0..dims[1] {
-                        // Sample j belongs to blocks j / B and, on a block
-                        // boundary, (j / B) - 1 too.
-                        let row = &data[(k as usize * ny + j as usize) * nx..][..nx];
-                        let bys = block_span(j, nb[1]);
-                        for i in 0..dims[0] {
-                            let v = row[i as usize].f();
-                            for bx in block_span(i, nb[0]) {
-                                for by in bys.clone() {
-                                    let r = &mut slab[(by * nb[0] + bx) as usize];
-                                    r[0] = r[0].min(v);
-                                    r[1] = r[1].max(v);
-                                }
-                            }
-                        }
+                    let slab = &data[k * nx * ny..(k + 1) * nx * ny];
+                    for ((lo, hi), v) in mn.iter_mut().zip(mx.iter_mut()).zip(slab) {
+                        let v = v.f();
+                        *lo = lo.min(v);
+                        *hi = hi.max(v);
                     }
                 }
-                slab
+                let mut out = Vec::with_capacity((nb[0] * nb[1]) as usize);
+                for by in 0..nb[1] as usize {
+                    let (j0, j1) = (by * b, ((by + 1) * b).min(ny - 1));
+                    for bx in 0..nb[0] as usize {
+                        let (i0, i1) = (bx * b, ((bx + 1) * b).min(nx - 1));
+                        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                        for j in j0..=j1 {
+                            let r = j * nx;
+                            for i in i0..=i1 {
+                                lo = lo.min(mn[r + i]);
+                                hi = hi.max(mx[r + i]);
+                            }
+                        }
+                        out.push([lo, hi]);
+                    }
+                }
+                out
             })
             .collect();
         MinMaxBlocks { nb, range }
@@ -67,18 +80,6 @@ impl MinMaxBlocks {
             .map(|&[lo, hi]| !lut.transparent(lo, hi))
             .collect()
     }
-}
-
-/// Blocks `b` that hold sample `i`: `B b <= i <= B b + B`, `b < nb`
-/// (one block, or two on a block boundary).
-fn block_span(i: u64, nb: u64) -> std::ops::Range<u64> {
-    let first = if i >= BLOCK {
-        (i - BLOCK).div_ceil(BLOCK)
-    } else {
-        0
-    };
-    let last = (i / BLOCK).min(nb - 1);
-    first..last + 1
 }
 
 #[cfg(test)]

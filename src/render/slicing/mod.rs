@@ -20,6 +20,12 @@ pub enum Classify {
     /// Look every voxel up into an RGBA8 texture (opacity-weighted colour,
     /// opacity), then interpolate RGBA: what the papers' hardware did.
     Pre,
+    /// Post-classification of sample pairs (pre-integrated, `slice3d`
+    /// only): the transfer function integrated over the scalar's linear run
+    /// between consecutive samples (Engel et al. 2001). Better on label
+    /// volumes with step transfer functions, worse where the field has
+    /// sharp edges within a sample distance (docs/experiments/grids.md).
+    Preint,
 }
 
 /// Compositing order of the slices.

@@ -45,20 +45,34 @@
 //! of them than the donor would have. A receiver merges the cells into its
 //! own unprocessed cells, in its processing order.
 //!
+//! With replicated data ([`NodeRenderer::set_replica`]) the same cells are
+//! given, as ids only ([`super::replica::IdUnit`]); the receiver builds
+//! their records from its own copy of the mesh.
+//!
+//! The sharing structures live in `sharing.rs`, giving and taking cells in
+//! `grant.rs`.
+//!
 //! ## Costs
 //!
 //! Every method that works returns or records [`OpCounts`]; the driver turns
 //! them into simulated seconds with [`super::cost`]. Nothing here reads a
 //! clock, spawns a thread or does I/O.
 
-use std::collections::HashMap;
+mod grant;
+mod sharing;
 
-use super::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+pub use grant::Given;
+use sharing::NodeLevels;
+pub use sharing::{level_depths_counted, termination_depth_counted};
+
 use super::ops::OpCounts;
-use super::pixel_share::{DepthQuant, NodePixelLevels, PixelDepths};
+use super::pixel_share::NodePixelLevels;
+use super::replica::Replica;
 use super::table::{NodeTable, SharedTable, TableError};
-use super::work::{WorkError, WorkUnit};
-use crate::render::cell::bin::{cell_record, CellRecord, Culled};
+use crate::render::cell::bin::CellRecord;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
@@ -202,23 +216,13 @@ pub struct NodeRenderer {
     /// Inclusive pixel range `[x0, x1, y0, y1]` of every cell ever held
     /// (`x0 > x1`: none).
     footprint: [u32; 4],
-}
-
-/// Per-pixel and per-block opacity-level depths for level sharing
-/// ([`super::levels`]).
-#[derive(Debug, Clone)]
-struct NodeLevels {
-    grid: BlockGrid,
-    alphas: Vec<f32>,
-    /// `[pixel * L + l]`, cached, only ever decreasing.
-    pix: Vec<f32>,
-    /// `[block * L + l]`: the block's pixels that reached level `l`, and
-    /// their deepest depth.
-    block: Vec<Option<LevelMask>>,
-    dirty_flag: Vec<bool>,
-    dirty: Vec<u32>,
-    unsent_flag: Vec<bool>,
-    unsent: Vec<u32>,
+    /// Replicated data: the whole mesh; cells given and taken travel as
+    /// ids ([`super::replica`]). `None`: partitioned, cells travel with
+    /// their vertices.
+    replica: Option<Arc<Replica>>,
+    /// Cells skipped by ERT out of order, when a DLB donor tested the cells
+    /// it was about to give (`grant.rs`): processed, not in `records`.
+    pre_skipped: Vec<u32>,
 }
 
 impl NodeRenderer {
@@ -260,148 +264,9 @@ impl NodeRenderer {
             levels: None,
             pixel_levels: None,
             footprint: [u32::MAX, 0, u32::MAX, 0],
+            replica: None,
+            pre_skipped: Vec::new(),
         }
-    }
-
-    /// Turns on per-pixel level sharing ([`super::pixel_share`]; with weak
-    /// sharing and [`NodeErt::pixel_sharing`]): table updates also keep the
-    /// per-pixel level depths, [`NodeRenderer::take_pixel_levels`] gives the
-    /// pixels that changed, with depths coded by `quant`.
-    pub fn enable_pixel_sharing(&mut self, quant: DepthQuant) {
-        let e = self.opts.ert;
-        if !e.pixel_sharing() || self.pixel_levels.is_some() {
-            return;
-        }
-        let (w, h) = (self.view.width, self.view.height);
-        let l = e.share_levels.clamp(1, 16) as usize;
-        self.pixel_levels = Some(NodePixelLevels::new(w, h, e.threshold, l, quant));
-    }
-
-    /// The frame's depth range width (per-pixel sharing's codes), if on.
-    pub fn depth_span(&self) -> Option<f32> {
-        self.pixel_levels.as_ref().map(|p| p.quant.span())
-    }
-
-    /// Image size and level count of per-pixel level sharing, if on.
-    pub fn pixel_share_shape(&self) -> Option<(u32, u32, usize)> {
-        self.pixel_levels
-            .as_ref()
-            .map(|p| (self.view.width, self.view.height, p.levels()))
-    }
-
-    /// Per-pixel level sharing: the pixels whose level depths changed since
-    /// the last call, encoded ([`super::pixel_share::PixelLevels::encode`]);
-    /// packing counted as `shared_entries_merged` (one per code). `None` if
-    /// per-pixel sharing is off.
-    pub fn take_pixel_levels(&mut self) -> Option<(Vec<u8>, OpCounts)> {
-        let (w, h) = (self.view.width, self.view.height);
-        let footprint = self.footprint;
-        let pl = self.pixel_levels.as_mut()?;
-        let (d, packed) = pl.take(w, h, footprint);
-        let ops = OpCounts {
-            shared_entries_merged: packed,
-            ..Default::default()
-        };
-        self.totals.add(&ops);
-        Some((d.encode(), ops))
-    }
-
-    /// Applies the manager's certified per-pixel depths
-    /// ([`super::pixel_share::PixelDepths`]): each pixel's depth becomes the
-    /// min of its own and the certified one, and the pyramid (and table) are
-    /// rebuilt over the pixels that changed. Cost: one `shared_entries_merged`
-    /// per entry received, plus the rebuild.
-    pub fn apply_pixel_depths(&mut self, bytes: &[u8]) -> Result<OpCounts, TableError> {
-        let (w, h) = (self.view.width, self.view.height);
-        let Some(pl) = self.pixel_levels.as_ref() else {
-            return Err(TableError::Length(bytes.len()));
-        };
-        let d = PixelDepths::decode(bytes, w, h)?;
-        let mut ops = OpCounts {
-            shared_entries_merged: d.pixels.len() as u64,
-            ..Default::default()
-        };
-        for &(p, c) in &d.pixels {
-            let z = pl.quant.value(c);
-            let p = p as usize;
-            if z < self.depth[p] {
-                self.depth[p] = z;
-                let (x, y) = (p as u32 % w, p as u32 / w);
-                self.table.mark(x, y);
-                if let Some(py) = self.pyramid.as_mut() {
-                    py.mark(x, y);
-                }
-            }
-        }
-        self.table.rebuild(&self.depth, &mut ops);
-        if let Some(py) = self.pyramid.as_mut() {
-            py.rebuild(&self.depth);
-        }
-        self.totals.add(&ops);
-        Ok(ops)
-    }
-
-    /// Turns on level sharing (with weak sharing and
-    /// [`NodeErt::level_sharing`]): from now on table updates also keep
-    /// per-pixel and per-block opacity-level depths, and
-    /// [`NodeRenderer::take_level_delta`] gives the blocks that changed.
-    /// Call before the first step.
-    pub fn enable_level_sharing(&mut self) {
-        let e = self.opts.ert;
-        if !e.level_sharing() || self.levels.is_some() {
-            return;
-        }
-        let (w, h) = (self.view.width, self.view.height);
-        let grid = BlockGrid::new(w, h, e.divisions, e.share_sub as u32);
-        let l = e.share_levels.clamp(1, 16) as usize;
-        self.levels = Some(NodeLevels {
-            grid,
-            alphas: level_alphas(e.threshold, l),
-            pix: vec![f32::INFINITY; (w * h) as usize * l],
-            block: vec![None; grid.len() * l],
-            dirty_flag: vec![false; grid.len()],
-            dirty: Vec::new(),
-            unsent_flag: vec![false; grid.len()],
-            unsent: Vec::new(),
-        });
-    }
-
-    /// The block grid and level count of level sharing, if on.
-    pub fn level_grid(&self) -> Option<(BlockGrid, usize)> {
-        self.levels.as_ref().map(|l| (l.grid, l.alphas.len()))
-    }
-
-    /// Level sharing: the blocks whose level masks changed since the last
-    /// call, encoded ([`LevelDelta::encode`]); packing counted as
-    /// `shared_entries_merged` (one per mask). `None` if level sharing is off.
-    pub fn take_level_delta(&mut self) -> Option<(Vec<u8>, OpCounts)> {
-        let lv = self.levels.as_mut()?;
-        let l = lv.alphas.len();
-        let mut ids = std::mem::take(&mut lv.unsent);
-        ids.sort_unstable();
-        let (nbx, nby) = lv.grid.dims();
-        let blocks: Vec<(u32, Vec<Option<LevelMask>>)> = ids
-            .iter()
-            .map(|&b| {
-                lv.unsent_flag[b as usize] = false;
-                (b, lv.block[b as usize * l..(b as usize + 1) * l].to_vec())
-            })
-            .collect();
-        let ops = OpCounts {
-            shared_entries_merged: blocks
-                .iter()
-                .map(|(_, v)| v.iter().flatten().count() as u64)
-                .sum(),
-            ..Default::default()
-        };
-        self.totals.add(&ops);
-        let d = LevelDelta {
-            nbx: nbx as u16,
-            nby: nby as u16,
-            levels: l as u8,
-            blocks,
-        };
-        Some((d.encode(&lv.grid), ops))
     }
 
     /// The options.
@@ -412,84 +277,6 @@ impl NodeRenderer {
     /// The view.
     pub fn view(&self) -> &View {
         &self.view
-    }
-
-    /// Adds a unit of cells (initial placement); validates it first.
-    pub fn add_work(&mut self, unit: &WorkUnit) -> Result<OpCounts, WorkError> {
-        unit.validate()?;
-        let mut ops = OpCounts::default();
-        let s: Vec<f64> = unit.scalars.iter().map(|&s| s as f64).collect();
-        let pv = ProjectedVertices::new_sequential(&self.view, &unit.positions, &s);
-        ops.vertices_projected = unit.vertex_ids.len() as u64;
-        ops.cells_received = unit.len() as u64;
-        for (k, &g) in unit.vertex_ids.iter().enumerate() {
-            self.vertices
-                .insert(g, (unit.positions[k], unit.scalars[k]));
-        }
-        for c in &unit.cells {
-            match cell_record(c.id, c.v, &pv, &self.tf, self.full) {
-                Ok(mut rec) => {
-                    rec.ids = c.v.map(|l| unit.vertex_ids[l as usize]);
-                    let f = &mut self.footprint;
-                    f[0] = f[0].min(rec.range[0]);
-                    f[1] = f[1].max(rec.range[1]);
-                    f[2] = f[2].min(rec.range[2]);
-                    f[3] = f[3].max(rec.range[3]);
-                    self.records.push(rec);
-                }
-                Err(Culled::Empty | Culled::Offscreen | Culled::NoPixelCentre) => {
-                    ops.cells_culled += 1
-                }
-            }
-        }
-        let order = self.opts.cell_order;
-        let rest = &mut self.records[self.next..];
-        match order {
-            CellOrder::FrontToBack => rest.sort_unstable_by_key(|c| c.order_key()),
-            CellOrder::Stored => rest.sort_unstable_by_key(|c| c.cell),
-        }
-        self.totals.add(&ops);
-        Ok(ops)
-    }
-
-    /// Takes a unit given by another node (DLB): [`NodeRenderer::add_work`],
-    /// with the unpacking counted in `work_cells_moved`.
-    pub fn take_work(&mut self, unit: &WorkUnit) -> Result<OpCounts, WorkError> {
-        let mut ops = self.add_work(unit)?;
-        ops.work_cells_moved = unit.len() as u64;
-        self.totals.work_cells_moved += ops.work_cells_moved;
-        Ok(ops)
-    }
-
-    /// Gives away the last `floor(remaining * fraction)` unprocessed cells
-    /// (see the module docs). The packing cost is `work_cells_moved =
-    /// unit.len()`, also added to [`NodeRenderer::totals`].
-    pub fn give_work(&mut self, fraction: f64) -> WorkUnit {
-        let rem = self.remaining();
-        let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
-        let given = self.records.split_off(self.records.len() - k);
-        self.pack(&given)
-    }
-
-    /// Packs cells taken out of the queue into a work unit with their
-    /// vertices, counting them in `work_cells_moved`.
-    fn pack(&mut self, given: &[CellRecord]) -> WorkUnit {
-        let vertices = &self.vertices;
-        let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| vertices[&g]);
-        self.totals.work_cells_moved += given.len() as u64;
-        unit
-    }
-
-    /// Gives away the **first** `floor(remaining * fraction)` unprocessed
-    /// cells (the nearest, in front-to-back order): front-first help, where a
-    /// node whose own cells lie behind everybody else's scans the front of
-    /// the volume first, so that termination information exists before the
-    /// cells behind it are reached. Counted like [`NodeRenderer::give_work`].
-    pub fn give_front_work(&mut self, fraction: f64) -> WorkUnit {
-        let rem = self.remaining();
-        let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
-        let given: Vec<CellRecord> = self.records.drain(self.next..self.next + k).collect();
-        self.pack(&given)
     }
 
     /// Nearest depth of the next unprocessed cell (`+inf`: none).
@@ -518,7 +305,7 @@ impl NodeRenderer {
 
     /// Cells processed so far (tested, skipped or scanned).
     pub fn processed(&self) -> usize {
-        self.next
+        self.next + self.pre_skipped.len()
     }
 
     /// Everything counted so far.
@@ -715,9 +502,12 @@ impl NodeRenderer {
     }
 
     /// Global ids of the processed cells (tested, skipped or scanned), in
-    /// processing order.
+    /// processing order, then those a DLB donor skipped before giving.
     pub fn processed_cells(&self) -> impl Iterator<Item = u32> + '_ {
-        self.records[..self.next].iter().map(|c| c.cell)
+        self.records[..self.next]
+            .iter()
+            .map(|c| c.cell)
+            .chain(self.pre_skipped.iter().copied())
     }
 
     /// Runs the node to completion alone: steps, and updates at every update
@@ -732,117 +522,5 @@ impl NodeRenderer {
             }
         }
         ops
-    }
-}
-
-impl NodeLevels {
-    /// Recomputes the dirty blocks' level depths (max over their pixels);
-    /// blocks whose values changed are queued for the next share.
-    fn rebuild(&mut self, w: u32, ops: &mut OpCounts) {
-        let l = self.alphas.len();
-        for &b in &self.dirty {
-            let b = b as usize;
-            self.dirty_flag[b] = false;
-            let (x0, x1, y0, y1) = self.grid.rect(b);
-            let words = self.grid.words();
-            let mut m: Vec<LevelMask> = (0..l)
-                .map(|_| LevelMask {
-                    bits: vec![0; words],
-                    depth: f32::NEG_INFINITY,
-                })
-                .collect();
-            let mut i = 0;
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let p = (y * w + x) as usize;
-                    for (mv, &v) in m.iter_mut().zip(&self.pix[p * l..(p + 1) * l]) {
-                        if v.is_finite() {
-                            mv.bits[i / 64] |= 1 << (i % 64);
-                            mv.depth = mv.depth.max(v);
-                        }
-                    }
-                    i += 1;
-                }
-            }
-            ops.table_entries_updated += 1;
-            ops.table_pixels_read += ((x1 - x0) * (y1 - y0)) as u64 * l as u64;
-            let new: Vec<Option<LevelMask>> = m
-                .into_iter()
-                .map(|m| m.depth.is_finite().then_some(m))
-                .collect();
-            let old = &mut self.block[b * l..(b + 1) * l];
-            if old != &new[..] {
-                old.clone_from_slice(&new);
-                if !self.unsent_flag[b] {
-                    self.unsent_flag[b] = true;
-                    self.unsent.push(b as u32);
-                }
-            }
-        }
-        self.dirty.clear();
-    }
-}
-
-/// Walks `list` front to back until the last of `alphas` is reached; per
-/// level, lowers `cached[l]` to the `z_back` of the segment where the
-/// accumulated opacity first reaches `alphas[l]`. Returns the entries
-/// visited and whether any cached value changed.
-pub fn level_depths_counted(list: &[Segment], alphas: &[f32], cached: &mut [f32]) -> (usize, bool) {
-    let mut acc = 0.0f32;
-    let mut j = 0;
-    let mut changed = false;
-    let mut walked = list.len();
-    for (k, s) in list.iter().enumerate() {
-        acc += (1.0 - acc) * s.rgba.a;
-        while j < alphas.len() && acc >= alphas[j] {
-            if s.z_back < cached[j] {
-                cached[j] = s.z_back;
-                changed = true;
-            }
-            j += 1;
-        }
-        if j == alphas.len() {
-            walked = k + 1;
-            break;
-        }
-    }
-    (walked, changed)
-}
-
-/// [`crate::render::cell::ert::termination_depth`], and the number of list
-/// entries visited.
-pub fn termination_depth_counted(list: &[Segment], threshold: f32) -> (f32, usize) {
-    let mut acc = 0.0f32;
-    for (k, s) in list.iter().enumerate() {
-        acc += (1.0 - acc) * s.rgba.a;
-        if acc >= threshold {
-            return (s.z_back, k + 1);
-        }
-    }
-    (f32::INFINITY, list.len())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::render::cell::ert::termination_depth;
-    use crate::render::cell::segment::Rgba;
-
-    #[test]
-    fn counted_depth_agrees() {
-        let seg = |zf: f32, a: f32| Segment {
-            z_front: zf,
-            z_back: zf + 1.0,
-            rgba: Rgba { rgb: [a; 3], a },
-        };
-        let l = [seg(0.0, 0.5), seg(2.0, 0.5), seg(4.0, 0.8)];
-        for thr in [0.3, 0.6, 0.9, 0.99] {
-            assert_eq!(
-                termination_depth_counted(&l, thr).0,
-                termination_depth(&l, thr)
-            );
-        }
-        assert_eq!(termination_depth_counted(&l, 0.6), (3.0, 2));
-        assert_eq!(termination_depth_counted(&l, 0.99).1, 3);
     }
 }

@@ -1,0 +1,203 @@
+//! Helpers of the transport tests (`tests/transport.rs`,
+//! `tests/transport_failures.rs`): scene configs, worker processes, the CLI
+//! with a deadline, runs on threads and on worker processes.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use pvrsim::cli::{Cli, Command as Cmd};
+use pvrsim::cluster::remote::{Coordinator, LocalWorkers};
+use pvrsim::cluster::ClusterConfig;
+use pvrsim::net::tcp::{TcpOptions, Token};
+use pvrsim::render::RenderInput;
+
+pub const EXE: &str = env!("CARGO_BIN_EXE_pvrsim");
+
+pub fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// The config and input of `pvrsim cluster SCENE ARGS...`.
+pub fn config(scene: &Path, args: &[&str]) -> (RenderInput, ClusterConfig) {
+    let mut v = vec![
+        "pvrsim",
+        "cluster",
+        scene.to_str().unwrap(),
+        "--no-baselines",
+    ];
+    v.extend_from_slice(args);
+    let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
+        unreachable!()
+    };
+    let (input, _) = RenderInput::load(&a.scene).unwrap();
+    let cfg = pvrsim::cli::cluster::config(&a).unwrap();
+    (input, cfg)
+}
+
+pub fn bits(img: &pvrsim::image::Image) -> Vec<u32> {
+    img.pixels
+        .iter()
+        .flat_map(|p| p.iter().map(|c| c.to_bits()))
+        .collect()
+}
+
+/// A `pvrsim worker` child whose stderr lines are forwarded to a channel.
+pub struct WorkerProc {
+    pub child: Child,
+    pub addr: String,
+    pub lines: crossbeam_channel::Receiver<String>,
+}
+
+impl WorkerProc {
+    pub fn start(token: Option<&Path>, extra: &[&str]) -> WorkerProc {
+        Self::start_with(token, extra, true)
+    }
+
+    /// `once`: serve one session (`--once`), else serve until killed.
+    pub fn start_with(token: Option<&Path>, extra: &[&str], once: bool) -> WorkerProc {
+        let mut c = Command::new(EXE);
+        c.args([
+            "worker",
+            "--listen",
+            "127.0.0.1:0",
+            "--accept-timeout",
+            "60",
+        ]);
+        if once {
+            c.arg("--once");
+        }
+        if let Some(t) = token {
+            c.arg("--token-file").arg(t);
+        }
+        let mut child = c
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut addr = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut addr)
+            .unwrap();
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let err = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for l in BufReader::new(err).lines().map_while(Result::ok) {
+                let _ = tx.send(l);
+            }
+        });
+        WorkerProc {
+            child,
+            addr: addr.trim().to_string(),
+            lines: rx,
+        }
+    }
+
+    pub fn wait_line(&self, needle: &str, within: Duration) -> bool {
+        let until = Instant::now() + within;
+        while let Ok(l) = self
+            .lines
+            .recv_timeout(until.saturating_duration_since(Instant::now()))
+        {
+            if l.contains(needle) {
+                return true;
+            }
+        }
+        false
+    }
+
+    pub fn signal(&self, sig: &str) {
+        let ok = Command::new("kill")
+            .args([sig, &self.child.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "kill {sig} failed");
+    }
+}
+
+impl Drop for WorkerProc {
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-CONT", &self.child.id().to_string()])
+            .status();
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+pub fn token_file(dir: &Path, name: &str) -> PathBuf {
+    let p = dir.join(name);
+    Token::random().unwrap().save(&p).unwrap();
+    p
+}
+
+/// Runs `pvrsim cluster` as a child with a hard deadline; returns
+/// (success, stderr, seconds).
+pub fn cluster_cli(args: &[&str], deadline: Duration) -> (bool, String, f64) {
+    let t = Instant::now();
+    let mut child = Command::new(EXE)
+        .arg("cluster")
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err.read_to_string(&mut s);
+        s
+    });
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            let s = reader.join().unwrap();
+            return (st.success(), s, t.elapsed().as_secs_f64());
+        }
+        if t.elapsed() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("pvrsim cluster {args:?} hung past {deadline:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The frame on `n` worker processes (loopback, fresh token).
+pub fn on_processes(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::ClusterOutcome {
+    let n = cfg.phase1.nodes;
+    let workers = LocalWorkers::spawn(Path::new(EXE), n, &[], Duration::from_secs(30)).unwrap();
+    Coordinator {
+        workers: workers.addrs.clone(),
+        token: workers.token().clone(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+        reassign: false,
+    }
+    .run(input, cfg)
+    .unwrap()
+    .0
+}
+
+/// The same frame on the wall-clock threads.
+pub fn on_threads(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::ClusterOutcome {
+    let mut wall = cfg.clone();
+    wall.phase1.clock = pvrsim::cluster::ClockKind::Wall;
+    pvrsim::cluster::run(input, &wall).unwrap()
+}
+
+/// Largest channel difference, in 1/255 units.
+pub fn max_diff_255(a: &pvrsim::image::Image, b: &pvrsim::image::Image) -> f64 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y).abs() as f64))
+        .fold(0.0, f64::max)
+        * 255.0
+}
