@@ -143,11 +143,7 @@ pub fn render_prepared(
         classify: Some(opts.classify),
         order: Some(opts.order),
         ert_threshold: opts.ert as f64,
-        ert_error_bound: if opts.ert < 1.0 && opts.order == Order::FrontToBack {
-            (1.0 - opts.ert as f64) * tf.max_radiance()
-        } else {
-            0.0
-        },
+        ert_error_bound: SliceStats::ert_bound(opts.ert, opts.order, tf),
         threads: rayon::current_num_threads(),
         blocks: prep.blocks.range.len() as u64,
         ..Default::default()

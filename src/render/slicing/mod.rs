@@ -97,6 +97,17 @@ pub struct SliceStats {
 }
 
 impl SliceStats {
+    /// [`SliceStats::ert_error_bound`] of a slicing render: `(1 - threshold)
+    /// x max radiance` when front-to-back compositing terminates early at
+    /// `ert < 1`, else 0 (back to front never terminates).
+    pub fn ert_bound(ert: f32, order: Order, tf: &crate::scene::TransferFunction) -> f64 {
+        if ert < 1.0 && order == Order::FrontToBack {
+            (1.0 - ert as f64) * tf.max_radiance()
+        } else {
+            0.0
+        }
+    }
+
     /// Adds the per-row counters of `o`.
     pub fn add_counts(&mut self, o: &SampleCounts) {
         self.samples_taken += o.taken;
