@@ -136,8 +136,7 @@ fn mesh_field_grid_renders_like_the_mesh_and_scene_fits_grids() {
         out.as_os_str(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mesh_scene =
-        pvrsim::scene::Scene::load(&data.join("aorta-small-view-b.toml")).unwrap();
+    let mesh_scene = pvrsim::scene::Scene::load(&data.join("aorta-small-view-b.toml")).unwrap();
     let grid_scene = pvrsim::scene::Scene::load(&out.with_extension("toml")).unwrap();
     assert_eq!(grid_scene.camera, mesh_scene.camera);
     assert_eq!(grid_scene.transfer, mesh_scene.transfer);

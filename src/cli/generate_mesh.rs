@@ -66,7 +66,11 @@ pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
                 "--field: {} has {} point-data fields ({}); name one",
                 mesh_path.display(),
                 fields.len(),
-                fields.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(", ")
+                fields
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         },
     };
@@ -75,7 +79,10 @@ pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
         .with_context(|| format!("{}", mesh_path.display()))?;
     let lo = values.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let range = scene.as_ref().and_then(|s| s.data.range).unwrap_or([lo, hi]);
+    let range = scene
+        .as_ref()
+        .and_then(|s| s.data.range)
+        .unwrap_or([lo, hi]);
     let dims = grid_dims(&a.size, &mesh.bounds())?;
     let vol = sample_mesh_field(&mesh, &field, &values, dims, range[0], mesh_path)?;
     let gen_s = t.elapsed().as_secs_f64();
@@ -150,4 +157,3 @@ mod tests {
         assert!(grid_dims("1", &b).is_err());
     }
 }
-

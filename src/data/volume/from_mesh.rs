@@ -51,11 +51,7 @@ pub fn sample_mesh_field(
         return Err(Error::data(
             source,
             "field",
-            format!(
-                "{} values for {} points",
-                values.len(),
-                mesh.points.len()
-            ),
+            format!("{} values for {} points", values.len(), mesh.points.len()),
         ));
     }
     if dims.iter().any(|&d| d < 2) {
@@ -72,7 +68,7 @@ pub fn sample_mesh_field(
     let mut h = [0.0; 3];
     for a in 0..3 {
         let ext = bmax[a] - bmin[a];
-        if !(ext > 0.0 && ext.is_finite()) {
+        if ext.is_nan() || ext <= 0.0 || ext.is_infinite() {
             return Err(Error::data(
                 source,
                 "points",
@@ -174,7 +170,8 @@ fn inverse_edges(p: &[[f64; 3]; 4]) -> Option<[[f64; 3]; 3]> {
         .iter()
         .map(|v| dot(*v, *v).sqrt())
         .fold(0.0, f64::max);
-    if !(det.abs() > 1e-12 * scale * scale * scale) {
+    // `<=` is false for a NaN det too: written so NaN counts as degenerate.
+    if det.is_nan() || det.abs() <= 1e-12 * scale * scale * scale {
         return None;
     }
     Some([bc, ca, ab].map(|r| r.map(|x| x / det)))
@@ -252,14 +249,22 @@ mod tests {
         let v = sample_mesh_field(&m, "lin", &vals, [3, 3, 3], 0.0, Path::new("t")).unwrap();
         assert!((v.get(1, 1, 1) as f64 - (1.0 + 1.0 - 0.25 + 1.5)).abs() < 1e-5);
         let flat = TetMesh {
-            points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]],
+            points: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+            ],
             tets: vec![[0, 1, 2, 3]],
             fields: vec![],
         };
         let e = sample_mesh_field(&flat, "f", &[0.0; 4], [3, 3, 3], 0.0, Path::new("flat.vtk"))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("flat.vtk") && e.contains("flat along axis 2"), "{e}");
+        assert!(
+            e.contains("flat.vtk") && e.contains("flat along axis 2"),
+            "{e}"
+        );
         let e = sample_mesh_field(&m, "f", &[0.0; 3], [3, 3, 3], 0.0, Path::new("m.vtk"))
             .unwrap_err()
             .to_string();
