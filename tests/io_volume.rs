@@ -112,6 +112,95 @@ fn generated_volumes_and_scenes_load() {
     assert!(String::from_utf8_lossy(&st.stderr).contains(".nrrd"));
 }
 
+#[test]
+fn mesh_field_grid_renders_like_the_mesh_and_scene_fits_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let pv = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_pvrsim"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    // The aorta-small scene's field on a grid: the new scene keeps the
+    // camera, the transfer function and the value range.
+    let out = dir.path().join("ab.nrrd");
+    let o = pv(&[
+        "generate".as_ref(),
+        "mesh-field".as_ref(),
+        "--input".as_ref(),
+        data.join("aorta-small-view-b.toml").as_os_str(),
+        "--size".as_ref(),
+        "96".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mesh_scene = pvrsim::scene::Scene::load(&data.join("aorta-small-view-b.toml")).unwrap();
+    let grid_scene = pvrsim::scene::Scene::load(&out.with_extension("toml")).unwrap();
+    assert_eq!(grid_scene.camera, mesh_scene.camera);
+    assert_eq!(grid_scene.transfer, mesh_scene.transfer);
+    let v = read_volume(&grid_scene.data.path, &grid_scene.data.field).unwrap();
+    assert_eq!(v.dims.iter().max(), Some(&96));
+    let mesh = pvrsim::data::io::read_mesh(&mesh_scene.data.path).unwrap();
+    let s = mesh.scalar("speed").unwrap();
+    let hi = s.iter().cloned().fold(f64::MIN, f64::max);
+    assert_eq!(grid_scene.data.range, Some([0.0, hi]));
+    // Every sample lies within the mesh field's range (barycentric
+    // interpolation is a convex combination), and most of the box is inside.
+    let r = v.value_range();
+    assert!(r[0] >= 0.0 && r[1] <= hi + 1e-6, "{r:?}");
+    let o = pv(&[
+        "render".as_ref(),
+        out.with_extension("toml").as_os_str(),
+        "-o".as_ref(),
+        dir.path().join("ab.png").as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Bad input: a grid scene is not a mesh; --field on another generator.
+    let o = pv(&[
+        "generate".as_ref(),
+        "mesh-field".as_ref(),
+        "--input".as_ref(),
+        data.join("lobster.fld").as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("lobster.fld"));
+    let o = pv(&[
+        "generate".as_ref(),
+        "hydrogen".as_ref(),
+        "--field".as_ref(),
+        "x".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--field"));
+
+    // `pvrsim scene` on a grid: no --field needed, a TF clear at the minimum.
+    let toml = dir.path().join("lobster.toml");
+    let o = pv(&[
+        "scene".as_ref(),
+        data.join("lobster.fld").as_os_str(),
+        "-o".as_ref(),
+        toml.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sc = pvrsim::scene::Scene::load(&toml).unwrap();
+    assert_eq!(sc.data.field, "intensity");
+    assert_eq!(sc.transfer.points[0].opacity, 0.0);
+    assert_eq!(sc.data.range, Some([0.0, 255.0]));
+    let o = pv(&[
+        "render".as_ref(),
+        toml.as_os_str(),
+        "-o".as_ref(),
+        dir.path().join("l.png").as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 fn nrrd(body: &str, data: &[u8]) -> Vec<u8> {
     let mut v = format!("NRRD0004\n{body}\n\n").into_bytes();
     v.extend_from_slice(data);

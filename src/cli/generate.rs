@@ -22,6 +22,11 @@ pub enum Kind {
     MarschnerLobb,
     /// An existing grid (--input) resampled to --size over the same box.
     Resample,
+    /// A tetrahedral mesh's field sampled on a grid over its bounding box
+    /// (--input: a mesh scene .toml, whose camera and transfer function the
+    /// new scene keeps, or a mesh with --field); --size N = samples along
+    /// the longest axis.
+    MeshField,
     /// Stand-in for the paper's Engine, 256x256x128 u8: --input resampled
     /// (e.g. ../shared/data/mni152_t1.nii.gz), the paper's TF (opacity = value).
     PaperEngine,
@@ -74,6 +79,10 @@ pub struct GenerateArgs {
     /// Resampling filter.
     #[arg(long, value_enum, default_value_t = FilterArg::Trilinear)]
     pub filter: FilterArg,
+    /// Field of a mesh given as --input to `mesh-field` (default: the
+    /// scene's field, or the mesh's only field).
+    #[arg(long)]
+    pub field: Option<String>,
     /// Compress the samples with gzip (NRRD `encoding: gzip`).
     #[arg(long)]
     pub gzip: bool,
@@ -102,9 +111,15 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
     if let Some(size) = a.kind.paper_size() {
         return paper(&a, size);
     }
+    if a.field.is_some() && a.kind != Kind::MeshField {
+        bail!("--field is only used by `generate mesh-field`");
+    }
+    if a.kind == Kind::MeshField {
+        return super::generate_mesh::run(&a, &file_name(&a.output)?);
+    }
     let size = parse_size(&a.size)?;
     if a.input.is_some() && a.kind != Kind::Resample {
-        bail!("--input is only used by `generate resample`");
+        bail!("--input is only used by `generate resample`, `mesh-field` and `paper-*`");
     }
     let cube = |what: &str| -> anyhow::Result<u64> {
         if size[0] == size[1] && size[1] == size[2] {
@@ -156,8 +171,12 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
             );
             (v, s, c)
         }
-        Kind::PaperEngine | Kind::PaperBonsai | Kind::PaperChest | Kind::PaperTree => {
-            unreachable!("handled by paper() above")
+        Kind::PaperEngine
+        | Kind::PaperBonsai
+        | Kind::PaperChest
+        | Kind::PaperTree
+        | Kind::MeshField => {
+            unreachable!("handled above")
         }
     };
     let gen_s = t.elapsed().as_secs_f64();
@@ -186,7 +205,7 @@ fn file_name(p: &Path) -> anyhow::Result<String> {
 
 /// A generic scene for a resampled grid: a grey-to-white ramp whose opacity
 /// grows with the value, clear below 10 % of the range.
-fn ramp_scene(name: &str, v: &Volume, input: &Path) -> String {
+pub(super) fn ramp_scene(name: &str, v: &Volume, input: &Path) -> String {
     let rows = [
         [0.0, 0.0, 0.0, 0.0, 0.0],
         [0.1, 0.3, 0.3, 0.4, 0.0],

@@ -24,6 +24,7 @@ pub mod compare;
 pub mod demo;
 mod demo_cluster;
 pub mod generate;
+pub mod generate_mesh;
 pub mod info;
 pub mod memory;
 pub mod output;

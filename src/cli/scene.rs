@@ -15,8 +15,9 @@
 //! `unit_distance` = diagonal / 50.
 //!
 //! Data sources plug in through [`SceneSource`] (bounds, field names and
-//! range): tetrahedral meshes now; a regular-grid reader adds one arm to
-//! [`load_source`] (by extension) and an `impl SceneSource for Volume`.
+//! range): tetrahedral meshes and regular grids. A grid's transfer function
+//! is clear at the range minimum (a scan's air, a skull-stripped template's
+//! zeros), so the box does not render as fog.
 
 use std::path::{Component, Path, PathBuf};
 
@@ -38,6 +39,64 @@ pub trait SceneSource {
     fn components(&self, field: &str) -> usize;
     /// What the data is, for the scene's comment ("12936 tetrahedra").
     fn describe(&self) -> String;
+    /// The fields a scene may name.
+    fn field_names(&self) -> Vec<String>;
+    /// Transfer-function rows `[s_norm, r, g, b, opacity]` and the comment
+    /// line saying what they do. Default: ParaView's Cool to Warm colours,
+    /// opacity 0.01 -> 0.05 -> 0.3.
+    fn transfer(&self) -> (Vec<[f64; 5]>, &'static str) {
+        (
+            vec![
+                [0.0, 0.2300, 0.2990, 0.7540, 0.01],
+                [0.5, 0.8650, 0.8650, 0.8650, 0.05],
+                [1.0, 0.7060, 0.0160, 0.1500, 0.30],
+            ],
+            "opacity 0.01 -> 0.05 -> 0.3",
+        )
+    }
+}
+
+impl SceneSource for crate::data::Volume {
+    fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        crate::data::Volume::bounds(self)
+    }
+    fn field_range(&self, field: &str) -> anyhow::Result<[f64; 2]> {
+        anyhow::ensure!(
+            field == self.field,
+            "the grid's scalar is \"{}\", not \"{field}\"",
+            self.field
+        );
+        Ok(self.value_range())
+    }
+    fn components(&self, _field: &str) -> usize {
+        1
+    }
+    fn describe(&self) -> String {
+        format!(
+            "regular grid, {} x {} x {} voxels of {}, spacing ({}, {}, {})",
+            self.dims[0],
+            self.dims[1],
+            self.dims[2],
+            self.voxels.voxel_type().name(),
+            self.spacing[0],
+            self.spacing[1],
+            self.spacing[2]
+        )
+    }
+    fn field_names(&self) -> Vec<String> {
+        vec![self.field.clone()]
+    }
+    fn transfer(&self) -> (Vec<[f64; 5]>, &'static str) {
+        (
+            vec![
+                [0.0, 0.2300, 0.2990, 0.7540, 0.0],
+                [0.1, 0.2300, 0.2990, 0.7540, 0.0],
+                [0.5, 0.8650, 0.8650, 0.8650, 0.05],
+                [1.0, 0.7060, 0.0160, 0.1500, 0.30],
+            ],
+            "opacity 0 up to 10 % of the range (the grid's background), then 0 -> 0.05 -> 0.3",
+        )
+    }
 }
 
 impl SceneSource for crate::data::TetMesh {
@@ -67,10 +126,14 @@ impl SceneSource for crate::data::TetMesh {
             self.points.len()
         )
     }
+    fn field_names(&self) -> Vec<String> {
+        self.fields.iter().map(|f| f.name.clone()).collect()
+    }
 }
 
-/// Reads the data file named by `path`, by extension.
-pub fn load_source(path: &Path) -> anyhow::Result<Box<dyn SceneSource>> {
+/// Reads the data file named by `path`, by extension; `field` selects the
+/// array of a grid format that holds several (VTI).
+pub fn load_source(path: &Path, field: Option<&str>) -> anyhow::Result<Box<dyn SceneSource>> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_lowercase())
@@ -81,10 +144,15 @@ pub fn load_source(path: &Path) -> anyhow::Result<Box<dyn SceneSource>> {
                 .with_context(|| format!("cannot read {}", path.display()))?;
             Ok(Box::new(mesh))
         }
-        // Extension point: regular grids (.nhdr, .nii, .vti) once a reader exists.
+        _ if crate::data::io::volume::volume_format(path).is_some() => {
+            let v = crate::data::io::read_volume(path, field.unwrap_or(""))?;
+            Ok(Box::new(v))
+        }
         _ => anyhow::bail!(
-            "{}: pvrsim scene reads tetrahedral meshes (.vtk, .vtu, .inp); .{ext} is not supported",
-            path.display()
+            "{}: pvrsim scene reads tetrahedral meshes (.vtk, .vtu, .inp) and regular grids ({}); \
+             .{ext} is not supported",
+            path.display(),
+            crate::data::io::volume::SUPPORTED
         ),
     }
 }
@@ -92,14 +160,17 @@ pub fn load_source(path: &Path) -> anyhow::Result<Box<dyn SceneSource>> {
 /// Options of `pvrsim scene`.
 #[derive(Debug, Clone, Args)]
 pub struct SceneArgs {
-    /// Data file: a tetrahedral mesh (.vtk, .vtu, .inp).
+    /// Data file: a tetrahedral mesh (.vtk, .vtu, .inp) or a regular grid
+    /// (.nhdr, .nrrd, .nii, .nii.gz, .vti, .fld).
     pub data: PathBuf,
     /// Output scene (TOML). Not overwritten without --force.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Point-data field to render (a vector field renders as its magnitude).
+    /// May be left out when the data has one field (every grid but a VTI
+    /// with several arrays).
     #[arg(long)]
-    pub field: String,
+    pub field: Option<String>,
     /// Where the camera is: a side (`+x`, `-x`, `+y`, `-y`, `+z`, `-z`: the
     /// camera on that side, looking at the centre) or `AZ,EL` in degrees
     /// (azimuth about +z from the -y side towards +x, elevation towards +z).
@@ -328,7 +399,18 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
         "{}: the data has no finite bounds (no points?)",
         a.data.display()
     );
-    let range = src.field_range(&a.field)?;
+    let names = src.field_names();
+    let field = match (&a.field, names.as_slice()) {
+        (Some(f), _) => f.clone(),
+        (None, [only]) => only.clone(),
+        (None, _) => anyhow::bail!(
+            "--field: {} has {} fields; name one of: {}",
+            a.data.display(),
+            names.len(),
+            names.join(", ")
+        ),
+    };
+    let range = src.field_range(&field)?;
     let diag = (DVec3::from(hi) - DVec3::from(lo)).length();
     anyhow::ensure!(
         diag > 0.0,
@@ -347,12 +429,12 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
     } else {
         relative_to(&a.data, &out_dir)
     };
-    let comps = src.components(&a.field);
+    let comps = src.components(&field);
     let mut t = String::new();
     t.push_str(&format!(
         "# Written by `pvrsim scene {} --field {} --view {} --size {}x{}{}`.\n",
         a.data.display(),
-        a.field,
+        field,
         a.view,
         w,
         h,
@@ -374,13 +456,14 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
             "orthographic height = 1.1 x the projected box extent (5 % margin on each side); eye two diagonals away"
         }
     ));
+    let (rows, tf_about) = src.transfer();
     t.push_str("# Transfer function: ParaView's Cool to Warm colours over the field's range;\n");
-    t.push_str(
-        "# opacity 0.01 -> 0.05 -> 0.3 per unit_distance = diagonal / 50. Edit to taste.\n\n",
-    );
+    t.push_str(&format!(
+        "# {tf_about} per unit_distance = diagonal / 50. Edit to taste.\n\n"
+    ));
     t.push_str("[data]\n");
     t.push_str(&format!("path  = {:?}\n", data_path.to_string_lossy()));
-    t.push_str(&format!("field = {:?}", a.field));
+    t.push_str(&format!("field = {field:?}"));
     if comps > 1 {
         t.push_str(&format!(
             "   # {comps} components: rendered as the magnitude |v|"
@@ -407,9 +490,12 @@ pub fn scene_text(a: &SceneArgs, src: &dyn SceneSource) -> anyhow::Result<String
     t.push_str("[transfer]\n");
     t.push_str(&format!("unit_distance = {:.6}\n", diag / 50.0));
     t.push_str("points = [\n");
-    t.push_str("  [0.0, 0.2300, 0.2990, 0.7540, 0.01],\n");
-    t.push_str("  [0.5, 0.8650, 0.8650, 0.8650, 0.05],\n");
-    t.push_str("  [1.0, 0.7060, 0.0160, 0.1500, 0.30],\n");
+    for r in rows {
+        t.push_str(&format!(
+            "  [{:.4}, {:.4}, {:.4}, {:.4}, {:.4}],\n",
+            r[0], r[1], r[2], r[3], r[4]
+        ));
+    }
     t.push_str("]\n");
     ensure_finite_toml(&t, &a.output)?;
     Ok(t)
@@ -424,7 +510,7 @@ pub fn run(a: SceneArgs) -> anyhow::Result<()> {
         a.output.display()
     );
     prepare_output("-o", &a.output, OutputKind::Toml)?;
-    let src = load_source(&a.data)?;
+    let src = load_source(&a.data, a.field.as_deref())?;
     let text = scene_text(&a, src.as_ref())?;
     // The scene must parse as the renderers will read it.
     crate::scene::Scene::parse(&text, &a.output).with_context(|| {

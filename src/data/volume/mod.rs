@@ -10,6 +10,7 @@
 //! `[origin, origin + (dims - 1) * spacing]` and nowhere else. Index order
 //! is x fastest: `idx = i + nx * (j + ny * k)`.
 
+pub mod from_mesh;
 pub mod generate;
 pub mod report;
 pub mod scene;

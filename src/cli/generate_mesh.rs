@@ -1,0 +1,159 @@
+//! `pvrsim generate mesh-field`: a tetrahedral mesh's field sampled on a
+//! regular grid (see `data::volume::from_mesh`), with a scene that renders
+//! the grid as the mesh's scene renders the mesh: same camera, image,
+//! transfer function and, written explicitly, the same value range. Then
+//! `pvrsim render` of both scenes compares the cell renderer and the grid
+//! renderers on one physical field.
+
+use anyhow::{bail, Context};
+
+use super::generate::GenerateArgs;
+use crate::data::dataset::is_mesh_file;
+use crate::data::io::read_mesh;
+use crate::data::io::volume::write_nrrd;
+use crate::data::volume::from_mesh::sample_mesh_field;
+use crate::scene::Scene;
+
+/// Runs `generate mesh-field` (`a.kind` is `MeshField`).
+pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
+    let input = a.input.as_ref().context(
+        "`generate mesh-field` needs --input SCENE.toml (a mesh scene) or --input MESH \
+         (.vtk, .vtu, .inp) with --field",
+    )?;
+    let is_scene = input
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let scene = if is_scene {
+        let s = Scene::load(input)?;
+        if !is_mesh_file(&s.data.path) {
+            bail!(
+                "--input {}: its data ({}) is not a tetrahedral mesh (.vtk, .vtu, .inp)",
+                input.display(),
+                s.data.path.display()
+            );
+        }
+        if let Some(f) = &a.field {
+            if *f != s.data.field {
+                bail!(
+                    "--field {f:?}: the scene {} renders field {:?}; drop --field or edit the scene",
+                    input.display(),
+                    s.data.field
+                );
+            }
+        }
+        Some(s)
+    } else if is_mesh_file(input) {
+        None
+    } else {
+        bail!(
+            "--input {}: expected a mesh scene (.toml) or a mesh (.vtk, .vtu, .inp)",
+            input.display()
+        );
+    };
+    let mesh_path = scene
+        .as_ref()
+        .map_or(input.clone(), |s| s.data.path.clone());
+    let mesh_path = mesh_path.as_path();
+    let t = std::time::Instant::now();
+    let mesh = read_mesh(mesh_path)?;
+    let field = match (&scene, &a.field) {
+        (Some(s), _) => s.data.field.clone(),
+        (None, Some(f)) => f.clone(),
+        (None, None) => match mesh.fields.as_slice() {
+            [only] => only.name.clone(),
+            fields => bail!(
+                "--field: {} has {} point-data fields ({}); name one",
+                mesh_path.display(),
+                fields.len(),
+                fields
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        },
+    };
+    let values = mesh
+        .scalar(&field)
+        .with_context(|| format!("{}", mesh_path.display()))?;
+    let lo = values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let range = scene
+        .as_ref()
+        .and_then(|s| s.data.range)
+        .unwrap_or([lo, hi]);
+    let dims = grid_dims(&a.size, &mesh.bounds())?;
+    let vol = sample_mesh_field(&mesh, &field, &values, dims, range[0], mesh_path)?;
+    let gen_s = t.elapsed().as_secs_f64();
+    let comment = format!(
+        "pvrsim generate mesh-field: {} field {field:?} sampled on {}x{}x{} over its bounding box \
+         (barycentric in each tet; {} outside the mesh)",
+        mesh_path.display(),
+        dims[0],
+        dims[1],
+        dims[2],
+        range[0]
+    );
+    write_nrrd(&vol, &a.output, a.gzip, &comment)?;
+    let scene_path = a.output.with_extension("toml");
+    let text = match scene {
+        Some(mut s) => {
+            s.data.range = Some(range);
+            let mut t = format!(
+                "# {comment}.\n# Camera, image and transfer function copied from {}; the range is \
+                 written\n# explicitly so that s_norm means what it means for the mesh.\n\n",
+                input.display()
+            );
+            t += &s.to_toml(name);
+            t
+        }
+        None => {
+            let mut t = format!("# {comment}.\n");
+            t += &super::generate::ramp_scene(name, &vol, input);
+            t
+        }
+    };
+    std::fs::write(&scene_path, text)
+        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    println!(
+        "sampled {} ({} tets, field {field}) on {}x{}x{} in {gen_s:.2} s; wrote {} and {}",
+        mesh_path.display(),
+        mesh.tets.len(),
+        dims[0],
+        dims[1],
+        dims[2],
+        a.output.display(),
+        scene_path.display()
+    );
+    Ok(())
+}
+
+/// `N`: N samples along the bounding box's longest axis and the others in
+/// proportion (near-isotropic spacing, at least 2); `NxNxN`: exactly those.
+fn grid_dims(size: &str, bounds: &([f64; 3], [f64; 3])) -> anyhow::Result<[u64; 3]> {
+    let dims = super::generate::parse_size(size)?;
+    if size.contains(['x', 'X']) {
+        return Ok(dims);
+    }
+    let ext: [f64; 3] = std::array::from_fn(|a| bounds.1[a] - bounds.0[a]);
+    let longest = ext.iter().cloned().fold(0.0, f64::max);
+    if !(longest > 0.0 && longest.is_finite()) {
+        bail!("the mesh's bounding box is empty or not finite: {bounds:?}");
+    }
+    let n = dims[0];
+    Ok(ext.map(|e| (((n - 1) as f64 * e / longest).round() as u64 + 1).max(2)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::grid_dims;
+
+    #[test]
+    fn one_size_follows_the_longest_axis() {
+        let b = ([0.0, 0.0, 0.0], [10.0, 5.0, 2.0]);
+        assert_eq!(grid_dims("101", &b).unwrap(), [101, 51, 21]);
+        assert_eq!(grid_dims("4x5x6", &b).unwrap(), [4, 5, 6]);
+        assert!(grid_dims("1", &b).is_err());
+    }
+}
