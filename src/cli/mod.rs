@@ -41,8 +41,9 @@ pub mod worker;
 
 use clap::{Parser, Subcommand};
 
-/// pvrsim: cell-projection volume rendering of tetrahedral meshes with early
-/// ray termination, and a simulator of the PC cluster that runs it.
+/// pvrsim: volume rendering of tetrahedral meshes (cell projection with early
+/// ray termination) and regular grids (texture slicing, adaptive blocks,
+/// splatting), and a simulator of the PC cluster that runs them.
 ///
 /// Quick start: `pvrsim demo` generates a built-in dataset, renders it and
 /// writes demo/demo.png. Then `pvrsim render demo/demo.toml -o out.png`.
@@ -62,27 +63,27 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Render a scene to a PNG with the cell-projection or the reference renderer.
+    /// Render a scene to a PNG: meshes by cell projection, grids by texture slicing (or --renderer reference|slice2d|adaptive|splat).
     Render(render::RenderArgs),
     /// Render a grid scene by EWA splatting (--order axis|dda|sort|radix).
     Splat(splat::SplatArgs),
     /// The splatting experiments of docs/experiments/splatting.md (generated data; the 256^3 grid needs ../shared/data).
     SplatExperiments(splat_experiments::ExperimentArgs),
-    /// Render on a simulated PC cluster (N nodes + manager): ERT, weak sharing, DLB, compositing; image, report, timeline.
+    /// Render on a simulated PC cluster (N nodes + manager; threads, processes, TCP): meshes with ERT, sharing and DLB, grids as bricks with ordered compositing and RLE; image, report, timeline.
     Cluster(cluster::ClusterArgs),
-    /// Print a mesh file's counts, bounds, fields and mesh quality.
+    /// Print a mesh's counts, bounds, fields and quality, or a grid's size, spacing, range and memory.
     Info(info::InfoArgs),
     /// Generate the built-in demo dataset, render it, write demo.png and a stats summary.
     Demo(demo::DemoArgs),
-    /// Generate a test volume (hydrogen, marschner-lobb, resample) as .nrrd with its scene .toml.
+    /// Generate a test volume (hydrogen, marschner-lobb, resample, mesh-field, paper-*) as .nrrd with its scene .toml.
     Generate(generate::GenerateArgs),
-    /// Time the renderers on the shared aorta scenes (needs ../shared/data).
+    /// Time the renderers on the shared scenes (aorta meshes; --grids, --adaptive, --orderings, --lod-table).
     Bench(bench::BenchArgs),
     /// Run a config-driven parameter sweep: results.csv, summary.md and plots (see docs/sweeps.md); a progress bar on a terminal, one line per finished run when piped.
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
-    /// Write a fitted scene for a mesh: camera framing the bounds, a transfer function over the field's range.
+    /// Write a fitted scene for a mesh or a grid: camera framing the bounds, a transfer function over the field's range.
     Scene(scene::SceneArgs),
     /// Serve cluster frames as one worker process over TCP (see `cluster --transport`).
     Worker(worker::WorkerArgs),
