@@ -191,11 +191,13 @@ impl TransportArgs {
             if rank == 0 {
                 return Ok(false);
             }
-            let recv_timeout = Duration::from_secs_f64(if self.recv_timeout.is_finite() && self.recv_timeout > 0.0 {
-                self.recv_timeout
-            } else {
-                60.0
-            });
+            let recv_timeout = Duration::from_secs_f64(
+                if self.recv_timeout.is_finite() && self.recv_timeout > 0.0 {
+                    self.recv_timeout
+                } else {
+                    60.0
+                },
+            );
             crate::cluster::remote::mpi::serve_worker(nodes, recv_timeout)?;
             Ok(true)
         }

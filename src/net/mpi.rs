@@ -58,7 +58,11 @@ const MAX_IDLE: Duration = Duration::from_millis(1);
 
 /// What the actor side asks of the MPI thread.
 enum Command {
-    Send { to: i32, tag: i32, bytes: Vec<u8> },
+    Send {
+        to: i32,
+        tag: i32,
+        bytes: Vec<u8>,
+    },
     /// Goodbye to everyone; wait (at most the duration) for the sends to
     /// leave and every peer's goodbye; finalize; answer.
     Close(Duration, Sender<()>),
@@ -99,10 +103,11 @@ pub fn init(max_message_bytes: u64) -> NetResult<(usize, usize)> {
 }
 
 /// `MPI_Abort` on the world: ends every rank of the job with `code`. Does
-/// not return. Without a started MPI, exits the process with `code`.
+/// not return. Without a started MPI, or alone (not under `mpirun`), exits
+/// the process with `code`.
 pub fn abort(code: i32) -> ! {
     if let Some(Ok(w)) = WORLD.get() {
-        if w.cmd.send(Command::Abort(code)).is_ok() {
+        if w.size > 1 && w.cmd.send(Command::Abort(code)).is_ok() {
             // The MPI thread ends the process; wait for it.
             loop {
                 std::thread::sleep(Duration::from_secs(60));
@@ -119,8 +124,7 @@ fn start(max_message_bytes: u64) -> Result<World, String> {
     let thread = std::thread::Builder::new()
         .name("pvrsim-mpi".into())
         .spawn(move || {
-            let Some((universe, _)) =
-                mpi::initialize_with_threading(mpi::Threading::Funneled)
+            let Some((universe, _)) = mpi::initialize_with_threading(mpi::Threading::Funneled)
             else {
                 let _ = ready_tx.send(Err("MPI was already initialised".to_string()));
                 return;
@@ -358,11 +362,14 @@ impl MpiTransport {
     pub fn new(nodes: usize, codec: Codec) -> NetResult<MpiTransport> {
         let (rank, size) = init(codec.max_message_bytes)?;
         if size != nodes + 1 {
-            return Err(NetError::Sim(format!(
-                "this MPI job has {size} process(es) for --nodes {nodes}: run under \
-                 `mpirun -n {} ...` (the coordinator and one process per node)",
-                nodes + 1
-            )));
+            return Err(NetError::Io {
+                what: "--transport mpi".into(),
+                msg: format!(
+                    "this MPI job has {size} process(es) for --nodes {nodes}: run under \
+                     `mpirun -n {} ...` (the coordinator and one process per node)",
+                    nodes + 1
+                ),
+            });
         }
         let me = if rank == 0 {
             NodeId::from(nodes)
@@ -480,10 +487,11 @@ impl Transport for MpiTransport {
         check_rank(to, self.nodes + 1)?;
         let n = payload.len() as u64;
         if n > self.codec.max_message_bytes {
-            return Err(NetError::Sim(format!(
-                "a {kind} message of {n} bytes is over the {}-byte limit",
-                self.codec.max_message_bytes
-            )));
+            return Err(NetError::TooLarge {
+                kind,
+                size: n,
+                limit: self.codec.max_message_bytes,
+            });
         }
         if lock(&self.peers)[to.index()].said_goodbye {
             // Like a message to a stopped actor: dropped.

@@ -125,9 +125,7 @@ pub(super) fn drive<T: RemoteTransport>(
             .context("set-up (joining the mesh)")?
             .ok_or_else(|| {
                 let missing: Vec<usize> = (0..n).filter(|&k| !ready[k]).collect();
-                anyhow::anyhow!(
-                    "set-up: workers {missing:?} did not join the mesh within {wait:?}"
-                )
+                anyhow::anyhow!("set-up: workers {missing:?} did not join the mesh within {wait:?}")
             })?;
         let k = e.from.index();
         match codec.decode::<Session>(&e.payload) {
@@ -179,8 +177,7 @@ pub(super) fn drive<T: RemoteTransport>(
                 .recv_timeout(d.recv_timeout)
                 .context("collecting the nodes' results")?
                 .ok_or_else(|| {
-                    let missing: Vec<usize> =
-                        (0..n).filter(|&k| results[k].is_none()).collect();
+                    let missing: Vec<usize> = (0..n).filter(|&k| results[k].is_none()).collect();
                     anyhow::anyhow!(
                         "collecting results: workers {missing:?} sent nothing within {:?}",
                         d.recv_timeout
@@ -292,8 +289,8 @@ fn phase2<T: RemoteTransport>(
     measured: &mut Measured,
 ) -> anyhow::Result<(Phase2, Vec<RankLog>)> {
     let n = cfg.phase1.nodes;
-    let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let strategy =
+        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
     let list_codec =
         crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let scene = &input.scene;
@@ -346,8 +343,8 @@ fn phase2<T: RemoteTransport>(
     let logs: Vec<RankLog> = logs.into_iter().flatten().collect();
     let image = gather.image()?;
     let stats = stats_from_logs(&schedule, strategy.name(), list_codec.name(), &logs);
-    let (sim, bytes_sent, busy_s) = replay_plan(&schedule, &logs, &cfg.profile)
-        .run(&cfg.network, cfg.phase1.record_trace)?;
+    let (sim, bytes_sent, busy_s) =
+        replay_plan(&schedule, &logs, &cfg.profile).run(&cfg.network, cfg.phase1.record_trace)?;
     Ok((
         Phase2 {
             image,

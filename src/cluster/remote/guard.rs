@@ -32,12 +32,7 @@ impl<'a, T: RemoteTransport> SessionGuard<'a, T> {
 
     /// Waits for `Go` from `coord` (a worker's side), keeping the actors'
     /// messages that arrive before it.
-    pub fn wait_go(
-        t: &'a T,
-        coord: NodeId,
-        codec: Codec,
-        wait: Duration,
-    ) -> anyhow::Result<Self> {
+    pub fn wait_go(t: &'a T, coord: NodeId, codec: Codec, wait: Duration) -> anyhow::Result<Self> {
         let g = SessionGuard::new(t, codec);
         loop {
             let e = t

@@ -68,8 +68,12 @@ pub fn coordinate(
             codec.encode(&Session::Setup(Box::new(setup)))?,
         )
         .with_context(|| format!("set-up of {}", t.peer_name(to)))?;
-        t.send(to, MessageKind::Session, codec.encode(&Session::Cells(cells))?)
-            .with_context(|| format!("set-up of {}", t.peer_name(to)))?;
+        t.send(
+            to,
+            MessageKind::Session,
+            codec.encode(&Session::Cells(cells))?,
+        )
+        .with_context(|| format!("set-up of {}", t.peer_name(to)))?;
     }
     let d = DriveOptions {
         ready_wait: recv_timeout,
