@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Extra CI steps for the real transports (call from .ci/run after the README's
 # test command; CI runs as root). Installs iproute2 (ip, tc) and python3 if
-# missing, builds the release binary, and runs the namespace check.
+# missing, builds the release binary, and runs the namespace check; then
+# installs OpenMPI and libclang (apt-get update first) and runs the MPI
+# check. On a developer's machine that check builds `--features mpi` in
+# target-mpi/ so target/ stays valid; CI's target/ is thrown away after
+# this step, so CI builds in target/ (MPI_TARGET_DIR=target): only mpi-sys,
+# mpi and pvrsim itself are compiled again, not every dependency.
 set -euo pipefail
 if ! command -v ip >/dev/null || ! command -v tc >/dev/null || ! command -v python3 >/dev/null; then
   apt-get update -qq
@@ -9,3 +14,10 @@ if ! command -v ip >/dev/null || ! command -v tc >/dev/null || ! command -v pyth
 fi
 cargo build --release
 scripts/netns-check.sh tests/data/aorta-small-view-b.toml 4
+
+if ! command -v mpirun >/dev/null || ! command -v mpicc >/dev/null \
+    || ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libopenmpi-dev openmpi-bin libclang-dev
+fi
+MPI_TARGET_DIR=target scripts/mpi-check.sh tests/data/aorta-small-view-b.toml 4

@@ -284,3 +284,32 @@ fn a_worker_keeps_its_cells_between_sessions() {
     assert_eq!((m2.cells_bytes_sent, m2.cells_cached), (0, 1));
     assert_eq!(bits(&a.image), bits(&b.image));
 }
+
+/// Without the `mpi` feature, `--transport mpi` fails at once with an
+/// error that says how to build with it (the MPI frame itself is checked
+/// by `scripts/mpi-check.sh`, which builds `--features mpi`).
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn transport_mpi_without_the_feature_says_how_to_build_it() {
+    let scene = data("aorta-small-view-b.toml");
+    let out = tempfile::tempdir().unwrap();
+    let png = out.path().join("x.png");
+    let (ok, err, _) = cluster_cli(
+        &[
+            scene.to_str().unwrap(),
+            "--nodes",
+            "2",
+            "--transport",
+            "mpi",
+            "-o",
+            png.to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert!(!ok, "{err}");
+    assert!(
+        err.contains("built without MPI") && err.contains("--features mpi"),
+        "{err}"
+    );
+    assert!(!png.exists());
+}

@@ -396,6 +396,10 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
 
 /// Runs `pvrsim cluster`: checks the options and every output path first.
 pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
+    // Under mpirun, ranks other than 0 serve a node and write nothing.
+    if a.net.serve_mpi_worker(a.nodes)? {
+        return Ok(());
+    }
     validate::apply(&a)?;
     prepare_output("-o", &a.output, OutputKind::Png)?;
     for (flag, path, kind) in [

@@ -21,6 +21,9 @@ pub enum TransportKind {
     Processes,
     /// One `pvrsim worker` per node at --workers or --hostfile addresses.
     Tcp,
+    /// Under `mpirun -n N+1`: MPI rank 0 the coordinator, ranks 1..N the
+    /// nodes (needs a build with `--features mpi`).
+    Mpi,
 }
 
 impl TransportKind {
@@ -30,6 +33,7 @@ impl TransportKind {
             TransportKind::Threads => "threads",
             TransportKind::Processes => "processes",
             TransportKind::Tcp => "tcp",
+            TransportKind::Mpi => "mpi",
         }
     }
 }
@@ -49,8 +53,9 @@ pub enum OnFailure {
 #[derive(Debug, Clone, Args)]
 pub struct TransportArgs {
     /// Run the nodes on a real transport: `threads` (this process),
-    /// `processes` (child processes on loopback TCP) or `tcp` (workers
-    /// started with `pvrsim worker`, see docs/running-across-machines.md).
+    /// `processes` (child processes on loopback TCP), `tcp` (workers
+    /// started with `pvrsim worker`, see docs/running-across-machines.md)
+    /// or `mpi` (under `mpirun -n N+1`; a build with `--features mpi`).
     /// Times are then wall-clock. Unset: the --clock setting (virtual by
     /// default).
     #[arg(long, value_enum)]
@@ -82,6 +87,11 @@ pub struct TransportArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub recv_timeout: f64,
 }
+
+/// The error of `--transport mpi` in a build without the `mpi` feature.
+pub const NO_MPI: &str = "--transport mpi: this pvrsim was built without MPI support. Install \
+    OpenMPI (Debian: apt-get install libopenmpi-dev openmpi-bin libclang-dev) and build with \
+    `cargo build --release --features mpi` (README.md, \"Running under MPI\")";
 
 /// Reads a hostfile: one `host:port` per line.
 pub fn read_hostfile(path: &Path) -> anyhow::Result<Vec<String>> {
@@ -128,6 +138,14 @@ impl TransportArgs {
             self.recv_timeout.is_finite() && self.recv_timeout > 0.0,
             "--recv-timeout must be a positive number of seconds"
         );
+        if self.transport == Some(TransportKind::Mpi) {
+            anyhow::ensure!(cfg!(feature = "mpi"), NO_MPI);
+            anyhow::ensure!(
+                self.on_failure == OnFailure::Abort,
+                "--on-failure reassign is not available with --transport mpi: a rank that dies \
+                 ends the whole MPI job (use --transport processes or tcp)"
+            );
+        }
         match self.transport {
             None => Ok(None),
             Some(TransportKind::Threads) => {
@@ -157,7 +175,40 @@ impl TransportArgs {
         }
     }
 
-    /// Runs the frame on worker processes (`processes` or `tcp`).
+    /// Under `--transport mpi`, on an MPI rank other than 0: serves this
+    /// rank's node for one frame and returns `true` (the caller then does
+    /// nothing else: rank 0 writes the image and the report). `false` on
+    /// rank 0 and for every other transport. Call it before loading
+    /// anything. Without the `mpi` feature, `--transport mpi` is an error
+    /// saying how to build with it.
+    pub fn serve_mpi_worker(&self, nodes: usize) -> anyhow::Result<bool> {
+        if self.transport != Some(TransportKind::Mpi) {
+            return Ok(false);
+        }
+        #[cfg(feature = "mpi")]
+        {
+            let (rank, _) = crate::net::mpi::init(crate::net::DEFAULT_MAX_MESSAGE_BYTES)?;
+            if rank == 0 {
+                return Ok(false);
+            }
+            let recv_timeout = Duration::from_secs_f64(
+                if self.recv_timeout.is_finite() && self.recv_timeout > 0.0 {
+                    self.recv_timeout
+                } else {
+                    60.0
+                },
+            );
+            crate::cluster::remote::mpi::serve_worker(nodes, recv_timeout)?;
+            Ok(true)
+        }
+        #[cfg(not(feature = "mpi"))]
+        {
+            let _ = nodes;
+            anyhow::bail!(NO_MPI)
+        }
+    }
+
+    /// Runs the frame on worker processes (`processes`, `tcp` or `mpi`).
     pub fn run(
         &self,
         kind: TransportKind,
@@ -168,6 +219,19 @@ impl TransportArgs {
         let recv_timeout = Duration::from_secs_f64(self.recv_timeout);
         match kind {
             TransportKind::Threads => anyhow::bail!("threads run in this process (internal error)"),
+            #[cfg(feature = "mpi")]
+            TransportKind::Mpi => {
+                match crate::cluster::remote::mpi::coordinate(input, cfg, recv_timeout) {
+                    Ok(x) => Ok(x),
+                    // Print here, then end every rank of the job.
+                    Err(e) => {
+                        eprint!("{}", super::error_text(&e));
+                        crate::net::mpi::abort(1)
+                    }
+                }
+            }
+            #[cfg(not(feature = "mpi"))]
+            TransportKind::Mpi => anyhow::bail!(NO_MPI),
             TransportKind::Processes => {
                 let exe = std::env::current_exe().context("cannot find this program's path")?;
                 let extra = vec![

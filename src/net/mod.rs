@@ -12,7 +12,9 @@
 //! | [`actor`] | the [`Actor`] state-machine interface shared by both drivers |
 //! | [`sim`] | the discrete-event driver (virtual time, one thread) |
 //! | [`wall`] | the thread driver (wall time, real transports) |
+//! | [`remote`] | [`RemoteTransport`]: what the remote drivers need beyond [`Transport`]; [`WireStats`] |
 //! | [`tcp`] | the TCP transport: token handshake, frames, heartbeats, per-peer tasks |
+//! | `mpi` | (feature `mpi`) the MPI transport: one MPI thread per process, ranks from `mpirun` |
 //! | [`trace`] | typed timeline and Chrome trace JSON |
 //!
 //! Node and manager logic is written once against [`Actor`]; the design
@@ -25,6 +27,9 @@ pub mod cost;
 pub mod error;
 pub mod message;
 pub mod metered;
+#[cfg(feature = "mpi")]
+pub mod mpi;
+pub mod remote;
 pub mod sim;
 pub mod tcp;
 pub mod trace;
@@ -43,6 +48,7 @@ pub use message::{
     Codec, Envelope, Message, MessageKind, NodeId, DEFAULT_MAX_MESSAGE_BYTES, FRAME_HEADER_BYTES,
 };
 pub use metered::{Counter, Metered, TrafficStats};
+pub use remote::{RemoteTransport, WireStats};
 pub use sim::{SimOptions, SimReport, Simulation};
 pub use trace::{SimTrace, TraceEvent, TraceKind};
 pub use transport::{Mailbox, Transport};

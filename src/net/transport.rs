@@ -1,7 +1,8 @@
 //! The transport contract: what node, manager and compositor code may do
 //! with the network. Implementations: [`crate::net::ChannelTransport`]
-//! (threads in one process), [`crate::net::Metered`] (a counting wrapper);
-//! TCP comes later behind the same trait.
+//! (threads in one process), [`crate::net::Metered`] (a counting wrapper),
+//! [`crate::net::tcp::TcpTransport`] (processes and machines) and, with the
+//! `mpi` feature, `crate::net::mpi::MpiTransport` (under `mpirun`).
 //!
 //! Modelled on IceT's communicator (send, recv, sendrecv, isend/irecv, size,
 //! rank), cut to what a cluster of nodes plus a manager needs:

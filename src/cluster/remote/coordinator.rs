@@ -1,10 +1,7 @@
-//! The coordinator: connects to `N` workers, gives each its node (cells by
-//! content hash), runs the [`ManagerActor`] as rank `N` on its own
-//! [`TcpTransport`] with the same driver loop as the threads
-//! ([`run_actor`]), collects every node's results, starts phase 2, which
-//! runs worker to worker ([`super::phase2`]), takes the gathered pixels, and
-//! builds the report with the same code as the other clocks
-//! ([`crate::cluster::finish_with`]).
+//! The TCP coordinator: connects to `N` workers (concurrently), hands each
+//! its set-up and, when its cache misses, its cells (by content hash), then
+//! runs the frame over its [`TcpTransport`] with the transport-independent
+//! driver ([`super::drive`]).
 //!
 //! Every failure names the worker and the phase and ends the run with an
 //! error; the caller (the CLI) exits non-zero. Nothing waits without a
@@ -14,21 +11,12 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::Context;
-
-use super::guard::SessionGuard;
-use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
-use super::session::{sha256, NodeResult, Session, WorkerSetup};
-use crate::cluster::phase2::Phase2;
-use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, Phase1Parts};
-use crate::manager::{ManagerActor, ManagerConfig};
+use super::drive::{drive, worker_setups, DriveOptions};
+use super::session::Session;
+use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
-use crate::net::{
-    run_actor, Codec, ComputeMode, MessageKind, NodeId, SimTrace, TrafficStats, Transport,
-    WallClock, WallOptions,
-};
-use crate::node::{NodeRenderer, Placement, WorkUnit};
-use crate::render::cell::PreparedTf;
+use crate::net::{Codec, NodeId};
+use crate::node::Placement;
 use crate::render::RenderInput;
 
 /// How the coordinator reaches its workers.
@@ -87,51 +75,21 @@ impl Coordinator {
         let n = cfg.phase1.nodes;
         let mut cfg = cfg.clone();
         cfg.phase1.clock = ClockKind::Wall;
-        let p1 = cfg.phase1;
         let codec = Codec::default();
         let rt = tcp::runtime()?;
         let t_setup = Instant::now();
-        let overlap = p1.overlap && !p1.share && p1.node.ert.enabled();
-        let pairwise = if overlap {
-            placement.footprints(input).pairwise
-        } else {
-            Vec::new()
-        };
-        let scene_toml = input
-            .scene
-            .to_toml(&input.scene.data.path.to_string_lossy());
         let me = NodeId::from(n);
+        let setups = worker_setups(
+            input,
+            &cfg,
+            placement,
+            &self.workers,
+            codec,
+            self.recv_timeout,
+        );
         // Connect, set up, send cells: all workers concurrently.
         let mut tasks = Vec::with_capacity(n);
-        for (k, part) in placement.parts.iter().enumerate() {
-            let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
-            let peers: Vec<u32> = if overlap {
-                (0..n)
-                    .filter(|&b| b != k && pairwise[k].get(b).is_some_and(|&p| p > 0))
-                    .map(|b| b as u32)
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            let setup = WorkerSetup {
-                rank: k as u32,
-                nodes: n as u32,
-                peers: self.workers.clone(),
-                scene_toml: scene_toml.clone(),
-                depth_range: crate::cluster::phase1::depth_range(input),
-                node: p1.node.into(),
-                share: p1.share,
-                dlb: p1.dlb,
-                policy: p1.policy.into(),
-                overlap_peers: peers,
-                profile: cfg.profile,
-                list_codec: cfg.codec.clone(),
-                compositor: cfg.compositor.clone(),
-                max_message_bytes: codec.max_message_bytes,
-                cells_initial: part.len() as u64,
-                cells_sha256: sha256(&cells),
-                recv_timeout_s: self.recv_timeout.as_secs_f64(),
-            };
+        for (k, (setup, cells)) in setups.into_iter().enumerate() {
             let addr = self.workers[k].clone();
             let token = self.token.clone();
             let opts = self.tcp;
@@ -200,293 +158,12 @@ impl Coordinator {
             return Err(e);
         }
         let t = TcpTransport::new(Arc::clone(&rt), me, n + 1, links, self.tcp)?;
-        for k in 0..n {
-            t.set_essential(NodeId::from(k), true);
-        }
-        // Ready from everyone, then Go.
-        let mut ready = vec![false; n];
-        let mut initial = vec![0u64; n];
-        let wait = self.tcp.handshake_timeout * 4 + Duration::from_secs(10);
-        while ready.iter().any(|r| !r) {
-            let e = t
-                .recv_timeout(wait)
-                .context("set-up (joining the mesh)")?
-                .ok_or_else(|| {
-                    let missing: Vec<usize> = (0..n).filter(|&k| !ready[k]).collect();
-                    anyhow::anyhow!(
-                        "set-up: workers {missing:?} did not join the mesh within {wait:?}"
-                    )
-                })?;
-            let k = e.from.index();
-            match codec.decode::<Session>(&e.payload) {
-                Ok(Session::Ready { remaining }) if k < n => {
-                    ready[k] = true;
-                    initial[k] = remaining;
-                }
-                Ok(Session::Failed(why)) => {
-                    anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))
-                }
-                _ => anyhow::bail!(
-                    "set-up: {} sent a {} message instead of Ready",
-                    t.peer_name(e.from),
-                    e.kind
-                ),
-            }
-        }
-        measured.setup_s = t_setup.elapsed().as_secs_f64();
-        let go = codec.encode(&Session::Go)?;
-        for k in 0..n {
-            t.send(NodeId::from(k), MessageKind::Session, go.clone())
-                .context("set-up (sending Go)")?;
-        }
-
-        // Phase 1: the manager here, the nodes on the workers.
-        let mut manager = manager_for(input, &cfg, initial)?;
-        let wire0 = t.stats();
-        let t1 = Instant::now();
-        let phase1 = (|| {
-            let (m_stop, m_trace, m_traffic) = run_actor(
-                &SessionGuard::new(&t, codec),
-                &mut manager,
-                WallClock::start(),
-                WallOptions {
-                    compute: ComputeMode::Skip,
-                    recv_timeout: self.recv_timeout,
-                },
-            )
-            .context("phase 1 (scan conversion, ERT sharing, load balancing)")?;
-            if let Some(e) = &manager.stats().error {
-                anyhow::bail!("phase 1 failed at the manager: {e}");
-            }
-
-            // Results.
-            let t_collect = Instant::now();
-            let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
-            while results.iter().any(Option::is_none) {
-                let e = t
-                    .recv_timeout(self.recv_timeout)
-                    .context("collecting the nodes' results")?
-                    .ok_or_else(|| {
-                        let missing: Vec<usize> =
-                            (0..n).filter(|&k| results[k].is_none()).collect();
-                        anyhow::anyhow!(
-                            "collecting results: workers {missing:?} sent nothing within {:?}",
-                            self.recv_timeout
-                        )
-                    })?;
-                let k = e.from.index();
-                match codec.decode::<Session>(&e.payload) {
-                    Ok(Session::Failed(why)) => {
-                        anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
-                    }
-                    Ok(Session::Result(r)) if k < n => {
-                        results[k] = Some(*r);
-                    }
-                    // Late phase-1 traffic to the stopped manager is dropped,
-                    // as in the other drivers.
-                    _ if e.kind != MessageKind::Session => {}
-                    _ => anyhow::bail!(
-                        "collecting results: {} sent a message that is not its result",
-                        t.peer_name(e.from)
-                    ),
-                }
-            }
-            Ok((m_stop, m_trace, m_traffic, results, t_collect))
-        })();
-        let (m_stop, m_trace, m_traffic, results, t_collect) = match phase1 {
-            Ok(x) => x,
-            Err(e) => return Err(self.lost_in_phase1(&t, n, e)),
+        let d = DriveOptions {
+            ready_wait: self.tcp.handshake_timeout * 4 + Duration::from_secs(10),
+            recv_timeout: self.recv_timeout,
         };
-        let host_s = t1.elapsed().as_secs_f64();
-        measured.collect_s = t_collect.elapsed().as_secs_f64();
-        let wire_m = {
-            let mut w = t.stats();
-            w.wire_bytes_sent -= wire0.wire_bytes_sent;
-            w.wire_bytes_recv -= wire0.wire_bytes_recv;
-            w.payload = m_traffic.clone();
-            w
-        };
-        for (k, r) in results.iter().enumerate() {
-            if let Some(e) = r.as_ref().and_then(|r| r.raw.error()) {
-                anyhow::bail!("phase 1 failed at node {k} ({}): {e}", self.workers[k]);
-            }
-        }
-
-        // Phase 2, worker to worker; the pixels come here.
-        let t2 = Instant::now();
-        let (ph2, logs) = self.phase2(&t, input, &cfg, codec, &mut measured)?;
-        measured.phase2_s = t2.elapsed().as_secs_f64();
-        t.close(Duration::from_secs(2));
-
-        let mut nodes = Vec::with_capacity(n);
-        let mut stopped_at = Vec::with_capacity(n + 1);
-        let mut trace = SimTrace::default();
-        let mut traffic = TrafficStats::default();
-        let mut wire = WireStats::default();
-        for (k, r) in results.into_iter().enumerate() {
-            let r = r.ok_or_else(|| anyhow::anyhow!("no result from worker {k}"))?;
-            nodes.push(r.raw);
-            stopped_at.push(Some(r.stopped_at));
-            trace.events.extend(r.trace.events);
-            traffic.merge(&r.traffic);
-            wire.merge(&r.wire);
-        }
-        stopped_at.push(Some(m_stop));
-        trace.events.extend(m_trace.events);
-        trace
-            .events
-            .sort_by(|a, b| a.start.total_cmp(&b.start).then(a.node.cmp(&b.node)));
-        traffic.merge(&m_traffic);
-        wire.merge(&wire_m);
-        measured.phase1 = wire;
-        let end_s = stopped_at[..n]
-            .iter()
-            .flatten()
-            .fold(0.0f64, |a, &b| a.max(b));
-        measured.phase2_handoff_bytes = logs.iter().map(|l| l.handoff_bytes).sum();
-        measured.phase2_handoff_messages = logs.iter().map(|l| l.handoff_messages).sum();
-        let out = crate::cluster::finish_with(
-            input,
-            &cfg,
-            Phase1Parts {
-                nodes,
-                lists: Vec::new(),
-                manager: manager.stats().clone(),
-                end_s,
-                stopped_at,
-                trace,
-                traffic,
-                host_s,
-            },
-            None,
-            ph2,
-            measured.phase2_s,
-        )?;
-        Ok((out, measured))
+        drive(&t, d, input, &cfg, t_setup, measured, |t, e| {
+            self.lost_in_phase1(t, n, e)
+        })
     }
-
-    /// Starts phase 2 on every worker, takes the gathered pixels and every
-    /// worker's log; returns phase 2 as [`crate::cluster::phase2::run`]
-    /// would (image, counters, network replay) and the logs.
-    fn phase2(
-        &self,
-        t: &TcpTransport,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-        codec: Codec,
-        measured: &mut Measured,
-    ) -> anyhow::Result<(Phase2, Vec<RankLog>)> {
-        let n = cfg.phase1.nodes;
-        let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
-            .map_err(|e| anyhow::anyhow!(e))?;
-        let list_codec =
-            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
-        let scene = &input.scene;
-        let schedule = strategy.schedule(
-            n,
-            crate::compositor::region::screen(scene.image.width, scene.image.height),
-        );
-        let opts = exec_options(cfg.phase1.node.partial_composition, scene);
-        let go = codec.encode(&Session::Composite)?;
-        for k in 0..n {
-            t.send(NodeId::from(k), MessageKind::Session, go.clone())
-                .context("phase 2 (starting it)")?;
-        }
-        let mut gather = Gather::new(&schedule, list_codec.as_ref(), opts);
-        let mut logs: Vec<Option<RankLog>> = vec![None; n];
-        while logs.iter().any(Option::is_none) {
-            let e = t
-                .recv_timeout(self.recv_timeout)
-                .context("phase 2 (compositing)")?
-                .ok_or_else(|| {
-                    let missing: Vec<usize> = (0..n).filter(|&k| logs[k].is_none()).collect();
-                    anyhow::anyhow!(
-                        "phase 2 (compositing): workers {missing:?} did not finish within {:?}",
-                        self.recv_timeout
-                    )
-                })?;
-            let k = e.from.index();
-            match e.kind {
-                MessageKind::Image if k < n => gather.take(k, &e.payload)?,
-                MessageKind::Session => match codec.decode::<Session>(&e.payload) {
-                    Ok(Session::Phase2Done(d)) if k < n && logs[k].is_none() => {
-                        let (log, wire) = *d;
-                        measured.phase2.merge(&wire);
-                        logs[k] = Some(log);
-                        t.set_essential(e.from, false);
-                    }
-                    Ok(Session::Failed(why)) => anyhow::bail!(
-                        "phase 2 (compositing): {} failed: {why}",
-                        t.peer_name(e.from)
-                    ),
-                    _ => anyhow::bail!(
-                        "phase 2 (compositing): {} sent a session message out of turn",
-                        t.peer_name(e.from)
-                    ),
-                },
-                // Late phase-1 traffic to the stopped manager is dropped.
-                _ => {}
-            }
-        }
-        let logs: Vec<RankLog> = logs.into_iter().flatten().collect();
-        let image = gather.image()?;
-        let stats = stats_from_logs(&schedule, strategy.name(), list_codec.name(), &logs);
-        let (sim, bytes_sent, busy_s) = replay_plan(&schedule, &logs, &cfg.profile)
-            .run(&cfg.network, cfg.phase1.record_trace)?;
-        Ok((
-            Phase2 {
-                image,
-                stats,
-                sim,
-                bytes_sent,
-                busy_s,
-            },
-            logs,
-        ))
-    }
-}
-
-/// The manager for a run, as [`crate::cluster::phase1::run`] builds it:
-/// table shape and level grid from a node renderer of the same options.
-fn manager_for(
-    input: &RenderInput,
-    cfg: &ClusterConfig,
-    initial: Vec<u64>,
-) -> anyhow::Result<ManagerActor> {
-    let p1 = &cfg.phase1;
-    let mut probe = NodeRenderer::new(
-        input.scene.view(),
-        PreparedTf::new(&input.scene.transfer),
-        p1.node,
-    );
-    if p1.share {
-        probe.enable_level_sharing();
-        let [z0, z1] = crate::cluster::phase1::depth_range(input);
-        probe.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
-    }
-    let (nx, ny) = probe.table_dims();
-    let mcfg = ManagerConfig {
-        nodes: p1.nodes,
-        table_dims: (nx as u16, ny as u16),
-        dlb: p1.dlb,
-        min_grant: p1.policy.min_grant as u64,
-        levels: if p1.share { probe.level_grid() } else { None },
-        pixels: if p1.share {
-            probe.pixel_share_shape()
-        } else {
-            None
-        },
-        help_gap: match probe.depth_span() {
-            Some(span) if p1.share && p1.dlb && p1.policy.help_gap > 0.0 => {
-                Some(p1.policy.help_gap * span)
-            }
-            _ => None,
-        },
-    };
-    Ok(ManagerActor::new(
-        mcfg,
-        initial,
-        cfg.profile,
-        Codec::default(),
-    ))
 }

@@ -9,19 +9,20 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use super::session::Session;
-use crate::net::tcp::TcpTransport;
-use crate::net::{Codec, Envelope, MessageKind, NetError, NetResult, NodeId, Transport};
+use crate::net::{
+    Codec, Envelope, MessageKind, NetError, NetResult, NodeId, RemoteTransport, Transport,
+};
 
 /// See the module docs.
-pub struct SessionGuard<'a> {
-    inner: &'a TcpTransport,
+pub struct SessionGuard<'a, T: RemoteTransport> {
+    inner: &'a T,
     codec: Codec,
     kept: Mutex<VecDeque<Envelope>>,
 }
 
-impl<'a> SessionGuard<'a> {
+impl<'a, T: RemoteTransport> SessionGuard<'a, T> {
     /// Guards `t` (the coordinator's side).
-    pub fn new(t: &'a TcpTransport, codec: Codec) -> Self {
+    pub fn new(t: &'a T, codec: Codec) -> Self {
         SessionGuard {
             inner: t,
             codec,
@@ -31,12 +32,7 @@ impl<'a> SessionGuard<'a> {
 
     /// Waits for `Go` from `coord` (a worker's side), keeping the actors'
     /// messages that arrive before it.
-    pub fn wait_go(
-        t: &'a TcpTransport,
-        coord: NodeId,
-        codec: Codec,
-        wait: Duration,
-    ) -> anyhow::Result<Self> {
+    pub fn wait_go(t: &'a T, coord: NodeId, codec: Codec, wait: Duration) -> anyhow::Result<Self> {
         let g = SessionGuard::new(t, codec);
         loop {
             let e = t
@@ -94,7 +90,7 @@ fn variant(s: &Session) -> &'static str {
     }
 }
 
-impl Transport for SessionGuard<'_> {
+impl<T: RemoteTransport> Transport for SessionGuard<'_, T> {
     fn rank(&self) -> NodeId {
         self.inner.rank()
     }

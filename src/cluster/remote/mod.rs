@@ -1,6 +1,6 @@
 //! Real transports for a cluster run: worker processes on this machine
-//! (`--transport processes`) or on other machines (`--transport tcp`), the
-//! coordinator running the manager. The node, manager and compositor code
+//! (`--transport processes`), on other machines (`--transport tcp`) or
+//! under `mpirun` (`--transport mpi`), the coordinator running the manager. The node, manager and compositor code
 //! is the same as under the simulator and the threads; only the driver and
 //! the transport change.
 //!
@@ -8,17 +8,22 @@
 //! |---|---|
 //! | [`session`] | set-up and result messages, wire forms of the options |
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
-//! | [`coordinator`] | the coordinator: set-up, manager, results, phase 2 |
+//! | [`coordinator`] | the TCP coordinator: connect, set-up, cells |
+//! | [`drive`] | the coordinator's frame over any [`crate::net::RemoteTransport`]: manager, results, phase 2 |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
 //! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
+//! | `mpi` | (feature `mpi`) `--transport mpi`: the coordinator on MPI rank 0, the workers' set-up over MPI |
 //! | [`reassign`] | `--on-failure reassign`: lost workers' cells to the survivors, the frame again |
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
 //! | [`probe`] | the echo service for `pvrsim calibrate --network` |
 
 pub mod compare;
 pub mod coordinator;
+pub mod drive;
 pub mod guard;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod phase2;
 pub mod probe;
 pub mod reassign;

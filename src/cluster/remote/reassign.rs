@@ -5,7 +5,7 @@
 //! `Goodbye` (killed, crashed, silent past the heartbeat deadline); the
 //! survivors give the frame up with a clean `Goodbye` once they notice the
 //! loss, so the coordinator tells the two apart
-//! ([`TcpTransport::link_endings`]). Each survivor keeps its cells and takes
+//! ([`RemoteTransport::link_endings`]). Each survivor keeps its cells and takes
 //! a contiguous share of the lost workers' cells ([`reassign_parts`]); the
 //! frame then runs from the start on the survivors (their phase-1 work is
 //! not kept: the lost worker's lists are gone, and phase 1's manager
@@ -17,8 +17,7 @@ use anyhow::Context;
 
 use super::coordinator::{Coordinator, Measured};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
-use crate::net::tcp::TcpTransport;
-use crate::net::NodeId;
+use crate::net::{NodeId, RemoteTransport};
 use crate::node::Placement;
 use crate::render::RenderInput;
 
@@ -138,7 +137,7 @@ impl Coordinator {
     /// survivors to give up too), as an error context.
     pub(super) fn lost_in_phase1(
         &self,
-        t: &TcpTransport,
+        t: &impl RemoteTransport,
         n: usize,
         e: anyhow::Error,
     ) -> anyhow::Error {

@@ -20,7 +20,7 @@ use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{
-    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, TrafficStats, Transport,
+    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, RemoteTransport, TrafficStats,
     WallClock, WallOptions,
 };
 use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
@@ -245,121 +245,158 @@ impl Worker {
             links,
             opts,
         )?;
-        t.set_essential(coord, true);
-        // Built after the mesh (peers wait on our accept meanwhile) and
-        // with the links up (heartbeats flow while the cells are sorted).
-        let mut actor = match build_node(&setup, &cells) {
-            Ok(a) => a,
-            Err(e) => {
-                let why = format!("node {}: {e:#}", setup.rank);
-                let _ = t.send(
-                    coord,
-                    MessageKind::Session,
-                    codec.encode(&Session::Failed(why))?,
-                );
-                t.close(Duration::from_secs(2));
-                return Err(e);
-            }
-        };
-        let ready = Session::Ready {
-            remaining: actor.renderer().remaining() as u64,
-        };
-        t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
-        // Wait for Go; messages from peers that started earlier are kept.
-        let early = SessionGuard::wait_go(&t, coord, codec, d)?;
-        eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
-        let clock = WallClock::start();
-        let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
-        let wire0 = t.stats();
-        let run = run_actor(
-            &early,
-            Chunks {
-                node: &mut actor,
-                kill_after: self.kill_after_chunks,
-                seen: 0,
+        run_node(
+            &t,
+            &setup,
+            &cells,
+            d,
+            Hooks {
+                kill_after_chunks: self.kill_after_chunks,
+                kill_in_phase2: self.kill_in_phase2,
             },
-            clock,
-            WallOptions {
-                compute: ComputeMode::Skip,
-                recv_timeout: timeout,
-            },
-        );
-        let (stop, trace, traffic) = match run {
-            Ok(x) => x,
-            Err(e) => {
-                // Tell the coordinator why (a lost peer, most likely).
-                let why = format!("node {} in phase 1: {e}", setup.rank);
-                let _ = t.send(
-                    coord,
-                    MessageKind::Session,
-                    codec.encode(&Session::Failed(why.clone()))?,
-                );
-                t.close(Duration::from_secs(2));
-                anyhow::bail!(why);
-            }
-        };
-        if let Some(e) = &actor.stats().error {
-            eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
+        )
+    }
+}
+
+/// The worker's test hooks (see [`Worker`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hooks {
+    /// SIGKILL when the node starts chunk `K + 1` of phase 1.
+    pub kill_after_chunks: Option<u64>,
+    /// SIGKILL when phase 2 starts.
+    pub kill_in_phase2: bool,
+}
+
+/// One node's frame over `t` (rank `setup.rank`; the coordinator is rank
+/// `setup.nodes`), once the set-up and the cells are in and the links to
+/// the peers are up: build the node, `Ready`, wait (at most `go_wait`) for
+/// `Go`, phase 1, the result, phase 2, the log. On any error the
+/// coordinator is told why (`Failed`) before the links close. Transport
+/// independent: TCP and MPI workers both end here.
+pub fn run_node<T: RemoteTransport>(
+    t: &T,
+    setup: &WorkerSetup,
+    cells: &[u8],
+    go_wait: Duration,
+    hooks: Hooks,
+) -> anyhow::Result<()> {
+    let coord = NodeId(setup.nodes);
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    let d = go_wait;
+    t.set_essential(coord, true);
+    // Built after the mesh (peers wait on our accept meanwhile) and
+    // with the links up (heartbeats flow while the cells are sorted).
+    let mut actor = match build_node(setup, cells) {
+        Ok(a) => a,
+        Err(e) => {
+            let why = format!("node {}: {e:#}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why))?,
+            );
+            t.close(Duration::from_secs(2));
+            return Err(e);
         }
+    };
+    let ready = Session::Ready {
+        remaining: actor.renderer().remaining() as u64,
+    };
+    t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
+    // Wait for Go; messages from peers that started earlier are kept.
+    let early = SessionGuard::wait_go(t, coord, codec, d)?;
+    eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
+    let clock = WallClock::start();
+    let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
+    let wire0 = t.stats();
+    let run = run_actor(
+        &early,
+        Chunks {
+            node: &mut actor,
+            kill_after: hooks.kill_after_chunks,
+            seen: 0,
+        },
+        clock,
+        WallOptions {
+            compute: ComputeMode::Skip,
+            recv_timeout: timeout,
+        },
+    );
+    let (stop, trace, traffic) = match run {
+        Ok(x) => x,
+        Err(e) => {
+            // Tell the coordinator why (a lost peer, most likely).
+            let why = format!("node {} in phase 1: {e}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why.clone()))?,
+            );
+            t.close(Duration::from_secs(2));
+            anyhow::bail!(why);
+        }
+    };
+    if let Some(e) = &actor.stats().error {
+        eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
+    }
+    let mut wire = t.stats();
+    wire.payload = traffic.clone();
+    wire.wire_bytes_sent -= wire0.wire_bytes_sent;
+    wire.wire_bytes_recv -= wire0.wire_bytes_recv;
+    let scene = parse_scene(setup)?;
+    let lists = worker_lists(&actor, setup, (scene.image.width, scene.image.height));
+    let result = NodeResult {
+        raw: NodeRaw::from_actor(&actor),
+        stopped_at: stop,
+        trace,
+        traffic,
+        wire,
+    };
+    t.send(
+        coord,
+        MessageKind::Session,
+        codec.encode(&Session::Result(Box::new(result)))?,
+    )?;
+    // Phase 2, once every node is done with phase 1.
+    let wire0 = t.stats();
+    let r = wait_composite(t, coord, codec, timeout).and_then(|early| {
+        if hooks.kill_in_phase2 {
+            kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+        }
+        let log = phase2(t, setup, &scene, lists, early, timeout)?;
         let mut wire = t.stats();
-        wire.payload = traffic.clone();
         wire.wire_bytes_sent -= wire0.wire_bytes_sent;
         wire.wire_bytes_recv -= wire0.wire_bytes_recv;
-        let scene = parse_scene(&setup)?;
-        let lists = worker_lists(&actor, &setup, (scene.image.width, scene.image.height));
-        let result = NodeResult {
-            raw: NodeRaw::from_actor(&actor),
-            stopped_at: stop,
-            trace,
-            traffic,
-            wire,
-        };
-        t.send(
-            coord,
-            MessageKind::Session,
-            codec.encode(&Session::Result(Box::new(result)))?,
-        )?;
-        // Phase 2, once every node is done with phase 1.
-        let wire0 = t.stats();
-        let r = wait_composite(&t, coord, codec, timeout).and_then(|early| {
-            if self.kill_in_phase2 {
-                kill_self("at the start of phase 2 (--test-kill-in-phase2)");
-            }
-            let log = phase2(&t, &setup, &scene, lists, early, timeout)?;
-            let mut wire = t.stats();
-            wire.wire_bytes_sent -= wire0.wire_bytes_sent;
-            wire.wire_bytes_recv -= wire0.wire_bytes_recv;
-            wire.payload = diff_traffic(&wire.payload, &wire0.payload);
-            Ok((log, wire))
-        });
-        match r {
-            Ok(done) => {
-                t.send(
-                    coord,
-                    MessageKind::Session,
-                    codec.encode(&Session::Phase2Done(Box::new(done)))?,
-                )?;
-                t.close(Duration::from_secs(10));
-                Ok(())
-            }
-            Err(e) => {
-                let why = format!("node {} in phase 2: {e:#}", setup.rank);
-                let _ = t.send(
-                    coord,
-                    MessageKind::Session,
-                    codec.encode(&Session::Failed(why.clone()))?,
-                );
-                t.close(Duration::from_secs(2));
-                anyhow::bail!(why)
-            }
+        wire.payload = diff_traffic(&wire.payload, &wire0.payload);
+        Ok((log, wire))
+    });
+    match r {
+        Ok(done) => {
+            t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Phase2Done(Box::new(done)))?,
+            )?;
+            t.close(Duration::from_secs(10));
+            Ok(())
+        }
+        Err(e) => {
+            let why = format!("node {} in phase 2: {e:#}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why.clone()))?,
+            );
+            t.close(Duration::from_secs(2));
+            anyhow::bail!(why)
         }
     }
 }
 
 /// Waits for the coordinator's `Composite`; returns the phase-2 messages of
 /// peers that started first (late phase-1 messages are dropped).
-fn wait_composite(
-    t: &TcpTransport,
+fn wait_composite<T: RemoteTransport>(
+    t: &T,
     coord: NodeId,
     codec: Codec,
     wait: Duration,
@@ -384,8 +421,8 @@ fn wait_composite(
 }
 
 /// This rank's part of phase 2 (see [`super::phase2`]).
-fn phase2(
-    t: &TcpTransport,
+fn phase2<T: RemoteTransport>(
+    t: &T,
     setup: &WorkerSetup,
     scene: &Scene,
     lists: crate::compositor::RegionLists,

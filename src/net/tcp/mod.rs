@@ -19,11 +19,12 @@ pub mod handshake;
 pub mod raw;
 pub mod transport;
 
+pub use crate::net::remote::WireStats;
 pub use auth::Token;
 pub use connect::{accept, check_exposure, connect, is_loopback};
 pub use frame::{decode_all, LinkFrame};
 pub use handshake::{PeerHello, Role, PROTOCOL_VERSION};
-pub use transport::{Link, TcpOptions, TcpTransport, WireStats};
+pub use transport::{Link, TcpOptions, TcpTransport};
 
 /// The process's tokio runtime for network tasks: two worker threads (the
 /// rendering runs on the caller's threads).

@@ -19,14 +19,13 @@
 //! needs: the coordinator for a worker, a worker whose results are not in).
 //!
 //! Counting: payload bytes per kind and destination in the same
-//! [`TrafficStats`] the simulator fills, plus the bytes really written and
+//! [`crate::net::TrafficStats`] the simulator fills, plus the bytes really written and
 //! read (frames, heartbeats, goodbyes) in [`WireStats`].
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
-use serde::{Deserialize, Serialize};
 use tokio::io::AsyncWriteExt;
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::net::TcpStream;
@@ -37,7 +36,7 @@ use tokio::task::JoinHandle;
 use super::frame::{data_frame_bytes, encode_frame, read_frame_async, LinkFrame, TAG_HEARTBEAT};
 use crate::net::error::{NetError, NetResult};
 use crate::net::message::{Codec, Envelope, MessageKind, NodeId};
-use crate::net::metered::TrafficStats;
+use crate::net::remote::{RemoteTransport, WireStats};
 use crate::net::transport::{check_rank, Transport};
 
 /// Timing and size knobs of TCP links.
@@ -63,32 +62,6 @@ impl Default for TcpOptions {
             deadline: Duration::from_secs(3),
             handshake_timeout: Duration::from_secs(5),
         }
-    }
-}
-
-/// Bytes on the wire, counted by the transport.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct WireStats {
-    /// Payload messages and bytes per kind (as in the simulator).
-    pub payload: TrafficStats,
-    /// Bytes written: data frames (tag + header + payload), heartbeats, goodbyes.
-    pub wire_bytes_sent: u64,
-    /// Bytes read in frames.
-    pub wire_bytes_recv: u64,
-    /// Heartbeats written.
-    pub heartbeats_sent: u64,
-    /// Heartbeats read.
-    pub heartbeats_recv: u64,
-}
-
-impl WireStats {
-    /// Adds another endpoint's counts.
-    pub fn merge(&mut self, o: &WireStats) {
-        self.payload.merge(&o.payload);
-        self.wire_bytes_sent += o.wire_bytes_sent;
-        self.wire_bytes_recv += o.wire_bytes_recv;
-        self.heartbeats_sent += o.heartbeats_sent;
-        self.heartbeats_recv += o.heartbeats_recv;
     }
 }
 
@@ -190,98 +163,6 @@ impl TcpTransport {
         })
     }
 
-    /// Marks a peer as needed: its `Goodbye` is then an error (it left
-    /// before it was done), not a clean end.
-    pub fn set_essential(&self, rank: NodeId, essential: bool) {
-        if let Some(Some(p)) = lock(&self.peers).get_mut(rank.index()) {
-            p.essential = essential;
-        }
-    }
-
-    /// The name of a peer (for error messages).
-    pub fn peer_name(&self, rank: NodeId) -> String {
-        match lock(&self.peers).get(rank.index()) {
-            Some(Some(p)) => p.name.clone(),
-            _ => rank.to_string(),
-        }
-    }
-
-    /// Counts so far.
-    pub fn stats(&self) -> WireStats {
-        lock(&self.stats).clone()
-    }
-
-    /// Sends `Goodbye` on every link, waits (at most `wait`) for the
-    /// writers to flush, and stops the readers. Also done on drop.
-    pub fn close(&self, wait: Duration) {
-        for p in lock(&self.peers).iter_mut().flatten() {
-            p.tx = None;
-        }
-        let writers: Vec<_> = lock(&self.writers).drain(..).collect();
-        let readers: Vec<_> = lock(&self.readers).drain(..).collect();
-        if writers.is_empty() && readers.is_empty() {
-            return;
-        }
-        self.rt.block_on(async {
-            let _ = tokio::time::timeout(wait, async {
-                for h in writers {
-                    let _ = h.await;
-                }
-            })
-            .await;
-        });
-        for h in readers {
-            h.abort();
-        }
-    }
-
-    /// How each rank's link ended, after waiting at most `wait` for the
-    /// links still open to end (messages read meanwhile are dropped):
-    /// `Some(true)` a clean `Goodbye`, `Some(false)` lost (closed without
-    /// `Goodbye`, an I/O or frame error, silence past the deadline), `None`
-    /// still open (or no link: this rank, or a rank never linked). For a
-    /// caller whose frame failed: which peers died, and which only gave up.
-    pub fn link_endings(&self, wait: Duration) -> Vec<Option<bool>> {
-        let until = std::time::Instant::now() + wait;
-        let endings = |peers: &[Option<Peer>]| -> Vec<Option<bool>> {
-            peers
-                .iter()
-                .map(|p| match p {
-                    Some(p) if p.lost => Some(false),
-                    Some(p) if p.said_goodbye => Some(true),
-                    _ => None,
-                })
-                .collect()
-        };
-        loop {
-            let open = lock(&self.peers)
-                .iter()
-                .any(|p| p.as_ref().is_some_and(|p| !p.lost && !p.said_goodbye));
-            let left = until.saturating_duration_since(std::time::Instant::now());
-            if !open || left.is_zero() {
-                return endings(&lock(&self.peers));
-            }
-            let item = match self.inbox.recv_timeout(left) {
-                Ok(i) => i,
-                Err(_) => return endings(&lock(&self.peers)),
-            };
-            let mut peers = lock(&self.peers);
-            match item {
-                Incoming::Msg(_) => {}
-                Incoming::Goodbye(r) => {
-                    if let Some(Some(p)) = peers.get_mut(r.index()) {
-                        p.said_goodbye = true;
-                    }
-                }
-                Incoming::Lost(r, _) => {
-                    if let Some(Some(p)) = peers.get_mut(r.index()) {
-                        p.lost = true;
-                    }
-                }
-            }
-        }
-    }
-
     fn fail(&self, peer: NodeId, reason: String) -> NetError {
         if let Some(Some(p)) = lock(&self.peers).get_mut(peer.index()) {
             // An essential peer's Goodbye is an error, not a loss.
@@ -336,6 +217,100 @@ impl TcpTransport {
                 reason: reason.clone(),
             }),
             None => Ok(()),
+        }
+    }
+}
+
+impl RemoteTransport for TcpTransport {
+    /// Marks a peer as needed: its `Goodbye` is then an error (it left
+    /// before it was done), not a clean end.
+    fn set_essential(&self, rank: NodeId, essential: bool) {
+        if let Some(Some(p)) = lock(&self.peers).get_mut(rank.index()) {
+            p.essential = essential;
+        }
+    }
+
+    /// The name of a peer (for error messages).
+    fn peer_name(&self, rank: NodeId) -> String {
+        match lock(&self.peers).get(rank.index()) {
+            Some(Some(p)) => p.name.clone(),
+            _ => rank.to_string(),
+        }
+    }
+
+    /// Counts so far.
+    fn stats(&self) -> WireStats {
+        lock(&self.stats).clone()
+    }
+
+    /// Sends `Goodbye` on every link, waits (at most `wait`) for the
+    /// writers to flush, and stops the readers. Also done on drop.
+    fn close(&self, wait: Duration) {
+        for p in lock(&self.peers).iter_mut().flatten() {
+            p.tx = None;
+        }
+        let writers: Vec<_> = lock(&self.writers).drain(..).collect();
+        let readers: Vec<_> = lock(&self.readers).drain(..).collect();
+        if writers.is_empty() && readers.is_empty() {
+            return;
+        }
+        self.rt.block_on(async {
+            let _ = tokio::time::timeout(wait, async {
+                for h in writers {
+                    let _ = h.await;
+                }
+            })
+            .await;
+        });
+        for h in readers {
+            h.abort();
+        }
+    }
+
+    /// How each rank's link ended, after waiting at most `wait` for the
+    /// links still open to end (messages read meanwhile are dropped):
+    /// `Some(true)` a clean `Goodbye`, `Some(false)` lost (closed without
+    /// `Goodbye`, an I/O or frame error, silence past the deadline), `None`
+    /// still open (or no link: this rank, or a rank never linked). For a
+    /// caller whose frame failed: which peers died, and which only gave up.
+    fn link_endings(&self, wait: Duration) -> Vec<Option<bool>> {
+        let until = std::time::Instant::now() + wait;
+        let endings = |peers: &[Option<Peer>]| -> Vec<Option<bool>> {
+            peers
+                .iter()
+                .map(|p| match p {
+                    Some(p) if p.lost => Some(false),
+                    Some(p) if p.said_goodbye => Some(true),
+                    _ => None,
+                })
+                .collect()
+        };
+        loop {
+            let open = lock(&self.peers)
+                .iter()
+                .any(|p| p.as_ref().is_some_and(|p| !p.lost && !p.said_goodbye));
+            let left = until.saturating_duration_since(std::time::Instant::now());
+            if !open || left.is_zero() {
+                return endings(&lock(&self.peers));
+            }
+            let item = match self.inbox.recv_timeout(left) {
+                Ok(i) => i,
+                Err(_) => return endings(&lock(&self.peers)),
+            };
+            let mut peers = lock(&self.peers);
+            match item {
+                Incoming::Msg(_) => {}
+                Incoming::Goodbye(r) => {
+                    if let Some(Some(p)) = peers.get_mut(r.index()) {
+                        p.said_goodbye = true;
+                    }
+                }
+                Incoming::Lost(r, _) => {
+                    if let Some(Some(p)) = peers.get_mut(r.index()) {
+                        p.lost = true;
+                    }
+                }
+            }
         }
     }
 }
