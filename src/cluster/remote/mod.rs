@@ -9,6 +9,8 @@
 //! | [`session`] | set-up and result messages, wire forms of the options |
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the coordinator: set-up, manager, results, phase 2 |
+//! | [`grid`] | grid scenes: bricks to workers (cached), layers to the master |
+//! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
 //! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
@@ -18,6 +20,8 @@
 
 pub mod compare;
 pub mod coordinator;
+pub mod grid;
+pub mod grid_wire;
 pub mod guard;
 pub mod phase2;
 pub mod probe;
