@@ -89,7 +89,10 @@ fn same_grid_image_on_the_virtual_clock_threads_and_processes() {
             let (input, cfg) = config(s, &a).unwrap();
             assert_eq!(cfg.clock, ClockKind::Virtual);
             let virt = run(&input, &cfg).unwrap();
-            assert!(virt.image.pixels.iter().any(|p| p[3] > 0.2), "a visible frame");
+            assert!(
+                virt.image.pixels.iter().any(|p| p[3] > 0.2),
+                "a visible frame"
+            );
             let mut wall = cfg.clone();
             wall.clock = ClockKind::Wall;
             let threads = run(&input, &wall).unwrap();
@@ -107,7 +110,11 @@ fn same_grid_image_on_the_virtual_clock_threads_and_processes() {
                 assert_eq!(m.bricks_cached, 0);
                 assert!(m.bricks_bytes_sent >= 32 * 32 * 32);
             } else {
-                assert_eq!((m.bricks_cached, m.bricks_bytes_sent), (4, 0), "{k} {extra:?}");
+                assert_eq!(
+                    (m.bricks_cached, m.bricks_bytes_sent),
+                    (4, 0),
+                    "{k} {extra:?}"
+                );
             }
         }
     }
@@ -117,9 +124,16 @@ fn same_grid_image_on_the_virtual_clock_threads_and_processes() {
 fn remote_grid_runs_refuse_what_they_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let s = scene(dir.path(), "[60, -50, 70]");
-    let e = config(&s, &["--nodes", "4", "--transport", "processes"]).err().expect("refused");
+    let e = config(&s, &["--nodes", "4", "--transport", "processes"])
+        .err()
+        .expect("refused");
     assert!(e.to_string().contains("--master"), "{e}");
-    let e = config(&s, &["--nodes", "2", "--workers", "127.0.0.1:1,127.0.0.1:2"]).err().expect("refused");
+    let e = config(
+        &s,
+        &["--nodes", "2", "--workers", "127.0.0.1:1,127.0.0.1:2"],
+    )
+    .err()
+    .expect("refused");
     assert!(e.to_string().contains("--transport tcp"), "{e}");
     let e = config(&s, &["--tolerance", "0.1"]).err().expect("refused");
     assert!(e.to_string().contains("--blocks"), "{e}");

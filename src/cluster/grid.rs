@@ -19,9 +19,9 @@ use super::phase2::{replay, RoundPlan};
 use crate::compositor::codec::layers::{self as layer_codec, LayerCodec};
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::Layer;
+use crate::compositor::region::screen;
 use crate::compositor::strategy::Strategy;
 use crate::data::Volume;
-use crate::compositor::region::screen;
 use crate::image::Image;
 use crate::net::{MessageKind, NetworkModel, SimTrace};
 use crate::node::grid::bricks::{extract, place, split, visibility_ranks, Brick, BrickPlacement};
@@ -128,6 +128,10 @@ pub struct GridReport {
     /// Preprocessing host seconds (adaptive build, min–max blocks): the
     /// slowest node's sum over its bricks.
     pub prepare_s: f64,
+    /// Bricks whose texture alone exceeds a node's texture memory (device
+    /// model): when not 0, the paper's hardware could not draw the frame
+    /// (its "-"); the times charge them as uploads.
+    pub oversized_bricks: u64,
     /// Per round: label, messages, bytes, raw bytes.
     pub rounds: Vec<(String, usize, u64, u64)>,
     /// Per rank.
@@ -418,6 +422,7 @@ pub fn finish(
             }
         },
         prepare_s: p1.stats.iter().map(|s| s.prepare_s).fold(0.0, f64::max),
+        oversized_bricks: p1.stats.iter().map(|s| s.device.oversized_bricks).sum(),
         nodes: p1
             .stats
             .into_iter()
@@ -444,7 +449,7 @@ pub fn summary(r: &GridReport) -> String {
     let mut s = format!(
         "grid cluster: {} node(s){}, {}^3 bricks, {} / {} / {}, {:?} clock\n\
          frame {:.4} s = render {:.4} s + composite {:.4} s; phase-2 bytes {} (codec ratio {:.3})\n\
-         renderer {:?}: size ratio {:.3}, preprocessing {:.3} s\n",
+         renderer {:?}: size ratio {:.3}, preprocessing {:.3} s; bricks over texture memory: {}\n",
         r.n_nodes,
         if r.master { " + master" } else { "" },
         r.subvolumes,
@@ -459,7 +464,8 @@ pub fn summary(r: &GridReport) -> String {
         r.codec_ratio,
         r.renderer,
         r.size_ratio,
-        r.prepare_s
+        r.prepare_s,
+        r.oversized_bricks
     );
     for n in &r.nodes {
         s.push_str(&format!(

@@ -28,7 +28,9 @@ use serde::{Deserialize, Serialize};
 use tokio::net::TcpStream;
 use tokio::runtime::Runtime;
 
-use super::grid_wire::{decode_bricks, encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice};
+use super::grid_wire::{
+    decode_bricks, encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
+};
 use super::session::{sha256, Session};
 use crate::cluster::grid::{finish, prepare, GridConfig, GridOutcome, Phase1Out};
 use crate::cluster::ClockKind;
@@ -300,7 +302,11 @@ pub(super) fn serve(
         anyhow::anyhow!(why)
     };
     if let Err(e) = setup.validate() {
-        return Err(fail(rt, &mut stream, format!("bad grid set-up from {name}: {e}")));
+        return Err(fail(
+            rt,
+            &mut stream,
+            format!("bad grid set-up from {name}: {e}"),
+        ));
     }
     let cached = cache.iter().position(|(h, _)| *h == setup.bricks_sha256);
     rt.block_on(tcp::raw::write_msg(
@@ -331,9 +337,21 @@ pub(super) fn serve(
     };
     let result = render(&setup, &bytes).map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
     let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
-    rt.block_on(tcp::raw::write_msg(&mut stream, &codec, me, coord, &msg, name))?;
+    rt.block_on(tcp::raw::write_msg(
+        &mut stream,
+        &codec,
+        me,
+        coord,
+        &msg,
+        name,
+    ))?;
     // Wait for the coordinator to close, so that nothing is cut short.
-    let _ = rt.block_on(tcp::raw::read_msg::<_, Session>(&mut stream, &codec, d, name));
+    let _ = rt.block_on(tcp::raw::read_msg::<_, Session>(
+        &mut stream,
+        &codec,
+        d,
+        name,
+    ));
     Ok(())
 }
 

@@ -183,7 +183,9 @@ impl GridSetup {
         }
         crate::compositor::codec::layers::from_name(&self.codec)?;
         self.slice.options()?;
-        if !(self.range[0].is_finite() && self.range[1].is_finite() && self.range[1] > self.range[0])
+        if !(self.range[0].is_finite()
+            && self.range[1].is_finite()
+            && self.range[1] > self.range[0])
         {
             return Err(format!("scalar range {:?}", self.range));
         }
@@ -202,7 +204,8 @@ impl GridSetup {
 
     /// The planes.
     pub fn planes(&self) -> Option<Planes> {
-        self.planes.map(|(z_start, delta, n)| Planes { z_start, delta, n })
+        self.planes
+            .map(|(z_start, delta, n)| Planes { z_start, delta, n })
     }
 }
 
@@ -226,15 +229,18 @@ fn put_volume(out: &mut Vec<u8>, v: &Volume) {
         }
         Voxels::U16(s) => {
             out.push(1);
-            s.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+            s.iter()
+                .for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
         }
         Voxels::I16(s) => {
             out.push(2);
-            s.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+            s.iter()
+                .for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
         }
         Voxels::F32(s) => {
             out.push(3);
-            s.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+            s.iter()
+                .for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
         }
     }
 }
@@ -270,7 +276,9 @@ impl<'a> Cursor<'a> {
     }
 
     fn u64(&mut self) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap_or([0; 8])))
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().unwrap_or([0; 8]),
+        ))
     }
 
     fn f64(&mut self) -> Result<f64, String> {

@@ -51,6 +51,12 @@ pub struct DeviceTime {
     pub resident_bytes: u64,
     /// Texture bytes uploaded every frame.
     pub uploaded_bytes: u64,
+    /// Bricks whose texture alone exceeds the texture memory: a device
+    /// cannot draw them as one texture (the paper's "-" in Table 2); the
+    /// model still charges them as uploads, so a row with any is not a
+    /// frame the paper's hardware could draw.
+    #[serde(default)]
+    pub oversized_bricks: u64,
 }
 
 impl DeviceTime {
@@ -79,6 +85,9 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
     }
     let mut used = 0u64;
     for b in bricks {
+        if p.texture_bytes > 0.0 && b.texture_bytes as f64 > p.texture_bytes {
+            t.oversized_bricks += 1;
+        }
         t.fill_s += b.fragments as f64 / p.fill_rate;
         if p.texture_bytes <= 0.0 || (used + b.texture_bytes) as f64 <= p.texture_bytes {
             used += b.texture_bytes;
@@ -174,6 +183,8 @@ mod tests {
         assert_eq!(device_bytes(1000, 1, &rgba), 4000);
         assert_eq!(device_bytes(1000, 2, &rgba), 2000);
         assert_eq!(device_bytes(1000, 2, &p), 1000);
+        assert_eq!(frame_time(&[b(60), b(101)], &p).oversized_bricks, 1);
+        assert_eq!(frame_time(&[b(60), b(100)], &p).oversized_bricks, 0);
         // No device: the software slicer's per-sample cost.
         let cpu = CostProfile {
             per_sample: 2.0,

@@ -51,7 +51,8 @@ impl RendererKind {
             RendererKind::Adaptive { blocks, tolerance } => {
                 let a = crate::render::adaptive::AdaptiveOptions { blocks, tolerance };
                 Arc::new(move |input: &VolumeInput, opts: &Slice3dOptions| {
-                    crate::render::adaptive::render(input, opts, &a).map(|(img, st)| (img, st.slice))
+                    crate::render::adaptive::render(input, opts, &a)
+                        .map(|(img, st)| (img, st.slice))
                 })
             }
         }

@@ -162,10 +162,19 @@ fn a_brick_owns_each_sample_once() {
                 .iter()
                 .map(|b| {
                     let v = Arc::new(extract(&inp.volume, b));
-                    render_brick(&inp, planes, b, v, ranks[b.id as usize], Depth::U16, &opts, &r)
-                        .unwrap()
-                        .stats
-                        .samples_taken
+                    render_brick(
+                        &inp,
+                        planes,
+                        b,
+                        v,
+                        ranks[b.id as usize],
+                        Depth::U16,
+                        &opts,
+                        &r,
+                    )
+                    .unwrap()
+                    .stats
+                    .samples_taken
                 })
                 .sum();
             assert_eq!(sum, whole.samples_taken, "{cam} {kind:?}");

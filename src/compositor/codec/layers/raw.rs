@@ -1,6 +1,8 @@
 //! `raw` / `raw16`: every pixel, 4 or 8 bytes each.
 
-use super::{at_depth, put_layer_header, put_pixel, read_layer_header, read_raw_pixels, LayerCodec};
+use super::{
+    at_depth, put_layer_header, put_pixel, read_layer_header, read_raw_pixels, LayerCodec,
+};
 use crate::compositor::codec::wire::{DecodeError, Limits, Reader};
 use crate::compositor::layer::{Depth, Layer};
 
@@ -28,7 +30,11 @@ pub(super) fn encode_raw(layer: &Layer, out: &mut Vec<u8>) {
 }
 
 /// Decodes after the magic check for [`byte`]`(depth)`.
-pub(super) fn decode_raw(bytes: &[u8], limits: &Limits, depth: Depth) -> Result<Layer, DecodeError> {
+pub(super) fn decode_raw(
+    bytes: &[u8],
+    limits: &Limits,
+    depth: Depth,
+) -> Result<Layer, DecodeError> {
     let mut rd = Reader::new(bytes);
     let (rect, ranks) = read_layer_header(&mut rd, byte(depth), limits)?;
     let px = read_raw_pixels(&mut rd, &rect, depth)?;

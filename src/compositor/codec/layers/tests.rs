@@ -21,8 +21,16 @@ fn pixel(depth: Depth) -> impl Strategy<Value = [u16; 4]> {
 }
 
 fn layer() -> impl Strategy<Value = Layer> {
-    (0u32..12, 0u32..12, 0u32..40, 0u32..40, 0u32..20, 0u32..3, any::<bool>()).prop_flat_map(
-        |(w, h, x0, y0, lo, span, wide)| {
+    (
+        0u32..12,
+        0u32..12,
+        0u32..40,
+        0u32..40,
+        0u32..20,
+        0u32..3,
+        any::<bool>(),
+    )
+        .prop_flat_map(|(w, h, x0, y0, lo, span, wide)| {
             let depth = if wide { Depth::U16 } else { Depth::U8 };
             prop::collection::vec(pixel(depth), (w * h) as usize).prop_map(move |px| Layer {
                 rect: Rect {
@@ -35,8 +43,7 @@ fn layer() -> impl Strategy<Value = Layer> {
                 depth,
                 px,
             })
-        },
-    )
+        })
 }
 
 /// Every codec carrying layers of `depth`.
