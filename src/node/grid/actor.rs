@@ -18,7 +18,7 @@ use crate::render::VolumeInput;
 
 use super::bricks::Brick;
 use super::device::{device_bytes, frame_time, BrickWork, DeviceTime};
-use super::render::{render_brick, BrickRenderer};
+use super::render::{render_brick, BrickRenderer, LayerSpec};
 
 /// What a grid node did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -115,8 +115,10 @@ impl GridNodeActor {
                     planes,
                     b,
                     vol.clone(),
-                    *rank,
-                    self.depth,
+                    LayerSpec {
+                        rank: *rank,
+                        depth: self.depth,
+                    },
                     &self.opts,
                     &self.renderer,
                 )?;

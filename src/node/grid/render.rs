@@ -92,16 +92,24 @@ pub fn whole_planes(whole: &VolumeInput, opts: &Slice3dOptions) -> Option<Planes
     )
 }
 
-/// Renders brick `b` (its samples in `vol`) of `whole` with visibility
-/// rank `rank` into a layer of `depth`. The brick's scene has a black background, so
+/// The layer a brick becomes: its visibility rank and its pixels' depth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LayerSpec {
+    /// Visibility rank (0 nearest the eye).
+    pub rank: u32,
+    /// Fixed-point depth of the pixels (the layer codec's).
+    pub depth: Depth,
+}
+
+/// Renders brick `b` (its samples in `vol`) of `whole` into the layer
+/// `spec` describes. The brick's scene has a black background, so
 /// its pixels are premultiplied RGBA without background.
 pub fn render_brick(
     whole: &VolumeInput,
     planes: Planes,
     b: &Brick,
     vol: Arc<Volume>,
-    rank: u32,
-    depth: Depth,
+    spec: LayerSpec,
     opts: &Slice3dOptions,
     renderer: &BrickRenderer,
 ) -> Result<BrickOutput> {
@@ -138,7 +146,7 @@ pub fn render_brick(
         px.extend_from_slice(&img.pixels[row + rect.x0 as usize..row + rect.x1 as usize]);
     }
     Ok(BrickOutput {
-        layer: Layer::quantize(rect, rank, depth, &px),
+        layer: Layer::quantize(rect, spec.rank, spec.depth, &px),
         stats,
         exact: px,
     })

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use proptest::prelude::*;
 
 use super::bricks::{extract, place, split, visibility_ranks, BrickPlacement};
-use super::render::{render_brick, slice3d_renderer, whole_planes};
+use super::render::{render_brick, slice3d_renderer, whole_planes, LayerSpec};
 
 use crate::compositor::layer::{composite, Depth, Layer};
 use crate::render::grid_reference::tests::{scene, volume};
@@ -53,7 +53,19 @@ pub(crate) fn bricked(
         .iter()
         .map(|b| {
             let v = Arc::new(extract(&inp.volume, b));
-            render_brick(inp, planes, b, v, ranks[b.id as usize], depth, opts, &r).unwrap()
+            render_brick(
+                inp,
+                planes,
+                b,
+                v,
+                LayerSpec {
+                    rank: ranks[b.id as usize],
+                    depth,
+                },
+                opts,
+                &r,
+            )
+            .unwrap()
         })
         .collect();
     let screen = crate::compositor::region::screen(s.image.width, s.image.height);
