@@ -179,8 +179,10 @@ fn a_brick_owns_each_sample_once() {
                         planes,
                         b,
                         v,
-                        ranks[b.id as usize],
-                        Depth::U16,
+                        LayerSpec {
+                            rank: ranks[b.id as usize],
+                            depth: Depth::U16,
+                        },
                         &opts,
                         &r,
                     )
