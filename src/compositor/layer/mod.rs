@@ -3,8 +3,9 @@
 //!
 //! A [`Layer`] is a brick's subimage: premultiplied fixed-point RGBA (8 or
 //! 16 bits a channel) over a screen rectangle, with the inclusive range
-//! `[lo, hi]` of visibility ranks it covers (rank 0 is nearest the eye). A brick's own layer has `lo == hi`;
-//! a merge of layers adjacent in the order (`a.hi + 1 == b.lo`) covers both.
+//! `[lo, hi]` of visibility ranks it covers (rank 0 is nearest the eye). A
+//! brick's own layer has `lo == hi`; a merge of layers adjacent in the order
+//! (`a.hi + 1 == b.lo`) covers both.
 //! Because "over" is associative, any grouping of adjacent ranks gives the
 //! same image (up to rounding), so strategies may merge early only adjacent
 //! ranges, and the final composite walks the ranks front to back:
