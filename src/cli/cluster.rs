@@ -92,8 +92,10 @@ pub struct ClusterArgs {
     #[arg(long, default_value = "binary-swap")]
     pub compositor: String,
     /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`;
-    /// grid scenes: `raw` (RGBA8), `rle-paper` (the paper's RLE; `rle` means
-    /// it there) or `sparse` (IceT's active runs).
+    /// grid scenes: `rle16` (the paper's RLE at 16 bits a channel; `rle`
+    /// means it there), `raw16`, `sparse16` (IceT's active runs), or the
+    /// paper's 8-bit `raw`, `rle-paper`, `sparse` (up to 1.4/255 off the
+    /// single-node image at d = 2).
     #[arg(long, default_value = "rle")]
     pub codec: String,
     /// Network model: a preset (gbe, fast-ethernet, 10gbe, infiniband,

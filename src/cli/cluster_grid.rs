@@ -4,14 +4,18 @@
 //! `--nodes 4 --subvolumes 2 --master --network 100base`.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
 
 use super::cluster::{load_profile, ClusterArgs};
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
+use crate::cluster::remote::grid::GridRemote;
+use crate::cluster::remote::LocalWorkers;
 use crate::cluster::ClockKind;
-use crate::node::grid::render::slice3d_renderer;
+use crate::net::tcp::{TcpOptions, Token};
+use crate::node::grid::render::RendererKind;
 use crate::node::grid::BrickPlacement;
 use crate::render::slice3d::Slice3dOptions;
 use crate::render::VolumeInput;
@@ -32,6 +36,14 @@ pub struct GridArgs {
     /// `balanced` by visible voxels).
     #[arg(long, value_enum)]
     pub brick_placement: Option<BrickPlacement>,
+    /// Grid scenes: render each brick by adaptive block sampling with B
+    /// blocks per axis of the brick (`render --renderer adaptive`).
+    #[arg(long, value_name = "B")]
+    pub blocks: Option<u64>,
+    /// Grid scenes with --blocks: the adaptive tolerance τ (RMS error per
+    /// block at most τ times the transfer function's scalar range; default 0.05).
+    #[arg(long, value_name = "T")]
+    pub tolerance: Option<f64>,
 }
 
 /// Refuses grid-only options on a mesh scene.
@@ -45,6 +57,12 @@ pub fn refuse_on_mesh(g: &GridArgs) -> anyhow::Result<()> {
     }
     if g.brick_placement.is_some() {
         bad.push("--brick-placement");
+    }
+    if g.blocks.is_some() {
+        bad.push("--blocks");
+    }
+    if g.tolerance.is_some() {
+        bad.push("--tolerance");
     }
     anyhow::ensure!(
         bad.is_empty(),
@@ -78,14 +96,30 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         bad.join(", ")
     );
     use super::transport_args::TransportKind;
+    let n = &a.net;
+    anyhow::ensure!(
+        (n.workers.is_empty() && n.hostfile.is_none() && n.token_file.is_none())
+            || n.transport == Some(TransportKind::Tcp),
+        "--workers, --hostfile and --token-file need --transport tcp"
+    );
     let threads = match a.net.transport {
         None => false,
         Some(TransportKind::Threads) => true,
-        Some(t) => anyhow::bail!(
-            "--transport {} is not available for grid scenes yet: grid nodes run on the \
-             virtual clock or as threads (--transport threads or --clock wall)",
-            t.name()
-        ),
+        Some(t) => {
+            anyhow::ensure!(
+                a.grid.master,
+                "--transport {} for grid scenes runs the paper's setting: the workers send \
+                 their subimages to the master; add --master (binary swap and direct send \
+                 between grid workers are not built)",
+                t.name()
+            );
+            anyhow::ensure!(
+                a.net.on_failure == super::transport_args::OnFailure::Abort,
+                "--on-failure reassign is for cell projection; a grid frame fails with an error \
+                 naming the worker"
+            );
+            true
+        }
     };
     let g = &a.grid;
     let compositor = if g.master {
@@ -98,14 +132,24 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     } else {
         a.compositor.clone()
     };
-    // `rle` (the default) means the paper's RLE for layers.
+    // `rle` (the default) means the paper's RLE at 16 bits for layers.
     let codec = match a.codec.as_str() {
-        "rle" => "rle-paper".to_string(),
+        "rle" => crate::compositor::codec::layers::DEFAULT.to_string(),
         c => c.to_string(),
     };
     crate::compositor::codec::layers::from_name(&codec).map_err(|e| anyhow::anyhow!(e))?;
     let network = a.network.as_deref().unwrap_or("gbe");
     let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("radeon9700"))?;
+    let renderer = match (g.blocks, g.tolerance) {
+        (None, None) => RendererKind::Slice3d,
+        (None, Some(_)) => anyhow::bail!(
+            "--tolerance sets adaptive block sampling's tolerance: give --blocks B with it"
+        ),
+        (Some(blocks), t) => RendererKind::Adaptive {
+            blocks,
+            tolerance: t.unwrap_or(0.05),
+        },
+    };
     Ok(GridConfig {
         nodes: a.nodes,
         subvolumes: g.subvolumes.unwrap_or(2),
@@ -117,7 +161,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
             ert: a.ert,
             ..Default::default()
         },
-        renderer: slice3d_renderer(),
+        renderer,
         clock: if threads {
             ClockKind::Wall
         } else {
@@ -140,7 +184,57 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
-    grid::run(&input, &cfg)
+    use super::transport_args::TransportKind;
+    let t = &a.net;
+    let tcp = TcpOptions {
+        deadline: Duration::from_secs_f64(t.heartbeat_timeout),
+        ..Default::default()
+    };
+    let remote = |workers: Vec<String>, token: Token, kind: TransportKind| GridRemote {
+        workers,
+        token,
+        tcp,
+        recv_timeout: Duration::from_secs_f64(t.recv_timeout),
+        transport: kind.name().to_string(),
+    };
+    match t.transport {
+        None | Some(TransportKind::Threads) => grid::run(&input, &cfg),
+        Some(TransportKind::Processes) => {
+            let exe = std::env::current_exe().context("cannot find this program's path")?;
+            let extra = vec![
+                "--heartbeat-timeout".to_string(),
+                t.heartbeat_timeout.to_string(),
+            ];
+            let mut w = LocalWorkers::spawn(&exe, cfg.nodes, &extra, Duration::from_secs(30))?;
+            let (out, _) = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes)
+                .run(&input, &cfg)?;
+            let bad = w.finish(Duration::from_secs(10));
+            anyhow::ensure!(
+                bad.is_empty(),
+                "worker processes {bad:?} did not exit cleanly"
+            );
+            Ok(out)
+        }
+        Some(TransportKind::Tcp) => {
+            let workers = match &t.hostfile {
+                Some(p) => super::transport_args::read_hostfile(p)?,
+                None => t.workers.clone(),
+            };
+            anyhow::ensure!(
+                workers.len() == cfg.nodes,
+                "{} workers for --nodes {}: give one worker per node",
+                workers.len(),
+                cfg.nodes
+            );
+            let token = match &t.token_file {
+                Some(p) => Token::load(p)?,
+                None => Token::none(),
+            };
+            Ok(remote(workers, token, TransportKind::Tcp)
+                .run(&input, &cfg)?
+                .0)
+        }
+    }
 }
 
 /// Runs a grid scene and writes the outputs `pvrsim cluster` names.

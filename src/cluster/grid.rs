@@ -16,16 +16,20 @@ use serde::Serialize;
 
 use super::phase1::{drive, ClockKind};
 use super::phase2::{replay, RoundPlan};
-use crate::compositor::codec::layers as layer_codec;
+use crate::compositor::codec::layers::{self as layer_codec, LayerCodec};
 use crate::compositor::layer::exec as layer_exec;
+use crate::compositor::layer::Layer;
 use crate::compositor::region::screen;
+use crate::compositor::strategy::Strategy;
+use crate::data::Volume;
 use crate::image::Image;
 use crate::net::{MessageKind, NetworkModel, SimTrace};
-use crate::node::grid::bricks::{extract, place, split, visibility_ranks, BrickPlacement};
+use crate::node::grid::bricks::{extract, place, split, visibility_ranks, Brick, BrickPlacement};
 use crate::node::grid::device::{blend_time, check};
-use crate::node::grid::render::{whole_planes, BrickRenderer};
+use crate::node::grid::render::{whole_planes, RendererKind};
 use crate::node::grid::{GridNodeActor, GridNodeStats};
 use crate::node::CostProfile;
+use crate::render::slice3d::planes::Planes;
 use crate::render::slice3d::Slice3dOptions;
 use crate::render::slicing::Lut;
 use crate::render::VolumeInput;
@@ -48,7 +52,7 @@ pub struct GridConfig {
     /// Slicer options (ERT, slices, classification).
     pub slice: Slice3dOptions,
     /// The brick renderer.
-    pub renderer: BrickRenderer,
+    pub renderer: RendererKind,
     /// Clock.
     pub clock: ClockKind,
     /// Network model and its name.
@@ -103,6 +107,8 @@ pub struct GridReport {
     pub codec: String,
     /// Frame time: end of phase 2 (seconds).
     pub frame_s: f64,
+    /// Frames per second, `1 / frame_s` (the paper's unit).
+    pub fps: f64,
     /// End of phase 1: the slowest node's render (seconds).
     pub render_s: f64,
     /// Phase 2 (compositing, with its network time), seconds.
@@ -111,14 +117,30 @@ pub struct GridReport {
     pub bytes_total: u64,
     /// Bytes per message kind.
     pub bytes_by_kind: BTreeMap<String, u64>,
-    /// Bytes sent / raw RGBA8 bytes of the same layers.
+    /// Bytes sent / raw bytes of the same layers at the codec's depth
+    /// (RGBA8 or RGBA16).
     pub codec_ratio: f64,
+    /// The brick renderer (`slice3d`, or adaptive with its blocks and τ).
+    pub renderer: RendererKind,
+    /// Texture bytes as rendered ÷ original bytes, over all bricks (the
+    /// paper's 縮小率 with adaptive sampling; 1 for slice3d on scalars).
+    pub size_ratio: f64,
+    /// Preprocessing host seconds (adaptive build, min–max blocks): the
+    /// slowest node's sum over its bricks.
+    pub prepare_s: f64,
+    /// Bricks whose texture alone exceeds a node's texture memory (device
+    /// model): when not 0, the paper's hardware could not draw the frame
+    /// (its "-"); the times charge them as uploads.
+    pub oversized_bricks: u64,
     /// Per round: label, messages, bytes, raw bytes.
     pub rounds: Vec<(String, usize, u64, u64)>,
     /// Per rank.
     pub nodes: Vec<GridNodeReport>,
     /// Host seconds of phase 1 and 2.
     pub host_s: [f64; 2],
+    /// What the transport measured (`--transport processes|tcp`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transport: Option<crate::cluster::remote::grid::GridMeasured>,
 }
 
 /// What a grid run produced.
@@ -132,8 +154,50 @@ pub struct GridOutcome {
     pub trace: SimTrace,
 }
 
-/// Runs one frame of `input` on the grid cluster.
-pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
+/// What a frame needs before any node renders: the bricks, their
+/// visibility ranks and samples, the placement, the whole's slice planes.
+pub struct Prepared {
+    /// The bricks.
+    pub bricks: Vec<Brick>,
+    /// Visibility rank of each brick (0 nearest the eye).
+    pub ranks: Vec<u32>,
+    /// Each brick's samples.
+    pub vols: Vec<Arc<Volume>>,
+    /// Brick ids of each rendering node.
+    pub parts: Vec<Vec<u32>>,
+    /// The whole volume's slice planes (`None`: behind the eye).
+    pub planes: Option<Planes>,
+    /// The layer codec.
+    pub codec: Box<dyn LayerCodec>,
+    /// The compositing strategy.
+    pub strategy: Box<dyn Strategy>,
+    /// 1 with a master rank (rank 0 renders nothing), else 0.
+    pub off: usize,
+    /// Ranks in all (rendering nodes plus the master).
+    pub total: usize,
+}
+
+impl Prepared {
+    /// Rank `k`'s bricks: (brick, its samples, its visibility rank).
+    pub fn held(&self, k: usize) -> Vec<(Brick, Arc<Volume>, u32)> {
+        if k < self.off {
+            return Vec::new();
+        }
+        self.parts[k - self.off]
+            .iter()
+            .map(|&b| {
+                (
+                    self.bricks[b as usize],
+                    self.vols[b as usize].clone(),
+                    self.ranks[b as usize],
+                )
+            })
+            .collect()
+    }
+}
+
+/// Checks the settings and cuts, ranks and places the bricks.
+pub fn prepare(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<Prepared> {
     anyhow::ensure!(cfg.nodes >= 1, "--nodes must be at least 1");
     anyhow::ensure!(
         cfg.nodes <= 4096,
@@ -143,7 +207,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
     if cfg.clock == ClockKind::Virtual {
         check(&cfg.profile, &cfg.profile_name)?;
     }
-    crate::render::slice3d::check(&cfg.slice)?;
+    cfg.renderer.check(&cfg.slice)?;
     let strategy =
         crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
     let codec = layer_codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
@@ -158,7 +222,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
     let s = &input.scene;
     let view = s.camera.view(s.image.width, s.image.height);
     let ranks = visibility_ranks(&view, &input.volume, d, &bricks);
-    let vols: Vec<Arc<crate::data::Volume>> = bricks
+    let vols: Vec<Arc<Volume>> = bricks
         .iter()
         .map(|b| Arc::new(extract(&input.volume, b)))
         .collect();
@@ -177,36 +241,53 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         .collect();
     let parts = place(bricks.len(), cfg.nodes, cfg.placement, &weight);
     let planes = whole_planes(input, &cfg.slice);
-    let whole = Arc::new(input.clone());
     let off = usize::from(cfg.master);
-    let total = cfg.nodes + off;
-    let mut actors: Vec<GridNodeActor> = Vec::with_capacity(total);
-    for k in 0..total {
-        let mine = if k < off {
-            &[][..]
-        } else {
-            &parts[k - off][..]
-        };
-        let held = mine
-            .iter()
-            .map(|&b| {
-                (
-                    bricks[b as usize],
-                    vols[b as usize].clone(),
-                    ranks[b as usize],
-                )
-            })
-            .collect();
-        actors.push(GridNodeActor::new(
-            k,
-            whole.clone(),
-            planes,
-            held,
-            cfg.slice,
-            cfg.profile,
-            cfg.renderer.clone(),
-        ));
-    }
+    Ok(Prepared {
+        bricks,
+        ranks,
+        vols,
+        parts,
+        planes,
+        codec,
+        strategy,
+        off,
+        total: cfg.nodes + off,
+    })
+}
+
+/// What phase 1 produced, per rank.
+pub struct Phase1Out {
+    /// Each rank's numbers.
+    pub stats: Vec<GridNodeStats>,
+    /// Each rank's layers.
+    pub layers: Vec<Vec<Layer>>,
+    /// When each rank finished rendering (seconds).
+    pub ends: Vec<f64>,
+    /// Host seconds of phase 1.
+    pub host_s: f64,
+    /// Phase 1's timeline.
+    pub trace: SimTrace,
+}
+
+/// Runs one frame of `input` on the grid cluster.
+pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
+    let prep = prepare(input, cfg)?;
+    let whole = Arc::new(input.clone());
+    let renderer = cfg.renderer.build();
+    let mut actors: Vec<GridNodeActor> = (0..prep.total)
+        .map(|k| {
+            GridNodeActor::new(
+                k,
+                whole.clone(),
+                prep.planes,
+                prep.held(k),
+                cfg.slice,
+                prep.codec.depth(),
+                cfg.profile,
+                renderer.clone(),
+            )
+        })
+        .collect();
     let t1 = std::time::Instant::now();
     let (stopped, trace1, _traffic1) = drive(
         actors.iter_mut().collect::<Vec<_>>(),
@@ -215,7 +296,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         cfg.record_trace,
         "grid phase 1",
     )?;
-    let host1 = t1.elapsed().as_secs_f64();
+    let host_s = t1.elapsed().as_secs_f64();
     if let Some(a) = actors.iter().find(|a| a.stats().error.is_some()) {
         anyhow::bail!(
             "grid node {} failed: {}",
@@ -223,15 +304,34 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
             a.stats().error.as_deref().unwrap_or("")
         );
     }
-    let ends: Vec<f64> = stopped.iter().map(|t| t.unwrap_or(0.0)).collect();
-    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
+    let p1 = Phase1Out {
+        stats: actors.iter().map(|a| a.stats().clone()).collect(),
+        layers: actors.iter_mut().map(|a| a.take_layers()).collect(),
+        ends: stopped.iter().map(|t| t.unwrap_or(0.0)).collect(),
+        host_s,
+        trace: trace1,
+    };
+    finish(input, cfg, &prep, p1)
+}
 
-    // Phase 2: the schedule over layers, every message encoded and decoded.
+/// Phase 2 over the ranks' layers (every message encoded and decoded,
+/// replayed on the modelled network) and the report.
+pub fn finish(
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    prep: &Prepared,
+    p1: Phase1Out,
+) -> anyhow::Result<GridOutcome> {
+    let s = &input.scene;
+    let total = prep.total;
+    let ends = p1.ends;
+    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
     let t2 = std::time::Instant::now();
-    let held: Vec<_> = actors.iter_mut().map(|a| a.take_layers()).collect();
-    let sched = strategy.schedule(total, screen(s.image.width, s.image.height));
+    let sched = prep
+        .strategy
+        .schedule(total, screen(s.image.width, s.image.height));
     let bg = s.image.background.map(|x| x as f32);
-    let (image, rounds) = layer_exec::run(&sched, codec.as_ref(), held, bg)?;
+    let (image, rounds) = layer_exec::run(&sched, prep.codec.as_ref(), p1.layers, bg)?;
     let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); rounds.len()]; total];
     let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); total];
     let mut bytes_sent = vec![0u64; total];
@@ -276,7 +376,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         ClockKind::Virtual => sim.end_time,
         ClockKind::Wall => host2,
     };
-    let mut trace = trace1;
+    let mut trace = p1.trace;
     for mut e in sim.trace.events.iter().cloned() {
         e.start += render_s;
         e.end += render_s;
@@ -289,16 +389,17 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
     let report = GridReport {
         image: [s.image.width, s.image.height],
         volume_dims: input.volume.dims,
-        subvolumes: d,
+        subvolumes: cfg.subvolumes,
         n_nodes: cfg.nodes,
         master: cfg.master,
         clock: cfg.clock,
         network: cfg.network_name.clone(),
         profile: cfg.profile_name.clone(),
         placement: cfg.placement,
-        compositor: strategy.name().to_string(),
-        codec: codec.name().to_string(),
+        compositor: prep.strategy.name().to_string(),
+        codec: prep.codec.name().to_string(),
         frame_s: render_s + composite_s,
+        fps: 1.0 / (render_s + composite_s),
         render_s,
         composite_s,
         bytes_total: bytes,
@@ -309,17 +410,32 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
             1.0
         },
         rounds: round_rows,
-        nodes: actors
-            .iter()
+        renderer: cfg.renderer,
+        size_ratio: {
+            let (t, o) = p1.stats.iter().fold((0u64, 0u64), |a, s| {
+                (a.0 + s.texture_bytes, a.1 + s.original_bytes)
+            });
+            if o > 0 {
+                t as f64 / o as f64
+            } else {
+                1.0
+            }
+        },
+        prepare_s: p1.stats.iter().map(|s| s.prepare_s).fold(0.0, f64::max),
+        oversized_bricks: p1.stats.iter().map(|s| s.device.oversized_bricks).sum(),
+        nodes: p1
+            .stats
+            .into_iter()
             .zip(&ends)
             .zip(&bytes_sent)
-            .map(|((a, &end), &b)| GridNodeReport {
-                stats: a.stats().clone(),
+            .map(|((st, &end), &b)| GridNodeReport {
+                stats: st,
                 render_end_s: end,
                 bytes_sent: b,
             })
             .collect(),
-        host_s: [host1, host2],
+        host_s: [p1.host_s, host2],
+        transport: None,
     };
     Ok(GridOutcome {
         image,
@@ -332,7 +448,8 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
 pub fn summary(r: &GridReport) -> String {
     let mut s = format!(
         "grid cluster: {} node(s){}, {}^3 bricks, {} / {} / {}, {:?} clock\n\
-         frame {:.4} s = render {:.4} s + composite {:.4} s; phase-2 bytes {} (codec ratio {:.3})\n",
+         frame {:.4} s = render {:.4} s + composite {:.4} s; phase-2 bytes {} (codec ratio {:.3})\n\
+         renderer {:?}: size ratio {:.3}, preprocessing {:.3} s; bricks over texture memory: {}\n",
         r.n_nodes,
         if r.master { " + master" } else { "" },
         r.subvolumes,
@@ -344,16 +461,21 @@ pub fn summary(r: &GridReport) -> String {
         r.render_s,
         r.composite_s,
         r.bytes_total,
-        r.codec_ratio
+        r.codec_ratio,
+        r.renderer,
+        r.size_ratio,
+        r.prepare_s,
+        r.oversized_bricks
     );
     for n in &r.nodes {
         s.push_str(&format!(
-            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, upload {:.4} for {} B) sent {} B\n",
+            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, upload {:.4} + paging {:.4} for {} B) sent {} B\n",
             n.stats.rank,
             n.stats.bricks,
             n.render_end_s,
             n.stats.device.fill_s,
             n.stats.device.upload_s,
+            n.stats.device.paging_s,
             n.stats.device.uploaded_bytes,
             n.bytes_sent
         ));
@@ -362,89 +484,5 @@ pub fn summary(r: &GridReport) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::node::grid::tests::{seam_input, OBLIQUE, PERSP};
-
-    fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
-        GridConfig {
-            nodes: 4,
-            subvolumes: 2,
-            master,
-            placement: BrickPlacement::RoundRobin,
-            compositor: compositor.into(),
-            codec: codec.into(),
-            slice: Slice3dOptions {
-                ert: 1.0,
-                ..Default::default()
-            },
-            renderer: crate::node::grid::render::slice3d_renderer(),
-            clock: ClockKind::Virtual,
-            network: NetworkModel::from_name("100base").unwrap(),
-            network_name: "100base".into(),
-            profile: CostProfile::named("radeon9700").unwrap(),
-            profile_name: "radeon9700".into(),
-            record_trace: false,
-        }
-    }
-
-    #[test]
-    fn every_strategy_and_codec_gives_the_single_node_image() {
-        for cam in [OBLIQUE, PERSP] {
-            let inp = seam_input(cam, 48);
-            let (one, _) = crate::render::slice3d::render(
-                &inp,
-                &Slice3dOptions {
-                    ert: 1.0,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            let mut raw_bytes = None;
-            for (comp, master) in [
-                ("master", true),
-                ("master", false),
-                ("binary-swap", false),
-                ("direct-send", false),
-            ] {
-                for codec in ["raw", "rle-paper", "sparse"] {
-                    let out = run(&inp, &cfg(comp, codec, master)).unwrap();
-                    let e = out.image.error_against(&one);
-                    // Four layers at most along a ray at d = 2, plus the
-                    // gathered piece's own rounding (binary swap, direct send).
-                    assert!(e.max_abs <= 5.0 && e.rmse <= 0.5, "{comp} {codec}: {e}");
-                    if comp == "master" && master {
-                        if codec == "raw" {
-                            raw_bytes = Some(out.report.bytes_total);
-                            assert_eq!(out.report.codec_ratio, 1.0);
-                        } else {
-                            assert!(out.report.bytes_total < raw_bytes.unwrap(), "{codec}");
-                        }
-                    }
-                    let again = run(&inp, &cfg(comp, codec, master)).unwrap();
-                    assert_eq!(again.image.pixels, out.image.pixels, "deterministic");
-                    assert_eq!(again.report.frame_s, out.report.frame_s, "deterministic");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn bad_combinations_are_refused() {
-        let inp = seam_input(OBLIQUE, 16);
-        let mut c = cfg("master", "rle", true);
-        assert!(run(&inp, &c).unwrap_err().to_string().contains("rle-paper"));
-        c.codec = "raw".into();
-        c.subvolumes = 1;
-        assert!(run(&inp, &c)
-            .unwrap_err()
-            .to_string()
-            .contains("bricks for 4 nodes"));
-        c.subvolumes = 2;
-        c.profile = CostProfile::named("pentium4").unwrap();
-        assert!(run(&inp, &c)
-            .unwrap_err()
-            .to_string()
-            .contains("no grid costs"));
-    }
-}
+#[path = "grid_tests.rs"]
+mod tests;

@@ -74,8 +74,19 @@ fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
 /// per-node array and the per-exchange list, to keep rows flat and short).
 fn cluster_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
     let cmd = ClusterCommand::try_parse_from(argv)?;
-    let out = crate::cli::cluster::execute(&cmd.args)?;
-    let mut v = serde_json::to_value(&out.report)?;
+    let scene = crate::scene::Scene::load(&cmd.args.scene)?;
+    let mut v = if crate::cli::render_grid::is_grid_scene(&scene) {
+        // Grid scenes: the grid report (sort-last bricks).
+        let out = crate::cli::cluster_grid::execute(&cmd.args, scene)?;
+        let mut v = serde_json::to_value(&out.report)?;
+        if let Some(o) = v.as_object_mut() {
+            o.remove("rounds");
+        }
+        v
+    } else {
+        let out = crate::cli::cluster::execute(&cmd.args)?;
+        serde_json::to_value(&out.report)?
+    };
     if let Some(o) = v.as_object_mut() {
         o.remove("nodes");
         if let Some(t) = o.get_mut("t_share").and_then(|t| t.as_object_mut()) {

@@ -70,6 +70,17 @@ pub struct CostProfile {
     /// Device model: framebuffer read-back bandwidth (the subimage), bytes
     /// per second. 0: not charged.
     pub readback_bytes_per_s: f64,
+    /// Device model: bytes a voxel occupies as a texture (4 for the RGBA8
+    /// textures of the grid paper). 0: the renderer's own bytes (the
+    /// scalar's size, or 4 with pre-classification).
+    pub texel_bytes: f64,
+    /// Device model: host memory for the textures' system-memory copies,
+    /// bytes. When a node's textures exceed it, the textures that are not
+    /// resident on the device page in from disk every frame. 0: unlimited.
+    pub host_bytes: f64,
+    /// Device model: bytes per second of paging from disk (with
+    /// `host_bytes`).
+    pub disk_bytes_per_s: f64,
     /// Per cell id written into or read from an id unit (replicated data);
     /// 0 = not measured for this profile: [`CostProfile::cell_id_cost`]
     /// then derives it from `per_work_cell`.

@@ -87,6 +87,7 @@ fn variant(s: &Session) -> &'static str {
         Session::Failed(_) => "a failure",
         Session::Composite => "the start of phase 2",
         Session::Phase2Done(_) => "its phase-2 log",
+        Session::Grid(_) => "a grid message",
     }
 }
 

@@ -10,6 +10,8 @@
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the TCP coordinator: connect, set-up, cells |
 //! | [`drive`] | the coordinator's frame over any [`crate::net::RemoteTransport`]: manager, results, phase 2 |
+//! | [`grid`] | grid scenes: bricks to workers (cached), layers to the master |
+//! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
 //! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
@@ -21,6 +23,8 @@
 pub mod compare;
 pub mod coordinator;
 pub mod drive;
+pub mod grid;
+pub mod grid_wire;
 pub mod guard;
 #[cfg(feature = "mpi")]
 pub mod mpi;

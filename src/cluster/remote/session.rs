@@ -54,6 +54,8 @@ pub enum Session {
     /// The worker's phase 2 is done: what it sent and merged, and what its
     /// transport counted in phase 2.
     Phase2Done(Box<(super::phase2::RankLog, WireStats)>),
+    /// A grid scene's session (bricks instead of cells, see [`super::grid`]).
+    Grid(Box<super::grid::GridMsg>),
 }
 
 impl Message for Session {

@@ -183,8 +183,23 @@ impl Worker {
         let setup: Session = self
             .rt
             .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
-        let Session::Setup(setup) = setup else {
-            anyhow::bail!("{name} sent {setup:?} instead of the set-up");
+        let setup = match setup {
+            Session::Setup(s) => s,
+            Session::Grid(g) => match *g {
+                super::grid::GridMsg::Setup(s) => {
+                    return super::grid::serve(
+                        &self.rt,
+                        stream,
+                        &mut self.cache,
+                        CACHE_ENTRIES,
+                        *s,
+                        coord,
+                        &name,
+                    )
+                }
+                other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
+            },
+            other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
         };
         setup
             .validate()

@@ -44,7 +44,9 @@ pub struct LayerRound {
     pub messages: Vec<LayerMessage>,
 }
 
-fn encode(codec: &dyn LayerCodec, layers: &[Layer]) -> (Vec<u8>, u64) {
+/// A layer message: `u32 count`, then per layer `u32 length` and its
+/// encoding under `codec`. Returns the bytes and their raw-codec size.
+pub fn encode(codec: &dyn LayerCodec, layers: &[Layer]) -> (Vec<u8>, u64) {
     let mut out = Vec::new();
     out.extend_from_slice(&(layers.len() as u32).to_le_bytes());
     let mut raw = 4u64;
@@ -59,7 +61,8 @@ fn encode(codec: &dyn LayerCodec, layers: &[Layer]) -> (Vec<u8>, u64) {
     (out, raw)
 }
 
-fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>> {
+/// Decodes a message written by [`encode`], strictly (errors name the byte).
+pub fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>> {
     let word = |at: usize| -> anyhow::Result<usize> {
         let b = bytes
             .get(at..at + 4)
@@ -183,7 +186,7 @@ pub fn run(
                     let Some((r, px)) = pieces[e.from].take() else {
                         continue;
                     };
-                    let l = Layer::quantize(r, 0, &px);
+                    let l = Layer::quantize(r, 0, codec.depth(), &px);
                     let (bytes, raw) = encode(codec, std::slice::from_ref(&l));
                     lr.messages.push(LayerMessage {
                         from: e.from,
@@ -193,12 +196,7 @@ pub fn run(
                         pixels: l.px.len() as u64,
                     });
                     for got in decode(codec, &bytes)? {
-                        let f: Vec<[f32; 4]> = got
-                            .px
-                            .iter()
-                            .map(|p| p.map(|c| c as f32 * (1.0 / 255.0)))
-                            .collect();
-                        paste(&mut out, &got.rect, &f);
+                        paste(&mut out, &got.rect, &got.to_f32());
                     }
                 }
                 if let Some((r, px)) = pieces[schedule.root].take() {

@@ -1,10 +1,11 @@
 //! The second partial kind: **visibility-ordered RGBA layers** (sort-last
 //! rendering of bricks, `parallel-texture-vr-rle.txt`).
 //!
-//! A [`Layer`] is a brick's subimage: premultiplied RGBA8 over a screen
-//! rectangle, with the inclusive range `[lo, hi]` of visibility ranks it
-//! covers (rank 0 is nearest the eye). A brick's own layer has `lo == hi`;
-//! a merge of layers adjacent in the order (`a.hi + 1 == b.lo`) covers both.
+//! A [`Layer`] is a brick's subimage: premultiplied fixed-point RGBA (8 or
+//! 16 bits a channel) over a screen rectangle, with the inclusive range
+//! `[lo, hi]` of visibility ranks it covers (rank 0 is nearest the eye). A
+//! brick's own layer has `lo == hi`; a merge of layers adjacent in the order
+//! (`a.hi + 1 == b.lo`) covers both.
 //! Because "over" is associative, any grouping of adjacent ranks gives the
 //! same image (up to rounding), so strategies may merge early only adjacent
 //! ranges, and the final composite walks the ranks front to back:
@@ -16,9 +17,14 @@
 //! The paper's master blends back to front with factors `(1, 1 - A_s)`;
 //! front to back with `(1 - A_dst, 1)` is the same sum.
 //!
-//! Pixels are 8-bit, as the paper's subimages: quantised once per brick by
-//! rounding to nearest, which is monotone, so premultiplied `RGB <= A` holds
-//! after quantisation and `A = 0` implies `RGB = 0` (the codecs rely on it).
+//! Pixels are fixed point at a [`Depth`]: 8 bits as the paper's subimages,
+//! or 16 bits, the default of grid runs (8-bit layers miss the 1/255 target
+//! against single-node `slice3d`: each layer's rounding by up to 1/2 of
+//! 1/255 adds up through "over", measured 1.39/255 at `d = 2`; at 16 bits the
+//! same sum is at most `(3d - 2) / 257` of 1/255). A value `q` stands for
+//! `q / M` with `M = 2^bits - 1`. Quantised once per brick by rounding to
+//! nearest, which is monotone, so premultiplied `RGB <= A` holds after
+//! quantisation and `A = 0` implies `RGB = 0` (the codecs rely on it).
 
 pub mod exec;
 
@@ -26,41 +32,98 @@ use crate::render::cell::scan::Rect;
 
 use super::region::area;
 
-/// One brick's (or a run of adjacent bricks') premultiplied RGBA8 subimage.
+/// Bits per channel of a layer's pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Depth {
+    /// 8 bits a channel (RGBA8, the paper's subimages).
+    U8,
+    /// 16 bits a channel (RGBA16).
+    U16,
+}
+
+impl Depth {
+    /// The largest channel value `M = 2^bits - 1` (it stands for 1.0).
+    #[inline]
+    pub fn max(self) -> u16 {
+        match self {
+            Depth::U8 => 255,
+            Depth::U16 => 65535,
+        }
+    }
+
+    /// Bytes a channel.
+    #[inline]
+    pub fn channel_bytes(self) -> usize {
+        match self {
+            Depth::U8 => 1,
+            Depth::U16 => 2,
+        }
+    }
+
+    /// Bytes a pixel (four channels).
+    #[inline]
+    pub fn pixel_bytes(self) -> usize {
+        4 * self.channel_bytes()
+    }
+
+    /// Rounds a premultiplied `[0, 1]` channel to `round(v M)`.
+    #[inline]
+    pub fn quantize(self, v: f32) -> u16 {
+        (v.clamp(0.0, 1.0) * self.max() as f32 + 0.5) as u16
+    }
+
+    /// The value a channel stands for, `q / M`.
+    #[inline]
+    pub fn value(self, q: u16) -> f32 {
+        q as f32 / self.max() as f32
+    }
+}
+
+/// One brick's (or a run of adjacent bricks') premultiplied RGBA subimage.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layer {
     /// The screen rectangle the pixels cover (row-major inside it).
     pub rect: Rect,
     /// Inclusive range of visibility ranks (0 = nearest the eye).
     pub ranks: [u32; 2],
-    /// Premultiplied RGBA8, `area(rect)` of them.
-    pub px: Vec<[u8; 4]>,
+    /// Bits per channel; every value in `px` is at most `depth.max()`.
+    pub depth: Depth,
+    /// Premultiplied RGBA at `depth`, `area(rect)` of them.
+    pub px: Vec<[u16; 4]>,
 }
 
 /// Rounds a premultiplied `[0, 1]` channel to 8 bits (nearest).
 #[inline]
 pub fn to_u8(v: f32) -> u8 {
-    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    Depth::U8.quantize(v) as u8
 }
 
 impl Layer {
     /// An empty (all transparent) layer.
-    pub fn empty(rect: Rect, rank: u32) -> Layer {
+    pub fn empty(rect: Rect, rank: u32, depth: Depth) -> Layer {
         Layer {
             rect,
             ranks: [rank, rank],
+            depth,
             px: vec![[0; 4]; area(&rect)],
         }
     }
 
-    /// Quantises premultiplied f32 pixels (row-major over `rect`).
-    pub fn quantize(rect: Rect, rank: u32, px: &[[f32; 4]]) -> Layer {
+    /// Quantises premultiplied f32 pixels (row-major over `rect`) to `depth`.
+    pub fn quantize(rect: Rect, rank: u32, depth: Depth, px: &[[f32; 4]]) -> Layer {
         debug_assert_eq!(px.len(), area(&rect));
         Layer {
             rect,
             ranks: [rank, rank],
-            px: px.iter().map(|p| p.map(to_u8)).collect(),
+            depth,
+            px: px.iter().map(|p| p.map(|c| depth.quantize(c))).collect(),
         }
+    }
+
+    /// The pixels as premultiplied f32 (`q / M`).
+    pub fn to_f32(&self) -> Vec<[f32; 4]> {
+        let d = self.depth;
+        self.px.iter().map(|p| p.map(|q| d.value(q))).collect()
     }
 
     /// The part of the layer inside `r` (clipped to the layer's rectangle).
@@ -68,7 +131,10 @@ impl Layer {
         let c = intersect(&self.rect, r);
         let mut px = Vec::with_capacity(area(&c));
         let w = self.rect.width() as usize;
-        for y in c.y0..c.y1 {
+        // An empty intersection may be anchored outside the layer's columns
+        // (x0 past its right edge): no rows to copy then.
+        let rows = if c.x1 > c.x0 { c.y0..c.y1 } else { 0..0 };
+        for y in rows {
             let row = (y - self.rect.y0) as usize * w;
             let a = row + (c.x0 - self.rect.x0) as usize;
             let b = row + (c.x1 - self.rect.x0) as usize;
@@ -77,13 +143,14 @@ impl Layer {
         Layer {
             rect: c,
             ranks: self.ranks,
+            depth: self.depth,
             px,
         }
     }
 
-    /// Bytes of the pixels at 4 bytes each (the raw size without header).
+    /// Bytes of the pixels at their depth (the raw size without header).
     pub fn raw_bytes(&self) -> u64 {
-        4 * self.px.len() as u64
+        (self.depth.pixel_bytes() * self.px.len()) as u64
     }
 }
 
@@ -116,6 +183,7 @@ pub fn composite(region: &Rect, layers: &[&Layer]) -> Result<Vec<[f32; 4]>, Stri
     for l in order {
         let c = intersect(&l.rect, region);
         let lw = l.rect.width() as usize;
+        let inv = 1.0 / l.depth.max() as f32;
         for y in c.y0..c.y1 {
             for x in c.x0..c.x1 {
                 let s = l.px[(y - l.rect.y0) as usize * lw + (x - l.rect.x0) as usize];
@@ -125,10 +193,49 @@ pub fn composite(region: &Rect, layers: &[&Layer]) -> Result<Vec<[f32; 4]>, Stri
                 let d = &mut out[(y - region.y0) as usize * rw + (x - region.x0) as usize];
                 let t = 1.0 - d[3];
                 for ch in 0..4 {
-                    d[ch] += t * (s[ch] as f32 * (1.0 / 255.0));
+                    d[ch] += t * (s[ch] as f32 * inv);
                 }
             }
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn rect() -> impl Strategy<Value = Rect> {
+        (0u32..20, 0u32..20, 0u32..12, 0u32..12).prop_map(|(x0, y0, w, h)| Rect {
+            x0,
+            y0,
+            x1: x0 + w,
+            y1: y0 + h,
+        })
+    }
+
+    proptest! {
+        /// Cropping keeps exactly the pixels inside both rectangles, even
+        /// when they do not overlap (never out of bounds).
+        #[test]
+        fn crop_keeps_the_pixels_inside_both(a in rect(), r in rect()) {
+            let px: Vec<[u16; 4]> = (0..area(&a) as u16).map(|i| [i, i, i, i]).collect();
+            let l = Layer { rect: a, ranks: [0, 0], depth: Depth::U16, px };
+            let c = l.crop(&r);
+            prop_assert_eq!(c.px.len(), area(&c.rect));
+            let mut k = 0;
+            for y in a.y0..a.y1 {
+                for x in a.x0..a.x1 {
+                    let inside = x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1;
+                    let v = ((y - a.y0) * a.width() + (x - a.x0)) as u16;
+                    if inside {
+                        prop_assert_eq!(c.px[k], [v; 4]);
+                        k += 1;
+                    }
+                }
+            }
+            prop_assert_eq!(k, c.px.len());
+        }
+    }
 }

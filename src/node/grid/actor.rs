@@ -6,9 +6,9 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use crate::compositor::layer::Layer;
+use crate::compositor::layer::{Depth, Layer};
 use crate::data::Volume;
 use crate::net::{Action, Activity, Actor, Event};
 use crate::node::CostProfile;
@@ -17,11 +17,11 @@ use crate::render::slice3d::Slice3dOptions;
 use crate::render::VolumeInput;
 
 use super::bricks::Brick;
-use super::device::{frame_time, BrickWork, DeviceTime};
-use super::render::{render_brick, BrickRenderer};
+use super::device::{device_bytes, frame_time, BrickWork, DeviceTime};
+use super::render::{render_brick, BrickRenderer, LayerSpec};
 
 /// What a grid node did.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct GridNodeStats {
     /// Rank.
     pub rank: usize,
@@ -35,6 +35,14 @@ pub struct GridNodeStats {
     pub samples_taken: u64,
     /// Subimage pixels.
     pub pixels: u64,
+    /// Texture bytes of its bricks as rendered (reduced bytes with
+    /// adaptive sampling).
+    pub texture_bytes: u64,
+    /// Bytes of its bricks' original samples.
+    pub original_bytes: u64,
+    /// Host seconds of the renderer's preprocessing (min–max blocks, or the
+    /// adaptive build), summed over its bricks.
+    pub prepare_s: f64,
     /// Host seconds spent rendering.
     pub host_s: f64,
     /// The error that stopped the node, if any.
@@ -47,6 +55,7 @@ pub struct GridNodeActor {
     planes: Option<Planes>,
     bricks: Vec<(Brick, Arc<Volume>, u32)>,
     opts: Slice3dOptions,
+    depth: Depth,
     profile: CostProfile,
     renderer: BrickRenderer,
     layers: Vec<Layer>,
@@ -55,13 +64,16 @@ pub struct GridNodeActor {
 
 impl GridNodeActor {
     /// A node of rank `rank` holding `bricks` (brick, its samples, its
-    /// visibility rank), rendering with the whole's `planes`.
+    /// visibility rank), rendering with the whole's `planes` into layers of
+    /// `depth`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         rank: usize,
         whole: Arc<VolumeInput>,
         planes: Option<Planes>,
         bricks: Vec<(Brick, Arc<Volume>, u32)>,
         opts: Slice3dOptions,
+        depth: Depth,
         profile: CostProfile,
         renderer: BrickRenderer,
     ) -> GridNodeActor {
@@ -75,6 +87,7 @@ impl GridNodeActor {
             planes,
             bricks,
             opts,
+            depth,
             profile,
             renderer,
             layers: Vec::new(),
@@ -102,17 +115,30 @@ impl GridNodeActor {
                     planes,
                     b,
                     vol.clone(),
-                    *rank,
+                    LayerSpec {
+                        rank: *rank,
+                        depth: self.depth,
+                    },
                     &self.opts,
                     &self.renderer,
                 )?;
                 let st = &out.stats;
+                // Stored bytes per sample: 4 with pre-classification (RGBA8),
+                // else the scalar's size.
+                let per_sample = if self.opts.classify == crate::render::slicing::Classify::Pre {
+                    4
+                } else {
+                    vol.voxels.bytes() / vol.len().max(1)
+                };
                 let w = BrickWork {
-                    texture_bytes: st.texture_bytes,
+                    texture_bytes: device_bytes(st.texture_bytes, per_sample, &self.profile),
                     fragments: st.samples_taken + st.samples_skipped_empty + st.samples_skipped_ert,
                     samples_taken: st.samples_taken,
                     pixels: out.layer.px.len() as u64,
                 };
+                self.stats.texture_bytes += st.texture_bytes;
+                self.stats.original_bytes += vol.voxels.bytes();
+                self.stats.prepare_s += st.time_prepare_s;
                 self.stats.fragments += w.fragments;
                 self.stats.samples_taken += w.samples_taken;
                 self.stats.pixels += w.pixels;

@@ -6,14 +6,19 @@
 //!   skips empty blocks nor terminates rays early); texture upload of the
 //!   bricks that do not fit in `texture_bytes` (bricks are made resident in
 //!   id order while they fit; the others are uploaded again every frame,
-//!   the steady state of a frame loop): `U / upload_bytes_per_s`; read-back
-//!   of the subimage `4 · pixels / readback_bytes_per_s`;
+//!   the steady state of a frame loop): `U / upload_bytes_per_s`; when the
+//!   node's textures `T` exceed the host memory `host_bytes`, the
+//!   non-resident ones also page in from disk every frame: `U /
+//!   disk_bytes_per_s` (a frame sweeps the textures in the same order, and
+//!   LRU paging under a cyclic sweep larger than memory evicts every page
+//!   before its reuse, so all of `U`, not only `T - host_bytes`, comes from
+//!   disk); read-back of the subimage `4 · pixels / readback_bytes_per_s`;
 //! - without: `samples taken · per_sample` (the software slicer).
 //!
 //! Blending a received subimage: per pixel `1 / fill_rate + 4 /
 //! upload_bytes_per_s` (a textured quad, uploaded), or `per_sample`.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::node::CostProfile;
 
@@ -31,24 +36,33 @@ pub struct BrickWork {
 }
 
 /// Modelled seconds of one node's frame, by part.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct DeviceTime {
     /// Fill (device) or sampling (software).
     pub fill_s: f64,
     /// Texture uploads of non-resident bricks.
     pub upload_s: f64,
+    /// Paging the non-resident textures in from disk (host memory exceeded).
+    #[serde(default)]
+    pub paging_s: f64,
     /// Subimage read-back.
     pub readback_s: f64,
     /// Texture bytes that stay resident.
     pub resident_bytes: u64,
     /// Texture bytes uploaded every frame.
     pub uploaded_bytes: u64,
+    /// Bricks whose texture alone exceeds the texture memory: a device
+    /// cannot draw them as one texture (the paper's "-" in Table 2); the
+    /// model still charges them as uploads, so a row with any is not a
+    /// frame the paper's hardware could draw.
+    #[serde(default)]
+    pub oversized_bricks: u64,
 }
 
 impl DeviceTime {
     /// The sum of the parts.
     pub fn total(&self) -> f64 {
-        self.fill_s + self.upload_s + self.readback_s
+        self.fill_s + self.upload_s + self.paging_s + self.readback_s
     }
 }
 
@@ -71,6 +85,9 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
     }
     let mut used = 0u64;
     for b in bricks {
+        if p.texture_bytes > 0.0 && b.texture_bytes as f64 > p.texture_bytes {
+            t.oversized_bricks += 1;
+        }
         t.fill_s += b.fragments as f64 / p.fill_rate;
         if p.texture_bytes <= 0.0 || (used + b.texture_bytes) as f64 <= p.texture_bytes {
             used += b.texture_bytes;
@@ -85,7 +102,22 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
     if p.upload_bytes_per_s > 0.0 {
         t.upload_s = t.uploaded_bytes as f64 / p.upload_bytes_per_s;
     }
+    let total = (t.resident_bytes + t.uploaded_bytes) as f64;
+    if p.host_bytes > 0.0 && total > p.host_bytes && p.disk_bytes_per_s > 0.0 {
+        t.paging_s = t.uploaded_bytes as f64 / p.disk_bytes_per_s;
+    }
     t
+}
+
+/// Bytes a brick's textures occupy on the device: its stored samples (the
+/// renderer's `texture_bytes`, reduced with adaptive sampling) at the
+/// profile's `texel_bytes` a sample, or the renderer's own bytes.
+pub fn device_bytes(renderer_bytes: u64, bytes_per_sample: u64, p: &CostProfile) -> u64 {
+    if p.texel_bytes > 0.0 && bytes_per_sample > 0 {
+        (renderer_bytes / bytes_per_sample) * p.texel_bytes as u64
+    } else {
+        renderer_bytes
+    }
 }
 
 /// Modelled seconds to blend `pixels` received pixels.
@@ -129,6 +161,30 @@ mod tests {
         // Everything fits: no upload.
         let t = frame_time(&[b(60), b(30)], &p);
         assert_eq!((t.uploaded_bytes, t.upload_s), (0, 0.0));
+        // Past host memory the non-resident textures page from disk.
+        let host = CostProfile {
+            host_bytes: 120.0,
+            disk_bytes_per_s: 4.0,
+            ..p
+        };
+        let t = frame_time(&[b(60), b(30), b(40)], &host);
+        assert!((t.paging_s - 10.0).abs() < 1e-12, "{t:?}");
+        assert!((t.total() - (1.5 + 2.0 + 10.0)).abs() < 1e-12);
+        let roomy = CostProfile {
+            host_bytes: 130.0,
+            ..host
+        };
+        assert_eq!(frame_time(&[b(60), b(30), b(40)], &roomy).paging_s, 0.0);
+        // RGBA8 texels: 4 bytes a stored sample.
+        let rgba = CostProfile {
+            texel_bytes: 4.0,
+            ..p
+        };
+        assert_eq!(device_bytes(1000, 1, &rgba), 4000);
+        assert_eq!(device_bytes(1000, 2, &rgba), 2000);
+        assert_eq!(device_bytes(1000, 2, &p), 1000);
+        assert_eq!(frame_time(&[b(60), b(101)], &p).oversized_bricks, 1);
+        assert_eq!(frame_time(&[b(60), b(100)], &p).oversized_bricks, 0);
         // No device: the software slicer's per-sample cost.
         let cpu = CostProfile {
             per_sample: 2.0,

@@ -1,11 +1,11 @@
 //! One brick into one layer: the brick renderer is any function with the
 //! shape of [`slice3d::render`] (a `VolumeInput` and options to an image and
 //! [`SliceStats`]) that honours [`Slice3dOptions::brick`]; the node crops its
-//! image to the brick's screen rectangle and quantises it to RGBA8.
+//! image to the brick's screen rectangle and quantises it at the layer codec's depth.
 
 use std::sync::Arc;
 
-use crate::compositor::layer::Layer;
+use crate::compositor::layer::{Depth, Layer};
 use crate::data::Volume;
 use crate::error::Result;
 use crate::image::Image;
@@ -26,10 +26,54 @@ pub fn slice3d_renderer() -> BrickRenderer {
     Arc::new(slice3d::render)
 }
 
+/// Which brick renderer a grid run uses (a value: it travels to remote
+/// workers).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum RendererKind {
+    /// `slice3d` at full resolution.
+    Slice3d,
+    /// Adaptive block sampling (`render --renderer adaptive`): each brick
+    /// cut into `blocks^3` blocks reduced within `tolerance`. The stats'
+    /// `texture_bytes` are the reduced bytes, `time_prepare_s` the build.
+    Adaptive {
+        /// Blocks per axis of each brick.
+        blocks: u64,
+        /// Tolerance `τ` (relative to the transfer function's range).
+        tolerance: f64,
+    },
+}
+
+impl RendererKind {
+    /// The renderer.
+    pub fn build(self) -> BrickRenderer {
+        match self {
+            RendererKind::Slice3d => slice3d_renderer(),
+            RendererKind::Adaptive { blocks, tolerance } => {
+                let a = crate::render::adaptive::AdaptiveOptions { blocks, tolerance };
+                Arc::new(move |input: &VolumeInput, opts: &Slice3dOptions| {
+                    crate::render::adaptive::render(input, opts, &a)
+                        .map(|(img, st)| (img, st.slice))
+                })
+            }
+        }
+    }
+
+    /// Checks the options before any brick is rendered.
+    pub fn check(self, opts: &Slice3dOptions) -> Result<()> {
+        match self {
+            RendererKind::Slice3d => slice3d::check(opts),
+            RendererKind::Adaptive { blocks, tolerance } => crate::render::adaptive::check(
+                opts,
+                &crate::render::adaptive::AdaptiveOptions { blocks, tolerance },
+            ),
+        }
+    }
+}
+
 /// A brick's layer and what it cost.
 #[derive(Debug)]
 pub struct BrickOutput {
-    /// The subimage (premultiplied RGBA8 over the brick's rectangle).
+    /// The subimage (premultiplied RGBA over the brick's rectangle).
     pub layer: Layer,
     /// The renderer's statistics.
     pub stats: SliceStats,
@@ -48,15 +92,24 @@ pub fn whole_planes(whole: &VolumeInput, opts: &Slice3dOptions) -> Option<Planes
     )
 }
 
-/// Renders brick `b` (its samples in `vol`) of `whole` with visibility
-/// rank `rank` into a layer. The brick's scene has a black background, so
+/// The layer a brick becomes: its visibility rank and its pixels' depth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LayerSpec {
+    /// Visibility rank (0 nearest the eye).
+    pub rank: u32,
+    /// Fixed-point depth of the pixels (the layer codec's).
+    pub depth: Depth,
+}
+
+/// Renders brick `b` (its samples in `vol`) of `whole` into the layer
+/// `spec` describes. The brick's scene has a black background, so
 /// its pixels are premultiplied RGBA without background.
 pub fn render_brick(
     whole: &VolumeInput,
     planes: Planes,
     b: &Brick,
     vol: Arc<Volume>,
-    rank: u32,
+    spec: LayerSpec,
     opts: &Slice3dOptions,
     renderer: &BrickRenderer,
 ) -> Result<BrickOutput> {
@@ -93,7 +146,7 @@ pub fn render_brick(
         px.extend_from_slice(&img.pixels[row + rect.x0 as usize..row + rect.x1 as usize]);
     }
     Ok(BrickOutput {
-        layer: Layer::quantize(rect, rank, &px),
+        layer: Layer::quantize(rect, spec.rank, spec.depth, &px),
         stats,
         exact: px,
     })

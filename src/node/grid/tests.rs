@@ -6,8 +6,9 @@ use std::sync::Arc;
 use proptest::prelude::*;
 
 use super::bricks::{extract, place, split, visibility_ranks, BrickPlacement};
-use super::render::{render_brick, slice3d_renderer, whole_planes};
-use crate::compositor::layer::{composite, Layer};
+use super::render::{render_brick, slice3d_renderer, whole_planes, LayerSpec};
+
+use crate::compositor::layer::{composite, Depth, Layer};
 use crate::render::grid_reference::tests::{scene, volume};
 use crate::render::slice3d::{self, Slice3dOptions};
 use crate::render::VolumeInput;
@@ -34,13 +35,14 @@ pub(crate) const AXIS: &str = "eye = [0, 0, 60]\ntarget = [0, 0, 0]\nup = [0, 1,
 pub(crate) const PERSP: &str = "eye = [40, -25, 30]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nprojection = \"perspective\"\nfov_y_deg = 40";
 
 /// Renders `inp` as `d^3` bricks and composites their layers over the
-/// background: RGBA8 layers (`exact` false) or the f32 subimages.
+/// background: layers at `depth`, or the f32 subimages (`None`).
 pub(crate) fn bricked(
     inp: &VolumeInput,
     d: u32,
     opts: &Slice3dOptions,
-    exact: bool,
+    layer_depth: Option<Depth>,
 ) -> crate::image::Image {
+    let depth = layer_depth.unwrap_or(Depth::U16);
     let s = &inp.scene;
     let view = s.camera.view(s.image.width, s.image.height);
     let bricks = split(inp.volume.dims, d).unwrap();
@@ -51,11 +53,23 @@ pub(crate) fn bricked(
         .iter()
         .map(|b| {
             let v = Arc::new(extract(&inp.volume, b));
-            render_brick(inp, planes, b, v, ranks[b.id as usize], opts, &r).unwrap()
+            render_brick(
+                inp,
+                planes,
+                b,
+                v,
+                LayerSpec {
+                    rank: ranks[b.id as usize],
+                    depth,
+                },
+                opts,
+                &r,
+            )
+            .unwrap()
         })
         .collect();
     let screen = crate::compositor::region::screen(s.image.width, s.image.height);
-    let px = if exact {
+    let px = if layer_depth.is_none() {
         // Front to back over the f32 subimages, in rank order.
         let mut order: Vec<&super::render::BrickOutput> = layers.iter().collect();
         order.sort_by_key(|o| o.layer.ranks[0]);
@@ -104,22 +118,28 @@ fn bricks_cutting_the_densest_feature_show_no_seam() {
         for d in [1, 2, 3] {
             // Exact subimages: the same samples in the same order, so the
             // same image up to f32 regrouping of "over".
-            let e = bricked(&inp, d, &opts, true).error_against(&one);
+            let e = bricked(&inp, d, &opts, None).error_against(&one);
             assert!(e.max_abs <= 0.05, "{cam} d={d} f32 layers: {e}");
-            // RGBA8 layers (the wire format): a layer's colour and alpha
-            // each round by at most 1/2 of 1/255, so "over" moves by at most
-            // |dC_f| + |dA_f| C_b <= 1/255 per layer (C_b <= 1, background
-            // included); a ray crosses at most 3d - 2 bricks.
-            let e = bricked(&inp, d, &opts, false).error_against(&one);
-            let bound = (3 * d - 2) as f64 + 0.01;
-            assert!(
-                e.max_abs <= bound,
-                "{cam} d={d} RGBA8 layers: {e} (bound {bound})"
-            );
-            eprintln!(
-                "{} d={d} RGBA8 layers vs slice3d: {e}",
-                cam.lines().last().unwrap()
-            );
+            // Fixed-point layers: a layer's colour and alpha each round by
+            // at most 1/(2M), so "over" moves by at most
+            // |dC_f| + |dA_f| C_b <= 1/M per layer (C_b <= 1, background
+            // included); a ray crosses at most 3d - 2 bricks. In 1/255
+            // units: 3d - 2 at 8 bits, (3d - 2) 255/65535 at 16 bits.
+            for (depth, per_layer) in [(Depth::U8, 1.0), (Depth::U16, 255.0 / 65535.0)] {
+                let e = bricked(&inp, d, &opts, Some(depth)).error_against(&one);
+                let bound = (3 * d - 2) as f64 * per_layer + 0.05;
+                assert!(
+                    e.max_abs <= bound,
+                    "{cam} d={d} {depth:?} layers: {e} (bound {bound})"
+                );
+                if depth == Depth::U16 {
+                    assert!(e.max_abs <= 1.0, "{cam} d={d} RGBA16: {e}");
+                }
+                eprintln!(
+                    "{} d={d} {depth:?} layers vs slice3d: {e}",
+                    cam.lines().last().unwrap()
+                );
+            }
         }
     }
 }
@@ -140,18 +160,39 @@ fn a_brick_owns_each_sample_once() {
         let view = inp.scene.camera.view(40, 40);
         let bricks = split(inp.volume.dims, 2).unwrap();
         let ranks = visibility_ranks(&view, &inp.volume, 2, &bricks);
-        let r = slice3d_renderer();
-        let sum: u64 = bricks
-            .iter()
-            .map(|b| {
-                let v = Arc::new(extract(&inp.volume, b));
-                render_brick(&inp, planes, b, v, ranks[b.id as usize], &opts, &r)
+        // slice3d and adaptive block sampling honour the brick clip alike:
+        // no sample lost or doubled at a brick face (no seam).
+        for kind in [
+            super::render::RendererKind::Slice3d,
+            super::render::RendererKind::Adaptive {
+                blocks: 3,
+                tolerance: 0.05,
+            },
+        ] {
+            let r = kind.build();
+            let sum: u64 = bricks
+                .iter()
+                .map(|b| {
+                    let v = Arc::new(extract(&inp.volume, b));
+                    render_brick(
+                        &inp,
+                        planes,
+                        b,
+                        v,
+                        LayerSpec {
+                            rank: ranks[b.id as usize],
+                            depth: Depth::U16,
+                        },
+                        &opts,
+                        &r,
+                    )
                     .unwrap()
                     .stats
                     .samples_taken
-            })
-            .sum();
-        assert_eq!(sum, whole.samples_taken, "{cam}");
+                })
+                .sum();
+            assert_eq!(sum, whole.samples_taken, "{cam} {kind:?}");
+        }
     }
 }
 

@@ -235,7 +235,14 @@ pub fn render_prepared(
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];
     }
-    let Some(planes) = planes::Planes::new(&view, vol, opts.slices) else {
+    // A brick of a larger volume (sort-last): the whole's planes and the
+    // brick's clip, exactly as slice3d (see `slice3d::brick`), so bricks
+    // drawn adaptively meet without seams; the blocks are the brick's own.
+    let planes = match &opts.brick {
+        Some(b) => Some(b.planes),
+        None => planes::Planes::new(&view, vol, opts.slices),
+    };
+    let Some(planes) = planes else {
         st.time_render_s = start.elapsed().as_secs_f64();
         return Ok((image, stats(st)));
     };
@@ -269,8 +276,17 @@ pub fn render_prepared(
             .map(|(j, row)| {
                 let mut n = SampleCounts::default();
                 for (i, px) in row.iter_mut().enumerate() {
-                    let Some(r) = planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32)
-                    else {
+                    let r = match &opts.brick {
+                        None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
+                        Some(b) => {
+                            let (x, y) = (i as u32, j as u32);
+                            if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
+                                continue;
+                            }
+                            crate::render::slice3d::brick::ray_samples(&view, b, ud, x, y)
+                        }
+                    };
+                    let Some(r) = r else {
                         continue;
                     };
                     n.covered += 1;

@@ -1,20 +1,28 @@
-//! `sparse`: IceT's active-pixel runs, or raw when that is not larger
-//! (see the module docs of [`super`]).
+//! `sparse` / `sparse16`: IceT's active-pixel runs, or raw at the same
+//! depth when that is not larger (see the module docs of [`super`]).
 
-use super::raw8::{decode_raw, encode_raw, BYTE as RAW_BYTE};
-use super::{put_layer_header, read_layer_header, read_pixel, LayerCodec, LAYER_HEADER_BYTES};
+use super::raw::{byte as raw_byte, decode_raw, encode_raw};
+use super::{
+    at_depth, put_layer_header, put_pixel, read_layer_header, read_pixel, LayerCodec,
+    LAYER_HEADER_BYTES,
+};
 use crate::compositor::codec::wire::{put_u32, DecodeError, Limits, Reader};
-use crate::compositor::layer::Layer;
+use crate::compositor::layer::{Depth, Layer};
 use crate::compositor::region::area;
 
-const BYTE: u8 = b's';
+/// IceT-style sparse layers with a raw fallback, at a depth.
+#[derive(Debug, Clone, Copy)]
+pub struct Sparse(pub Depth);
 
-/// IceT-style sparse layers with a raw fallback.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Sparse;
+fn byte(depth: Depth) -> u8 {
+    match depth {
+        Depth::U8 => b's',
+        Depth::U16 => b'S',
+    }
+}
 
 /// `(inactive, active)` runs of `px`; a trailing inactive run gets no pair.
-fn runs(px: &[[u8; 4]]) -> Vec<(u32, u32)> {
+fn runs(px: &[[u16; 4]]) -> Vec<(u32, u32)> {
     let mut out = Vec::new();
     let mut i = 0usize;
     while i < px.len() {
@@ -35,19 +43,29 @@ fn runs(px: &[[u8; 4]]) -> Vec<(u32, u32)> {
 
 impl LayerCodec for Sparse {
     fn name(&self) -> &'static str {
-        "sparse"
+        match self.0 {
+            Depth::U8 => "sparse",
+            Depth::U16 => "sparse16",
+        }
+    }
+
+    fn depth(&self) -> Depth {
+        self.0
     }
 
     fn encode(&self, layer: &Layer, out: &mut Vec<u8>) {
+        let d = self.0;
+        let pb = d.pixel_bytes();
+        let layer = at_depth(layer, d);
         let runs = runs(&layer.px);
         let active: usize = runs.iter().map(|r| r.1 as usize).sum();
-        let sparse = 4 + 8 * runs.len() + 4 * active;
-        if sparse >= 4 * layer.px.len() {
-            encode_raw(layer, out);
+        let sparse = 4 + 8 * runs.len() + pb * active;
+        if sparse >= pb * layer.px.len() {
+            encode_raw(&layer, out);
             return;
         }
         out.reserve(LAYER_HEADER_BYTES + sparse);
-        put_layer_header(out, BYTE, layer);
+        put_layer_header(out, byte(d), &layer);
         put_u32(out, runs.len() as u32);
         let mut i = 0usize;
         for (z, a) in runs {
@@ -55,24 +73,26 @@ impl LayerCodec for Sparse {
             put_u32(out, a);
             i += z as usize;
             for p in &layer.px[i..i + a as usize] {
-                out.extend_from_slice(p);
+                put_pixel(out, d, p);
             }
             i += a as usize;
         }
     }
 
     fn decode(&self, bytes: &[u8], limits: &Limits) -> Result<Layer, DecodeError> {
+        let d = self.0;
+        let pb = d.pixel_bytes();
         let rd0 = Reader::new(bytes);
-        if rd0.peek_at(3) == Some(RAW_BYTE) {
-            return decode_raw(bytes, limits);
+        if rd0.peek_at(3) == Some(raw_byte(d)) {
+            return decode_raw(bytes, limits, d);
         }
         let mut rd = Reader::new(bytes);
-        let (rect, ranks) = read_layer_header(&mut rd, BYTE, limits)?;
+        let (rect, ranks) = read_layer_header(&mut rd, byte(d), limits)?;
         let n = area(&rect);
         let pairs = rd.u32()? as u64;
-        // Each pair is at least 12 bytes (two words and a pixel).
-        rd.need(12 * pairs)?;
-        let mut px: Vec<[u8; 4]> = Vec::with_capacity(n.min(rd.left() / 4));
+        // Each pair is at least two words and a pixel.
+        rd.need((8 + pb as u64) * pairs)?;
+        let mut px: Vec<[u16; 4]> = Vec::with_capacity(n.min(rd.left() / pb));
         for _ in 0..pairs {
             let at = rd.offset();
             let z = rd.u32()? as usize;
@@ -90,11 +110,11 @@ impl LayerCodec for Sparse {
             if !px.is_empty() && z == 0 {
                 return Err(bad("two active runs in a row (not canonical)".into()));
             }
-            rd.need(4 * a as u64)?;
+            rd.need((pb * a) as u64)?;
             px.resize(px.len() + z, [0; 4]);
             for _ in 0..a {
                 let at = rd.offset();
-                let p = read_pixel(&mut rd)?;
+                let p = read_pixel(&mut rd, d)?;
                 if p[3] == 0 {
                     return Err(DecodeError::Malformed {
                         offset: at,
@@ -107,12 +127,17 @@ impl LayerCodec for Sparse {
         rd.finish()?;
         px.resize(n, [0; 4]);
         // Canonical: the encoder sends raw whenever sparse is not smaller.
-        if rd.offset() - LAYER_HEADER_BYTES >= 4 * n {
+        if rd.offset() - LAYER_HEADER_BYTES >= pb * n {
             return Err(DecodeError::Malformed {
                 offset: LAYER_HEADER_BYTES,
                 msg: "sparse encoding not smaller than raw (the encoder would send raw)".into(),
             });
         }
-        Ok(Layer { rect, ranks, px })
+        Ok(Layer {
+            rect,
+            ranks,
+            depth: d,
+            px,
+        })
     }
 }
