@@ -377,6 +377,7 @@ fn malformed_messages_are_errors() {
                 levels: None,
                 pixels: None,
                 help_gap: None,
+                release: None,
             },
             vec![10, 10],
             CostProfile::default(),

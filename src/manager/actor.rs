@@ -26,6 +26,7 @@ use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, N
 use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
 use crate::node::pixel_share::{PixelLevels, PixelStore};
+use crate::node::release::{ReleaseShare, ReleaseStore};
 use crate::node::{CostProfile, SharedTable};
 
 /// How the manager works.
@@ -50,6 +51,11 @@ pub struct ManagerConfig {
     /// nearest cells of the node with the nearest depth frontier when its own
     /// frontier lies more than this depth behind it. `None`: off.
     pub help_gap: Option<f32>,
+    /// Release ordering ([`crate::node::release`]): blocks per row and
+    /// column. Each node's first share is then its release share; once all
+    /// are in, every node gets its release map as its first reply.
+    /// `None`: off.
+    pub release: Option<(u32, u32)>,
 }
 
 /// What the manager did.
@@ -84,6 +90,7 @@ pub struct ManagerActor {
     table: SharedTable,
     store: Option<LevelStore>,
     pixels: Option<PixelStore>,
+    release: Option<ReleaseStore>,
     remaining: Vec<u64>,
     /// Per node, `grants_taken` of its latest request (`None`: none yet).
     request_taken: Vec<Option<u32>>,
@@ -120,6 +127,7 @@ impl ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
             store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),
             pixels: cfg.pixels.map(|(w, h, l)| PixelStore::new(w, h, l, n)),
+            release: cfg.release.map(|d| ReleaseStore::new(d, n)),
             cfg,
             codec,
             profile,
@@ -175,6 +183,28 @@ impl ManagerActor {
                     return Err(format!("share from node {j} with a NaN frontier"));
                 }
                 self.front[j] = m.front;
+                if let Some(rs) = self.release.as_mut().filter(|rs| !rs.has(j)) {
+                    // Release ordering: node j's first share is its map.
+                    let d = ReleaseShare::decode(&m.table, rs.dims()).map_err(|e| e.to_string())?;
+                    let (mut work, all) = rs.put(j, d).map_err(|e| e.to_string())?;
+                    let mut replies = Vec::new();
+                    if all {
+                        let (r, w) = rs.replies();
+                        work += w;
+                        replies = r;
+                    }
+                    let secs = work as f64 * self.profile.per_shared_entry;
+                    self.stats.busy_s += secs;
+                    self.remaining[j] = m.remaining;
+                    out.push(Action::Compute {
+                        seconds: secs,
+                        activity: Activity::Share,
+                    });
+                    for (k, r) in replies.into_iter().enumerate() {
+                        self.send(out, k, &ErtReply { table: r.encode() });
+                    }
+                    return Ok(());
+                }
                 if m.help {
                     self.help(j, out);
                 }

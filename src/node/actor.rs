@@ -52,6 +52,12 @@ pub struct NodePolicy {
     /// Front-first help: fraction of its unprocessed cells a donor gives
     /// (the nearest ones).
     pub help_fraction: f64,
+    /// Release ordering ([`crate::node::release`], with per-pixel sharing):
+    /// block edge in pixels; 0: off (nearest-first order).
+    pub release_block: u32,
+    /// Release ordering: how long (fraction of the frame) a cell waits
+    /// after the nodes in front of it start covering its blocks.
+    pub release_lag: f32,
 }
 
 impl Default for NodePolicy {
@@ -66,6 +72,8 @@ impl Default for NodePolicy {
             share_window: 1,
             help_gap: 0.0,
             help_fraction: 0.25,
+            release_block: 0,
+            release_lag: 0.0,
         }
     }
 }
@@ -139,6 +147,8 @@ pub struct NodeActor {
     shares_in_flight: u32,
     /// A front-first help request is out (cleared by any grant).
     help_pending: bool,
+    /// The release share is out, its reply not applied yet.
+    release_pending: bool,
     stats: NodeStats,
 }
 
@@ -151,6 +161,10 @@ impl NodeActor {
         codec: Codec,
         cells_initial: u64,
     ) -> NodeActor {
+        let mut renderer = renderer;
+        if cfg.share && cfg.policy.release_block > 0 {
+            renderer.enable_release(cfg.policy.release_block, cfg.policy.release_lag);
+        }
         NodeActor {
             cfg,
             codec,
@@ -164,6 +178,7 @@ impl NodeActor {
             peers: Vec::new(),
             shares_in_flight: 0,
             help_pending: false,
+            release_pending: false,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -333,6 +348,33 @@ impl NodeActor {
         }
     }
 
+    /// Release ordering, at the start: the node's release share goes to
+    /// the manager as its first [`ErtShare`] (one share in flight); the
+    /// first reply is the release map.
+    /// Returns the seconds charged.
+    fn send_release(&mut self, out: &mut Vec<Action>) -> f64 {
+        let Some((bytes, ops)) = self.renderer.take_release_share() else {
+            return 0.0;
+        };
+        let s = self.secs(&ops);
+        out.push(Action::Compute {
+            seconds: s,
+            activity: Activity::Share,
+        });
+        self.stats.share_s += s;
+        self.release_pending = true;
+        self.shares_in_flight += 1;
+        self.stats.shares_sent += 1;
+        let m = ErtShare {
+            remaining: self.renderer.remaining() as u64,
+            front: self.renderer.front_depth(),
+            help: false,
+            table: bytes,
+        };
+        self.send(out, self.cfg.manager, &m);
+        s
+    }
+
     fn on_message(&mut self, now: f64, env: Envelope, out: &mut Vec<Action>) -> Result<(), String> {
         let err = |e: &dyn std::fmt::Display| format!("{} from {}: {e}", env.kind, env.from);
         match env.kind {
@@ -340,6 +382,17 @@ impl NodeActor {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
                 if env.from.index() == self.cfg.manager {
                     self.shares_in_flight = self.shares_in_flight.saturating_sub(1);
+                }
+                if self.release_pending && env.from.index() == self.cfg.manager {
+                    self.release_pending = false;
+                    let ops = self.renderer.apply_release(&m.table).map_err(|e| err(&e))?;
+                    let s = self.secs(&ops);
+                    self.stats.share_s += s;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Share,
+                    });
+                    return Ok(());
                 }
                 if self.renderer.pixel_share_shape().is_some() {
                     // Per-pixel deltas: each carries only what changed, so
@@ -487,7 +540,15 @@ impl Actor for NodeActor {
             return out;
         }
         match event {
-            Event::Start | Event::Wake(SCAN) => {
+            Event::Start => {
+                let s = if self.cfg.share {
+                    self.send_release(&mut out)
+                } else {
+                    0.0
+                };
+                self.scan(now + s, &mut out)
+            }
+            Event::Wake(SCAN) => {
                 if !self.waiting {
                     self.scan(now, &mut out)
                 }

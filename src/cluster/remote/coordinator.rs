@@ -482,6 +482,8 @@ fn manager_for(
             }
             _ => None,
         },
+        // Remote workers run partitioned, nearest-first (no release ordering).
+        release: None,
     };
     Ok(ManagerActor::new(
         mcfg,
