@@ -29,6 +29,14 @@ use crate::node::pixel_share::{PixelLevels, PixelStore};
 use crate::node::release::{ReleaseShare, ReleaseStore};
 use crate::node::{CostProfile, SharedTable};
 
+/// Fewest initial cells per node (mean) for front-first help: with thinner
+/// pieces a help grant moves about as many cells as it lets be skipped.
+/// Measured on aorta view B (`pvrsim cluster ../shared/data/aorta-view-b.toml
+/// --nodes N --ert 0.9 --share --dlb [--help-gap 0]`, docs/experiments/cluster.md):
+/// at 64 nodes (4,777 cells each) help is faster (2.041 s vs 2.074 s), at
+/// 256 (1,194 each) slower (0.797 s vs 0.668 s).
+pub const HELP_MIN_CELLS_PER_NODE: u64 = 2_500;
+
 /// How the manager works.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ManagerConfig {
@@ -123,6 +131,14 @@ impl ManagerActor {
         let n = cfg.nodes;
         let mut remaining = initial;
         remaining.resize(n, 0);
+        // Front-first help scales with the pieces: below
+        // HELP_MIN_CELLS_PER_NODE cells per node it moves more than it
+        // saves (measured, see the constant), so it is off.
+        let mean = remaining.iter().sum::<u64>() / n.max(1) as u64;
+        let mut cfg = cfg;
+        if mean < HELP_MIN_CELLS_PER_NODE {
+            cfg.help_gap = None;
+        }
         ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
             store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),

@@ -149,6 +149,8 @@ pub struct NodeActor {
     help_pending: bool,
     /// The release share is out, its reply not applied yet.
     release_pending: bool,
+    /// The unprocessed count the manager last heard from this node.
+    reported: u64,
     stats: NodeStats,
 }
 
@@ -179,6 +181,7 @@ impl NodeActor {
             shares_in_flight: 0,
             help_pending: false,
             release_pending: false,
+            reported: u64::MAX,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -311,6 +314,7 @@ impl NodeActor {
                         table,
                     };
                     self.stats.shares_sent += 1;
+                    self.reported = m.remaining;
                     self.send(out, self.cfg.manager, &m);
                 } else if !self.cfg.share && !self.peers.is_empty() && worth_sharing {
                     let m = ErtReply {
@@ -324,15 +328,22 @@ impl NodeActor {
             }
             self.stats.tsc_s = t;
             self.chunks_since_progress += 1;
+            let rem = self.renderer.remaining() as u64;
+            // With sharing, the shares carry the count; but a node stops
+            // sharing with less than a chunk left or a full window, and a
+            // stale count makes the manager pick donors that have nothing
+            // left (refused forwards: 135 of 226 at 256 nodes on view B).
+            // So it also reports whenever its count fell by a quarter since
+            // the manager last heard it: a few small messages per node.
+            let stale = self.cfg.share && rem * 4 <= self.reported.saturating_mul(3);
             if self.cfg.dlb
-                && !self.cfg.share
-                && self.renderer.remaining() > 0
+                && (!self.cfg.share || stale)
+                && rem > 0
                 && self.chunks_since_progress >= self.cfg.policy.progress_every.max(1)
             {
                 self.chunks_since_progress = 0;
-                let m = Control::Progress {
-                    remaining: self.renderer.remaining() as u64,
-                };
+                self.reported = rem;
+                let m = Control::Progress { remaining: rem };
                 self.send(out, self.cfg.manager, &m);
             }
         }
@@ -485,6 +496,7 @@ impl NodeActor {
                     }
                     0
                 };
+                self.reported = self.renderer.remaining() as u64;
                 let report = Control::Gave {
                     to: m.requester,
                     cells,
