@@ -51,11 +51,19 @@ fn main() -> anyhow::Result<()> {
             seq.update_table();
         }
     }
-    println!("sequential skipped {}", skipped.iter().filter(|&&s| s).count());
+    println!(
+        "sequential skipped {}",
+        skipped.iter().filter(|&&s| s).count()
+    );
     // Records of every cell.
     let s: Vec<f64> = input.s_norm.clone();
     let pv = ProjectedVertices::new_sequential(&view, &input.mesh.points, &s);
-    let full = Rect { x0: 0, y0: 0, x1: w, y1: h };
+    let full = Rect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
     let mut rec = vec![None; cells];
     for c in 0..cells {
         if let Ok(r) = cell_record(c as u32, input.mesh.tets[c], &pv, &tf, full) {
@@ -87,7 +95,10 @@ fn main() -> anyhow::Result<()> {
             'o: for y in r.range[2]..=r.range[3] {
                 for x in r.range[0]..=r.range[1] {
                     let q = (y * w + x) as usize;
-                    let g = (0..n).filter(|&j| j != k).map(|j| f[j][q]).fold(f32::INFINITY, f32::min);
+                    let g = (0..n)
+                        .filter(|&j| j != k)
+                        .map(|j| f[j][q])
+                        .fold(f32::INFINITY, f32::min);
                     if g >= r.near {
                         behind = false;
                         break 'o;

@@ -117,12 +117,7 @@ fn header(out: &mut Vec<u8>, tag: u8, dims: (u32, u32), count: usize) {
     out.extend_from_slice(&(count as u32).to_le_bytes());
 }
 
-fn read_header(
-    r: &mut Reader,
-    tag: u8,
-    dims: (u32, u32),
-    per: usize,
-) -> Result<usize, TableError> {
+fn read_header(r: &mut Reader, tag: u8, dims: (u32, u32), per: usize) -> Result<usize, TableError> {
     if r.u8()? != tag {
         return Err(r.err());
     }
@@ -421,10 +416,36 @@ mod tests {
     #[test]
     fn store_excludes_the_node_itself() {
         let mut s = ReleaseStore::new((1, 1), 3);
-        assert_eq!(s.put(0, ReleaseShare { dims: (1, 1), blocks: vec![(0, 1, 9)] }).unwrap().1, false);
-        s.put(1, ReleaseShare { dims: (1, 1), blocks: vec![(0, 5, 2)] }).unwrap();
+        assert_eq!(
+            s.put(
+                0,
+                ReleaseShare {
+                    dims: (1, 1),
+                    blocks: vec![(0, 1, 9)]
+                }
+            )
+            .unwrap()
+            .1,
+            false
+        );
+        s.put(
+            1,
+            ReleaseShare {
+                dims: (1, 1),
+                blocks: vec![(0, 5, 2)],
+            },
+        )
+        .unwrap();
         assert!(s.put(1, ReleaseShare::default()).is_err());
-        let (_, all) = s.put(2, ReleaseShare { dims: (1, 1), blocks: vec![] }).unwrap();
+        let (_, all) = s
+            .put(
+                2,
+                ReleaseShare {
+                    dims: (1, 1),
+                    blocks: vec![],
+                },
+            )
+            .unwrap();
         assert!(all);
         let (r, _) = s.replies();
         assert_eq!(r[0].blocks, vec![(0, vec![(5, 2)])]);

@@ -140,8 +140,10 @@ impl NodeRenderer {
         let Some(rel) = self.release.as_mut() else {
             return;
         };
-        let (Some(map), Some(quant)) = (rel.map.as_ref(), self.pixel_levels.as_ref().map(|p| p.quant))
-        else {
+        let (Some(map), Some(quant)) = (
+            rel.map.as_ref(),
+            self.pixel_levels.as_ref().map(|p| p.quant),
+        ) else {
             return;
         };
         for c in &self.records[from..] {
