@@ -33,7 +33,9 @@ pub struct ClusterErtArgs {
     /// Release ordering (pyramid structure, with --share): block edge in
     /// pixels of the release maps nodes exchange at the start of the frame,
     /// after which each node scans first the cells other nodes will cover
-    /// soonest (src/node/release.rs). 0 turns it off (nearest-first).
+    /// soonest (src/node/release.rs). 0 turns it off (nearest-first, the
+    /// default: measured slower on aorta view B, docs/experiments/cluster.md).
+    /// Needs --share and the pyramid structure; --paper turns it off.
     #[arg(long, value_name = "PIXELS", default_value_t = 0)]
     pub release_block: u32,
     /// Release ordering: how long, as a fraction of the frame, a covered
@@ -42,8 +44,9 @@ pub struct ClusterErtArgs {
     pub release_lag: f32,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
-    /// front-first help. Overrides --ert-structure, --share-levels,
-    /// --share-sub, --share-window and --help-gap.
+    /// front-first help, no release ordering. Overrides --ert-structure,
+    /// --share-levels, --share-sub, --share-window, --help-gap and
+    /// --release-block.
     #[arg(long)]
     pub paper: bool,
 }
