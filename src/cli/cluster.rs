@@ -345,6 +345,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 share_window: if paper { 0 } else { a.share_window },
                 help_gap: mode.help_gap,
                 help_fraction: a.ert_mode.help_fraction,
+                release_block: mode.release_block,
+                release_lag: a.ert_mode.release_lag,
             },
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,

@@ -30,10 +30,23 @@ pub struct ClusterErtArgs {
     /// docs/experiments/cluster.md).
     #[arg(long, value_name = "FRACTION", default_value_t = 0.33)]
     pub help_fraction: f64,
+    /// Release ordering (pyramid structure, with --share): block edge in
+    /// pixels of the release maps nodes exchange at the start of the frame,
+    /// after which each node scans first the cells other nodes will cover
+    /// soonest (src/node/release.rs). 0 turns it off (nearest-first, the
+    /// default: measured slower on aorta view B, docs/experiments/cluster.md).
+    /// Needs --share and the pyramid structure; --paper turns it off.
+    #[arg(long, value_name = "PIXELS", default_value_t = 0)]
+    pub release_block: u32,
+    /// Release ordering: how long, as a fraction of the frame, a covered
+    /// cell waits after the nodes in front start covering its blocks.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.1)]
+    pub release_lag: f32,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
-    /// front-first help. Overrides --ert-structure, --share-levels,
-    /// --share-sub, --share-window and --help-gap.
+    /// front-first help, no release ordering. Overrides --ert-structure,
+    /// --share-levels, --share-sub, --share-window, --help-gap and
+    /// --release-block.
     #[arg(long)]
     pub paper: bool,
 }
@@ -47,6 +60,8 @@ pub struct ErtMode {
     pub share_levels: u8,
     /// Front-first help gap (0: off).
     pub help_gap: f32,
+    /// Release ordering block edge (0: off).
+    pub release_block: u32,
 }
 
 impl ClusterErtArgs {
@@ -64,11 +79,17 @@ impl ClusterErtArgs {
             "--help-fraction must be in (0, 1], got {}",
             self.help_fraction
         );
+        anyhow::ensure!(
+            self.release_lag.is_finite() && (0.0..=1.0).contains(&self.release_lag),
+            "--release-lag must be a fraction in [0, 1], got {}",
+            self.release_lag
+        );
         if self.paper {
             return Ok(ErtMode {
                 structure: ErtStructure::Flat,
                 share_levels: 1,
                 help_gap: 0.0,
+                release_block: 0,
             });
         }
         let structure = self.ert_structure.unwrap_or(ErtStructure::Pyramid);
@@ -82,6 +103,11 @@ impl ClusterErtArgs {
                 self.help_gap
             } else {
                 0.0
+            },
+            release_block: if structure == ErtStructure::Pyramid {
+                self.release_block
+            } else {
+                0
             },
         })
     }

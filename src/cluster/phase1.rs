@@ -216,6 +216,11 @@ pub fn run(
             }
             _ => None,
         },
+        release: nodes[0]
+            .renderer()
+            .release_blocks()
+            .filter(|_| cfg.share)
+            .map(|b| (b.bw, b.bh)),
     };
     let initial = nodes
         .iter()

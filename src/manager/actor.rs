@@ -26,7 +26,16 @@ use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, N
 use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
 use crate::node::pixel_share::{PixelLevels, PixelStore};
+use crate::node::release::{ReleaseShare, ReleaseStore};
 use crate::node::{CostProfile, SharedTable};
+
+/// Fewest initial cells per node (mean) for front-first help: with thinner
+/// pieces a help grant moves about as many cells as it lets be skipped.
+/// Measured on aorta view B (`pvrsim cluster ../shared/data/aorta-view-b.toml
+/// --nodes N --ert 0.9 --share --dlb [--help-gap 0]`, docs/experiments/cluster.md):
+/// at 64 nodes (4,777 cells each) help is faster (2.041 s vs 2.074 s), at
+/// 256 (1,194 each) slower (0.797 s vs 0.668 s).
+pub const HELP_MIN_CELLS_PER_NODE: u64 = 2_500;
 
 /// How the manager works.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,6 +59,11 @@ pub struct ManagerConfig {
     /// nearest cells of the node with the nearest depth frontier when its own
     /// frontier lies more than this depth behind it. `None`: off.
     pub help_gap: Option<f32>,
+    /// Release ordering ([`crate::node::release`]): blocks per row and
+    /// column. Each node's first share is then its release share; once all
+    /// are in, every node gets its release map as its first reply.
+    /// `None`: off.
+    pub release: Option<(u32, u32)>,
 }
 
 /// What the manager did.
@@ -84,6 +98,7 @@ pub struct ManagerActor {
     table: SharedTable,
     store: Option<LevelStore>,
     pixels: Option<PixelStore>,
+    release: Option<ReleaseStore>,
     remaining: Vec<u64>,
     /// Per node, `grants_taken` of its latest request (`None`: none yet).
     request_taken: Vec<Option<u32>>,
@@ -116,10 +131,19 @@ impl ManagerActor {
         let n = cfg.nodes;
         let mut remaining = initial;
         remaining.resize(n, 0);
+        // Front-first help scales with the pieces: below
+        // HELP_MIN_CELLS_PER_NODE cells per node it moves more than it
+        // saves (measured, see the constant), so it is off.
+        let mean = remaining.iter().sum::<u64>() / n.max(1) as u64;
+        let mut cfg = cfg;
+        if mean < HELP_MIN_CELLS_PER_NODE {
+            cfg.help_gap = None;
+        }
         ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
             store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),
             pixels: cfg.pixels.map(|(w, h, l)| PixelStore::new(w, h, l, n)),
+            release: cfg.release.map(|d| ReleaseStore::new(d, n)),
             cfg,
             codec,
             profile,
@@ -175,6 +199,28 @@ impl ManagerActor {
                     return Err(format!("share from node {j} with a NaN frontier"));
                 }
                 self.front[j] = m.front;
+                if let Some(rs) = self.release.as_mut().filter(|rs| !rs.has(j)) {
+                    // Release ordering: node j's first share is its map.
+                    let d = ReleaseShare::decode(&m.table, rs.dims()).map_err(|e| e.to_string())?;
+                    let (mut work, all) = rs.put(j, d).map_err(|e| e.to_string())?;
+                    let mut replies = Vec::new();
+                    if all {
+                        let (r, w) = rs.replies();
+                        work += w;
+                        replies = r;
+                    }
+                    let secs = work as f64 * self.profile.per_shared_entry;
+                    self.stats.busy_s += secs;
+                    self.remaining[j] = m.remaining;
+                    out.push(Action::Compute {
+                        seconds: secs,
+                        activity: Activity::Share,
+                    });
+                    for (k, r) in replies.into_iter().enumerate() {
+                        self.send(out, k, &ErtReply { table: r.encode() });
+                    }
+                    return Ok(());
+                }
                 if m.help {
                     self.help(j, out);
                 }

@@ -52,6 +52,12 @@ pub struct NodePolicy {
     /// Front-first help: fraction of its unprocessed cells a donor gives
     /// (the nearest ones).
     pub help_fraction: f64,
+    /// Release ordering ([`crate::node::release`], with per-pixel sharing):
+    /// block edge in pixels; 0: off (nearest-first order).
+    pub release_block: u32,
+    /// Release ordering: how long (fraction of the frame) a cell waits
+    /// after the nodes in front of it start covering its blocks.
+    pub release_lag: f32,
 }
 
 impl Default for NodePolicy {
@@ -66,6 +72,8 @@ impl Default for NodePolicy {
             share_window: 1,
             help_gap: 0.0,
             help_fraction: 0.25,
+            release_block: 0,
+            release_lag: 0.0,
         }
     }
 }
@@ -139,6 +147,10 @@ pub struct NodeActor {
     shares_in_flight: u32,
     /// A front-first help request is out (cleared by any grant).
     help_pending: bool,
+    /// The release share is out, its reply not applied yet.
+    release_pending: bool,
+    /// The unprocessed count the manager last heard from this node.
+    reported: u64,
     stats: NodeStats,
 }
 
@@ -151,6 +163,10 @@ impl NodeActor {
         codec: Codec,
         cells_initial: u64,
     ) -> NodeActor {
+        let mut renderer = renderer;
+        if cfg.share && cfg.policy.release_block > 0 {
+            renderer.enable_release(cfg.policy.release_block, cfg.policy.release_lag);
+        }
         NodeActor {
             cfg,
             codec,
@@ -164,6 +180,8 @@ impl NodeActor {
             peers: Vec::new(),
             shares_in_flight: 0,
             help_pending: false,
+            release_pending: false,
+            reported: u64::MAX,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -296,6 +314,7 @@ impl NodeActor {
                         table,
                     };
                     self.stats.shares_sent += 1;
+                    self.reported = m.remaining;
                     self.send(out, self.cfg.manager, &m);
                 } else if !self.cfg.share && !self.peers.is_empty() && worth_sharing {
                     let m = ErtReply {
@@ -309,15 +328,22 @@ impl NodeActor {
             }
             self.stats.tsc_s = t;
             self.chunks_since_progress += 1;
+            let rem = self.renderer.remaining() as u64;
+            // With sharing, the shares carry the count; but a node stops
+            // sharing with less than a chunk left or a full window, and a
+            // stale count makes the manager pick donors that have nothing
+            // left (refused forwards: 135 of 226 at 256 nodes on view B).
+            // So it also reports whenever its count fell by a quarter since
+            // the manager last heard it: a few small messages per node.
+            let stale = self.cfg.share && rem * 4 <= self.reported.saturating_mul(3);
             if self.cfg.dlb
-                && !self.cfg.share
-                && self.renderer.remaining() > 0
+                && (!self.cfg.share || stale)
+                && rem > 0
                 && self.chunks_since_progress >= self.cfg.policy.progress_every.max(1)
             {
                 self.chunks_since_progress = 0;
-                let m = Control::Progress {
-                    remaining: self.renderer.remaining() as u64,
-                };
+                self.reported = rem;
+                let m = Control::Progress { remaining: rem };
                 self.send(out, self.cfg.manager, &m);
             }
         }
@@ -333,6 +359,33 @@ impl NodeActor {
         }
     }
 
+    /// Release ordering, at the start: the node's release share goes to
+    /// the manager as its first [`ErtShare`] (one share in flight); the
+    /// first reply is the release map.
+    /// Returns the seconds charged.
+    fn send_release(&mut self, out: &mut Vec<Action>) -> f64 {
+        let Some((bytes, ops)) = self.renderer.take_release_share() else {
+            return 0.0;
+        };
+        let s = self.secs(&ops);
+        out.push(Action::Compute {
+            seconds: s,
+            activity: Activity::Share,
+        });
+        self.stats.share_s += s;
+        self.release_pending = true;
+        self.shares_in_flight += 1;
+        self.stats.shares_sent += 1;
+        let m = ErtShare {
+            remaining: self.renderer.remaining() as u64,
+            front: self.renderer.front_depth(),
+            help: false,
+            table: bytes,
+        };
+        self.send(out, self.cfg.manager, &m);
+        s
+    }
+
     fn on_message(&mut self, now: f64, env: Envelope, out: &mut Vec<Action>) -> Result<(), String> {
         let err = |e: &dyn std::fmt::Display| format!("{} from {}: {e}", env.kind, env.from);
         match env.kind {
@@ -340,6 +393,17 @@ impl NodeActor {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
                 if env.from.index() == self.cfg.manager {
                     self.shares_in_flight = self.shares_in_flight.saturating_sub(1);
+                }
+                if self.release_pending && env.from.index() == self.cfg.manager {
+                    self.release_pending = false;
+                    let ops = self.renderer.apply_release(&m.table).map_err(|e| err(&e))?;
+                    let s = self.secs(&ops);
+                    self.stats.share_s += s;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Share,
+                    });
+                    return Ok(());
                 }
                 if self.renderer.pixel_share_shape().is_some() {
                     // Per-pixel deltas: each carries only what changed, so
@@ -432,6 +496,7 @@ impl NodeActor {
                     }
                     0
                 };
+                self.reported = self.renderer.remaining() as u64;
                 let report = Control::Gave {
                     to: m.requester,
                     cells,
@@ -487,7 +552,15 @@ impl Actor for NodeActor {
             return out;
         }
         match event {
-            Event::Start | Event::Wake(SCAN) => {
+            Event::Start => {
+                let s = if self.cfg.share {
+                    self.send_release(&mut out)
+                } else {
+                    0.0
+                };
+                self.scan(now + s, &mut out)
+            }
+            Event::Wake(SCAN) => {
                 if !self.waiting {
                     self.scan(now, &mut out)
                 }

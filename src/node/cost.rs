@@ -129,7 +129,7 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
     Breakdown {
         receive: f(o.vertices_projected, p.per_vertex_project)
             + f(o.cells_received, p.per_cell_receive),
-        ert_test: f(o.cells_tested, p.per_cell_test),
+        ert_test: f(o.cells_tested + o.cells_reordered, p.per_cell_test),
         scan: f(o.cells_projected, p.per_cell_setup)
             + f(o.pixels_tested, p.per_pixel_test)
             + f(o.segments_generated, p.per_segment)

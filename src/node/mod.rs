@@ -34,6 +34,7 @@ pub mod manager_table;
 pub mod ops;
 pub mod pixel_share;
 pub mod placement;
+pub mod release;
 pub mod renderer;
 pub mod replica;
 pub mod table;

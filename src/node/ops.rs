@@ -42,6 +42,9 @@ pub struct OpCounts {
     /// Cell ids written into or read from id units (replicated data,
     /// [`super::replica`]).
     pub cell_ids_moved: u64,
+    /// Cells keyed and moved by a release reorder ([`super::release`]).
+    #[serde(default)]
+    pub cells_reordered: u64,
 }
 
 impl OpCounts {
@@ -67,7 +70,8 @@ impl OpCounts {
             table_pixels_read,
             shared_entries_merged,
             work_cells_moved,
-            cell_ids_moved
+            cell_ids_moved,
+            cells_reordered
         );
     }
 

@@ -138,7 +138,7 @@ impl DepthQuant {
     }
 }
 
-fn put_varint(out: &mut Vec<u8>, mut v: u32) {
+pub(crate) fn put_varint(out: &mut Vec<u8>, mut v: u32) {
     while v >= 0x80 {
         out.push((v as u8) | 0x80);
         v >>= 7;
@@ -147,24 +147,24 @@ fn put_varint(out: &mut Vec<u8>, mut v: u32) {
 }
 
 /// A byte reader that fails instead of panicking.
-struct Reader<'a> {
-    b: &'a [u8],
-    at: usize,
+pub(crate) struct Reader<'a> {
+    pub(crate) b: &'a [u8],
+    pub(crate) at: usize,
 }
 
 impl Reader<'_> {
-    fn err(&self) -> TableError {
+    pub(crate) fn err(&self) -> TableError {
         TableError::Length(self.b.len())
     }
-    fn u8(&mut self) -> Result<u8, TableError> {
+    pub(crate) fn u8(&mut self) -> Result<u8, TableError> {
         let v = *self.b.get(self.at).ok_or_else(|| self.err())?;
         self.at += 1;
         Ok(v)
     }
-    fn u16(&mut self) -> Result<u16, TableError> {
+    pub(crate) fn u16(&mut self) -> Result<u16, TableError> {
         Ok(u16::from_le_bytes([self.u8()?, self.u8()?]))
     }
-    fn u32(&mut self) -> Result<u32, TableError> {
+    pub(crate) fn u32(&mut self) -> Result<u32, TableError> {
         Ok(u32::from_le_bytes([
             self.u8()?,
             self.u8()?,
@@ -172,7 +172,7 @@ impl Reader<'_> {
             self.u8()?,
         ]))
     }
-    fn varint(&mut self) -> Result<u32, TableError> {
+    pub(crate) fn varint(&mut self) -> Result<u32, TableError> {
         let mut v: u64 = 0;
         for shift in (0..35).step_by(7) {
             let b = self.u8()?;
@@ -187,7 +187,7 @@ impl Reader<'_> {
 
 /// Reads a pixel index list of `count` ascending, delta-coded indices below
 /// `n`, calling `each(pixel, reader)` after each index.
-fn read_pixels(
+pub(crate) fn read_pixels(
     r: &mut Reader,
     count: usize,
     n: u32,

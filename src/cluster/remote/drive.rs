@@ -393,6 +393,8 @@ fn manager_for(
             }
             _ => None,
         },
+        // Remote workers run partitioned, nearest-first (no release ordering).
+        release: None,
     };
     Ok(ManagerActor::new(
         mcfg,

@@ -181,6 +181,8 @@ impl From<WirePolicy> for NodePolicy {
             share_window: p.share_window,
             help_gap: p.help_gap,
             help_fraction: p.help_fraction,
+            release_block: 0,
+            release_lag: 0.0,
         }
     }
 }

@@ -98,17 +98,20 @@ impl NodeRenderer {
     /// pyramid; keeps the skipped ones as processed, returns the others.
     fn skip_before_giving(&mut self, cells: Vec<CellRecord>) -> Vec<CellRecord> {
         let span = self.opts.ert.span;
+        let flat = self.flat_table();
         let mut ops = OpCounts::default();
         let mut keep = Vec::with_capacity(cells.len());
         for c in cells {
             ops.cells_tested += 1;
-            let skip = match span {
-                ErtSpan::Single => self.table.skip_single(c.range, c.near),
-                ErtSpan::Multi => self.table.skip_multi(c.range, c.near),
-            } || self
-                .pyramid
-                .as_ref()
-                .is_some_and(|p| p.skip(c.range, c.near));
+            let skip = (flat
+                && match span {
+                    ErtSpan::Single => self.table.skip_single(c.range, c.near),
+                    ErtSpan::Multi => self.table.skip_multi(c.range, c.near),
+                })
+                || self
+                    .pyramid
+                    .as_ref()
+                    .is_some_and(|p| p.skip(c.range, c.near));
             if skip {
                 ops.cells_skipped_ert += 1;
                 self.pre_skipped.push(c.cell);
@@ -173,6 +176,7 @@ impl NodeRenderer {
                     .insert(g, (unit.positions[k], unit.scalars[k]));
             }
         }
+        let from = self.records.len();
         for c in &unit.cells {
             match cell_record(c.id, c.v, &pv, &self.tf, self.full) {
                 Ok(mut rec) => {
@@ -189,11 +193,15 @@ impl NodeRenderer {
                 }
             }
         }
-        let order = self.opts.cell_order;
-        let rest = &mut self.records[self.next..];
-        match order {
-            CellOrder::FrontToBack => rest.sort_unstable_by_key(|c| c.order_key()),
-            CellOrder::Stored => rest.sort_unstable_by_key(|c| c.cell),
+        if self.release_ordered() {
+            self.sort_released(from, &mut ops);
+        } else {
+            let order = self.opts.cell_order;
+            let rest = &mut self.records[self.next..];
+            match order {
+                CellOrder::FrontToBack => rest.sort_unstable_by_key(|c| c.order_key()),
+                CellOrder::Stored => rest.sort_unstable_by_key(|c| c.cell),
+            }
         }
         self.totals.add(&ops);
         Ok(ops)

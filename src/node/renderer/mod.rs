@@ -59,6 +59,7 @@
 //! clock, spawns a thread or does I/O.
 
 mod grant;
+mod release;
 mod sharing;
 
 use std::collections::HashMap;
@@ -223,6 +224,8 @@ pub struct NodeRenderer {
     /// Cells skipped by ERT out of order, when a DLB donor tested the cells
     /// it was about to give (`grant.rs`): processed, not in `records`.
     pre_skipped: Vec<u32>,
+    /// Release ordering ([`crate::node::release`]), if on.
+    release: Option<release::Release>,
 }
 
 impl NodeRenderer {
@@ -266,6 +269,7 @@ impl NodeRenderer {
             footprint: [u32::MAX, 0, u32::MAX, 0],
             replica: None,
             pre_skipped: Vec::new(),
+            release: None,
         }
     }
 
@@ -336,6 +340,7 @@ impl NodeRenderer {
         if ert.enabled() && self.interval.is_none() {
             self.interval = Some(schedule::interval(self.remaining(), ert.update_c));
         }
+        let flat = self.flat_table();
         let limit = max_cells.min(self.cells_until_update());
         let end = self.next + limit.min(self.remaining());
         let mut ops = OpCounts::default();
@@ -364,10 +369,12 @@ impl NodeRenderer {
             for c in &records[self.next..end] {
                 if ert.enabled() {
                     ops.cells_tested += 1;
-                    let skip = match ert.span {
-                        ErtSpan::Single => table.skip_single(c.range, c.near),
-                        ErtSpan::Multi => table.skip_multi(c.range, c.near),
-                    } || pyramid.as_ref().is_some_and(|p| p.skip(c.range, c.near));
+                    let skip = (flat
+                        && match ert.span {
+                            ErtSpan::Single => table.skip_single(c.range, c.near),
+                            ErtSpan::Multi => table.skip_multi(c.range, c.near),
+                        })
+                        || pyramid.as_ref().is_some_and(|p| p.skip(c.range, c.near));
                     if skip {
                         ops.cells_skipped_ert += 1;
                         continue;
@@ -402,6 +409,7 @@ impl NodeRenderer {
         }
         let thr = self.opts.ert.threshold;
         let w = self.view.width;
+        let flat = self.flat_table();
         let Self {
             lists,
             depth,
@@ -444,15 +452,19 @@ impl NodeRenderer {
             if d < depth[idx] {
                 depth[idx] = d;
                 let (x, y) = (idx as u32 % w, idx as u32 / w);
-                table.mark(x, y);
+                if flat {
+                    table.mark(x, y);
+                }
                 if let Some(p) = pyramid.as_mut() {
                     p.mark(x, y);
                 }
             }
         });
-        table.rebuild(depth, &mut ops);
+        if flat {
+            table.rebuild(depth, &mut ops);
+        }
         if let Some(p) = pyramid.as_mut() {
-            p.rebuild(depth);
+            ops.table_pixels_read += p.rebuild_counted(depth);
         }
         if let Some(lv) = levels.as_mut() {
             lv.rebuild(w, &mut ops);
@@ -461,6 +473,15 @@ impl NodeRenderer {
         self.interval = None;
         self.totals.add(&ops);
         ops
+    }
+
+    /// Whether the flat `D x D` table is kept and tested: always but with
+    /// per-pixel sharing, where the max-pyramid over the node's and the
+    /// manager's per-pixel depths is the whole test (the flat entry's max
+    /// over `D x D` pixels is almost never tighter, and keeping it costs a
+    /// whole entry per changed pixel: 137 us under `pentium4`).
+    pub fn flat_table(&self) -> bool {
+        self.pyramid.is_none() || self.pixel_levels.is_none()
     }
 
     /// The node's own ERT information, to send to the manager.

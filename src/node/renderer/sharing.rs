@@ -65,6 +65,7 @@ impl NodeRenderer {
             return Err(TableError::Length(bytes.len()));
         };
         let d = PixelDepths::decode(bytes, w, h)?;
+        let flat = self.flat_table();
         let mut ops = OpCounts {
             shared_entries_merged: d.pixels.len() as u64,
             ..Default::default()
@@ -75,15 +76,19 @@ impl NodeRenderer {
             if z < self.depth[p] {
                 self.depth[p] = z;
                 let (x, y) = (p as u32 % w, p as u32 / w);
-                self.table.mark(x, y);
+                if flat {
+                    self.table.mark(x, y);
+                }
                 if let Some(py) = self.pyramid.as_mut() {
                     py.mark(x, y);
                 }
             }
         }
-        self.table.rebuild(&self.depth, &mut ops);
+        if flat {
+            self.table.rebuild(&self.depth, &mut ops);
+        }
         if let Some(py) = self.pyramid.as_mut() {
-            py.rebuild(&self.depth);
+            ops.table_pixels_read += py.rebuild_counted(&self.depth);
         }
         self.totals.add(&ops);
         Ok(ops)

@@ -113,6 +113,14 @@ impl Pyramid {
     /// Recomputes the marked level-0 blocks from the per-pixel depths `depth`
     /// and every ancestor whose value may have changed.
     pub fn rebuild(&mut self, depth: &[f32]) {
+        self.rebuild_counted(depth);
+    }
+
+    /// [`Pyramid::rebuild`], returning the values read: the pixels of every
+    /// recomputed level-0 block and the (up to 4) children of every
+    /// recomputed ancestor (what the cluster's cost model charges).
+    pub fn rebuild_counted(&mut self, depth: &[f32]) -> u64 {
+        let mut reads = 0u64;
         let (w, h) = self.size;
         let (bw, bh) = self.block;
         let mut changed: Vec<u32> = Vec::new();
@@ -122,6 +130,7 @@ impl Pyramid {
                 let e = e as usize;
                 l0.dirty_flag[e] = false;
                 let (bx, by) = (e as u32 % l0.w, e as u32 / l0.w);
+                reads += (bw * bh) as u64;
                 let v = if (bw, bh) == (1, 1) {
                     depth[(by * w + bx) as usize]
                 } else {
@@ -155,6 +164,7 @@ impl Pyramid {
                 let mut v = f32::NEG_INFINITY;
                 for cy in 2 * py..(2 * py + 2).min(child.h) {
                     for cx in 2 * px..(2 * px + 2).min(child.w) {
+                        reads += 1;
                         v = v.max(child.v[(cy * child.w + cx) as usize]);
                     }
                 }
@@ -168,6 +178,7 @@ impl Pyramid {
                 break;
             }
         }
+        reads
     }
 
     /// Whether every pixel of the local range `[x0, x1] x [y0, y1]` (inclusive)
