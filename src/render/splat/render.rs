@@ -1,14 +1,21 @@
 //! The splatting renderer: classify, order, project, rasterise.
 //!
-//! 1. **Order** (`order_ms`): walk the voxels back to front in the chosen
-//!    [`Order`], skipping transparent ones (threshold culling: `tau = 0`
-//!    voxels are never drawn), and project each kept voxel to its EWA
-//!    [`Footprint`]; the splats go into one list, in drawing order.
-//! 2. **Splat** (`splat_ms`): the image is cut into horizontal bands, one
-//!    rayon task each; every band walks the whole list in order and
-//!    composites the footprints' rows that fall inside it, back to front:
+//! 1. **Order** (`order_ms`): the kept voxels back to front in the chosen
+//!    [`Order`] (threshold culling: `tau = 0` voxels are never drawn), each
+//!    projected to its EWA [`Footprint`](super::footprint::Footprint); the
+//!    splats go into one list, in drawing order. With `sparse` (default) the
+//!    transparency pre-pass builds line masks of the kept voxels and the
+//!    axis/DDA orders walk only those (same sequence as the full walk,
+//!    [`order::collect_kept`]), and the projection runs in parallel over the
+//!    ordered list (rayon's ordered collect); without it, the full walk
+//!    tests every voxel's threshold and projects as it goes, on one thread.
+//! 2. **Splat** (`splat_ms`): the image is cut into horizontal bands, rayon
+//!    tasks; every band walks the whole list in order and composites the
+//!    footprints' rows that fall inside it, back to front:
 //!    `C <- c alpha + (1 - alpha) C`, `A <- alpha + (1 - alpha) A`
 //!    (premultiplied; the splat is in front of what is already there).
+//!    Orthographic views with `table_phases > 0` look the kernel up in a
+//!    [`FootprintTable`]; otherwise the conic and two exponentials per pixel.
 //! 3. The background goes behind: `final = C + (1 - A) background`.
 
 use std::time::Instant;
@@ -17,6 +24,7 @@ use rayon::prelude::*;
 
 use super::classify::Classifier;
 use super::footprint::FootprintModel;
+use super::table::FootprintTable;
 use super::order::{self, sort::SortScratch, Order, OrderView};
 use crate::error::Result;
 use crate::image::Image;
@@ -35,6 +43,12 @@ pub struct SplatOptions {
     pub low_pass: f64,
     /// Footprint cut, standard deviations (default 3).
     pub k_cut: f64,
+    /// Transparency pre-pass and sparse walks, parallel projection
+    /// (default); `false`: the full walk testing every voxel, one thread.
+    pub sparse: bool,
+    /// Sub-pixel phases per pixel of the orthographic footprint table
+    /// (default 8); 0: exact conic and exponentials per pixel.
+    pub table_phases: u32,
 }
 
 impl Default for SplatOptions {
@@ -44,6 +58,8 @@ impl Default for SplatOptions {
             sigma: 0.6,
             low_pass: 1.0,
             k_cut: 3.0,
+            sparse: true,
+            table_phases: 8,
         }
     }
 }
@@ -63,7 +79,12 @@ pub struct SplatStats {
     pub voxels_drawn: u64,
     /// `voxels_drawn / voxels_total`, the paper's fill rate.
     pub fill_rate: f64,
-    /// Ordering + culling + projection, ms.
+    /// Line masks built by the transparency pre-pass (one volume pass each;
+    /// 0 without `sparse` or for the sorts' own culling).
+    pub mask_passes: u64,
+    /// Footprint table phases used (0: exact per-pixel footprints).
+    pub table_phases: u32,
+    /// Ordering + culling + projection (pre-pass included), ms.
     pub order_ms: f64,
     /// Rasterising and compositing, ms.
     pub splat_ms: f64,
@@ -98,56 +119,89 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             spacing: vol.spacing,
         },
     };
-    let mut splats: Vec<Splat> = Vec::new();
-    let mut offscreen = 0u64;
-    let mut visible = 0u64;
     let dims = vol.dims;
     let (wf, hf) = (w as f32, h as f32);
-    order::visit_with(
-        opts.order,
-        dims,
-        &order_view,
-        |idx| class.visible(idx),
-        &mut SortScratch::default(),
-        |idx| {
-            visible += 1;
-            let i = idx % dims[0];
-            let jk = idx / dims[0];
-            let g = [i as f64, (jk % dims[1]) as f64, (jk / dims[1]) as f64];
-            let Some(f) = model.project(vol.grid_to_world(g)) else {
-                offscreen += 1;
-                return;
-            };
-            if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
-                offscreen += 1;
-                return;
-            }
-            let c = class.get(idx);
-            splats.push(Splat {
-                x: f.x,
-                y: f.y,
-                q: f.q,
-                depth0: c.tau * f.l0,
-                rgb: c.rgb,
-                rx: f.rx,
-                ry: f.ry,
-            });
-        },
-    );
+    // The splat of kept voxel `idx`, or None when off screen.
+    let splat_of = |idx: u64| -> Option<Splat> {
+        let i = idx % dims[0];
+        let jk = idx / dims[0];
+        let g = [i as f64, (jk % dims[1]) as f64, (jk / dims[1]) as f64];
+        let f = model.project(vol.grid_to_world(g))?;
+        if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
+            return None;
+        }
+        let c = class.get(idx);
+        Some(Splat {
+            x: f.x,
+            y: f.y,
+            q: f.q,
+            depth0: c.tau * f.l0,
+            rgb: c.rgb,
+            rx: f.rx,
+            ry: f.ry,
+        })
+    };
+    let mut mask_passes = 0u64;
+    let (splats, visible) = if opts.sparse {
+        let keep = |idx: u64| class.visible(idx);
+        let mut idxs = Vec::new();
+        mask_passes = order::collect_kept(
+            opts.order,
+            dims,
+            &order_view,
+            &keep,
+            &mut SortScratch::default(),
+            &mut idxs,
+        ) as u64;
+        let splats: Vec<Splat> = idxs.par_iter().filter_map(|&i| splat_of(i)).collect();
+        (splats, idxs.len() as u64)
+    } else {
+        let mut splats = Vec::new();
+        let mut visible = 0u64;
+        order::visit_with(
+            opts.order,
+            dims,
+            &order_view,
+            |idx| class.visible(idx),
+            &mut SortScratch::default(),
+            |idx| {
+                visible += 1;
+                splats.extend(splat_of(idx));
+            },
+        );
+        (splats, visible)
+    };
+    let offscreen = visible - splats.len() as u64;
     let order_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let t1 = Instant::now();
     let cut = model.exponent_cut();
+    let table = match model.orthographic_shape() {
+        Some(f) if opts.table_phases > 0 => Some(FootprintTable::new(&f, cut, opts.table_phases)),
+        _ => None,
+    };
     let mut acc = vec![[0.0f32; 4]; w as usize * h as usize];
-    let bands = (rayon::current_num_threads() * 2).max(1);
+    // Several bands per thread: the splats crowd in the middle rows.
+    let bands = (rayon::current_num_threads() * 4).max(1);
     let rows_per = (h as usize).div_ceil(bands).max(1);
     acc.par_chunks_mut(rows_per * w as usize)
         .enumerate()
         .for_each(|(b, band)| {
             let j0 = (b * rows_per) as i64;
             let j1 = j0 + (band.len() / w as usize) as i64;
-            for s in &splats {
-                draw(s, band, w, j0, j1, cut);
+            match &table {
+                Some(t) => {
+                    for s in &splats {
+                        if s.y + s.ry >= j0 as f32 - 1.0 && s.y - s.ry <= j1 as f32 + 1.0 {
+                            t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1);
+                        }
+                    }
+                }
+                None => {
+                    for s in &splats {
+                        draw(s, band, w, j0, j1, cut);
+                    }
+                }
             }
         });
     let splat_ms = t1.elapsed().as_secs_f64() * 1e3;
@@ -167,6 +221,12 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         voxels_offscreen: offscreen,
         voxels_drawn: drawn,
         fill_rate: drawn as f64 / total as f64,
+        mask_passes,
+        table_phases: if table.is_some() {
+            opts.table_phases
+        } else {
+            0
+        },
         order_ms,
         splat_ms,
     };

@@ -42,7 +42,9 @@
 
 pub mod axis;
 pub mod dda;
+pub mod mask;
 pub mod sort;
+pub mod sparse;
 
 #[cfg(test)]
 mod tests;
@@ -298,4 +300,39 @@ pub fn collect(order: Order, dims: [u64; 3], view: &OrderView) -> Vec<u64> {
     let mut out = Vec::with_capacity(n);
     visit(order, dims, view, |i| out.push(i));
     out
+}
+
+/// The kept voxels in `order`, back to front, into `out` (cleared first),
+/// through the transparency pre-pass: the axis and DDA orders build the
+/// line masks of [`mask`] (one pass over the volume each, in parallel) and
+/// walk only the kept voxels ([`sparse`]), emitting exactly the sequence of
+/// [`visit_kept`]; the sorts test `keep` per voxel as in [`visit_with`].
+/// Returns the number of masks built.
+pub fn collect_kept(
+    order: Order,
+    dims: [u64; 3],
+    view: &OrderView,
+    keep: &(impl Fn(u64) -> bool + Sync),
+    scratch: &mut sort::SortScratch,
+    out: &mut Vec<u64>,
+) -> usize {
+    out.clear();
+    let boxes = octants(dims, view);
+    let mut masks = mask::Masks::new(dims, keep);
+    match order {
+        Order::Axis => boxes
+            .iter()
+            .for_each(|o| sparse::axis_sparse(o, dims, &mut masks, out)),
+        Order::Dda => {
+            let mut counts = Vec::new();
+            boxes
+                .iter()
+                .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, out, &mut counts))
+        }
+        Order::Quicksort | Order::Radix => {
+            sort::sorted(order == Order::Radix, &boxes, dims, view, keep, scratch);
+            std::mem::swap(out, &mut scratch.out);
+        }
+    }
+    masks.built()
 }
