@@ -1,16 +1,18 @@
 //! `pvrsim bench --splat`: wall-clock ms per splatting frame of a 256^3
 //! grid at 512^2 (issue 11's speed target), ordering included, DDA order,
-//! at the paper's fill rates, on 1 and 2 threads, for three paths measured
+//! at the paper's fill rates, on 1 and 2 threads, for four paths measured
 //! in the same run:
 //!
 //! - `full`: the full DDA walk testing every voxel's threshold, projection
-//!   on one thread, exact footprints (conic + two exponentials per pixel);
+//!   on one thread, exact footprints (conic + two exponentials per pixel):
+//!   the previous renderer;
 //! - `prepass`: transparency pre-pass + sparse walk + parallel projection,
 //!   exact footprints (same image as `full`, bit for bit: same order, same
 //!   per-splat arithmetic; the error columns show it);
+//! - `incr`: `prepass` with forward-differenced footprints (the default;
+//!   differs from `full` by f32 rounding);
 //! - `table`: `prepass` with the orthographic footprint table (8 x 8
-//!   phases), whose image differs from `full` by the phase rounding (error
-//!   columns, 1/255).
+//!   phases), whose image differs from `full` by the phase rounding.
 //!
 //! Grids: the generated hydrogen atom (KVS, `generate::hydrogen`) at 256^3,
 //! always; the MNI152 template resampled to 256^3 when the shared data
@@ -44,7 +46,7 @@ pub struct SplatBenchRow {
     pub drawn: u64,
     /// Threads.
     pub threads: usize,
-    /// `full`, `prepass` or `table`.
+    /// `full`, `prepass`, `incr` or `table`.
     pub path: String,
     /// Median wall ms per frame (ordering included).
     pub wall_ms: f64,
@@ -64,8 +66,8 @@ fn load_average() -> String {
         .unwrap_or_else(|_| "unknown".into())
 }
 
-/// The three paths.
-fn paths() -> [(&'static str, SplatOptions); 3] {
+/// The four paths.
+fn paths() -> [(&'static str, SplatOptions); 4] {
     let base = SplatOptions {
         order: Order::Dda,
         ..Default::default()
@@ -75,18 +77,25 @@ fn paths() -> [(&'static str, SplatOptions); 3] {
             "full",
             SplatOptions {
                 sparse: false,
-                table_phases: 0,
+                incremental: false,
                 ..base
             },
         ),
         (
             "prepass",
             SplatOptions {
-                table_phases: 0,
+                incremental: false,
                 ..base
             },
         ),
-        ("table", base),
+        ("incr", base),
+        (
+            "table",
+            SplatOptions {
+                table_phases: 8,
+                ..base
+            },
+        ),
     ]
 }
 
@@ -140,22 +149,25 @@ fn bench_grid(
                 rows.push(row);
             }
         }
-        // One markdown row per thread count: full | prepass | table, ratios.
+        // One markdown row per thread count: full | prepass | incr | table.
         for th in [1usize, 2] {
             let r: Vec<&SplatBenchRow> = line.iter().filter(|r| r.threads == th).collect();
             let ms = |r: &SplatBenchRow| format!("{:.0} ({:.0} + {:.0})", r.wall_ms, r.order_ms, r.splat_ms);
             println!(
-                "| {name} | {:.4} | {} | {th} | {} | {} | {} | {:.1} | {:.2} / {:.3} | {:.2} / {:.3} |",
+                "| {name} | {:.4} | {} | {th} | {} | {} | {} | {} | {:.1} | {:.2} / {:.3} | {:.2} / {:.3} | {:.2} / {:.3} |",
                 r[0].fill,
                 r[0].drawn,
                 ms(r[0]),
                 ms(r[1]),
                 ms(r[2]),
+                ms(r[3]),
                 r[0].wall_ms / r[2].wall_ms,
                 r[1].max_abs_vs_full,
                 r[1].rmse_vs_full,
                 r[2].max_abs_vs_full,
                 r[2].rmse_vs_full,
+                r[3].max_abs_vs_full,
+                r[3].rmse_vs_full,
             );
         }
     }
@@ -171,10 +183,10 @@ pub fn run(data_dir: &Path, repeats: usize, json: Option<&Path>) -> anyhow::Resu
         load_average()
     );
     println!(
-        "columns: wall ms (order + splat) per path; full/table = speed-up; error vs full: max-abs / RMSE in 1/255\n"
+        "columns: wall ms (order + splat) per path; full/incr = speed-up; error vs full: max-abs / RMSE in 1/255\n"
     );
-    println!("| grid | fill | drawn | threads | full ms | prepass ms | table ms | full/table | prepass err | table err |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| grid | fill | drawn | threads | full ms | prepass ms | incr ms | table ms | full/incr | prepass err | incr err | table err |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rows = Vec::new();
     let h = Arc::new(hydrogen(256));
     bench_grid("hydrogen256", &h, repeats, &mut rows)?;

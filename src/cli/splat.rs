@@ -74,10 +74,14 @@ pub struct SplatArgs {
     /// Threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Sub-pixel phases of the orthographic footprint table; 0 = exact
-    /// conic and exponentials per pixel (perspective always is exact).
-    #[arg(long, default_value_t = 8)]
+    /// Sub-pixel phases of the orthographic footprint table (0: no table;
+    /// perspective views never use it).
+    #[arg(long, default_value_t = 0)]
     pub table_phases: u32,
+    /// The conic and an exponential per pixel instead of the (default)
+    /// forward-differenced footprints.
+    #[arg(long)]
+    pub exact_footprints: bool,
     /// The full walk (every voxel's threshold tested, projection on one
     /// thread) instead of the transparency pre-pass and sparse walk.
     #[arg(long)]
@@ -109,6 +113,7 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         sigma: a.sigma,
         sparse: !a.full_walk,
         table_phases: a.table_phases,
+        incremental: !a.exact_footprints,
         ..Default::default()
     };
     anyhow::ensure!(

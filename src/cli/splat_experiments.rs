@@ -360,7 +360,30 @@ fn reference() -> anyhow::Result<()> {
             })
             .collect();
         let qs = imgs[2].1.clone();
-        for (o, i) in &imgs {
+        // The previous footprint path (conic + exponentials per pixel) and
+        // the 8-phase table, DDA order, beside the default.
+        let variant = |incremental, table_phases| {
+            render_splat(
+                &inp,
+                &SplatOptions {
+                    order: Order::Dda,
+                    incremental,
+                    table_phases,
+                    ..Default::default()
+                },
+            )
+            .expect("render")
+            .0
+        };
+        let extra = [
+            ("dda, exact footprints", variant(false, 0)),
+            ("dda, 8-phase table", variant(true, 8)),
+        ];
+        let named = imgs
+            .iter()
+            .map(|(o, i)| (o.name(), i))
+            .chain(extra.iter().map(|(n, i)| (*n, i)));
+        for (o, i) in named {
             let e = i.error_against(&r);
             let q = i.error_against(&qs);
             println!(

@@ -14,21 +14,23 @@
 //!    footprints' rows that fall inside it, back to front:
 //!    `C <- c alpha + (1 - alpha) C`, `A <- alpha + (1 - alpha) A`
 //!    (premultiplied; the splat is in front of what is already there).
-//!    Orthographic views with `table_phases > 0` look the kernel up in a
-//!    [`FootprintTable`]; otherwise the conic and two exponentials per pixel.
+//!    Footprints by forward differences along each row's span
+//!    ([`draw_incremental`], default), or the conic and an exponential per
+//!    pixel ([`draw_exact`]), or (orthographic, `table_phases > 0`) a
+//!    [`FootprintTable`] at sub-pixel phases.
 //! 3. The background goes behind: `final = C + (1 - A) background`.
 
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::classify::Classifier;
+use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
+use super::raster::{draw_exact, draw_incremental, SplatShape};
 use super::table::FootprintTable;
 use super::order::{self, sort::SortScratch, Order, OrderView};
 use crate::error::Result;
 use crate::image::Image;
-use crate::render::cell::fastmath::exp_neg;
 use crate::render::VolumeInput;
 use crate::scene::camera::Projection;
 
@@ -47,8 +49,13 @@ pub struct SplatOptions {
     /// (default); `false`: the full walk testing every voxel, one thread.
     pub sparse: bool,
     /// Sub-pixel phases per pixel of the orthographic footprint table
-    /// (default 8); 0: exact conic and exponentials per pixel.
+    /// (0, the default: no table). The table rounds centres to `1/P` pixel
+    /// (measured: `bench --splat`); it overrides `incremental`.
     pub table_phases: u32,
+    /// Footprints by per-row spans and forward differences (default; exact
+    /// to f32 rounding, see [`super::raster`]); `false`: the conic and an
+    /// exponential per pixel.
+    pub incremental: bool,
 }
 
 impl Default for SplatOptions {
@@ -59,7 +66,8 @@ impl Default for SplatOptions {
             low_pass: 1.0,
             k_cut: 3.0,
             sparse: true,
-            table_phases: 8,
+            table_phases: 0,
+            incremental: true,
         }
     }
 }
@@ -90,18 +98,7 @@ pub struct SplatStats {
     pub splat_ms: f64,
 }
 
-/// One splat in the list: footprint, `tau l0` and colour.
-#[derive(Debug, Clone, Copy)]
-struct Splat {
-    x: f32,
-    y: f32,
-    q: [f32; 3],
-    /// Optical depth at the centre: `tau_k l_k(x_k)`.
-    depth0: f32,
-    rgb: [f32; 3],
-    rx: f32,
-    ry: f32,
-}
+type Splat = SplatShape;
 
 /// Renders `input` by EWA splatting in `opts.order`.
 pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, SplatStats)> {
@@ -121,8 +118,8 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
     };
     let dims = vol.dims;
     let (wf, hf) = (w as f32, h as f32);
-    // The splat of kept voxel `idx`, or None when off screen.
-    let splat_of = |idx: u64| -> Option<Splat> {
+    // The splat of kept voxel `idx` of class `c`, or None when off screen.
+    let splat_of = |idx: u64, c: Class| -> Option<Splat> {
         let i = idx % dims[0];
         let jk = idx / dims[0];
         let g = [i as f64, (jk % dims[1]) as f64, (jk / dims[1]) as f64];
@@ -130,7 +127,6 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
             return None;
         }
-        let c = class.get(idx);
         Some(Splat {
             x: f.x,
             y: f.y,
@@ -143,17 +139,20 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
     };
     let mut mask_passes = 0u64;
     let (splats, visible) = if opts.sparse {
-        let keep = |idx: u64| class.visible(idx);
+        let kept = |idx: u64| {
+            let c = class.get(idx);
+            (c.tau > 0.0).then_some(c)
+        };
         let mut idxs = Vec::new();
         mask_passes = order::collect_kept(
             opts.order,
             dims,
             &order_view,
-            &keep,
+            &kept,
             &mut SortScratch::default(),
             &mut idxs,
         ) as u64;
-        let splats: Vec<Splat> = idxs.par_iter().filter_map(|&i| splat_of(i)).collect();
+        let splats: Vec<Splat> = idxs.par_iter().filter_map(|&(i, c)| splat_of(i, c)).collect();
         (splats, idxs.len() as u64)
     } else {
         let mut splats = Vec::new();
@@ -166,7 +165,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             &mut SortScratch::default(),
             |idx| {
                 visible += 1;
-                splats.extend(splat_of(idx));
+                splats.extend(splat_of(idx, class.get(idx)));
             },
         );
         (splats, visible)
@@ -197,9 +196,14 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
                         }
                     }
                 }
+                None if opts.incremental => {
+                    for s in &splats {
+                        draw_incremental(s, band, w, j0, j1, cut);
+                    }
+                }
                 None => {
                     for s in &splats {
-                        draw(s, band, w, j0, j1, cut);
+                        draw_exact(s, band, w, j0, j1, cut);
                     }
                 }
             }
@@ -231,36 +235,4 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         splat_ms,
     };
     Ok((img, stats))
-}
-
-/// Composites splat `s` into the rows `[j0, j1)` held by `band`.
-#[inline]
-fn draw(s: &Splat, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i64, cut: f32) {
-    // Pixel centres (i + 0.5, j + 0.5) within the bounding box.
-    let ja = ((s.y - s.ry - 0.5).ceil() as i64).max(j0);
-    let jb = ((s.y + s.ry - 0.5).floor() as i64).min(j1 - 1);
-    if ja > jb {
-        return;
-    }
-    let ia = ((s.x - s.rx - 0.5).ceil() as i64).max(0);
-    let ib = ((s.x + s.rx - 0.5).floor() as i64).min(w as i64 - 1);
-    for j in ja..=jb {
-        let dy = j as f32 + 0.5 - s.y;
-        let row = &mut band[(j - j0) as usize * w as usize..][..w as usize];
-        for i in ia..=ib {
-            let dx = i as f32 + 0.5 - s.x;
-            let e = s.q[0] * dx * dx + 2.0 * s.q[1] * dx * dy + s.q[2] * dy * dy;
-            if e > cut {
-                continue;
-            }
-            // alpha = 1 - exp(-tau l(x)), l(x) = l0 exp(-e).
-            let alpha = 1.0 - exp_neg(-s.depth0 * exp_neg(-e));
-            let p = &mut row[i as usize];
-            let t = 1.0 - alpha;
-            p[0] = s.rgb[0] * alpha + t * p[0];
-            p[1] = s.rgb[1] * alpha + t * p[1];
-            p[2] = s.rgb[2] * alpha + t * p[2];
-            p[3] = alpha + t * p[3];
-        }
-    }
 }

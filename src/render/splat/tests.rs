@@ -163,10 +163,11 @@ fn dda_and_sort_agree() {
 
 /// The pre-pass path draws the same image as the full walk, bit for bit
 /// (same order, same per-splat arithmetic), for every order, orthographic
-/// and perspective; the footprint table stays within a small error of the
-/// exact footprints and leaves perspective views exact.
+/// and perspective; the incremental footprints stay within f32 rounding of
+/// the exact ones; the footprint table within a small error (orthographic
+/// only: perspective views ignore it and stay exact).
 #[test]
-fn prepass_is_exact_and_the_table_is_close() {
+fn prepass_is_exact_and_fast_footprints_are_close() {
     let n = 20u64;
     let v: Vec<u8> = (0..n * n * n)
         .map(|i| {
@@ -201,32 +202,37 @@ fn prepass_is_exact_and_the_table_is_close() {
         let mut inp = input(vol.clone(), proj, dist, 0.4);
         inp.scene.camera.eye = [9.5 + 0.6 * dist, 9.5 - 0.5 * dist, 9.5 + 0.62 * dist];
         for order in Order::ALL {
-            let run = |sparse, table_phases| {
+            let run = |sparse, incremental, table_phases| {
                 render_splat(
                     &inp,
                     &SplatOptions {
                         order,
                         sparse,
+                        incremental,
                         table_phases,
                         ..Default::default()
                     },
                 )
                 .unwrap()
             };
-            let (full, sf) = run(false, 0);
-            let (pre, sp) = run(true, 0);
+            let (full, sf) = run(false, false, 0);
+            let (pre, sp) = run(true, false, 0);
             assert_eq!(sf.voxels_drawn, sp.voxels_drawn, "{order}");
             assert!(sf.voxels_drawn > 500, "{order}: {}", sf.voxels_drawn);
             let e = pre.error_against(&full);
             assert_eq!(e.max_abs, 0.0, "{order} {proj:?}: pre-pass changed the image: {e}");
-            let (tab, st) = run(true, 8);
+            let (inc, _) = run(true, true, 0);
+            let e = inc.error_against(&full);
+            // Up to f32 rounding, and a pixel exactly at the cut may flip.
+            assert!(e.max_abs < 1.0 && e.rmse < 0.05, "{order} {proj:?}: incremental {e}");
+            let (tab, st) = run(true, true, 8);
             let e = tab.error_against(&full);
             if matches!(proj, Projection::Orthographic { .. }) {
                 assert_eq!(st.table_phases, 8);
                 assert!(e.max_abs > 0.0 && e.max_abs < 3.0 && e.rmse < 0.5, "{order}: table {e}");
             } else {
                 assert_eq!(st.table_phases, 0);
-                assert_eq!(e.max_abs, 0.0, "{order}: perspective must stay exact");
+                assert!(e.max_abs < 1.0, "{order}: perspective ignores the table: {e}");
             }
         }
     }

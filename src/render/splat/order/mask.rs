@@ -15,9 +15,13 @@
 
 use rayon::prelude::*;
 
-/// Kept-voxel bitmaps of the lines along one axis.
+/// Kept-voxel bitmaps of the lines along one axis, with each kept voxel's
+/// payload `T` (the renderer's class: extinction and colour) stored line by
+/// line, so that the walks read payloads from a compact array instead of
+/// the volume in view order (one cache and TLB miss per voxel on diagonal
+/// views).
 #[derive(Debug, Clone)]
-pub struct LineMask {
+pub struct LineMask<T> {
     /// The axis the lines run along.
     pub axis: usize,
     /// The other two axes, `b < c`.
@@ -27,11 +31,20 @@ pub struct LineMask {
     /// `n_b`: line id is `g_b + n_b g_c`.
     n_b: u64,
     bits: Vec<u64>,
+    /// Per line: index in `payload` of its first kept voxel.
+    offsets: Vec<usize>,
+    /// Kept voxels' payloads, line by line, ascending `g_a` within a line.
+    payload: Vec<T>,
 }
 
-impl LineMask {
-    /// The mask of `keep` over a `dims` grid, lines along `axis`.
-    pub fn build(dims: [u64; 3], axis: usize, keep: &(impl Fn(u64) -> bool + Sync)) -> LineMask {
+impl<T: Copy + Send + Sync> LineMask<T> {
+    /// The mask of the voxels for which `class(idx)` is `Some` over a `dims`
+    /// grid, lines along `axis`.
+    pub fn build(
+        dims: [u64; 3],
+        axis: usize,
+        class: &(impl Fn(u64) -> Option<T> + Sync),
+    ) -> LineMask<T> {
         let others = match axis {
             0 => [1, 2],
             1 => [0, 2],
@@ -43,76 +56,107 @@ impl LineMask {
         let lines = (n_b * n_c) as usize;
         let mut bits = vec![0u64; lines * words];
         let st = super::strides(dims);
+        let mut payload = Vec::new();
         if words > 0 && lines > 0 {
-            // One chunk per g_c: the n_b lines of that slab.
-            bits.par_chunks_mut(n_b as usize * words)
+            // One chunk per g_c: the n_b lines of that slab (an x-y or x-z
+            // slab of memory, or one y-z slab of rows for lines along x).
+            let chunks: Vec<Vec<T>> = bits
+                .par_chunks_mut(n_b as usize * words)
                 .enumerate()
-                .for_each(|(gc, chunk)| {
+                .map(|(gc, chunk)| {
                     let base = gc as i64 * st[c];
+                    let idx = |ga: u64, gb: u64| (base + ga as i64 * st[axis] + gb as i64 * st[b]) as u64;
                     if axis == 0 {
                         // Lines along x: each line is one row of memory.
+                        let mut out = Vec::new();
                         for gb in 0..n_b {
-                            let row = base + gb as i64 * st[b];
                             let line = &mut chunk[gb as usize * words..][..words];
                             for ga in 0..n_a {
-                                if keep((row + ga as i64) as u64) {
+                                if let Some(t) = class(idx(ga, gb)) {
                                     line[(ga / 64) as usize] |= 1 << (ga % 64);
+                                    out.push(t);
                                 }
                             }
                         }
+                        out
                     } else {
-                        // b == 0 (x): rows of memory run across the lines.
+                        // b == 0 (x): rows of memory run across the lines;
+                        // bits first, then the payloads line by line (the
+                        // slab is small enough to stay in cache).
                         for ga in 0..n_a {
-                            let row = base + ga as i64 * st[axis];
                             let (w, bit) = ((ga / 64) as usize, 1u64 << (ga % 64));
                             for gb in 0..n_b {
-                                if keep((row + gb as i64) as u64) {
+                                if class(idx(ga, gb)).is_some() {
                                     chunk[gb as usize * words + w] |= bit;
                                 }
                             }
                         }
+                        let mut out = Vec::new();
+                        for gb in 0..n_b {
+                            let line = &chunk[gb as usize * words..][..words];
+                            for_each_bit(line, 0, n_a, false, |ga, _| {
+                                out.extend(class(idx(ga, gb)));
+                            });
+                        }
+                        out
                     }
-                });
+                })
+                .collect();
+            payload.reserve(chunks.iter().map(Vec::len).sum());
+            chunks.into_iter().for_each(|v| payload.extend(v));
         }
+        let mut offsets = Vec::with_capacity(lines + 1);
+        let mut acc = 0usize;
+        for line in bits.chunks(words.max(1)) {
+            offsets.push(acc);
+            acc += line.iter().map(|x| x.count_ones() as usize).sum::<usize>();
+        }
+        offsets.push(acc);
+        debug_assert_eq!(acc, payload.len());
         LineMask {
             axis,
             others,
             words,
             n_b,
             bits,
+            offsets,
+            payload,
         }
     }
 
     /// The words of the line through grid coordinates `g` (its `axis`
-    /// coordinate is ignored).
+    /// coordinate is ignored) and the payloads of its kept voxels.
     #[inline]
-    pub fn line(&self, g: [u64; 3]) -> &[u64] {
+    pub fn line(&self, g: [u64; 3]) -> (&[u64], &[T]) {
         let id = (g[self.others[0]] + self.n_b * g[self.others[1]]) as usize;
-        &self.bits[id * self.words..][..self.words]
+        (
+            &self.bits[id * self.words..][..self.words],
+            &self.payload[self.offsets[id]..self.offsets[id + 1]],
+        )
     }
 }
 
 /// Masks along each axis, built when first asked for.
-pub struct Masks<'k, K: Fn(u64) -> bool + Sync> {
+pub struct Masks<'k, T, K: Fn(u64) -> Option<T> + Sync> {
     dims: [u64; 3],
-    keep: &'k K,
-    masks: [Option<LineMask>; 3],
+    class: &'k K,
+    masks: [Option<LineMask<T>>; 3],
 }
 
-impl<'k, K: Fn(u64) -> bool + Sync> Masks<'k, K> {
+impl<'k, T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync> Masks<'k, T, K> {
     /// No mask built yet.
-    pub fn new(dims: [u64; 3], keep: &'k K) -> Self {
+    pub fn new(dims: [u64; 3], class: &'k K) -> Self {
         Masks {
             dims,
-            keep,
+            class,
             masks: [None, None, None],
         }
     }
 
     /// The mask along `axis` (built now if needed).
-    pub fn get(&mut self, axis: usize) -> &LineMask {
-        let (dims, keep) = (self.dims, self.keep);
-        self.masks[axis].get_or_insert_with(|| LineMask::build(dims, axis, keep))
+    pub fn get(&mut self, axis: usize) -> &LineMask<T> {
+        let (dims, class) = (self.dims, self.class);
+        self.masks[axis].get_or_insert_with(|| LineMask::build(dims, axis, class))
     }
 
     /// How many masks were built (each is one pass over the volume).
@@ -121,10 +165,17 @@ impl<'k, K: Fn(u64) -> bool + Sync> Masks<'k, K> {
     }
 }
 
-/// Calls `f(g_a)` for each set bit of `line` with `g_a` in `[lo, hi)`,
-/// ascending (`descending == false`) or descending.
+/// Calls `f(g_a, rank)` for each set bit `g_a` of `line` in `[lo, hi)`,
+/// ascending (`descending == false`) or descending; `rank` is the number
+/// of set bits of the whole line below `g_a` (the payload's position).
 #[inline]
-pub fn for_each_bit(line: &[u64], lo: u64, hi: u64, descending: bool, mut f: impl FnMut(u64)) {
+pub fn for_each_bit(
+    line: &[u64],
+    lo: u64,
+    hi: u64,
+    descending: bool,
+    mut f: impl FnMut(u64, usize),
+) {
     if lo >= hi {
         return;
     }
@@ -141,21 +192,31 @@ pub fn for_each_bit(line: &[u64], lo: u64, hi: u64, descending: bool, mut f: imp
         }
         x
     };
+    // Set bits below lo.
+    let rank_lo = line[..w0]
+        .iter()
+        .map(|x| x.count_ones() as usize)
+        .sum::<usize>()
+        + (line[w0] & !(u64::MAX << (lo % 64))).count_ones() as usize;
     if descending {
+        let mut rank = rank_lo + (w0..=w1).map(|w| masked(w).count_ones() as usize).sum::<usize>();
         for w in (w0..=w1).rev() {
             let mut x = masked(w);
             while x != 0 {
                 let b = 63 - x.leading_zeros() as u64;
-                f(w as u64 * 64 + b);
+                rank -= 1;
+                f(w as u64 * 64 + b, rank);
                 x &= !(1u64 << b);
             }
         }
     } else {
+        let mut rank = rank_lo;
         for w in w0..=w1 {
             let mut x = masked(w);
             while x != 0 {
                 let b = x.trailing_zeros() as u64;
-                f(w as u64 * 64 + b);
+                f(w as u64 * 64 + b, rank);
+                rank += 1;
                 x &= x - 1;
             }
         }

@@ -302,23 +302,24 @@ pub fn collect(order: Order, dims: [u64; 3], view: &OrderView) -> Vec<u64> {
     out
 }
 
-/// The kept voxels in `order`, back to front, into `out` (cleared first),
+/// The kept voxels in `order`, back to front, into `out` (cleared first)
+/// with their payloads (`class(idx)` is `Some(payload)` for a kept voxel),
 /// through the transparency pre-pass: the axis and DDA orders build the
 /// line masks of [`mask`] (one pass over the volume each, in parallel) and
 /// walk only the kept voxels ([`sparse`]), emitting exactly the sequence of
-/// [`visit_kept`]; the sorts test `keep` per voxel as in [`visit_with`].
-/// Returns the number of masks built.
-pub fn collect_kept(
+/// [`visit_kept`]; the sorts test each voxel as in [`visit_with`] and read
+/// the payloads in sorted order. Returns the number of masks built.
+pub fn collect_kept<T: Copy + Send + Sync + Default>(
     order: Order,
     dims: [u64; 3],
     view: &OrderView,
-    keep: &(impl Fn(u64) -> bool + Sync),
+    class: &(impl Fn(u64) -> Option<T> + Sync),
     scratch: &mut sort::SortScratch,
-    out: &mut Vec<u64>,
+    out: &mut Vec<(u64, T)>,
 ) -> usize {
     out.clear();
     let boxes = octants(dims, view);
-    let mut masks = mask::Masks::new(dims, keep);
+    let mut masks = mask::Masks::new(dims, class);
     match order {
         Order::Axis => boxes
             .iter()
@@ -330,8 +331,9 @@ pub fn collect_kept(
                 .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, out, &mut counts))
         }
         Order::Quicksort | Order::Radix => {
-            sort::sorted(order == Order::Radix, &boxes, dims, view, keep, scratch);
-            std::mem::swap(out, &mut scratch.out);
+            let keep = |i: u64| class(i).is_some();
+            sort::sorted(order == Order::Radix, &boxes, dims, view, &keep, scratch);
+            out.extend(scratch.out.iter().filter_map(|&i| class(i).map(|t| (i, t))));
         }
     }
     masks.built()

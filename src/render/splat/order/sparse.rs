@@ -1,7 +1,8 @@
 //! The axis and DDA orders over the kept voxels only, from the line masks
 //! of [`super::mask`]: the same sequence as the full walk filtered by
 //! `keep` (tested), at a cost of `O(N / 64 + kept + n)` instead of one
-//! threshold test per voxel.
+//! threshold test per voxel. Each kept voxel comes with its payload from
+//! the mask (read line by line, not from the volume in view order).
 //!
 //! - **axis**: slices, rows and voxels far to near as in [`super::axis`]; a
 //!   row is a line of the mask along the innermost axis, so its kept voxels
@@ -19,12 +20,12 @@ use super::dda::{self, joined, plane_starts};
 use super::mask::{for_each_bit, Masks};
 use super::{axis, strides, Octant};
 
-/// Appends box `o`'s kept voxels to `out` in the axis order.
-pub fn axis_sparse<K: Fn(u64) -> bool + Sync>(
+/// Appends box `o`'s kept voxels (index, payload) to `out` in the axis order.
+pub fn axis_sparse<T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync>(
     o: &Octant,
     dims: [u64; 3],
-    masks: &mut Masks<K>,
-    out: &mut Vec<u64>,
+    masks: &mut Masks<T, K>,
+    out: &mut Vec<(u64, T)>,
 ) {
     if o.is_empty() {
         return;
@@ -39,20 +40,21 @@ pub fn axis_sparse<K: Fn(u64) -> bool + Sync>(
         for tm in 0..o.len(mid) {
             g[mid] = o.far_index(mid, tm);
             let row = g[a0] as i64 * st[a0] + g[mid] as i64 * st[mid];
-            for_each_bit(mask.line(g), o.lo[inner], o.hi[inner], desc, |gi| {
-                out.push((row + gi as i64 * st[inner]) as u64)
+            let (line, pay) = mask.line(g);
+            for_each_bit(line, o.lo[inner], o.hi[inner], desc, |gi, k| {
+                out.push(((row + gi as i64 * st[inner]) as u64, pay[k]))
             });
         }
     }
 }
 
-/// Appends box `o`'s kept voxels to `out` in the DDA order; `counts` is
-/// scratch for the counting sort.
-pub fn dda_sparse<K: Fn(u64) -> bool + Sync>(
+/// Appends box `o`'s kept voxels (index, payload) to `out` in the DDA
+/// order; `counts` is scratch for the counting sort.
+pub fn dda_sparse<T: Copy + Send + Sync + Default, K: Fn(u64) -> Option<T> + Sync>(
     o: &Octant,
     dims: [u64; 3],
-    masks: &mut Masks<K>,
-    out: &mut Vec<u64>,
+    masks: &mut Masks<T, K>,
+    out: &mut Vec<(u64, T)>,
     counts: &mut Vec<usize>,
 ) {
     if o.is_empty() {
@@ -70,8 +72,8 @@ pub fn dda_sparse<K: Fn(u64) -> bool + Sync>(
     let (lo_r, hi_r, desc) = (o.lo[ar], o.hi[ar], o.far_high[ar]);
     // r (from the far side) of grid coordinate g_r.
     let r_of = |g_r: u64| if desc { hi_r - 1 - g_r } else { g_r - lo_r };
-    // Calls f(T, idx) for every kept voxel in (p, s, r) order.
-    let each = |f: &mut dyn FnMut(usize, u64)| {
+    // Calls f(T, idx, payload) for every kept voxel in (p, s, r) order.
+    let each = |f: &mut dyn FnMut(usize, u64, T)| {
         let mut g = [0u64; 3];
         for p in 0..n_p {
             g[ap] = o.far_index(ap, p);
@@ -79,10 +81,12 @@ pub fn dda_sparse<K: Fn(u64) -> bool + Sync>(
                 g[a_s] = o.far_index(a_s, s);
                 let t0 = j_p[p as usize] + a_s_tab[s as usize];
                 let col = g[ap] as i64 * st[ap] + g[a_s] as i64 * st[a_s];
-                for_each_bit(mask.line(g), lo_r, hi_r, desc, |g_r| {
+                let (line, pay) = mask.line(g);
+                for_each_bit(line, lo_r, hi_r, desc, |g_r, k| {
                     f(
                         (t0 + r_of(g_r)) as usize,
                         (col + g_r as i64 * st[ar]) as u64,
+                        pay[k],
                     )
                 });
             }
@@ -91,15 +95,15 @@ pub fn dda_sparse<K: Fn(u64) -> bool + Sync>(
     // Counting sort on T, stable in the enumeration order.
     counts.clear();
     counts.resize(steps + 1, 0);
-    each(&mut |t, _| counts[t + 1] += 1);
+    each(&mut |t, _, _| counts[t + 1] += 1);
     for t in 0..steps {
         counts[t + 1] += counts[t];
     }
     let base = out.len();
-    out.resize(base + counts[steps], 0);
+    out.resize(base + counts[steps], (0, T::default()));
     let dst = &mut out[base..];
-    each(&mut |t, idx| {
-        dst[counts[t]] = idx;
+    each(&mut |t, idx, pay| {
+        dst[counts[t]] = (idx, pay);
         counts[t] += 1;
     });
 }

@@ -138,10 +138,14 @@ proptest! {
         for order in [Order::Axis, Order::Dda] {
             let mut full = Vec::new();
             visit_kept(order, dims, &view, &keep, |i| full.push(i));
-            let mut fast = vec![7u64; 3];
-            let built = collect_kept(order, dims, &view, &keep, &mut scratch, &mut fast);
+            // Payload: the index times 3, to check it travels with the index.
+            let class = |i: u64| keep(i).then_some(3 * i);
+            let mut fast = vec![(7u64, 0u64); 3];
+            let built = collect_kept(order, dims, &view, &class, &mut scratch, &mut fast);
             prop_assert!(built >= 1);
-            prop_assert_eq!(&fast, &full, "{}", order);
+            let idx: Vec<u64> = fast.iter().map(|x| x.0).collect();
+            prop_assert_eq!(&idx, &full, "{}", order);
+            prop_assert!(fast.iter().all(|&(i, t)| t == 3 * i), "{}: payloads", order);
         }
     }
 
@@ -259,7 +263,12 @@ fn for_each_bit_visits_the_set_bits_in_range() {
     let line = [0b1011u64 | 1 << 63, 1 | 1 << 5, 1 << 7];
     let collect = |lo, hi, desc| {
         let mut v = Vec::new();
-        mask::for_each_bit(&line, lo, hi, desc, |b| v.push(b));
+        mask::for_each_bit(&line, lo, hi, desc, |b, rank| {
+            // rank: set bits of the whole line below b.
+            let below: u32 = (0..b).map(|x| (line[(x / 64) as usize] >> (x % 64) & 1) as u32).sum();
+            assert_eq!(rank, below as usize, "bit {b}");
+            v.push(b)
+        });
         v
     };
     assert_eq!(collect(0, 150, false), vec![0, 1, 3, 63, 64, 69, 135]);
