@@ -44,6 +44,31 @@ pub struct SplatShape {
     pub ry: f32,
 }
 
+/// `floor(x)` as an integer without a libm call (the default x86-64 target
+/// has no `roundss`, so `f32::floor` is a function call per use).
+#[inline(always)]
+pub fn floor_i(x: f32) -> i64 {
+    let t = x as i64;
+    t - ((t as f32) > x) as i64
+}
+
+/// `ceil(x)` as an integer without a libm call.
+#[inline(always)]
+pub fn ceil_i(x: f32) -> i64 {
+    let t = x as i64;
+    t + ((t as f32) < x) as i64
+}
+
+/// `e^x` for `|x|` up to ~80 by [`exp_neg`] (no libm call).
+#[inline(always)]
+fn exp_any(x: f32) -> f32 {
+    if x <= 0.0 {
+        exp_neg(x)
+    } else {
+        1.0 / exp_neg(-x)
+    }
+}
+
 /// Blends `alpha` (one per pixel) of colour `rgb` over `pix`.
 #[inline(always)]
 fn blend(pix: &mut [[f32; 4]], alpha: &[f32], rgb: [f32; 3]) {
@@ -59,10 +84,10 @@ fn blend(pix: &mut [[f32; 4]], alpha: &[f32], rgb: [f32; 3]) {
 /// Rows of the bounding box inside `[j0, j1)`: pixel centres `j + 1/2`
 /// within `ry` of the centre.
 #[inline(always)]
-fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
+pub fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
     (
-        ((s.y - s.ry - 0.5).ceil() as i64).max(j0),
-        ((s.y + s.ry - 0.5).floor() as i64).min(j1 - 1),
+        ceil_i(s.y - s.ry - 0.5).max(j0),
+        floor_i(s.y + s.ry - 0.5).min(j1 - 1),
     )
 }
 
@@ -74,8 +99,8 @@ pub fn draw_exact(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i6
     if ja > jb {
         return;
     }
-    let ia = ((s.x - s.rx - 0.5).ceil() as i64).max(0);
-    let ib = ((s.x + s.rx - 0.5).floor() as i64).min(w as i64 - 1);
+    let ia = ceil_i(s.x - s.rx - 0.5).max(0);
+    let ib = floor_i(s.x + s.rx - 0.5).min(w as i64 - 1);
     for j in ja..=jb {
         let dy = j as f32 + 0.5 - s.y;
         let row = &mut band[(j - j0) as usize * w as usize..][..w as usize];
@@ -120,8 +145,8 @@ pub fn draw_incremental(
         let root = disc.sqrt();
         let (lo, hi) = ((-b - root) / q0, (-b + root) / q0);
         // Pixels i with dx = i + 1/2 - x in [lo, hi].
-        let ia = ((s.x - 0.5 + lo).ceil() as i64).max(0);
-        let ib = ((s.x - 0.5 + hi).floor() as i64).min(w as i64 - 1);
+        let ia = ceil_i(s.x - 0.5 + lo).max(0);
+        let ib = floor_i(s.x - 0.5 + hi).min(w as i64 - 1);
         if ia > ib {
             continue;
         }
@@ -129,7 +154,7 @@ pub fn draw_incremental(
         let dx0 = ia as f32 + 0.5 - s.x;
         let e0 = (q0 * dx0 + 2.0 * b) * dx0 + q2 * dy * dy;
         let mut g = exp_neg(-e0.max(0.0));
-        let mut rho = (-(q0 * (2.0 * dx0 + 1.0) + 2.0 * b)).min(cut).exp();
+        let mut rho = exp_any((-(q0 * (2.0 * dx0 + 1.0) + 2.0 * b)).clamp(-cut, cut));
         let mut i = ia as usize;
         let end = ib as usize + 1;
         while i < end {

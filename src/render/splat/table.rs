@@ -22,6 +22,7 @@
 //! Perspective views keep the exact path (the conic changes per voxel).
 
 use super::footprint::Footprint;
+use super::raster::floor_i;
 use crate::render::cell::fastmath::exp_neg;
 
 /// The tabulated kernel of one orthographic frame.
@@ -99,8 +100,8 @@ impl FootprintTable {
     ) {
         let p = self.phases;
         let (xs, ys) = (
-            (x * p as f32).round() as i64,
-            (y * p as f32).round() as i64,
+            floor_i(x * p as f32 + 0.5),
+            floor_i(y * p as f32 + 0.5),
         );
         let (bx, by) = (xs.div_euclid(p), ys.div_euclid(p));
         let phase = (ys.rem_euclid(p) * p + xs.rem_euclid(p)) as usize;
@@ -165,8 +166,8 @@ mod tests {
             let depth0 = 0.7f32;
             t.draw(x, y, depth0, [1.0, 0.5, 0.25], &mut img, w, 0, h as i64);
             let (xq, yq) = (
-                (x * p as f32).round() / p as f32,
-                (y * p as f32).round() / p as f32,
+                (x * p as f32 + 0.5).floor() / p as f32,
+                (y * p as f32 + 0.5).floor() / p as f32,
             );
             for j in 0..h {
                 for i in 0..w {
