@@ -59,7 +59,7 @@ impl<'a> Classifier<'a> {
     }
 
     /// Class of voxel `idx`.
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, idx: u64) -> Class {
         let i = idx as usize;
         match &self.volume.voxels {
@@ -74,7 +74,7 @@ impl<'a> Classifier<'a> {
     }
 
     /// True when voxel `idx` has non-zero extinction (is drawn).
-    #[inline]
+    #[inline(always)]
     pub fn visible(&self, idx: u64) -> bool {
         let i = idx as usize;
         match &self.volume.voxels {

@@ -165,10 +165,12 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             (c.tau > 0.0).then_some(c)
         };
         let mut idxs = Vec::new();
+        let visible = |idx: u64| class.visible(idx);
         mask_passes = order::collect_kept(
             opts.order,
             dims,
             &order_view,
+            &visible,
             &kept,
             &mut SortScratch::default(),
             &mut idxs,

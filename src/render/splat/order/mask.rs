@@ -38,11 +38,14 @@ pub struct LineMask<T> {
 }
 
 impl<T: Copy + Send + Sync> LineMask<T> {
-    /// The mask of the voxels for which `class(idx)` is `Some` over a `dims`
-    /// grid, lines along `axis`.
+    /// The mask of the voxels for which `keep(idx)` holds over a `dims`
+    /// grid, lines along `axis`, with payloads `class(idx)` (`Some` exactly
+    /// where `keep` holds; `keep` is the cheap test run on every voxel,
+    /// `class` runs on the kept ones only).
     pub fn build(
         dims: [u64; 3],
         axis: usize,
+        keep: &(impl Fn(u64) -> bool + Sync),
         class: &(impl Fn(u64) -> Option<T> + Sync),
     ) -> LineMask<T> {
         let others = match axis {
@@ -72,9 +75,9 @@ impl<T: Copy + Send + Sync> LineMask<T> {
                         for gb in 0..n_b {
                             let line = &mut chunk[gb as usize * words..][..words];
                             for ga in 0..n_a {
-                                if let Some(t) = class(idx(ga, gb)) {
+                                if keep(idx(ga, gb)) {
                                     line[(ga / 64) as usize] |= 1 << (ga % 64);
-                                    out.push(t);
+                                    out.extend(class(idx(ga, gb)));
                                 }
                             }
                         }
@@ -86,7 +89,7 @@ impl<T: Copy + Send + Sync> LineMask<T> {
                         for ga in 0..n_a {
                             let (w, bit) = ((ga / 64) as usize, 1u64 << (ga % 64));
                             for gb in 0..n_b {
-                                if class(idx(ga, gb)).is_some() {
+                                if keep(idx(ga, gb)) {
                                     chunk[gb as usize * words + w] |= bit;
                                 }
                             }
@@ -112,7 +115,7 @@ impl<T: Copy + Send + Sync> LineMask<T> {
             acc += line.iter().map(|x| x.count_ones() as usize).sum::<usize>();
         }
         offsets.push(acc);
-        debug_assert_eq!(acc, payload.len());
+        assert_eq!(acc, payload.len(), "class(idx) must be Some exactly where keep(idx)");
         LineMask {
             axis,
             others,
@@ -137,17 +140,24 @@ impl<T: Copy + Send + Sync> LineMask<T> {
 }
 
 /// Masks along each axis, built when first asked for.
-pub struct Masks<'k, T, K: Fn(u64) -> Option<T> + Sync> {
+pub struct Masks<'k, T, P: Fn(u64) -> bool + Sync, K: Fn(u64) -> Option<T> + Sync> {
     dims: [u64; 3],
+    keep: &'k P,
     class: &'k K,
     masks: [Option<LineMask<T>>; 3],
 }
 
-impl<'k, T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync> Masks<'k, T, K> {
+impl<'k, T, P, K> Masks<'k, T, P, K>
+where
+    T: Copy + Send + Sync,
+    P: Fn(u64) -> bool + Sync,
+    K: Fn(u64) -> Option<T> + Sync,
+{
     /// No mask built yet.
-    pub fn new(dims: [u64; 3], class: &'k K) -> Self {
+    pub fn new(dims: [u64; 3], keep: &'k P, class: &'k K) -> Self {
         Masks {
             dims,
+            keep,
             class,
             masks: [None, None, None],
         }
@@ -155,8 +165,8 @@ impl<'k, T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync> Masks<'k, T, K> 
 
     /// The mask along `axis` (built now if needed).
     pub fn get(&mut self, axis: usize) -> &LineMask<T> {
-        let (dims, class) = (self.dims, self.class);
-        self.masks[axis].get_or_insert_with(|| LineMask::build(dims, axis, class))
+        let (dims, keep, class) = (self.dims, self.keep, self.class);
+        self.masks[axis].get_or_insert_with(|| LineMask::build(dims, axis, keep, class))
     }
 
     /// How many masks were built (each is one pass over the volume).

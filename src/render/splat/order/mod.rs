@@ -302,8 +302,9 @@ pub fn collect(order: Order, dims: [u64; 3], view: &OrderView) -> Vec<u64> {
     out
 }
 
-/// The kept voxels in `order`, back to front, into `out` (cleared first)
-/// with their payloads (`class(idx)` is `Some(payload)` for a kept voxel),
+/// The kept voxels (`keep(idx)`) in `order`, back to front, into `out`
+/// (cleared first) with their payloads (`class(idx)`, which must be `Some`
+/// exactly where `keep` holds; `keep` is the cheap test run on every voxel),
 /// through the transparency pre-pass: the axis and DDA orders build the
 /// line masks of [`mask`] (one pass over the volume each, in parallel) and
 /// walk only the kept voxels ([`sparse`]), emitting exactly the sequence of
@@ -313,13 +314,14 @@ pub fn collect_kept<T: Copy + Send + Sync + Default>(
     order: Order,
     dims: [u64; 3],
     view: &OrderView,
+    keep: &(impl Fn(u64) -> bool + Sync),
     class: &(impl Fn(u64) -> Option<T> + Sync),
     scratch: &mut sort::SortScratch,
     out: &mut Vec<(u64, T)>,
 ) -> usize {
     out.clear();
     let boxes = octants(dims, view);
-    let mut masks = mask::Masks::new(dims, class);
+    let mut masks = mask::Masks::new(dims, keep, class);
     match order {
         Order::Axis => boxes
             .iter()
@@ -331,8 +333,7 @@ pub fn collect_kept<T: Copy + Send + Sync + Default>(
                 .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, out, &mut counts))
         }
         Order::Quicksort | Order::Radix => {
-            let keep = |i: u64| class(i).is_some();
-            sort::sorted(order == Order::Radix, &boxes, dims, view, &keep, scratch);
+            sort::sorted(order == Order::Radix, &boxes, dims, view, keep, scratch);
             out.extend(scratch.out.iter().filter_map(|&i| class(i).map(|t| (i, t))));
         }
     }

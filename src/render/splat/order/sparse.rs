@@ -21,12 +21,16 @@ use super::mask::{for_each_bit, Masks};
 use super::{axis, strides, Octant};
 
 /// Appends box `o`'s kept voxels (index, payload) to `out` in the axis order.
-pub fn axis_sparse<T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync>(
+pub fn axis_sparse<T, P, K>(
     o: &Octant,
     dims: [u64; 3],
-    masks: &mut Masks<T, K>,
+    masks: &mut Masks<T, P, K>,
     out: &mut Vec<(u64, T)>,
-) {
+) where
+    T: Copy + Send + Sync,
+    P: Fn(u64) -> bool + Sync,
+    K: Fn(u64) -> Option<T> + Sync,
+{
     if o.is_empty() {
         return;
     }
@@ -50,13 +54,17 @@ pub fn axis_sparse<T: Copy + Send + Sync, K: Fn(u64) -> Option<T> + Sync>(
 
 /// Appends box `o`'s kept voxels (index, payload) to `out` in the DDA
 /// order; `counts` is scratch for the counting sort.
-pub fn dda_sparse<T: Copy + Send + Sync + Default, K: Fn(u64) -> Option<T> + Sync>(
+pub fn dda_sparse<T, P, K>(
     o: &Octant,
     dims: [u64; 3],
-    masks: &mut Masks<T, K>,
+    masks: &mut Masks<T, P, K>,
     out: &mut Vec<(u64, T)>,
     counts: &mut Vec<usize>,
-) {
+) where
+    T: Copy + Send + Sync + Default,
+    P: Fn(u64) -> bool + Sync,
+    K: Fn(u64) -> Option<T> + Sync,
+{
     if o.is_empty() {
         return;
     }

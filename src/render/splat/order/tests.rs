@@ -141,7 +141,7 @@ proptest! {
             // Payload: the index times 3, to check it travels with the index.
             let class = |i: u64| keep(i).then_some(3 * i);
             let mut fast = vec![(7u64, 0u64); 3];
-            let built = collect_kept(order, dims, &view, &class, &mut scratch, &mut fast);
+            let built = collect_kept(order, dims, &view, &keep, &class, &mut scratch, &mut fast);
             prop_assert!(built >= 1);
             let idx: Vec<u64> = fast.iter().map(|x| x.0).collect();
             prop_assert_eq!(&idx, &full, "{}", order);
