@@ -119,14 +119,7 @@ pub fn draw_exact(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i6
 /// Composites `s` into rows `[j0, j1)` held by `band` (`w` pixels a row) by
 /// per-row spans and forward differences (module doc).
 #[inline]
-pub fn draw_incremental(
-    s: &SplatShape,
-    band: &mut [[f32; 4]],
-    w: u32,
-    j0: i64,
-    j1: i64,
-    cut: f32,
-) {
+pub fn draw_incremental(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i64, cut: f32) {
     let (ja, jb) = rows(s, j0, j1);
     if ja > jb {
         return;
@@ -184,7 +177,12 @@ mod tests {
     fn incremental_matches_exact() {
         let (w, h) = (40u32, 30u32);
         let cut = 4.5f32;
-        for q in [[0.3f32, 0.0, 0.3], [0.21, -0.07, 0.33], [0.05, 0.04, 0.6], [1.2, 0.5, 0.4]] {
+        for q in [
+            [0.3f32, 0.0, 0.3],
+            [0.21, -0.07, 0.33],
+            [0.05, 0.04, 0.6],
+            [1.2, 0.5, 0.4],
+        ] {
             let det = q[0] * q[2] - q[1] * q[1];
             // Bounding half-sizes from the conic: k sqrt(V_00), V = (2Q)^-1.
             let (rx, ry) = (

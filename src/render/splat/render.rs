@@ -26,9 +26,9 @@ use rayon::prelude::*;
 
 use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
+use super::order::{self, sort::SortScratch, Order, OrderView};
 use super::raster::{draw_exact, draw_incremental, rows, SplatShape};
 use super::table::FootprintTable;
-use super::order::{self, sort::SortScratch, Order, OrderView};
 use crate::error::Result;
 use crate::image::Image;
 use crate::render::VolumeInput;
@@ -175,7 +175,10 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             &mut SortScratch::default(),
             &mut idxs,
         ) as u64;
-        let splats: Vec<Splat> = idxs.par_iter().filter_map(|&(i, c)| splat_of(i, c)).collect();
+        let splats: Vec<Splat> = idxs
+            .par_iter()
+            .filter_map(|&(i, c)| splat_of(i, c))
+            .collect();
         (splats, idxs.len() as u64)
     } else {
         let mut splats = Vec::new();

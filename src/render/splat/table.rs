@@ -99,10 +99,7 @@ impl FootprintTable {
         j1: i64,
     ) {
         let p = self.phases;
-        let (xs, ys) = (
-            floor_i(x * p as f32 + 0.5),
-            floor_i(y * p as f32 + 0.5),
-        );
+        let (xs, ys) = (floor_i(x * p as f32 + 0.5), floor_i(y * p as f32 + 0.5));
         let (bx, by) = (xs.div_euclid(p), ys.div_euclid(p));
         let phase = (ys.rem_euclid(p) * p + xs.rem_euclid(p)) as usize;
         // Rows by - k ..= by + k, clipped to the band.
@@ -118,7 +115,8 @@ impl FootprintTable {
             if ca >= cb {
                 continue;
             }
-            let wt = &self.weights[(phase * self.side + row) * self.side..][ca as usize..cb as usize];
+            let wt =
+                &self.weights[(phase * self.side + row) * self.side..][ca as usize..cb as usize];
             let pix = &mut band[(j - j0) as usize * w as usize..]
                 [(i_first + ca) as usize..(i_first + cb) as usize];
             // alpha = 1 - exp(-tau l0 g): first the alphas of up to 32
@@ -129,11 +127,11 @@ impl FootprintTable {
                     *a = 1.0 - exp_neg(-depth0 * g);
                 }
                 for (px, &alpha) in pix.iter_mut().zip(&a) {
-                let t = 1.0 - alpha;
-                px[0] = rgb[0] * alpha + t * px[0];
-                px[1] = rgb[1] * alpha + t * px[1];
-                px[2] = rgb[2] * alpha + t * px[2];
-                px[3] = alpha + t * px[3];
+                    let t = 1.0 - alpha;
+                    px[0] = rgb[0] * alpha + t * px[0];
+                    px[1] = rgb[1] * alpha + t * px[1];
+                    px[2] = rgb[2] * alpha + t * px[2];
+                    px[3] = alpha + t * px[3];
                 }
             }
         }
@@ -171,10 +169,7 @@ mod tests {
             );
             for j in 0..h {
                 for i in 0..w {
-                    let (dx, dy) = (
-                        (i as f32 + 0.5 - xq) as f64,
-                        (j as f32 + 0.5 - yq) as f64,
-                    );
+                    let (dx, dy) = ((i as f32 + 0.5 - xq) as f64, (j as f32 + 0.5 - yq) as f64);
                     let e = 0.21 * dx * dx + 2.0 * -0.07 * dx * dy + 0.33 * dy * dy;
                     let want = if e <= cut as f64 {
                         1.0 - (-(depth0 as f64) * (-e).exp()).exp()

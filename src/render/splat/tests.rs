@@ -220,19 +220,31 @@ fn prepass_is_exact_and_fast_footprints_are_close() {
             assert_eq!(sf.voxels_drawn, sp.voxels_drawn, "{order}");
             assert!(sf.voxels_drawn > 500, "{order}: {}", sf.voxels_drawn);
             let e = pre.error_against(&full);
-            assert_eq!(e.max_abs, 0.0, "{order} {proj:?}: pre-pass changed the image: {e}");
+            assert_eq!(
+                e.max_abs, 0.0,
+                "{order} {proj:?}: pre-pass changed the image: {e}"
+            );
             let (inc, _) = run(true, true, 0);
             let e = inc.error_against(&full);
             // Up to f32 rounding, and a pixel exactly at the cut may flip.
-            assert!(e.max_abs < 1.0 && e.rmse < 0.05, "{order} {proj:?}: incremental {e}");
+            assert!(
+                e.max_abs < 1.0 && e.rmse < 0.05,
+                "{order} {proj:?}: incremental {e}"
+            );
             let (tab, st) = run(true, true, 8);
             let e = tab.error_against(&full);
             if matches!(proj, Projection::Orthographic { .. }) {
                 assert_eq!(st.table_phases, 8);
-                assert!(e.max_abs > 0.0 && e.max_abs < 3.0 && e.rmse < 0.5, "{order}: table {e}");
+                assert!(
+                    e.max_abs > 0.0 && e.max_abs < 3.0 && e.rmse < 0.5,
+                    "{order}: table {e}"
+                );
             } else {
                 assert_eq!(st.table_phases, 0);
-                assert!(e.max_abs < 1.0, "{order}: perspective ignores the table: {e}");
+                assert!(
+                    e.max_abs < 1.0,
+                    "{order}: perspective ignores the table: {e}"
+                );
             }
         }
     }

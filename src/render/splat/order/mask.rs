@@ -68,7 +68,8 @@ impl<T: Copy + Send + Sync> LineMask<T> {
                 .enumerate()
                 .map(|(gc, chunk)| {
                     let base = gc as i64 * st[c];
-                    let idx = |ga: u64, gb: u64| (base + ga as i64 * st[axis] + gb as i64 * st[b]) as u64;
+                    let idx =
+                        |ga: u64, gb: u64| (base + ga as i64 * st[axis] + gb as i64 * st[b]) as u64;
                     if axis == 0 {
                         // Lines along x: each line is one row of memory.
                         let mut out = Vec::new();
@@ -115,7 +116,11 @@ impl<T: Copy + Send + Sync> LineMask<T> {
             acc += line.iter().map(|x| x.count_ones() as usize).sum::<usize>();
         }
         offsets.push(acc);
-        assert_eq!(acc, payload.len(), "class(idx) must be Some exactly where keep(idx)");
+        assert_eq!(
+            acc,
+            payload.len(),
+            "class(idx) must be Some exactly where keep(idx)"
+        );
         LineMask {
             axis,
             others,
@@ -209,7 +214,10 @@ pub fn for_each_bit(
         .sum::<usize>()
         + (line[w0] & !(u64::MAX << (lo % 64))).count_ones() as usize;
     if descending {
-        let mut rank = rank_lo + (w0..=w1).map(|w| masked(w).count_ones() as usize).sum::<usize>();
+        let mut rank = rank_lo
+            + (w0..=w1)
+                .map(|w| masked(w).count_ones() as usize)
+                .sum::<usize>();
         for w in (w0..=w1).rev() {
             let mut x = masked(w);
             while x != 0 {

@@ -265,7 +265,9 @@ fn for_each_bit_visits_the_set_bits_in_range() {
         let mut v = Vec::new();
         mask::for_each_bit(&line, lo, hi, desc, |b, rank| {
             // rank: set bits of the whole line below b.
-            let below: u32 = (0..b).map(|x| (line[(x / 64) as usize] >> (x % 64) & 1) as u32).sum();
+            let below: u32 = (0..b)
+                .map(|x| (line[(x / 64) as usize] >> (x % 64) & 1) as u32)
+                .sum();
             assert_eq!(rank, below as usize, "bit {b}");
             v.push(b)
         });
