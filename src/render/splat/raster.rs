@@ -211,12 +211,10 @@ mod tests {
                     drawn += (p[3] > 0.0) as u32;
                     // A pixel at e = cut may fall either side of the cut.
                     let edge = p[3].min(r[3]) == 0.0 && p[3].max(r[3]) < 0.01;
-                    for c in 0..4 {
+                    for (c, (pc, rc)) in p.iter().zip(r).enumerate() {
                         assert!(
-                            (p[c] - r[c]).abs() < 2e-5 || edge,
-                            "q {q:?} centre ({x},{y}) pixel {k} channel {c}: exact {} incremental {}",
-                            p[c],
-                            r[c]
+                            (pc - rc).abs() < 2e-5 || edge,
+                            "q {q:?} centre ({x},{y}) pixel {k} channel {c}: exact {pc} incremental {rc}"
                         );
                     }
                 }
