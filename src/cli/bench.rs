@@ -36,6 +36,11 @@ pub struct BenchArgs {
     /// radix) on 64^3..256^3 grids, the paper's Table 1 (no data needed).
     #[arg(long)]
     pub orderings: bool,
+    /// Instead: wall ms per splatting frame of 256^3 grids at 512^2 (DDA,
+    /// ordering included) at the paper's fill rates, 1 and 2 threads, the
+    /// full walk vs the pre-pass vs footprint tables, with image errors.
+    #[arg(long)]
+    pub splat: bool,
     /// Time the grid renderers (slice3d, slice2d) instead, on the shared
     /// grid scenes (`--grid-scenes`), 256^2 and 512^2, 1 and all threads,
     /// beside the grid reference's error.
@@ -98,6 +103,9 @@ fn median(v: &mut [f64]) -> f64 {
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if a.orderings {
         return super::bench_orderings::run(a.json.as_deref());
+    }
+    if a.splat {
+        return super::bench_splat::run(&a.data_dir, a.repeats, a.json.as_deref());
     }
     if a.lod_table {
         let rows = super::bench_grid::lod_table();

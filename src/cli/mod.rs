@@ -15,6 +15,7 @@ pub mod bench;
 pub mod bench_adaptive;
 pub mod bench_grid;
 pub mod bench_orderings;
+pub mod bench_splat;
 pub mod calibrate;
 pub mod calibrate_network;
 pub mod cluster;

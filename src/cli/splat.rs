@@ -74,6 +74,18 @@ pub struct SplatArgs {
     /// Threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Sub-pixel phases of the orthographic footprint table (0: no table;
+    /// perspective views never use it).
+    #[arg(long, default_value_t = 0)]
+    pub table_phases: u32,
+    /// The conic and an exponential per pixel instead of the (default)
+    /// forward-differenced footprints.
+    #[arg(long)]
+    pub exact_footprints: bool,
+    /// The full walk (every voxel's threshold tested, projection on one
+    /// thread) instead of the transparency pre-pass and sparse walk.
+    #[arg(long)]
+    pub full_walk: bool,
 }
 
 /// Loads a grid scene into a [`VolumeInput`].
@@ -99,8 +111,16 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
     let opts = SplatOptions {
         order: a.order.order(),
         sigma: a.sigma,
+        sparse: !a.full_walk,
+        table_phases: a.table_phases,
+        incremental: !a.exact_footprints,
         ..Default::default()
     };
+    anyhow::ensure!(
+        a.table_phases <= 64,
+        "--table-phases must be 0..=64, got {}",
+        a.table_phases
+    );
     let (img, st) = super::with_threads(a.threads, || render_splat(&input, &opts))??;
     img.save_png(&a.output)?;
     println!(

@@ -43,7 +43,7 @@ pub struct ExperimentArgs {
 
 /// An orthographic scene looking at the volume's centre from azimuth `az`
 /// and elevation `el` (degrees), whole box in view.
-fn scene_for(vol: &Volume, az: f64, el: f64, size: u32, tf: TransferFunction) -> Scene {
+pub(super) fn scene_for(vol: &Volume, az: f64, el: f64, size: u32, tf: TransferFunction) -> Scene {
     let (lo, hi) = vol.bounds();
     let c: [f64; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
     let diag = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
@@ -74,7 +74,7 @@ fn scene_for(vol: &Volume, az: f64, el: f64, size: u32, tf: TransferFunction) ->
 
 /// Opacity 0 below `threshold` (normalised), then a warm ramp; per voxel
 /// spacing `unit`.
-fn ramp_tf(threshold: f64, unit: f64) -> TransferFunction {
+pub(super) fn ramp_tf(threshold: f64, unit: f64) -> TransferFunction {
     TransferFunction::from_rows(
         &[
             [0.0, 0.0, 0.0, 0.0, 0.0],
@@ -163,7 +163,7 @@ pub fn resample(src: &Volume, n: u64) -> Volume {
 }
 
 /// The normalised threshold above which about `fill` of the (u8) voxels lie.
-fn threshold_for(vol: &Volume, fill: f64) -> f64 {
+pub(super) fn threshold_for(vol: &Volume, fill: f64) -> f64 {
     let Voxels::U8(v) = &vol.voxels else {
         unreachable!("the experiments use u8 volumes")
     };
@@ -360,7 +360,30 @@ fn reference() -> anyhow::Result<()> {
             })
             .collect();
         let qs = imgs[2].1.clone();
-        for (o, i) in &imgs {
+        // The previous footprint path (conic + exponentials per pixel) and
+        // the 8-phase table, DDA order, beside the default.
+        let variant = |incremental, table_phases| {
+            render_splat(
+                &inp,
+                &SplatOptions {
+                    order: Order::Dda,
+                    incremental,
+                    table_phases,
+                    ..Default::default()
+                },
+            )
+            .expect("render")
+            .0
+        };
+        let extra = [
+            ("dda, exact footprints", variant(false, 0)),
+            ("dda, 8-phase table", variant(true, 8)),
+        ];
+        let named = imgs
+            .iter()
+            .map(|(o, i)| (o.name(), i))
+            .chain(extra.iter().map(|(n, i)| (*n, i)));
+        for (o, i) in named {
             let e = i.error_against(&r);
             let q = i.error_against(&qs);
             println!(

@@ -24,6 +24,8 @@ pub struct Classifier<'a> {
     range: [f64; 2],
     /// Table by raw value (offset by 32,768 for i16); empty for f32.
     table: Vec<Class>,
+    /// `table[v].tau > 0` by raw value (the culling test, one byte).
+    vis: Vec<bool>,
 }
 
 fn class_of(tf: &TransferFunction, s: f64) -> Class {
@@ -46,16 +48,18 @@ impl<'a> Classifier<'a> {
                 .collect(),
             Voxels::F32(_) => Vec::new(),
         };
+        let vis = table.iter().map(|c| c.tau > 0.0).collect();
         Classifier {
             volume,
             tf,
             range,
             table,
+            vis,
         }
     }
 
     /// Class of voxel `idx`.
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, idx: u64) -> Class {
         let i = idx as usize;
         match &self.volume.voxels {
@@ -70,8 +74,14 @@ impl<'a> Classifier<'a> {
     }
 
     /// True when voxel `idx` has non-zero extinction (is drawn).
-    #[inline]
+    #[inline(always)]
     pub fn visible(&self, idx: u64) -> bool {
-        self.get(idx).tau > 0.0
+        let i = idx as usize;
+        match &self.volume.voxels {
+            Voxels::U8(v) => self.vis[v[i] as usize],
+            Voxels::U16(v) => self.vis[v[i] as usize],
+            Voxels::I16(v) => self.vis[(v[i] as i32 + 32768) as usize],
+            Voxels::F32(_) => self.get(idx).tau > 0.0,
+        }
     }
 }

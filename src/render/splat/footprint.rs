@@ -132,6 +132,12 @@ impl FootprintModel {
         }
     }
 
+    /// Orthographic views: the footprint shape every voxel shares (centre
+    /// at 0); perspective: `None`.
+    pub fn orthographic_shape(&self) -> Option<Footprint> {
+        self.ortho
+    }
+
     /// The cut as a bound on the exponent: `k_cut² / 2`.
     pub fn exponent_cut(&self) -> f32 {
         (0.5 * self.k_cut * self.k_cut) as f32

@@ -5,12 +5,16 @@
 //! - [`classify`]: per-sample extinction and colour, threshold culling;
 //! - [`footprint`]: the EWA projection and the opacity contract;
 //! - [`order`]: the visit orders;
+//! - [`raster`]: one footprint into a band of rows (exact, incremental);
+//! - [`table`]: tabulated footprints at sub-pixel phases (orthographic);
 //! - [`render`]: the frame (order + project, then banded rasterising).
 
 pub mod classify;
 pub mod footprint;
 pub mod order;
+pub mod raster;
 pub mod render;
+pub mod table;
 
 #[cfg(test)]
 mod tests;

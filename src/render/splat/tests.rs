@@ -160,3 +160,92 @@ fn dda_and_sort_agree() {
     let r = render(Order::Radix).error_against(&q);
     assert!(r.max_abs < 1.0, "radix vs quicksort: {r}");
 }
+
+/// The pre-pass path draws the same image as the full walk, bit for bit
+/// (same order, same per-splat arithmetic), for every order, orthographic
+/// and perspective; the incremental footprints stay within f32 rounding of
+/// the exact ones; the footprint table within a small error (orthographic
+/// only: perspective views ignore it and stay exact).
+#[test]
+fn prepass_is_exact_and_fast_footprints_are_close() {
+    let n = 20u64;
+    let v: Vec<u8> = (0..n * n * n)
+        .map(|i| {
+            let (x, y, z) = (i % n, i / n % n, i / (n * n));
+            let r2 = [x, y, z]
+                .iter()
+                .map(|&c| (c as f64 - 9.5).powi(2))
+                .sum::<f64>();
+            // A blob with holes: about a third of the voxels drawn.
+            if r2 < 60.0 && (x + 2 * y + 3 * z) % 5 != 0 {
+                (255.0 - 3.0 * r2) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    let vol = Arc::new(
+        Volume::new(
+            Path::new("blob"),
+            [n; 3],
+            [1.0; 3],
+            [0.0; 3],
+            "s",
+            Voxels::U8(v),
+        )
+        .unwrap(),
+    );
+    for (proj, dist) in [
+        (Projection::Orthographic { height: 34.0 }, 60.0),
+        (Projection::Perspective { fov_y_deg: 40.0 }, 40.0),
+    ] {
+        let mut inp = input(vol.clone(), proj, dist, 0.4);
+        inp.scene.camera.eye = [9.5 + 0.6 * dist, 9.5 - 0.5 * dist, 9.5 + 0.62 * dist];
+        for order in Order::ALL {
+            let run = |sparse, incremental, table_phases| {
+                render_splat(
+                    &inp,
+                    &SplatOptions {
+                        order,
+                        sparse,
+                        incremental,
+                        table_phases,
+                        ..Default::default()
+                    },
+                )
+                .unwrap()
+            };
+            let (full, sf) = run(false, false, 0);
+            let (pre, sp) = run(true, false, 0);
+            assert_eq!(sf.voxels_drawn, sp.voxels_drawn, "{order}");
+            assert!(sf.voxels_drawn > 500, "{order}: {}", sf.voxels_drawn);
+            let e = pre.error_against(&full);
+            assert_eq!(
+                e.max_abs, 0.0,
+                "{order} {proj:?}: pre-pass changed the image: {e}"
+            );
+            let (inc, _) = run(true, true, 0);
+            let e = inc.error_against(&full);
+            // Up to f32 rounding, and a pixel exactly at the cut may flip.
+            assert!(
+                e.max_abs < 1.0 && e.rmse < 0.05,
+                "{order} {proj:?}: incremental {e}"
+            );
+            let (tab, st) = run(true, true, 8);
+            let e = tab.error_against(&full);
+            if matches!(proj, Projection::Orthographic { .. }) {
+                assert_eq!(st.table_phases, 8);
+                assert!(
+                    e.max_abs > 0.0 && e.max_abs < 3.0 && e.rmse < 0.5,
+                    "{order}: table {e}"
+                );
+            } else {
+                assert_eq!(st.table_phases, 0);
+                assert!(
+                    e.max_abs < 1.0,
+                    "{order}: perspective ignores the table: {e}"
+                );
+            }
+        }
+    }
+}

@@ -80,7 +80,7 @@ pub fn ratios(o: &Octant) -> (f64, f64) {
 
 /// `A_S(s)`: the step (counted from the plane's first) at which column `s`
 /// joins `S`, by the `d_S` recurrence.
-fn joined(ratio_s: f64, n_s: u64) -> Vec<u64> {
+pub(super) fn joined(ratio_s: f64, n_s: u64) -> Vec<u64> {
     let mut out = Vec::with_capacity(n_s as usize);
     if n_s == 0 {
         return out;
@@ -178,4 +178,46 @@ pub fn walk(o: &Octant, dims: [u64; 3], f: &mut impl FnMut(u64)) {
             d_p = 0.0;
         }
     }
+}
+
+/// `J_P(p)`: the outer-loop iteration at which plane `p` (counted from the
+/// far side) makes its first step, by the same `d_P` recurrence, plane
+/// removal and restart guard as [`walk`]. A plane is fully drawn after
+/// `life = A_S(n_S - 1) + n_R` steps (columns finish one step apart at
+/// most, because they join at least one step apart), so voxel `(p, s, r)`
+/// is drawn in iteration `J_P(p) + A_S(s) + r`, and within one iteration
+/// planes go in `p` order and columns in `s` order: the walk's sequence is
+/// the voxels sorted by `(J_P(p) + A_S(s) + r, p, s)`.
+pub(super) fn plane_starts(ratio_p: f64, n_p: u64, life: u64) -> Vec<u64> {
+    let mut starts = Vec::with_capacity(n_p as usize);
+    if n_p == 0 {
+        return starts;
+    }
+    starts.push(0);
+    // Start iterations of the planes in P, oldest first.
+    let mut planes: VecDeque<u64> = VecDeque::from([0]);
+    let mut next_p = 1u64;
+    let mut d_p = 0.0f64;
+    let mut g = 0u64;
+    while !planes.is_empty() {
+        // Iteration g: every plane steps; then the bookkeeping of `walk`.
+        d_p += ratio_p;
+        if d_p >= 1.0 && next_p < n_p {
+            planes.push_back(g + 1);
+            starts.push(g + 1);
+            next_p += 1;
+            d_p -= 1.0;
+        }
+        if planes.front().is_some_and(|&j| g + 1 - j >= life) {
+            planes.pop_front();
+        }
+        if planes.is_empty() && next_p < n_p {
+            planes.push_back(g + 1);
+            starts.push(g + 1);
+            next_p += 1;
+            d_p = 0.0;
+        }
+        g += 1;
+    }
+    starts
 }

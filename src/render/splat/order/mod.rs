@@ -42,7 +42,9 @@
 
 pub mod axis;
 pub mod dda;
+pub mod mask;
 pub mod sort;
+pub mod sparse;
 
 #[cfg(test)]
 mod tests;
@@ -298,4 +300,42 @@ pub fn collect(order: Order, dims: [u64; 3], view: &OrderView) -> Vec<u64> {
     let mut out = Vec::with_capacity(n);
     visit(order, dims, view, |i| out.push(i));
     out
+}
+
+/// The kept voxels (`keep(idx)`) in `order`, back to front, into `out`
+/// (cleared first) with their payloads (`class(idx)`, which must be `Some`
+/// exactly where `keep` holds; `keep` is the cheap test run on every voxel),
+/// through the transparency pre-pass: the axis and DDA orders build the
+/// line masks of [`mask`] (one pass over the volume each, in parallel) and
+/// walk only the kept voxels ([`sparse`]), emitting exactly the sequence of
+/// [`visit_kept`]; the sorts test each voxel as in [`visit_with`] and read
+/// the payloads in sorted order. Returns the number of masks built.
+pub fn collect_kept<T: Copy + Send + Sync + Default>(
+    order: Order,
+    dims: [u64; 3],
+    view: &OrderView,
+    keep: &(impl Fn(u64) -> bool + Sync),
+    class: &(impl Fn(u64) -> Option<T> + Sync),
+    scratch: &mut sort::SortScratch,
+    out: &mut Vec<(u64, T)>,
+) -> usize {
+    out.clear();
+    let boxes = octants(dims, view);
+    let mut masks = mask::Masks::new(dims, keep, class);
+    match order {
+        Order::Axis => boxes
+            .iter()
+            .for_each(|o| sparse::axis_sparse(o, dims, &mut masks, out)),
+        Order::Dda => {
+            let mut counts = Vec::new();
+            boxes
+                .iter()
+                .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, out, &mut counts))
+        }
+        Order::Quicksort | Order::Radix => {
+            sort::sorted(order == Order::Radix, &boxes, dims, view, keep, scratch);
+            out.extend(scratch.out.iter().filter_map(|&i| class(i).map(|t| (i, t))));
+        }
+    }
+    masks.built()
 }

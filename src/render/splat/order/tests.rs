@@ -108,8 +108,46 @@ fn check_faces(
     Ok(())
 }
 
+/// A pseudo-random kept set of density about `density` (hash of the index).
+fn kept_set(seed: u64, density: f64) -> impl Fn(u64) -> bool + Sync {
+    move |i: u64| {
+        let h = (i ^ seed).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        ((h >> 11) as f64 / (1u64 << 53) as f64) < density
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(400))]
+
+    /// The pre-pass walks (line masks, sparse axis and DDA) emit exactly the
+    /// full walk's sequence filtered by `keep`, orthographic and perspective,
+    /// including lines longer than one mask word.
+    #[test]
+    fn sparse_walks_equal_the_filtered_full_walks(
+        dims in prop_oneof![dims_strategy(), [1u64..70, 1u64..5, 1u64..70]],
+        d in dir_strategy(), sp in spacing_strategy(), eye in eye_strategy(),
+        persp in any::<bool>(), seed in any::<u64>(), density in prop_oneof![Just(0.0), Just(1.0), 0.0f64..1.0]
+    ) {
+        let view = if persp {
+            OrderView::Perspective { eye, spacing: sp }
+        } else {
+            OrderView::orthographic(d, sp)
+        };
+        let keep = kept_set(seed, density);
+        let mut scratch = sort::SortScratch::default();
+        for order in [Order::Axis, Order::Dda] {
+            let mut full = Vec::new();
+            visit_kept(order, dims, &view, &keep, |i| full.push(i));
+            // Payload: the index times 3, to check it travels with the index.
+            let class = |i: u64| keep(i).then_some(3 * i);
+            let mut fast = vec![(7u64, 0u64); 3];
+            let built = collect_kept(order, dims, &view, &keep, &class, &mut scratch, &mut fast);
+            prop_assert!(built >= 1);
+            let idx: Vec<u64> = fast.iter().map(|x| x.0).collect();
+            prop_assert_eq!(&idx, &full, "{}", order);
+            prop_assert!(fast.iter().all(|&(i, t)| t == 3 * i), "{}: payloads", order);
+        }
+    }
 
     #[test]
     fn orthographic_orders_are_back_to_front(
@@ -218,6 +256,28 @@ fn culling_keeps_order_and_drops_voxels() {
             assert_eq!(a, b, "{order}");
         }
     }
+}
+
+#[test]
+fn for_each_bit_visits_the_set_bits_in_range() {
+    let line = [0b1011u64 | 1 << 63, 1 | 1 << 5, 1 << 7];
+    let collect = |lo, hi, desc| {
+        let mut v = Vec::new();
+        mask::for_each_bit(&line, lo, hi, desc, |b, rank| {
+            // rank: set bits of the whole line below b.
+            let below: u32 = (0..b)
+                .map(|x| (line[(x / 64) as usize] >> (x % 64) & 1) as u32)
+                .sum();
+            assert_eq!(rank, below as usize, "bit {b}");
+            v.push(b)
+        });
+        v
+    };
+    assert_eq!(collect(0, 150, false), vec![0, 1, 3, 63, 64, 69, 135]);
+    assert_eq!(collect(1, 135, false), vec![1, 3, 63, 64, 69]);
+    assert_eq!(collect(1, 136, true), vec![135, 69, 64, 63, 3, 1]);
+    assert_eq!(collect(64, 64, true), Vec::<u64>::new());
+    assert_eq!(collect(63, 65, false), vec![63, 64]);
 }
 
 /// The paper's 2-D example (Fig. 5, Δx/Δy = 0.5): columns join every second
