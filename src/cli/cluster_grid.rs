@@ -234,6 +234,10 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
                 .run(&input, &cfg)?
                 .0)
         }
+        Some(TransportKind::Mpi) => anyhow::bail!(
+            "--transport mpi: grid scenes run on threads, processes or tcp; under MPI only \
+             mesh scenes run for now (use --transport processes or tcp for grids)"
+        ),
     }
 }
 
