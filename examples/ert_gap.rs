@@ -65,9 +65,9 @@ fn main() -> anyhow::Result<()> {
         y1: h,
     };
     let mut rec = vec![None; cells];
-    for c in 0..cells {
+    for (c, slot) in rec.iter_mut().enumerate() {
         if let Ok(r) = cell_record(c as u32, input.mesh.tets[c], &pv, &tf, full) {
-            rec[c] = Some(r);
+            *slot = Some(r);
         }
     }
     let p = Placement::new(&input.mesh, n, PlacementMethod::Rcb, Some(&view));
