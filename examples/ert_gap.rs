@@ -64,12 +64,9 @@ fn main() -> anyhow::Result<()> {
         x1: w,
         y1: h,
     };
-    let mut rec = vec![None; cells];
-    for (c, slot) in rec.iter_mut().enumerate() {
-        if let Ok(r) = cell_record(c as u32, input.mesh.tets[c], &pv, &tf, full) {
-            *slot = Some(r);
-        }
-    }
+    let rec: Vec<_> = (0..cells)
+        .map(|c| cell_record(c as u32, input.mesh.tets[c], &pv, &tf, full).ok())
+        .collect();
     let p = Placement::new(&input.mesh, n, PlacementMethod::Rcb, Some(&view));
     let npx = (w * h) as usize;
     // F[k][p]: nearest near depth of node k's cells covering p.
