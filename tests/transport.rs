@@ -16,6 +16,13 @@ use pvrsim::net::tcp::{TcpOptions, Token};
 mod transport_support;
 use transport_support::*;
 
+/// Worker options for a test that checks images, not stall detection: a
+/// 30 s heartbeat deadline, so that a loaded machine (CPU starvation of
+/// seconds) does not make a worker declare a live peer dead.
+fn slow_ok() -> Vec<String> {
+    vec!["--heartbeat-timeout".into(), "30".into()]
+}
+
 #[test]
 fn same_image_on_threads_processes_and_tcp() {
     let scene = data("aorta-small-view-b.toml");
@@ -40,11 +47,15 @@ fn same_image_on_threads_processes_and_tcp() {
         assert_eq!(bits(&threads.image), bits(&virt.image), "{extra:?}");
 
         let n = cfg.phase1.nodes;
-        let workers = LocalWorkers::spawn(Path::new(EXE), n, &[], Duration::from_secs(30)).unwrap();
+        let workers =
+            LocalWorkers::spawn(Path::new(EXE), n, &slow_ok(), Duration::from_secs(30)).unwrap();
         let (procs, m) = Coordinator {
             workers: workers.addrs.clone(),
             token: workers.token().clone(),
-            tcp: TcpOptions::default(),
+            tcp: TcpOptions {
+                deadline: Duration::from_secs(30),
+                ..Default::default()
+            },
             recv_timeout: Duration::from_secs(60),
             reassign: false,
         }
@@ -57,11 +68,16 @@ fn same_image_on_threads_processes_and_tcp() {
         // TCP workers started by hand, with a token file.
         let dir = tempfile::tempdir().unwrap();
         let tok = token_file(dir.path(), "token");
-        let ws: Vec<WorkerProc> = (0..n).map(|_| WorkerProc::start(Some(&tok), &[])).collect();
+        let ws: Vec<WorkerProc> = (0..n)
+            .map(|_| WorkerProc::start(Some(&tok), &["--heartbeat-timeout", "30"]))
+            .collect();
         let (tcp_out, _) = Coordinator {
             workers: ws.iter().map(|w| w.addr.clone()).collect(),
             token: Token::load(&tok).unwrap(),
-            tcp: TcpOptions::default(),
+            tcp: TcpOptions {
+                deadline: Duration::from_secs(30),
+                ..Default::default()
+            },
             recv_timeout: Duration::from_secs(60),
             reassign: false,
         }
