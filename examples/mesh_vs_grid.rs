@@ -17,7 +17,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use pvrsim::data::volume::from_mesh::sample_mesh_field;
+use pvrsim::data::volume::from_mesh::{dims_along_longest, sample_mesh_field};
 use pvrsim::render::cell::{self, CellOptions};
 use pvrsim::render::slice3d::{self, Slice3dOptions};
 use pvrsim::render::{grid_reference, reference, RenderInput, VolumeInput};
@@ -47,10 +47,9 @@ fn main() -> anyhow::Result<()> {
     let values = mesh.scalar(&scene.data.field)?;
     let range = input.range;
     let (lo, hi) = mesh.bounds();
-    let ext: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
-    let longest = ext.iter().cloned().fold(0.0, f64::max);
     for n in sizes {
-        let dims = ext.map(|e| (((n - 1) as f64 * e / longest).round() as u64 + 1).max(2));
+        let dims = dims_along_longest(lo, hi, n)
+            .ok_or_else(|| anyhow::anyhow!("N = {n}: need N >= 2 and a non-empty mesh box"))?;
         let vol = sample_mesh_field(
             &mesh,
             &scene.data.field,

@@ -61,6 +61,15 @@ pub enum FilterArg {
     Box,
 }
 
+impl From<FilterArg> for Filter {
+    fn from(f: FilterArg) -> Filter {
+        match f {
+            FilterArg::Trilinear => Filter::Trilinear,
+            FilterArg::Box => Filter::Box,
+        }
+    }
+}
+
 /// Options of `pvrsim generate`.
 #[derive(Debug, Args)]
 pub struct GenerateArgs {
@@ -155,11 +164,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
                 .as_ref()
                 .context("`generate resample` needs --input GRID")?;
             let src = crate::data::io::read_volume(input, "")?;
-            let f = match a.filter {
-                FilterArg::Trilinear => Filter::Trilinear,
-                FilterArg::Box => Filter::Box,
-            };
-            let v = generate::resample(&src, size, f)?;
+            let v = generate::resample(&src, size, a.filter.into())?;
             let s = ramp_scene(&name, &v, input);
             let c = format!(
                 "pvrsim generate resample --filter {:?} of {} ({}x{}x{})",
@@ -180,10 +185,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         }
     };
     let gen_s = t.elapsed().as_secs_f64();
-    write_nrrd(&vol, &a.output, a.gzip, &comment)?;
-    let scene_path = a.output.with_extension("toml");
-    std::fs::write(&scene_path, scene)
-        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    let scene_path = write_outputs(&vol, &a, &comment, &scene)?;
     println!(
         "generated {}x{}x{} {} in {gen_s:.2} s; wrote {} and {}",
         vol.dims[0],
@@ -194,6 +196,21 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         scene_path.display()
     );
     Ok(())
+}
+
+/// Writes the volume to `--output` (attached NRRD, `comment` in its header)
+/// and the scene text beside it (same stem, `.toml`); returns the scene's path.
+pub(super) fn write_outputs(
+    vol: &Volume,
+    a: &GenerateArgs,
+    comment: &str,
+    scene: &str,
+) -> anyhow::Result<PathBuf> {
+    write_nrrd(vol, &a.output, a.gzip, comment)?;
+    let scene_path = a.output.with_extension("toml");
+    std::fs::write(&scene_path, scene)
+        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    Ok(scene_path)
 }
 
 fn file_name(p: &Path) -> anyhow::Result<String> {
@@ -235,14 +252,8 @@ pub(super) fn ramp_scene(name: &str, v: &Volume, input: &Path) -> String {
 /// source's value range onto 0..255), with a scene using the paper's
 /// transfer function: grey, opacity equal to the normalised voxel value
 /// (per unit distance = the smallest new spacing).
+/// `run` has checked that `--output` names a `.nrrd` file.
 fn paper(a: &GenerateArgs, size: [u64; 3]) -> anyhow::Result<()> {
-    let ext = a.output.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !ext.eq_ignore_ascii_case("nrrd") {
-        bail!(
-            "--output {}: the generator writes attached NRRD; name the file *.nrrd",
-            a.output.display()
-        );
-    }
     if a.size != "64" {
         bail!("--size: `generate paper-*` has the paper's size ({size:?}); drop --size");
     }
@@ -252,11 +263,7 @@ fn paper(a: &GenerateArgs, size: [u64; 3]) -> anyhow::Result<()> {
     })?;
     let t = std::time::Instant::now();
     let src = crate::data::io::read_volume(input, "")?;
-    let f = match a.filter {
-        FilterArg::Trilinear => Filter::Trilinear,
-        FilterArg::Box => Filter::Box,
-    };
-    let v = generate::resample_u8(&src, size, f)?;
+    let v = generate::resample_u8(&src, size, a.filter.into())?;
     let name = file_name(&a.output)?;
     let rows = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0, 1.0]];
     let unit = v.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -292,10 +299,7 @@ fn paper(a: &GenerateArgs, size: [u64; 3]) -> anyhow::Result<()> {
     );
     let gen_s = t.elapsed().as_secs_f64();
     let comment = format!("pvrsim generate {what} from {}", input.display());
-    write_nrrd(&v, &a.output, a.gzip, &comment)?;
-    let scene_path = a.output.with_extension("toml");
-    std::fs::write(&scene_path, scene)
-        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    let scene_path = write_outputs(&v, a, &comment, &scene)?;
     println!(
         "generated {}x{}x{} u8 in {gen_s:.2} s; wrote {} and {}",
         v.dims[0],

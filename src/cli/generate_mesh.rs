@@ -10,8 +10,7 @@ use anyhow::{bail, Context};
 use super::generate::GenerateArgs;
 use crate::data::dataset::is_mesh_file;
 use crate::data::io::read_mesh;
-use crate::data::io::volume::write_nrrd;
-use crate::data::volume::from_mesh::sample_mesh_field;
+use crate::data::volume::from_mesh::{dims_along_longest, sample_mesh_field};
 use crate::scene::Scene;
 
 /// Runs `generate mesh-field` (`a.kind` is `MeshField`).
@@ -95,8 +94,6 @@ pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
         dims[2],
         range[0]
     );
-    write_nrrd(&vol, &a.output, a.gzip, &comment)?;
-    let scene_path = a.output.with_extension("toml");
     let text = match scene {
         Some(mut s) => {
             s.data.range = Some(range);
@@ -114,8 +111,7 @@ pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
             t
         }
     };
-    std::fs::write(&scene_path, text)
-        .with_context(|| format!("cannot write {}", scene_path.display()))?;
+    let scene_path = super::generate::write_outputs(&vol, a, &comment, &text)?;
     println!(
         "sampled {} ({} tets, field {field}) on {}x{}x{} in {gen_s:.2} s; wrote {} and {}",
         mesh_path.display(),
@@ -136,13 +132,8 @@ fn grid_dims(size: &str, bounds: &([f64; 3], [f64; 3])) -> anyhow::Result<[u64; 
     if size.contains(['x', 'X']) {
         return Ok(dims);
     }
-    let ext: [f64; 3] = std::array::from_fn(|a| bounds.1[a] - bounds.0[a]);
-    let longest = ext.iter().cloned().fold(0.0, f64::max);
-    if !(longest > 0.0 && longest.is_finite()) {
-        bail!("the mesh's bounding box is empty or not finite: {bounds:?}");
-    }
-    let n = dims[0];
-    Ok(ext.map(|e| (((n - 1) as f64 * e / longest).round() as u64 + 1).max(2)))
+    dims_along_longest(bounds.0, bounds.1, dims[0])
+        .with_context(|| format!("the mesh's bounding box is empty or not finite: {bounds:?}"))
 }
 
 #[cfg(test)]

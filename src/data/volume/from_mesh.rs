@@ -143,6 +143,18 @@ pub fn sample_mesh_field(
     Volume::new(source, dims, h, bmin, field, Voxels::F32(out))
 }
 
+/// Grid size with `n` samples along the longest axis of the box
+/// `(lo, hi)` and the other axes in proportion (near-isotropic spacing, at
+/// least 2 samples each); `None` when the box is empty or not finite.
+pub fn dims_along_longest(lo: [f64; 3], hi: [f64; 3], n: u64) -> Option<[u64; 3]> {
+    let ext: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let longest = ext.iter().cloned().fold(0.0, f64::max);
+    if longest.is_nan() || longest <= 0.0 || longest.is_infinite() || n < 2 {
+        return None;
+    }
+    Some(ext.map(|e| (((n - 1) as f64 * e / longest).round() as u64 + 1).max(2)))
+}
+
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
