@@ -10,34 +10,12 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use pvrsim::image::Image;
 use pvrsim::render::slice2d::{self, Slice2dOptions};
-use pvrsim::render::{grid_reference, VolumeInput};
+use pvrsim::render::VolumeInput;
 use pvrsim::scene::Scene;
 
-fn reference(input: &VolumeInput, cache: Option<&str>) -> Image {
-    let (w, h) = (input.scene.image.width, input.scene.image.height);
-    if let Some(b) = cache.and_then(|p| std::fs::read(p).ok()) {
-        let mut img = Image::new(w, h);
-        for (k, px) in img.pixels.iter_mut().enumerate() {
-            for (c, v) in px.iter_mut().enumerate() {
-                let o = (4 * k + c) * 4;
-                *v = f32::from_le_bytes(b[o..o + 4].try_into().unwrap());
-            }
-        }
-        return img;
-    }
-    let (img, _) = grid_reference::render(input, &Default::default());
-    if let Some(p) = cache {
-        let b: Vec<u8> = img
-            .pixels
-            .iter()
-            .flat_map(|px| px.iter().flat_map(|v| v.to_le_bytes()))
-            .collect();
-        std::fs::write(p, b).unwrap();
-    }
-    img
-}
+#[path = "support/ref_cache.rs"]
+mod ref_cache;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -52,7 +30,7 @@ fn main() -> anyhow::Result<()> {
         .split(',')
         .map(|s| s.parse())
         .collect::<Result<_, _>>()?;
-    let refimg = reference(&input, args.get(2).map(|s| s.as_str()));
+    let refimg = ref_cache::reference(&input, args.get(2).map(|s| s.as_str()))?;
     let (full, sf) = slice2d::render(&input, &Slice2dOptions::default())?;
     let ef = full.error_against(&refimg);
     println!(
