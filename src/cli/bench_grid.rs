@@ -1,7 +1,9 @@
 //! `pvrsim bench --grids`: times `slice3d` and `slice2d` on the shared grid
 //! scenes at 256^2 and 512^2, one thread and all threads (median of
-//! repeated frames; the frame-independent preparation, min–max blocks, is
-//! timed apart, once), beside the grid reference's error at the same size;
+//! repeated frames; the frame-independent preparation, min–max blocks and
+//! the tiled texture, is timed apart, once), `slice3d-linear` (slice3d
+//! sampling the volume's own x-fastest layout, to show what the tiles
+//! save), beside the grid reference's error at the same size;
 //! samples per second per core and the fractions of the samples skipped
 //! by empty space and by ERT. `pvrsim bench --lod-table` prints the LOD
 //! paper's Table 2 (arithmetic only).
@@ -10,7 +12,7 @@ use std::path::Path;
 
 use crate::image::Image;
 use crate::render::slice2d::{self, lod, Slice2dOptions};
-use crate::render::slice3d::{self, Slice3dOptions};
+use crate::render::slice3d::{self, Layout, Slice3dOptions};
 use crate::render::slicing::{Classify, SliceStats};
 use crate::render::{grid_reference, VolumeInput};
 
@@ -122,12 +124,15 @@ pub fn run(
                 rs.time_s * 1e3
             );
             let prep = slice3d::prepare(&input, Classify::Post);
+            // The same slicer on the volume's own x-fastest layout: what
+            // the tiled texture saves, measured in the same run.
+            let prep_linear = slice3d::prepare_with(&input, Classify::Post, Layout::Linear);
             let mut threads = vec![1];
             if cores > 1 {
                 threads.push(cores);
             }
             for &t in &threads {
-                for renderer in ["slice3d", "slice2d"] {
+                for renderer in ["slice3d", "slice3d-linear", "slice2d"] {
                     let mut times = Vec::new();
                     let mut last: Option<(Image, SliceStats)> = None;
                     let cpu0 = cpu_seconds();
@@ -135,6 +140,9 @@ pub fn run(
                         let out = super::with_threads(t, || {
                             if renderer == "slice3d" {
                                 slice3d::render_prepared(&input, &prep, &Slice3dOptions::default())
+                            } else if renderer == "slice3d-linear" {
+                                let o = Slice3dOptions::default();
+                                slice3d::render_prepared(&input, &prep_linear, &o)
                             } else {
                                 slice2d::render(&input, &Slice2dOptions::default())
                             }
@@ -162,6 +170,8 @@ pub fn run(
                         cpu_ms,
                         prepare_ms: if renderer == "slice3d" {
                             prep.time_s * 1e3
+                        } else if renderer == "slice3d-linear" {
+                            prep_linear.time_s * 1e3
                         } else {
                             st.time_prepare_s * 1e3
                         },

@@ -255,16 +255,16 @@ pub fn render_prepared(
         vec![true; mm.range.len()]
     };
     st.blocks_empty = opaque.iter().filter(|&&o| !o).count() as u64;
-    let grid = march::Grid {
-        dims: vol.dims.map(|x| x as usize),
-        nb: mm.nb.map(|x| x as usize),
-        opaque: &opaque,
-        ert: if opts.order == Order::FrontToBack {
+    let grid = march::Grid::new(
+        vol.dims,
+        mm.nb.map(|x| x as usize),
+        &opaque,
+        if opts.order == Order::FrontToBack {
             opts.ert
         } else {
             2.0
         },
-    };
+    );
     let ud = tf.unit_distance;
     let ortho = matches!(scene.camera.projection, Projection::Orthographic { .. });
     let run = |s: &(dyn Fn(&planes::RaySamples, &mut SampleCounts) -> [f32; 4] + Sync),

@@ -28,7 +28,7 @@
 
 use super::planes::RaySamples;
 use crate::render::slicing::blocks::BLOCK;
-use crate::render::slicing::{Order, SampleCounts};
+use crate::render::slicing::{clamp_fast, clamped_index, Order, SampleCounts};
 
 /// The 3D texture as the march sees it: fetch + classify one sample.
 pub trait Sampler {
@@ -40,8 +40,9 @@ pub trait Sampler {
 
 /// Grid and block geometry of the march.
 pub struct Grid<'a> {
-    /// Samples per axis.
-    pub dims: [usize; 3],
+    /// The last grid coordinate per axis (`dims - 1`), as f32 once: a
+    /// usize-to-f32 conversion is a multi-instruction sequence on x86-64.
+    pub hi: [f32; 3],
     /// Blocks per axis.
     pub nb: [usize; 3],
     /// Per block: any opacity (false = skip).
@@ -50,17 +51,32 @@ pub struct Grid<'a> {
     pub ert: f32,
 }
 
-/// Cell and fractions of grid position `p` (clamped into the grid).
+impl<'a> Grid<'a> {
+    /// The geometry of a grid of `dims` samples (at least 2 per axis) in
+    /// `nb` min–max blocks whose opacity is `opaque`; `ert` >= 1 is off.
+    pub fn new(dims: [u64; 3], nb: [usize; 3], opaque: &'a [bool], ert: f32) -> Grid<'a> {
+        Grid {
+            hi: dims.map(|n| (n - 1) as f32),
+            nb,
+            opaque,
+            ert,
+        }
+    }
+}
+
+/// Cell and fractions of grid position `p` (clamped into the grid whose
+/// last coordinates are `hi`).
 #[inline(always)]
-pub(crate) fn locate(p: [f32; 3], dims: [usize; 3]) -> ([usize; 3], [f32; 3]) {
+pub(crate) fn locate(p: [f32; 3], hi: [f32; 3]) -> ([usize; 3], [f32; 3]) {
     let mut c = [0usize; 3];
     let mut f = [0f32; 3];
     for a in 0..3 {
-        let hi = (dims[a] - 1) as f32;
-        let x = p[a].clamp(0.0, hi);
-        let ci = (x as usize).min(dims[a] - 2);
+        // A NaN position (never expected) becomes 0, not NaN.
+        let x = clamp_fast(p[a], 0.0, hi[a]);
+        let ci = clamped_index(x, hi[a] - 1.0);
         c[a] = ci;
-        f[a] = x - ci as f32;
+        // Through i64: one conversion instruction (usize needs several).
+        f[a] = x - ci as i64 as f32;
     }
     (c, f)
 }
@@ -94,7 +110,7 @@ pub fn march<S: Sampler>(
             r.step[1] * kf + r.start[1],
             r.step[2] * kf + r.start[2],
         ];
-        let (c, f) = locate(p, g.dims);
+        let (c, f) = locate(p, g.hi);
         let b = [
             c[0] / BLOCK as usize,
             c[1] / BLOCK as usize,
@@ -105,7 +121,7 @@ pub fn march<S: Sampler>(
             // Fractional number of steps until the block is left.
             let mut m = f32::INFINITY;
             for a in 0..3 {
-                let lo = (b[a] * BLOCK as usize) as f32;
+                let lo = (b[a] * BLOCK as usize) as i64 as f32;
                 if step[a] > 0.0 {
                     m = m.min((lo + BLOCK as f32 - p[a]) / step[a]);
                 } else if step[a] < 0.0 {

@@ -11,15 +11,18 @@
 //! tested against the transfer function once per frame, and samples in
 //! transparent blocks are skipped per ray.
 //!
-//! Rows of pixels are rendered in parallel (rayon); the hot loop is f32 with
-//! positions `start + k step` per ray and a [`Lut`] for the classification;
-//! the image does not depend on the thread count.
+//! Bands of pixel rows are rendered in parallel (rayon), each in small
+//! square tiles of pixels; the hot loop is f32 with positions `start + k
+//! step` per ray and a [`Lut`] for the classification, sampling the volume
+//! copied into cache-friendly tiles ([`texture`]); the image does not
+//! depend on the thread count or the layout.
 
 pub mod brick;
 pub mod march;
 pub mod planes;
 pub mod preint;
 pub mod sample;
+pub mod texture;
 
 #[cfg(test)]
 pub(crate) mod tests;
@@ -36,6 +39,9 @@ use crate::scene::Projection;
 use crate::with_texels;
 
 pub use planes::SliceCount;
+
+/// Edge of the square pixel tiles the frame is walked in.
+const PIXEL_TILE: usize = 8;
 
 /// Options of the 3D slicer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,19 +75,38 @@ impl Default for Slice3dOptions {
     }
 }
 
-/// What does not change from frame to frame: the min–max blocks and, for
-/// pre-classification, the classified RGBA8 texture.
+/// What does not change from frame to frame: the min–max blocks and the
+/// 3D texture as the slicer samples it (the scalars tiled, or for
+/// pre-classification the classified RGBA8 texture).
 pub struct Prepared {
     /// Per-block scalar ranges.
     pub blocks: MinMaxBlocks,
     /// Pre-classified texture (`None` for post-classification).
     pub rgba: Option<Vec<[u8; 4]>>,
+    /// The scalars in tiles ([`texture`]); `None`: sampled in the
+    /// volume's own x-fastest layout.
+    pub tiled: Option<texture::TiledVoxels>,
     /// Seconds spent building it.
     pub time_s: f64,
 }
 
-/// Builds the frame-independent data for `classify`.
+/// How the scalar texture is laid out in memory (the image is the same).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// Overlapping 16^3 tiles (default; see [`texture`]).
+    Tiled,
+    /// The volume as read, x fastest (no copy).
+    Linear,
+}
+
+/// Builds the frame-independent data for `classify`, scalars tiled.
 pub fn prepare(input: &VolumeInput, classify: Classify) -> Prepared {
+    prepare_with(input, classify, Layout::Tiled)
+}
+
+/// Builds the frame-independent data for `classify` with the scalars in
+/// `layout` (pre-classification samples its RGBA8 texture x-fastest).
+pub fn prepare_with(input: &VolumeInput, classify: Classify, layout: Layout) -> Prepared {
     let t = Instant::now();
     let vol = &*input.volume;
     let blocks = with_texels!(&vol.voxels, d => MinMaxBlocks::new(d, vol.dims));
@@ -89,9 +114,12 @@ pub fn prepare(input: &VolumeInput, classify: Classify) -> Prepared {
         let lut = Lut::new(&input.scene.transfer, input.range);
         with_texels!(&vol.voxels, d => sample::classify_voxels(d, &lut))
     });
+    let tiled = (classify != Classify::Pre && layout == Layout::Tiled)
+        .then(|| texture::TiledVoxels::new(&vol.voxels, vol.dims));
     Prepared {
         blocks,
         rgba,
+        tiled,
         time_s: t.elapsed().as_secs_f64(),
     }
 }
@@ -181,68 +209,95 @@ pub fn render_prepared(
     };
     st.blocks_empty = opaque.iter().filter(|&&o| !o).count() as u64;
     let nb = prep.blocks.nb.map(|x| x as usize);
-    let grid = march::Grid {
-        dims: vol.dims.map(|x| x as usize),
+    let grid = march::Grid::new(
+        vol.dims,
         nb,
-        opaque: &opaque,
-        ert: if opts.order == Order::FrontToBack {
+        &opaque,
+        if opts.order == Order::FrontToBack {
             opts.ert
         } else {
             2.0
         },
-    };
+    );
     let nx = vol.dims[0] as usize;
     let nxy = nx * vol.dims[1] as usize;
     let ud = tf.unit_distance;
     let ortho = matches!(scene.camera.projection, Projection::Orthographic { .. });
 
+    // Pixels go to the threads in bands of PIXEL_TILE rows, and a band is
+    // walked in PIXEL_TILE-square tiles: the rays of a tile pass through
+    // the same texture tiles one after the other, while they are cached.
+    let pt = PIXEL_TILE;
     let run = |s: &(dyn Fn(&planes::RaySamples, &mut SampleCounts) -> [f32; 4] + Sync),
                image: &mut Image| {
+        let w = w as usize;
         image
             .pixels
-            .par_chunks_mut(w as usize)
+            .par_chunks_mut(w * pt)
             .enumerate()
-            .map(|(j, row)| {
+            .map(|(band, rows)| {
                 let mut n = SampleCounts::default();
-                for (i, px) in row.iter_mut().enumerate() {
-                    let r = match &opts.brick {
-                        None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
-                        Some(b) => {
-                            let (x, y) = (i as u32, j as u32);
-                            if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
+                let nrows = rows.len() / w;
+                for i0 in (0..w).step_by(pt) {
+                    for dj in 0..nrows {
+                        let j = band * pt + dj;
+                        for i in i0..(i0 + pt).min(w) {
+                            let px = &mut rows[dj * w + i];
+                            let r = match &opts.brick {
+                                None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
+                                Some(b) => {
+                                    let (x, y) = (i as u32, j as u32);
+                                    if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
+                                        continue;
+                                    }
+                                    brick::ray_samples(&view, b, ud, x, y)
+                                }
+                            };
+                            let Some(r) = r else {
                                 continue;
-                            }
-                            brick::ray_samples(&view, b, ud, x, y)
+                            };
+                            n.covered += 1;
+                            let [c0, c1, c2, a] = s(&r, &mut n);
+                            let t = 1.0 - a;
+                            *px = [c0 + t * bg[0], c1 + t * bg[1], c2 + t * bg[2], a];
                         }
-                    };
-                    let Some(r) = r else {
-                        continue;
-                    };
-                    n.covered += 1;
-                    let [c0, c1, c2, a] = s(&r, &mut n);
-                    let t = 1.0 - a;
-                    *px = [c0 + t * bg[0], c1 + t * bg[1], c2 + t * bg[2], a];
+                    }
                 }
                 n
             })
             .reduce(SampleCounts::default, SampleCounts::merge)
     };
 
+    // The scalar texture in the prepared layout; `$x` names it in `$body`.
+    macro_rules! with_texture {
+        ($x:ident => $body:expr) => {
+            match &prep.tiled {
+                Some(tv) => with_texels!(&tv.voxels, data => {
+                    let $x = texture::Tiled { data, nt: tv.nt };
+                    $body
+                }),
+                None => with_texels!(&vol.voxels, data => {
+                    let $x = texture::Linear { data, nx, nxy };
+                    $body
+                }),
+            }
+        };
+    }
     let counts = match opts.classify {
-        Classify::Post => with_texels!(&vol.voxels, data => {
+        Classify::Post => with_texture!(tex => {
             if ortho {
                 let baked = lut.baked((planes.delta / ud) as f32);
-                let s = sample::PostBaked { data, nx, nxy, lut: &lut, baked: &baked };
+                let s = sample::PostBaked { tex, lut: &lut, baked: &baked };
                 run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
             } else {
-                let s = sample::PostSigma { data, nx, nxy, lut: &lut };
+                let s = sample::PostSigma { tex, lut: &lut };
                 run(&|r, n| march::march(&s, &grid, r, opts.order, n), &mut image)
             }
         }),
         Classify::Preint => {
             let t = table.as_ref().expect("built for preint");
-            with_texels!(&vol.voxels, data => {
-                let v = preint::Scalars { data, nx, nxy, lut: &lut };
+            with_texture!(tex => {
+                let v = preint::Scalars { tex, lut: &lut };
                 if ortho {
                     let sg = preint::Baked(t);
                     run(&|r, n| preint::march_pairs(&v, t, &sg, &grid, r, opts.order, n), &mut image)
@@ -264,9 +319,10 @@ pub fn render_prepared(
         }
     };
     st.add_counts(&counts);
-    st.texture_bytes = match &prep.rgba {
-        Some(t) => 4 * t.len() as u64,
-        None => vol.voxels.bytes(),
+    st.texture_bytes = match (&prep.rgba, &prep.tiled) {
+        (Some(t), _) => 4 * t.len() as u64,
+        (None, Some(tv)) => tv.voxels.bytes(),
+        (None, None) => vol.voxels.bytes(),
     };
     st.time_render_s = start.elapsed().as_secs_f64();
     Ok((image, st))

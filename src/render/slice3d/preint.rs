@@ -54,9 +54,10 @@ use rayon::prelude::*;
 
 use super::march::{locate, Grid};
 use super::planes::RaySamples;
-use super::sample::scalar;
+use super::sample;
+use super::texture::Corners;
 use crate::render::slicing::blocks::BLOCK;
-use crate::render::slicing::{Lut, Order, SampleCounts, Texel, LUT_SIZE};
+use crate::render::slicing::{Lut, Order, SampleCounts, LUT_SIZE};
 
 /// Entries of the table per axis.
 pub const PREINT_SIZE: usize = 512;
@@ -192,7 +193,7 @@ impl PreintTable {
     #[inline(always)]
     pub fn index(&self, s: f32) -> usize {
         let x = s * self.scale + self.offset;
-        (x.max(0.0) as usize).min(PREINT_SIZE - 1)
+        crate::render::slicing::clamped_index(x, (PREINT_SIZE - 1) as f32)
     }
 
     /// True if every segment between raw scalars in `[lo, hi]` (and every
@@ -247,18 +248,14 @@ impl Segments for Scaled<'_> {
 }
 
 /// The volume's scalars as the march sees them.
-pub struct Scalars<'a, T> {
-    /// Voxels.
-    pub data: &'a [T],
-    /// Row stride.
-    pub nx: usize,
-    /// Slab stride.
-    pub nxy: usize,
+pub struct Scalars<'a, X> {
+    /// The 3D texture.
+    pub tex: X,
     /// The point classification (for the ray's end segments).
     pub lut: &'a Lut,
 }
 
-impl<T: Texel> Scalars<'_, T> {
+impl<X: Corners> Scalars<'_, X> {
     /// `[C, α]` of a constant segment of `k_ud` unit distances at raw `s`.
     #[inline(always)]
     fn end(&self, s: f32, k_ud: f32) -> [f32; 4] {
@@ -302,8 +299,8 @@ fn under_btf(acc: &mut [f32; 4], s: [f32; 4]) {
 /// union of their ranges is an interval that [`PreintTable::transparent`]
 /// clears. The image is the same as without skipping.
 #[inline]
-pub fn march_pairs<T: Texel, S: Segments>(
-    v: &Scalars<T>,
+pub fn march_pairs<X: Corners, S: Segments>(
+    v: &Scalars<X>,
     t: &PreintTable,
     seg: &S,
     g: &Grid,
@@ -336,8 +333,8 @@ pub fn march_pairs<T: Texel, S: Segments>(
         ]
     };
     let fetch = |k: i64| {
-        let (c, f) = locate(pos(k), g.dims);
-        scalar(v.data, v.nx, v.nxy, c, f)
+        let (c, f) = locate(pos(k), g.hi);
+        sample::fetch(&v.tex, c, f)
     };
     // The segment between the previous sample (in travel order) `sp` and
     // `s`: front and back swap with the order.
@@ -359,14 +356,14 @@ pub fn march_pairs<T: Texel, S: Segments>(
     let mut k = first;
     loop {
         let p = pos(k);
-        let (c, f) = locate(p, g.dims);
+        let (c, f) = locate(p, g.hi);
         let b = [0, 1, 2].map(|a| c[a] / BLOCK as usize);
         let remaining = (last - k) * dir;
         if !g.opaque[(b[2] * g.nb[1] + b[1]) * g.nb[0] + b[0]] {
             let mut fetched = false;
             if let Some(sp) = prev {
                 // The segment from an opaque block's sample into this one.
-                let s = scalar(v.data, v.nx, v.nxy, c, f);
+                let s = sample::fetch(&v.tex, c, f);
                 n.taken += 1;
                 blend(&mut acc, pair(sp, s));
                 prev = Some(s);
@@ -394,7 +391,7 @@ pub fn march_pairs<T: Texel, S: Segments>(
             k += dir * (1 + extra);
             continue;
         }
-        let s = scalar(v.data, v.nx, v.nxy, c, f);
+        let s = sample::fetch(&v.tex, c, f);
         n.taken += 1;
         done += 1;
         if k == first {

@@ -17,29 +17,13 @@
 //!   then `α = 1 - (1 - o)^(δ/ud)` and the colour `(c o) / o · α`.
 
 use super::march::Sampler;
+use super::texture::{Corners, Linear};
 use crate::render::slicing::{Lut, Texel};
 
 #[inline(always)]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
     // Not `mul_add`: without a target FMA unit it is a slow library call.
     (b - a) * t + a
-}
-
-/// Base index and the eight corner offsets' texels of cell `c`.
-#[inline(always)]
-fn corners<T: Copy>(d: &[T], nx: usize, nxy: usize, c: [usize; 3]) -> [T; 8] {
-    let base = c[0] + nx * c[1] + nxy * c[2];
-    let s = &d[base..base + nxy + nx + 2];
-    [
-        s[0],
-        s[1],
-        s[nx],
-        s[nx + 1],
-        s[nxy],
-        s[nxy + 1],
-        s[nxy + nx],
-        s[nxy + nx + 1],
-    ]
 }
 
 #[inline(always)]
@@ -54,47 +38,44 @@ fn tri(v: [f32; 8], f: [f32; 3]) -> f32 {
 /// Interpolated scalar of a cell.
 #[inline(always)]
 pub fn scalar<T: Texel>(d: &[T], nx: usize, nxy: usize, c: [usize; 3], f: [f32; 3]) -> f32 {
-    tri(corners(d, nx, nxy, c).map(Texel::f), f)
+    fetch(&Linear { data: d, nx, nxy }, c, f)
+}
+
+/// Interpolated scalar of cell `c` of texture `x` (any layout).
+#[inline(always)]
+pub fn fetch<X: Corners>(x: &X, c: [usize; 3], f: [f32; 3]) -> f32 {
+    tri(x.corners(c).map(Texel::f), f)
 }
 
 /// Post-classification with a table baked for one sample distance.
-pub struct PostBaked<'a, T> {
-    /// Voxels.
-    pub data: &'a [T],
-    /// Row and slab strides.
-    pub nx: usize,
-    /// Slab stride.
-    pub nxy: usize,
+pub struct PostBaked<'a, X> {
+    /// The 3D texture.
+    pub tex: X,
     /// Index mapping.
     pub lut: &'a Lut,
     /// Premultiplied, corrected entries.
     pub baked: &'a [[f32; 4]],
 }
 
-impl<T: Texel> Sampler for PostBaked<'_, T> {
+impl<X: Corners> Sampler for PostBaked<'_, X> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], _k: f32) -> [f32; 4] {
-        self.baked[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))]
+        self.baked[self.lut.index(fetch(&self.tex, c, f))]
     }
 }
 
 /// Post-classification with the opacity corrected per sample.
-pub struct PostSigma<'a, T> {
-    /// Voxels.
-    pub data: &'a [T],
-    /// Row stride.
-    pub nx: usize,
-    /// Slab stride.
-    pub nxy: usize,
+pub struct PostSigma<'a, X> {
+    /// The 3D texture.
+    pub tex: X,
     /// The table.
     pub lut: &'a Lut,
 }
 
-impl<T: Texel> Sampler for PostSigma<'_, T> {
+impl<X: Corners> Sampler for PostSigma<'_, X> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], k: f32) -> [f32; 4] {
-        let [r, g, b, sg] =
-            self.lut.sigma[self.lut.index(scalar(self.data, self.nx, self.nxy, c, f))];
+        let [r, g, b, sg] = self.lut.sigma[self.lut.index(fetch(&self.tex, c, f))];
         if sg == 0.0 {
             return [0.0; 4];
         }
@@ -116,7 +97,7 @@ pub struct Pre<'a> {
 impl Sampler for Pre<'_> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], k: f32) -> [f32; 4] {
-        let v = corners(self.rgba, self.nx, self.nxy, c);
+        let v = Linear { data: self.rgba, nx: self.nx, nxy: self.nxy }.at(c);
         let ch = |i: usize| tri(v.map(|t| t[i] as f32), f) * (1.0 / 255.0);
         let o = ch(3);
         if o <= 0.0 {

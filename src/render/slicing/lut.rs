@@ -63,7 +63,7 @@ impl Lut {
     #[inline(always)]
     pub fn index(&self, s: f32) -> usize {
         let x = s * self.scale + self.offset; // not mul_add: a libm call without FMA
-        (x.max(0.0) as usize).min(LUT_SIZE - 1)
+        super::clamped_index(x, (LUT_SIZE - 1) as f32)
     }
 
     /// Premultiplied, opacity-corrected entries for a sample distance of

@@ -4,10 +4,12 @@
 //! the statistics. The grid reference uses none of it.
 
 pub mod blocks;
+pub mod index;
 pub mod lut;
 pub mod texel;
 
 pub use blocks::MinMaxBlocks;
+pub use index::{clamp_fast, clamped_index};
 pub use lut::{Lut, LUT_SIZE};
 pub use texel::Texel;
 
