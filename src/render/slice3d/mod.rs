@@ -244,10 +244,16 @@ pub fn render_prepared(
                         for i in i0..(i0 + pt).min(w) {
                             let px = &mut rows[dj * w + i];
                             let r = match &opts.brick {
-                                None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
+                                None => {
+                                    planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32)
+                                }
                                 Some(b) => {
                                     let (x, y) = (i as u32, j as u32);
-                                    if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
+                                    if x < b.rect.x0
+                                        || x >= b.rect.x1
+                                        || y < b.rect.y0
+                                        || y >= b.rect.y1
+                                    {
                                         continue;
                                     }
                                     brick::ray_samples(&view, b, ud, x, y)

@@ -97,7 +97,12 @@ pub struct Pre<'a> {
 impl Sampler for Pre<'_> {
     #[inline(always)]
     fn rgba(&self, c: [usize; 3], f: [f32; 3], k: f32) -> [f32; 4] {
-        let v = Linear { data: self.rgba, nx: self.nx, nxy: self.nxy }.at(c);
+        let v = Linear {
+            data: self.rgba,
+            nx: self.nx,
+            nxy: self.nxy,
+        }
+        .at(c);
         let ch = |i: usize| tri(v.map(|t| t[i] as f32), f) * (1.0 / 255.0);
         let o = ch(3);
         if o <= 0.0 {

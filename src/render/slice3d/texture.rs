@@ -158,24 +158,26 @@ fn tile<T: Texel + Default>(data: &[T], dims: [u64; 3], nt: [usize; 3]) -> Vec<T
     let d = dims.map(|x| x as usize);
     let (nx, nxy) = (d[0], d[0] * d[1]);
     let mut out = vec![T::default(); nt[0] * nt[1] * nt[2] * TILE_STRIDE];
-    out.par_chunks_mut(TILE_STRIDE).enumerate().for_each(|(i, dst)| {
-        let t = [i % nt[0], (i / nt[0]) % nt[1], i / (nt[0] * nt[1])];
-        let lo = t.map(|x| x * TILE_CELLS);
-        for lz in 0..TILE {
-            let z = (lo[2] + lz).min(d[2] - 1);
-            for ly in 0..TILE {
-                let y = (lo[1] + ly).min(d[1] - 1);
-                let row = &mut dst[TILE * (ly + TILE * lz)..][..TILE];
-                let src = &data[nxy * z + nx * y..][..nx];
-                // The row's samples inside the volume, then the last one
-                // repeated.
-                let inside = TILE.min(nx - lo[0]);
-                row[..inside].copy_from_slice(&src[lo[0]..lo[0] + inside]);
-                let last = src[nx - 1];
-                row[inside..].fill(last);
+    out.par_chunks_mut(TILE_STRIDE)
+        .enumerate()
+        .for_each(|(i, dst)| {
+            let t = [i % nt[0], (i / nt[0]) % nt[1], i / (nt[0] * nt[1])];
+            let lo = t.map(|x| x * TILE_CELLS);
+            for lz in 0..TILE {
+                let z = (lo[2] + lz).min(d[2] - 1);
+                for ly in 0..TILE {
+                    let y = (lo[1] + ly).min(d[1] - 1);
+                    let row = &mut dst[TILE * (ly + TILE * lz)..][..TILE];
+                    let src = &data[nxy * z + nx * y..][..nx];
+                    // The row's samples inside the volume, then the last one
+                    // repeated.
+                    let inside = TILE.min(nx - lo[0]);
+                    row[..inside].copy_from_slice(&src[lo[0]..lo[0] + inside]);
+                    let last = src[nx - 1];
+                    row[inside..].fill(last);
+                }
             }
-        }
-    });
+        });
     out
 }
 

@@ -24,7 +24,7 @@ pub fn clamp_fast(x: f32, lo: f32, hi: f32) -> f32 {
 /// `hi` is a whole number below 2^63.
 #[inline(always)]
 pub fn clamped_index(x: f32, hi: f32) -> usize {
-    debug_assert!(hi >= 0.0 && hi < 9.2e18 && hi.fract() == 0.0);
+    debug_assert!((0.0..9.2e18).contains(&hi) && hi.fract() == 0.0);
     // NaN becomes 0, so `x` is finite from here on.
     let x = clamp_fast(x, 0.0, hi);
     // SAFETY: `x` is finite and in `[0, hi]` with `hi < 2^63`, so its
