@@ -86,6 +86,12 @@ pub struct SplatArgs {
     /// thread) instead of the transparency pre-pass and sparse walk.
     #[arg(long)]
     pub full_walk: bool,
+    /// Early splat elimination threshold in (0, 1]: splats are composited
+    /// front to back and skipped where the 8x8 tiles under them have reached
+    /// this alpha (per-channel error bound (1 - THRESHOLD) x max(radiance,
+    /// background), in the stats). 1 turns it off (back to front, exact).
+    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    pub ert: f32,
 }
 
 /// Loads a grid scene into a [`VolumeInput`].
@@ -108,7 +114,9 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
     }
+    super::validate::ert_mode(a.ert)?;
     let opts = SplatOptions {
+        ert: a.ert,
         order: a.order.order(),
         sigma: a.sigma,
         sparse: !a.full_walk,
@@ -124,14 +132,19 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
     let (img, st) = super::with_threads(a.threads, || render_splat(&input, &opts))??;
     img.save_png(&a.output)?;
     println!(
-        "{}: order {}, {} of {} voxels drawn (fill rate {:.4}), order {:.1} ms, splat {:.1} ms",
+        "{}: order {}, {} of {} voxels drawn (fill rate {:.4}), order {:.1} ms, splat {:.1} ms, \
+         ERT {}: {} of {} (splat, band) pieces skipped, bound {:.2}/255",
         a.output.display(),
         st.order,
         st.voxels_drawn,
         st.voxels_total,
         st.fill_rate,
         st.order_ms,
-        st.splat_ms
+        st.splat_ms,
+        st.ert_threshold,
+        st.pieces_skipped_ert,
+        st.pieces,
+        st.ert_error_bound * 255.0
     );
     let mut json = serde_json::to_value(&st)?;
     if a.compare {
