@@ -6,7 +6,8 @@
 //! - ERT on: front to back, [`Under`], the list reversed (the reverse of a
 //!   back-to-front order is front to back: every voxel before its farther
 //!   face neighbours), skipping splats whose rectangle is in closed tiles of
-//!   the band's [`OcclusionMap`] (early splat elimination, error bound in
+//!   the band's [`OcclusionMap`] or, failing that, whose rectangle's pixels
+//!   all have `A >= t` (early splat elimination, error bound in
 //!   [`super::composite`]), and stopping when the whole band is closed.
 
 use rayon::prelude::*;
@@ -120,7 +121,10 @@ pub fn rasterise(
                 if ib < ia as i64 {
                     continue;
                 }
-                if map.occluded(ia, ib as usize, ra, rb) {
+                let ib = ib as usize;
+                // Closed tiles (cheap), else every pixel of the rectangle.
+                if map.occluded(ia, ib, ra, rb) || rect_closed(band, w as usize, ia, ib, ra, rb, ert)
+                {
                     c.pieces_skipped += 1;
                     continue;
                 }
@@ -135,6 +139,13 @@ pub fn rasterise(
             bands: a.bands + b.bands,
         });
     (acc, counts)
+}
+
+/// True when every pixel in columns `[ia, ib]` of band-local rows
+/// `[ra, rb]` has `A >= t`.
+#[inline]
+fn rect_closed(band: &[[f32; 4]], w: usize, ia: usize, ib: usize, ra: usize, rb: usize, t: f32) -> bool {
+    (ra..=rb).all(|r| band[r * w + ia..=r * w + ib].iter().all(|p| p[3] >= t))
 }
 
 #[inline(always)]

@@ -139,6 +139,7 @@ pub fn draw_incremental<C: Composite>(
     }
     let [q0, q1, q2] = s.q;
     let kappa = exp_neg(-2.0 * q0);
+    let inv_q0 = 1.0 / q0;
     let mut alpha = [0.0f32; 64];
     for j in ja..=jb {
         let dy = j as f32 + 0.5 - s.y;
@@ -149,7 +150,7 @@ pub fn draw_incremental<C: Composite>(
             continue;
         }
         let root = disc.sqrt();
-        let (lo, hi) = ((-b - root) / q0, (-b + root) / q0);
+        let (lo, hi) = ((-b - root) * inv_q0, (-b + root) * inv_q0);
         // Pixels i with dx = i + 1/2 - x in [lo, hi].
         let ia = ceil_i(s.x - 0.5 + lo).max(0);
         let ib = floor_i(s.x - 0.5 + hi).min(w as i64 - 1);
