@@ -46,11 +46,15 @@ pub struct BenchArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "exact,incr,incr+ert,table8+ert,table16+ert"
+        default_value = "exact,incr,table32,incr+ert,table32+ert"
     )]
     pub splat_paths: Vec<String>,
     /// Target fill rates for `--splat` (the paper's Table 3).
-    #[arg(long, value_delimiter = ',', default_value = "0.0144,0.0423,0.123,0.257")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.0144,0.0423,0.123,0.257"
+    )]
     pub splat_fills: Vec<f64>,
     /// Thread counts for `--splat`.
     #[arg(long, value_delimiter = ',', default_value = "2")]

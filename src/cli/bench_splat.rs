@@ -14,7 +14,7 @@
 //! then `+ert` (early splat elimination at 0.99; `+ertT` at threshold `T`)
 //! and `+kK` (footprint cut at `K` standard deviations, default 3). Without
 //! `+ert` a path composites back to front (ERT off). The default renderer
-//! is `incr+ert`. Errors (max-abs / RMSE in 1/255) are against the first
+//! (orthographic) is `table32+ert`. Errors (max-abs / RMSE in 1/255) are against the first
 //! path of the list, and with `--splat-reference` also against the f64
 //! grid reference.
 //!
@@ -92,6 +92,7 @@ pub fn parse_path(name: &str) -> anyhow::Result<SplatOptions> {
     let mut o = SplatOptions {
         order: Order::Dda,
         ert: 1.0,
+        table_phases: 0,
         ..Default::default()
     };
     match base {
@@ -102,10 +103,13 @@ pub fn parse_path(name: &str) -> anyhow::Result<SplatOptions> {
         "exact" => o.incremental = false,
         "incr" => {}
         t if t.starts_with("table") => {
-            let p: u32 = t[5..]
-                .parse()
-                .map_err(|_| anyhow::anyhow!("--splat-paths {name}: `{t}` is not tableP (P = 1..=64)"))?;
-            anyhow::ensure!((1..=64).contains(&p), "--splat-paths {name}: table phases must be 1..=64");
+            let p: u32 = t[5..].parse().map_err(|_| {
+                anyhow::anyhow!("--splat-paths {name}: `{t}` is not tableP (P = 1..=64)")
+            })?;
+            anyhow::ensure!(
+                (1..=64).contains(&p),
+                "--splat-paths {name}: table phases must be 1..=64"
+            );
             o.table_phases = p;
         }
         other => anyhow::bail!(
@@ -166,7 +170,8 @@ fn bench_grid(
         let scene = scene_for(vol, 30.0, 25.0, 512, ramp_tf(t, vol.spacing[0]));
         let input = VolumeInput::new(scene, vol.clone())?;
         let reference = if b.reference {
-            let (r, _) = super::with_threads(0, || grid_reference::render(&input, &Default::default()))?;
+            let (r, _) =
+                super::with_threads(0, || grid_reference::render(&input, &Default::default()))?;
             Some(r)
         } else {
             None
@@ -307,11 +312,20 @@ mod tests {
     fn path_names_parse_and_bad_ones_are_refused() {
         let o = parse_path("incr+ert").unwrap();
         assert!(o.incremental && o.sparse && o.ert == 0.99 && o.table_phases == 0);
+        assert_eq!(parse_path("table32+ert").unwrap(), SplatOptions::default());
         let o = parse_path("table16+ert0.9+k2.5").unwrap();
         assert_eq!((o.table_phases, o.ert, o.k_cut), (16, 0.9, 2.5));
         let o = parse_path("full").unwrap();
         assert!(!o.sparse && !o.incremental && o.ert == 1.0);
-        for bad in ["", "fast", "table", "table0", "incr+ert2", "incr+k9", "incr+zz"] {
+        for bad in [
+            "",
+            "fast",
+            "table",
+            "table0",
+            "incr+ert2",
+            "incr+k9",
+            "incr+zz",
+        ] {
             assert!(parse_path(bad).is_err(), "{bad}");
         }
     }

@@ -74,12 +74,14 @@ pub struct SplatArgs {
     /// Threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Sub-pixel phases of the orthographic footprint table (0: no table;
-    /// perspective views never use it).
-    #[arg(long, default_value_t = 0)]
-    pub table_phases: u32,
-    /// The conic and an exponential per pixel instead of the (default)
-    /// forward-differenced footprints.
+    /// Sub-pixel phases of the orthographic footprint table, 0..=64 (default
+    /// 32, or 0 with --exact-footprints; 0: per-row forward differences;
+    /// perspective views never use the table).
+    #[arg(long)]
+    pub table_phases: Option<u32>,
+    /// The conic and an exponential per pixel instead of the footprint table
+    /// (orthographic) or the forward-differenced footprints (perspective,
+    /// or --table-phases 0).
     #[arg(long)]
     pub exact_footprints: bool,
     /// The full walk (every voxel's threshold tested, projection on one
@@ -115,19 +117,28 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         input = input.with_size(w, h);
     }
     super::validate::ert_mode(a.ert)?;
+    anyhow::ensure!(
+        !(a.exact_footprints && a.table_phases.is_some_and(|p| p > 0)),
+        "--exact-footprints and --table-phases {} exclude each other (the table overrides \
+         the per-pixel kernel)",
+        a.table_phases.unwrap_or_default()
+    );
+    let table_phases = a
+        .table_phases
+        .unwrap_or(if a.exact_footprints { 0 } else { 32 });
     let opts = SplatOptions {
         ert: a.ert,
         order: a.order.order(),
         sigma: a.sigma,
         sparse: !a.full_walk,
-        table_phases: a.table_phases,
+        table_phases,
         incremental: !a.exact_footprints,
         ..Default::default()
     };
     anyhow::ensure!(
-        a.table_phases <= 64,
+        table_phases <= 64,
         "--table-phases must be 0..=64, got {}",
-        a.table_phases
+        table_phases
     );
     let (img, st) = super::with_threads(a.threads, || render_splat(&input, &opts))??;
     img.save_png(&a.output)?;

@@ -45,7 +45,10 @@ pub fn spans(splats: &[SplatShape], h: u32, kernel: Kernel) -> Vec<[i32; 2]> {
         .par_iter()
         .map(|s| {
             let (ja, jb) = rows(s, 0, h as i64);
-            [(ja - pad).max(0) as i32, (jb + pad).min(h as i64 - 1) as i32]
+            [
+                (ja - pad).max(0) as i32,
+                (jb + pad).min(h as i64 - 1) as i32,
+            ]
         })
         .collect()
 }
@@ -123,12 +126,16 @@ pub fn rasterise(
                 }
                 let ib = ib as usize;
                 // Closed tiles (cheap), else every pixel of the rectangle.
-                if map.occluded(ia, ib, ra, rb) || rect_closed(band, w as usize, ia, ib, ra, rb, ert)
+                if map.occluded(ia, ib, ra, rb)
+                    || rect_closed(band, w as usize, ia, ib, ra, rb, ert)
                 {
                     c.pieces_skipped += 1;
                     continue;
                 }
-                let mut u = Under { t: ert, map: &mut map };
+                let mut u = Under {
+                    t: ert,
+                    map: &mut map,
+                };
                 draw(s, band, w, j0, j1, cut, kernel, &mut u);
             }
             c
@@ -144,7 +151,15 @@ pub fn rasterise(
 /// True when every pixel in columns `[ia, ib]` of band-local rows
 /// `[ra, rb]` has `A >= t`.
 #[inline]
-fn rect_closed(band: &[[f32; 4]], w: usize, ia: usize, ib: usize, ra: usize, rb: usize, t: f32) -> bool {
+fn rect_closed(
+    band: &[[f32; 4]],
+    w: usize,
+    ia: usize,
+    ib: usize,
+    ra: usize,
+    rb: usize,
+    t: f32,
+) -> bool {
     (ra..=rb).all(|r| band[r * w + ia..=r * w + ib].iter().all(|p| p[3] >= t))
 }
 

@@ -26,9 +26,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::bands::{self, Kernel};
 use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
-use super::bands::{self, Kernel};
 use super::order::{self, sort::SortScratch, Order, OrderView};
 use super::raster::SplatShape;
 use super::table::FootprintTable;
@@ -53,8 +53,11 @@ pub struct SplatOptions {
     /// (default); `false`: the full walk testing every voxel, one thread.
     pub sparse: bool,
     /// Sub-pixel phases per pixel of the orthographic footprint table
-    /// (0, the default: no table). The table rounds centres to `1/P` pixel
-    /// (measured: `bench --splat`); it overrides `incremental`.
+    /// (default 32; 0: no table). The table rounds centres to `1/P` pixel:
+    /// at 32 phases 0.40-0.68/255 max-abs from the exact footprints on
+    /// MNI152 256^3 (`bench --splat`, docs/experiments/splatting.md), at
+    /// 8 phases up to 1.9/255. Overrides `incremental` for orthographic
+    /// views; perspective views never use it.
     pub table_phases: u32,
     /// Footprints by per-row spans and forward differences (default; exact
     /// to f32 rounding, see [`super::raster`]); `false`: the conic and an
@@ -76,7 +79,7 @@ impl Default for SplatOptions {
             low_pass: 1.0,
             k_cut: 3.0,
             sparse: true,
-            table_phases: 0,
+            table_phases: 32,
             incremental: true,
             ert: 0.99,
         }
