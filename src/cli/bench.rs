@@ -37,10 +37,34 @@ pub struct BenchArgs {
     #[arg(long)]
     pub orderings: bool,
     /// Instead: wall ms per splatting frame of 256^3 grids at 512^2 (DDA,
-    /// ordering included) at the paper's fill rates, 1 and 2 threads, the
-    /// full walk vs the pre-pass vs footprint tables, with image errors.
+    /// ordering included) at the paper's fill rates, for the paths of
+    /// `--splat-paths`, with image errors.
     #[arg(long)]
     pub splat: bool,
+    /// Paths for `--splat` (base full|exact|incr|tableP, then +ert, +ertT,
+    /// +kK; errors are against the first).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "exact,incr,table32,incr+ert,table32+ert"
+    )]
+    pub splat_paths: Vec<String>,
+    /// Target fill rates for `--splat` (the paper's Table 3).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.0144,0.0423,0.123,0.257"
+    )]
+    pub splat_fills: Vec<f64>,
+    /// Thread counts for `--splat`.
+    #[arg(long, value_delimiter = ',', default_value = "2")]
+    pub splat_threads: Vec<usize>,
+    /// Grids for `--splat`: hydrogen, mni152.
+    #[arg(long, value_delimiter = ',', default_value = "hydrogen,mni152")]
+    pub splat_grids: Vec<String>,
+    /// `--splat`: also the error against the f64 grid reference.
+    #[arg(long)]
+    pub splat_reference: bool,
     /// Time the grid renderers (slice3d, slice2d) instead, on the shared
     /// grid scenes (`--grid-scenes`), 256^2 and 512^2, 1 and all threads,
     /// beside the grid reference's error.
@@ -105,7 +129,15 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         return super::bench_orderings::run(a.json.as_deref());
     }
     if a.splat {
-        return super::bench_splat::run(&a.data_dir, a.repeats, a.json.as_deref());
+        let b = super::bench_splat::SplatBench {
+            repeats: a.repeats,
+            paths: a.splat_paths.clone(),
+            fills: a.splat_fills.clone(),
+            threads: a.splat_threads.clone(),
+            reference: a.splat_reference,
+            grids: a.splat_grids.clone(),
+        };
+        return super::bench_splat::run(&a.data_dir, &b, a.json.as_deref());
     }
     if a.lod_table {
         let rows = super::bench_grid::lod_table();

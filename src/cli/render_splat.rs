@@ -1,7 +1,8 @@
 //! `pvrsim render SCENE --renderer splat --order axis|dda|sort` (issue 11):
 //! EWA splatting of a grid scene through the common `render` command (same
-//! output, `--stats`, `--compare`, `--threads`, `--width/--height` as the
-//! slicers). `--order` is shared with the slicers, whose values are the
+//! output, `--stats`, `--compare`, `--threads`, `--width/--height`, `--ert`
+//! as the slicers: `--ert` is the early splat elimination threshold, and
+//! its bound `ert_error_bound` is in the stats). `--order` is shared with the slicers, whose values are the
 //! compositing orders; [`GridOrder`] holds both kinds and each renderer
 //! refuses the other's.
 
@@ -59,7 +60,7 @@ impl GridOrder {
             Some(GridOrder::Radix) => Ok(SplatOrder::Radix),
             Some(x) => anyhow::bail!(
                 "--order {} is a slicer's compositing order; --renderer splat takes \
-                 axis, dda, sort or radix (splats are always composited back to front)",
+                 axis, dda, sort or radix (splats go front to back with --ert < 1, back to front with --ert 1)",
                 x.to_possible_value()
                     .map_or(String::new(), |v| v.get_name().into())
             ),
@@ -82,9 +83,6 @@ pub fn refuse_slicer_options(a: &RenderArgs) -> anyhow::Result<()> {
     if a.no_empty_skip {
         bad.push("--no-empty-skip (splatting culls transparent voxels by definition)");
     }
-    if a.ert != 0.99 {
-        bad.push("--ert (splats are composited back to front, no early termination)");
-    }
     anyhow::ensure!(
         bad.is_empty(),
         "{} do(es) not apply to --renderer splat",
@@ -100,8 +98,11 @@ pub fn render(
     quiet: bool,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     refuse_slicer_options(a)?;
+    super::validate::ert_mode(a.ert)?;
     let opts = SplatOptions {
         order: GridOrder::splat(a.order)?,
+        // Early splat elimination at the common ERT threshold (1: off).
+        ert: a.ert,
         ..Default::default()
     };
     let (img, st) = super::with_threads(a.threads, || render_splat(input, &opts))??;

@@ -74,18 +74,26 @@ pub struct SplatArgs {
     /// Threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Sub-pixel phases of the orthographic footprint table (0: no table;
-    /// perspective views never use it).
-    #[arg(long, default_value_t = 0)]
-    pub table_phases: u32,
-    /// The conic and an exponential per pixel instead of the (default)
-    /// forward-differenced footprints.
+    /// Sub-pixel phases of the orthographic footprint table, 0..=64 (default
+    /// 32, or 0 with --exact-footprints; 0: per-row forward differences;
+    /// perspective views never use the table).
+    #[arg(long)]
+    pub table_phases: Option<u32>,
+    /// The conic and an exponential per pixel instead of the footprint table
+    /// (orthographic) or the forward-differenced footprints (perspective,
+    /// or --table-phases 0).
     #[arg(long)]
     pub exact_footprints: bool,
     /// The full walk (every voxel's threshold tested, projection on one
     /// thread) instead of the transparency pre-pass and sparse walk.
     #[arg(long)]
     pub full_walk: bool,
+    /// Early splat elimination threshold in (0, 1]: splats are composited
+    /// front to back and skipped where the 8x8 tiles under them have reached
+    /// this alpha (per-channel error bound (1 - THRESHOLD) x max(radiance,
+    /// background), in the stats). 1 turns it off (back to front, exact).
+    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    pub ert: f32,
 }
 
 /// Loads a grid scene into a [`VolumeInput`].
@@ -108,30 +116,46 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
     }
+    super::validate::ert_mode(a.ert)?;
+    anyhow::ensure!(
+        !(a.exact_footprints && a.table_phases.is_some_and(|p| p > 0)),
+        "--exact-footprints and --table-phases {} exclude each other (the table overrides \
+         the per-pixel kernel)",
+        a.table_phases.unwrap_or_default()
+    );
+    let table_phases = a
+        .table_phases
+        .unwrap_or(if a.exact_footprints { 0 } else { 32 });
     let opts = SplatOptions {
+        ert: a.ert,
         order: a.order.order(),
         sigma: a.sigma,
         sparse: !a.full_walk,
-        table_phases: a.table_phases,
+        table_phases,
         incremental: !a.exact_footprints,
         ..Default::default()
     };
     anyhow::ensure!(
-        a.table_phases <= 64,
+        table_phases <= 64,
         "--table-phases must be 0..=64, got {}",
-        a.table_phases
+        table_phases
     );
     let (img, st) = super::with_threads(a.threads, || render_splat(&input, &opts))??;
     img.save_png(&a.output)?;
     println!(
-        "{}: order {}, {} of {} voxels drawn (fill rate {:.4}), order {:.1} ms, splat {:.1} ms",
+        "{}: order {}, {} of {} voxels drawn (fill rate {:.4}), order {:.1} ms, splat {:.1} ms, \
+         ERT {}: {} of {} (splat, band) pieces skipped, bound {:.2}/255",
         a.output.display(),
         st.order,
         st.voxels_drawn,
         st.voxels_total,
         st.fill_rate,
         st.order_ms,
-        st.splat_ms
+        st.splat_ms,
+        st.ert_threshold,
+        st.pieces_skipped_ert,
+        st.pieces,
+        st.ert_error_bound * 255.0
     );
     let mut json = serde_json::to_value(&st)?;
     if a.compare {

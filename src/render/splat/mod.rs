@@ -6,10 +6,14 @@
 //! - [`footprint`]: the EWA projection and the opacity contract;
 //! - [`order`]: the visit orders;
 //! - [`raster`]: one footprint into a band of rows (exact, incremental);
+//! - [`composite`]: back to front / front to back, early splat elimination;
+//! - [`bands`]: the banded rasterising phase;
 //! - [`table`]: tabulated footprints at sub-pixel phases (orthographic);
 //! - [`render`]: the frame (order + project, then banded rasterising).
 
+pub mod bands;
 pub mod classify;
+pub mod composite;
 pub mod footprint;
 pub mod order;
 pub mod raster;

@@ -1,6 +1,7 @@
-//! Compositing one splat's footprint into a band of rows, back to front
-//! (premultiplied, the splat in front): `C <- c alpha + (1 - alpha) C`,
-//! `A <- alpha + (1 - alpha) A`, `alpha(x) = 1 - exp(-tau_k l0 g(x))`,
+//! Compositing one splat's footprint into a band of rows through a
+//! [`Composite`] (back to front [`Over`](super::composite::Over), or front to
+//! back [`Under`](super::composite::Under)),
+//! `alpha(x) = 1 - exp(-tau_k l0 g(x))`,
 //! `g(x) = exp(-e(d))`, `e(d) = q0 dx² + 2 q1 dx dy + q2 dy²`,
 //! `d = x - x_k` (pixel centre minus splat centre), drawn where
 //! `e <= k_cut²/2`.
@@ -23,6 +24,7 @@
 //! Both compute `alpha` for a run of pixels first (a loop the compiler can
 //! vectorise), then blend.
 
+use super::composite::Composite;
 use crate::render::cell::fastmath::exp_neg;
 
 /// What the rasteriser needs of one splat.
@@ -69,18 +71,6 @@ fn exp_any(x: f32) -> f32 {
     }
 }
 
-/// Blends `alpha` (one per pixel) of colour `rgb` over `pix`.
-#[inline(always)]
-fn blend(pix: &mut [[f32; 4]], alpha: &[f32], rgb: [f32; 3]) {
-    for (p, &a) in pix.iter_mut().zip(alpha) {
-        let t = 1.0 - a;
-        p[0] = rgb[0] * a + t * p[0];
-        p[1] = rgb[1] * a + t * p[1];
-        p[2] = rgb[2] * a + t * p[2];
-        p[3] = a + t * p[3];
-    }
-}
-
 /// Rows of the bounding box inside `[j0, j1)`: pixel centres `j + 1/2`
 /// within `ry` of the centre.
 #[inline(always)]
@@ -94,7 +84,15 @@ pub fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
 /// Composites `s` into rows `[j0, j1)` held by `band` (`w` pixels a row):
 /// the conic and an exponential at every pixel of the bounding box.
 #[inline]
-pub fn draw_exact(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i64, cut: f32) {
+pub fn draw_exact<C: Composite>(
+    s: &SplatShape,
+    band: &mut [[f32; 4]],
+    w: u32,
+    j0: i64,
+    j1: i64,
+    cut: f32,
+    comp: &mut C,
+) {
     let (ja, jb) = rows(s, j0, j1);
     if ja > jb {
         return;
@@ -111,7 +109,14 @@ pub fn draw_exact(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i6
                 continue;
             }
             let alpha = 1.0 - exp_neg(-s.depth0 * exp_neg(-e));
-            blend(std::slice::from_mut(&mut row[i as usize]), &[alpha], s.rgb);
+            let r = (j - j0) as usize;
+            comp.run(
+                std::slice::from_mut(&mut row[i as usize]),
+                r,
+                i as usize,
+                &[alpha],
+                s.rgb,
+            );
         }
     }
 }
@@ -119,13 +124,22 @@ pub fn draw_exact(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i6
 /// Composites `s` into rows `[j0, j1)` held by `band` (`w` pixels a row) by
 /// per-row spans and forward differences (module doc).
 #[inline]
-pub fn draw_incremental(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, j1: i64, cut: f32) {
+pub fn draw_incremental<C: Composite>(
+    s: &SplatShape,
+    band: &mut [[f32; 4]],
+    w: u32,
+    j0: i64,
+    j1: i64,
+    cut: f32,
+    comp: &mut C,
+) {
     let (ja, jb) = rows(s, j0, j1);
     if ja > jb {
         return;
     }
     let [q0, q1, q2] = s.q;
     let kappa = exp_neg(-2.0 * q0);
+    let inv_q0 = 1.0 / q0;
     let mut alpha = [0.0f32; 64];
     for j in ja..=jb {
         let dy = j as f32 + 0.5 - s.y;
@@ -136,7 +150,7 @@ pub fn draw_incremental(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, 
             continue;
         }
         let root = disc.sqrt();
-        let (lo, hi) = ((-b - root) / q0, (-b + root) / q0);
+        let (lo, hi) = ((-b - root) * inv_q0, (-b + root) * inv_q0);
         // Pixels i with dx = i + 1/2 - x in [lo, hi].
         let ia = ceil_i(s.x - 0.5 + lo).max(0);
         let ib = floor_i(s.x - 0.5 + hi).min(w as i64 - 1);
@@ -160,7 +174,7 @@ pub fn draw_incremental(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, 
             for a in &mut alpha[..n] {
                 *a = 1.0 - exp_neg(-s.depth0 * *a);
             }
-            blend(&mut row[i..i + n], &alpha[..n], s.rgb);
+            comp.run(&mut row[i..i + n], (j - j0) as usize, i, &alpha[..n], s.rgb);
             i += n;
         }
     }
@@ -168,6 +182,7 @@ pub fn draw_incremental(s: &SplatShape, band: &mut [[f32; 4]], w: u32, j0: i64, 
 
 #[cfg(test)]
 mod tests {
+    use super::super::composite::Over;
     use super::*;
 
     /// The incremental kernel draws the exact kernel's alphas (to 2e-5)
@@ -201,11 +216,11 @@ mod tests {
                 };
                 let mut a = vec![[0.0f32; 4]; (w * h) as usize];
                 let mut b = a.clone();
-                draw_exact(&s, &mut a, w, 0, h as i64, cut);
+                draw_exact(&s, &mut a, w, 0, h as i64, cut, &mut Over);
                 // Two bands, to check the row clipping.
                 let (top, bottom) = b.split_at_mut((w * 13) as usize);
-                draw_incremental(&s, top, w, 0, 13, cut);
-                draw_incremental(&s, bottom, w, 13, h as i64, cut);
+                draw_incremental(&s, top, w, 0, 13, cut, &mut Over);
+                draw_incremental(&s, bottom, w, 13, h as i64, cut, &mut Over);
                 let mut drawn = 0;
                 for (k, (p, r)) in a.iter().zip(&b).enumerate() {
                     drawn += (p[3] > 0.0) as u32;

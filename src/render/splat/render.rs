@@ -10,29 +10,33 @@
 //!    ordered list (rayon's ordered collect); without it, the full walk
 //!    tests every voxel's threshold and projects as it goes, on one thread.
 //! 2. **Splat** (`splat_ms`): the image is cut into horizontal bands, rayon
-//!    tasks; every band walks the whole list in order and composites the
-//!    footprints' rows that fall inside it, back to front:
-//!    `C <- c alpha + (1 - alpha) C`, `A <- alpha + (1 - alpha) A`
-//!    (premultiplied; the splat is in front of what is already there).
+//!    tasks ([`bands`]); every band walks the whole list and composites the
+//!    footprints' rows that fall inside it: back to front without ERT
+//!    (`C <- c alpha + (1 - alpha) C`, `A <- alpha + (1 - alpha) A`,
+//!    premultiplied, the splat in front), or front to back with early splat
+//!    elimination (default, threshold `ert`; [`super::composite`]).
 //!    Footprints by forward differences along each row's span
-//!    ([`draw_incremental`], default), or the conic and an exponential per
-//!    pixel ([`draw_exact`]), or (orthographic, `table_phases > 0`) a
-//!    [`FootprintTable`] at sub-pixel phases.
+//!    ([`draw_incremental`](super::raster::draw_incremental), default), or
+//!    the conic and an exponential per pixel
+//!    ([`draw_exact`](super::raster::draw_exact)), or (orthographic,
+//!    `table_phases > 0`) a [`FootprintTable`] at sub-pixel phases.
 //! 3. The background goes behind: `final = C + (1 - A) background`.
 
 use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::bands::{self, Kernel};
 use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
 use super::order::{self, sort::SortScratch, Order, OrderView};
-use super::raster::{draw_exact, draw_incremental, rows, SplatShape};
+use super::raster::SplatShape;
 use super::table::FootprintTable;
 use crate::error::Result;
 use crate::image::Image;
 use crate::render::VolumeInput;
 use crate::scene::camera::Projection;
+use crate::scene::TransferFunction;
 
 /// Options of the splatting renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,13 +53,22 @@ pub struct SplatOptions {
     /// (default); `false`: the full walk testing every voxel, one thread.
     pub sparse: bool,
     /// Sub-pixel phases per pixel of the orthographic footprint table
-    /// (0, the default: no table). The table rounds centres to `1/P` pixel
-    /// (measured: `bench --splat`); it overrides `incremental`.
+    /// (default 32; 0: no table). The table rounds centres to `1/P` pixel:
+    /// at 32 phases 0.40-0.68/255 max-abs from the exact footprints on
+    /// MNI152 256^3 (`bench --splat`, docs/experiments/splatting.md), at
+    /// 8 phases up to 1.9/255. Overrides `incremental` for orthographic
+    /// views; perspective views never use it.
     pub table_phases: u32,
     /// Footprints by per-row spans and forward differences (default; exact
     /// to f32 rounding, see [`super::raster`]); `false`: the conic and an
     /// exponential per pixel.
     pub incremental: bool,
+    /// Early splat elimination threshold in `(0, 1]` (default 0.99, as
+    /// `render --ert`): splats are composited front to back and skipped
+    /// where every 8 x 8 tile under their rectangle has reached it (error
+    /// per channel at most `(1 - ert) M`, [`super::composite`]). `1`: off,
+    /// back to front, the exact image of the renderer without it.
+    pub ert: f32,
 }
 
 impl Default for SplatOptions {
@@ -66,8 +79,9 @@ impl Default for SplatOptions {
             low_pass: 1.0,
             k_cut: 3.0,
             sparse: true,
-            table_phases: 0,
+            table_phases: 32,
             incremental: true,
+            ert: 0.99,
         }
     }
 }
@@ -96,6 +110,27 @@ pub struct SplatStats {
     pub order_ms: f64,
     /// Rasterising and compositing, ms.
     pub splat_ms: f64,
+    /// Of `order_ms`: the transparency pre-pass and the ordering (sparse
+    /// path; the full walk orders and projects together, so 0 there).
+    pub prepass_order_ms: f64,
+    /// Of `order_ms`: the projection of the ordered voxels (sparse path).
+    pub project_ms: f64,
+    /// Of `splat_ms`: the row spans of the splats.
+    pub spans_ms: f64,
+    /// Of `splat_ms`: the banded rasteriser.
+    pub raster_ms: f64,
+    /// Early splat elimination threshold (1 = off).
+    pub ert_threshold: f64,
+    /// Bound on any channel's change by early splat elimination:
+    /// `(1 - threshold) max(max TF radiance, max background)` (0 when off).
+    pub ert_error_bound: f64,
+    /// (splat, band) pieces the bands walked (each splat is one piece per
+    /// band its rows meet; bands are `h / (4 threads)` rows, rounded up to 8).
+    pub pieces: u64,
+    /// Of `pieces`, skipped by early splat elimination.
+    pub pieces_skipped_ert: u64,
+    /// Bands.
+    pub bands: u64,
     /// CPU time of the process (all threads) during the order phase, ms:
     /// on a loaded machine wall times include time spent descheduled.
     pub order_cpu_ms: f64,
@@ -119,6 +154,17 @@ pub fn process_cpu_s() -> f64 {
 }
 
 type Splat = SplatShape;
+
+/// [`SplatStats::ert_error_bound`]: `(1 - ert) max(max radiance, max
+/// background)` for `ert < 1`, else 0 (derivation in [`super::composite`]).
+pub fn ert_bound(ert: f32, tf: &TransferFunction, background: [f64; 3]) -> f64 {
+    if ert < 1.0 {
+        let m = background.iter().fold(tf.max_radiance(), |a, &b| a.max(b));
+        (1.0 - ert as f64) * m
+    } else {
+        0.0
+    }
+}
 
 /// Renders `input` by EWA splatting in `opts.order`.
 pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, SplatStats)> {
@@ -159,6 +205,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         })
     };
     let mut mask_passes = 0u64;
+    let mut prepass_order_ms = 0.0;
     let (splats, visible) = if opts.sparse {
         let kept = |idx: u64| {
             let c = class.get(idx);
@@ -175,6 +222,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             &mut SortScratch::default(),
             &mut idxs,
         ) as u64;
+        prepass_order_ms = t0.elapsed().as_secs_f64() * 1e3;
         let splats: Vec<Splat> = idxs
             .par_iter()
             .filter_map(|&(i, c)| splat_of(i, c))
@@ -198,6 +246,11 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
     };
     let offscreen = visible - splats.len() as u64;
     let order_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let project_ms = if opts.sparse {
+        order_ms - prepass_order_ms
+    } else {
+        0.0
+    };
 
     let t1 = Instant::now();
     let c1 = process_cpu_s();
@@ -206,38 +259,14 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         Some(f) if opts.table_phases > 0 => Some(FootprintTable::new(&f, cut, opts.table_phases)),
         _ => None,
     };
-    // Each splat's rows [ja, jb] (compact, so that every band scans 8
-    // bytes per splat rather than the whole splat).
-    let spans: Vec<[i32; 2]> = splats
-        .par_iter()
-        .map(|s| {
-            let (ja, jb) = rows(s, 0, h as i64);
-            [ja as i32, jb as i32]
-        })
-        .collect();
-    let mut acc = vec![[0.0f32; 4]; w as usize * h as usize];
-    // Several bands per thread: the splats crowd in the middle rows.
-    let bands = (rayon::current_num_threads() * 4).max(1);
-    let rows_per = (h as usize).div_ceil(bands).max(1);
-    acc.par_chunks_mut(rows_per * w as usize)
-        .enumerate()
-        .for_each(|(b, band)| {
-            let j0 = (b * rows_per) as i64;
-            let j1 = j0 + (band.len() / w as usize) as i64;
-            let (r0, r1) = (j0 as i32, j1 as i32);
-            let mine = splats
-                .iter()
-                .zip(&spans)
-                .filter(|(_, r)| r[1] >= r0 && r[0] < r1)
-                .map(|(s, _)| s);
-            match &table {
-                Some(t) => mine.for_each(|s| t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1)),
-                None if opts.incremental => {
-                    mine.for_each(|s| draw_incremental(s, band, w, j0, j1, cut))
-                }
-                None => mine.for_each(|s| draw_exact(s, band, w, j0, j1, cut)),
-            }
-        });
+    let kernel = match &table {
+        Some(t) => Kernel::Table(t),
+        None if opts.incremental => Kernel::Incremental,
+        None => Kernel::Exact,
+    };
+    let spans = bands::spans(&splats, h, kernel);
+    let spans_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let (acc, counts) = bands::rasterise(&splats, &spans, (w, h), cut, kernel, opts.ert);
     let splat_ms = t1.elapsed().as_secs_f64() * 1e3;
     let c2 = process_cpu_s();
 
@@ -264,6 +293,15 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         },
         order_ms,
         splat_ms,
+        prepass_order_ms,
+        project_ms,
+        spans_ms,
+        raster_ms: splat_ms - spans_ms,
+        ert_threshold: opts.ert.min(1.0) as f64,
+        ert_error_bound: ert_bound(opts.ert, &scene.transfer, scene.image.background),
+        pieces: counts.pieces,
+        pieces_skipped_ert: counts.pieces_skipped,
+        bands: counts.bands,
         order_cpu_ms: (c1 - c0) * 1e3,
         splat_cpu_ms: (c2 - c1) * 1e3,
     };

@@ -21,6 +21,7 @@
 //!
 //! Perspective views keep the exact path (the conic changes per voxel).
 
+use super::composite::Composite;
 use super::footprint::Footprint;
 use super::raster::floor_i;
 use crate::render::cell::fastmath::exp_neg;
@@ -87,7 +88,7 @@ impl FootprintTable {
     /// (`w` pixels per row), in front of what is there (premultiplied).
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    pub fn draw(
+    pub fn draw<C: Composite>(
         &self,
         x: f32,
         y: f32,
@@ -97,6 +98,7 @@ impl FootprintTable {
         w: u32,
         j0: i64,
         j1: i64,
+        comp: &mut C,
     ) {
         let p = self.phases;
         let (xs, ys) = (floor_i(x * p as f32 + 0.5), floor_i(y * p as f32 + 0.5));
@@ -117,22 +119,17 @@ impl FootprintTable {
             }
             let wt =
                 &self.weights[(phase * self.side + row) * self.side..][ca as usize..cb as usize];
-            let pix = &mut band[(j - j0) as usize * w as usize..]
-                [(i_first + ca) as usize..(i_first + cb) as usize];
+            let i_start = (i_first + ca) as usize;
+            let pix = &mut band[(j - j0) as usize * w as usize..][i_start..(i_first + cb) as usize];
             // alpha = 1 - exp(-tau l0 g): first the alphas of up to 32
             // pixels (a loop the compiler vectorises), then the blend.
-            for (pix, wt) in pix.chunks_mut(32).zip(wt.chunks(32)) {
+            for (c, (pix, wt)) in pix.chunks_mut(32).zip(wt.chunks(32)).enumerate() {
                 let mut a = [0.0f32; 32];
                 for (a, &g) in a.iter_mut().zip(wt) {
                     *a = 1.0 - exp_neg(-depth0 * g);
                 }
-                for (px, &alpha) in pix.iter_mut().zip(&a) {
-                    let t = 1.0 - alpha;
-                    px[0] = rgb[0] * alpha + t * px[0];
-                    px[1] = rgb[1] * alpha + t * px[1];
-                    px[2] = rgb[2] * alpha + t * px[2];
-                    px[3] = alpha + t * px[3];
-                }
+                let n = pix.len();
+                comp.run(pix, (j - j0) as usize, i_start + 32 * c, &a[..n], rgb);
             }
         }
     }
@@ -140,6 +137,7 @@ impl FootprintTable {
 
 #[cfg(test)]
 mod tests {
+    use super::super::composite::Over;
     use super::*;
 
     /// Drawing one splat through the table equals the exact kernel at the
@@ -162,7 +160,17 @@ mod tests {
         for (x, y) in [(10.3f32, 9.81f32), (11.0, 7.5), (3.06, 12.94), (0.4, 1.2)] {
             let mut img = vec![[0.0f32; 4]; (w * h) as usize];
             let depth0 = 0.7f32;
-            t.draw(x, y, depth0, [1.0, 0.5, 0.25], &mut img, w, 0, h as i64);
+            t.draw(
+                x,
+                y,
+                depth0,
+                [1.0, 0.5, 0.25],
+                &mut img,
+                w,
+                0,
+                h as i64,
+                &mut Over,
+            );
             let (xq, yq) = (
                 (x * p as f32 + 0.5).floor() / p as f32,
                 (y * p as f32 + 0.5).floor() / p as f32,

@@ -249,3 +249,62 @@ fn prepass_is_exact_and_fast_footprints_are_close() {
         }
     }
 }
+
+/// Early splat elimination (front to back, occlusion tiles): a threshold
+/// next to 1 skips nothing and gives the back-to-front (`ert = 1`) image to
+/// f32 rounding; thresholds 0.99 / 0.9 / 0.5 skip splats and stay within
+/// the stated bound `(1 - t) max(radiance, background)` of that image, for
+/// every order, orthographic and perspective, over a coloured background.
+#[test]
+fn early_splat_elimination_stays_within_its_bound() {
+    let n = 24u64;
+    for (proj, dist) in [
+        (Projection::Orthographic { height: 30.0 }, 100.0),
+        (Projection::Perspective { fov_y_deg: 40.0 }, 45.0),
+    ] {
+        // Opacity 0.3 per voxel: most rays reach A = 0.99 inside the cube.
+        let mut inp = input(constant(n, 255), proj, dist, 0.3);
+        inp.scene.camera.eye = [11.5 + 0.5 * dist, 11.5 - 0.4 * dist, 11.5 + 0.77 * dist];
+        inp.scene.image.background = [0.2, 0.9, 0.4];
+        for order in Order::ALL {
+            let run = |ert| {
+                render_splat(
+                    &inp,
+                    &SplatOptions {
+                        order,
+                        ert,
+                        ..Default::default()
+                    },
+                )
+                .unwrap()
+            };
+            let (exact, se) = run(1.0);
+            assert_eq!(se.ert_threshold, 1.0);
+            assert_eq!((se.pieces_skipped_ert, se.ert_error_bound), (0, 0.0));
+            assert!(se.pieces >= se.voxels_drawn, "{order}");
+            let (near, sn) = run(0.999_999);
+            assert_eq!(sn.pieces_skipped_ert, 0, "{order}");
+            let e = near.error_against(&exact);
+            assert!(e.max_abs < 0.01, "{order} {proj:?}: front to back {e}");
+            for t in [0.99f32, 0.9, 0.5] {
+                let (img, st) = run(t);
+                // M = max(TF radiance 1.0, background 0.9).
+                let bound = (1.0 - t as f64) * 1.0;
+                assert!((st.ert_error_bound - bound).abs() < 1e-6);
+                assert!(
+                    st.pieces_skipped_ert * 10 > st.pieces,
+                    "{order} {proj:?} t {t}: only {} of {} skipped",
+                    st.pieces_skipped_ert,
+                    st.pieces
+                );
+                let e = img.error_against(&exact);
+                assert!(
+                    e.max_abs <= 255.0 * bound + 1e-3,
+                    "{order} {proj:?} t {t}: {e} over the bound {}",
+                    255.0 * bound
+                );
+                assert!(!img.has_non_finite());
+            }
+        }
+    }
+}

@@ -163,6 +163,44 @@ proptest! {
         }
     }
 
+    /// Early splat elimination draws the renderer's list (the pre-pass
+    /// walk, `collect_kept`) reversed: that sequence is exactly the reverse
+    /// of the back-to-front walk, and it is front to back (every voxel before
+    /// its farther face neighbours), orthographic and perspective.
+    #[test]
+    fn reversed_walks_are_front_to_back(
+        dims in dims_strategy(), d in dir_strategy(), sp in spacing_strategy(),
+        eye in eye_strategy(), persp in any::<bool>()
+    ) {
+        let view = if persp {
+            OrderView::Perspective { eye, spacing: sp }
+        } else {
+            OrderView::orthographic(d, sp)
+        };
+        let mut scratch = sort::SortScratch::default();
+        for order in Order::ALL {
+            let b2f = collect(order, dims, &view);
+            let mut listed = Vec::new();
+            collect_kept(order, dims, &view, &|_| true, &|i| Some(i), &mut scratch, &mut listed);
+            let f2b: Vec<u64> = listed.iter().rev().map(|x| x.0).collect();
+            let mut want = b2f.clone();
+            want.reverse();
+            prop_assert_eq!(&f2b, &want, "{}", order);
+            let nearer_first = |v: [u64; 3], a: usize| -> Option<bool> {
+                match view {
+                    OrderView::Orthographic { w } => {
+                        if w[a] > 0.0 { Some(false) } else if w[a] < 0.0 { Some(true) } else { None }
+                    }
+                    OrderView::Perspective { eye, .. } => Some(eye[a] >= v[a] as f64 + 0.5),
+                }
+            };
+            // check_faces(order, farther): "farther neighbours first"; front
+            // to back is the same check with near and far swapped.
+            check_faces(&f2b, dims, nearer_first)
+                .map_err(|e| TestCaseError::fail(format!("{order} front to back: {e}")))?;
+        }
+    }
+
     #[test]
     fn perspective_orders_are_back_to_front(
         dims in dims_strategy(), eye in eye_strategy(), sp in spacing_strategy()
