@@ -35,6 +35,7 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             dlb,
             data: DataMode::Partitioned,
             policy: NodePolicy::default(),
+            manager_shards: None,
             clock: ClockKind::Virtual,
             record_trace: true,
         },

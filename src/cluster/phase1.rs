@@ -5,11 +5,12 @@
 
 use std::time::Instant;
 
-use crate::manager::{ManagerActor, ManagerConfig};
+use crate::manager::{ManagerActor, ManagerConfig, ShardActor};
 use crate::net::{
     run_threads, Action, Actor, ChannelNetwork, Codec, ComputeMode, Event, NetworkModel,
     SimOptions, SimTrace, Simulation, TrafficStats, WallOptions,
 };
+use crate::node::shard_map::ShardMap;
 use crate::node::{
     CostProfile, DataMode, NodeActor, NodeConfig, NodeOptions, NodePolicy, NodeRenderer, Placement,
     Replica, WorkUnit,
@@ -49,6 +50,11 @@ pub struct Phase1Config {
     pub data: DataMode,
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
+    /// Manager shards `K` for per-pixel sharing (`--manager-shards`):
+    /// `None`, the default for the node count
+    /// ([`ShardMap::default_count`]: 1 up to 16 nodes). Only per-pixel
+    /// sharing is sharded; other modes run one manager.
+    pub manager_shards: Option<usize>,
     /// Clock.
     pub clock: ClockKind,
     /// Record the timeline.
@@ -77,6 +83,7 @@ pub struct Phase1 {
 enum Rank<'a> {
     Node(&'a mut NodeActor),
     Manager(&'a mut ManagerActor),
+    Shard(&'a mut ShardActor),
 }
 
 impl Actor for Rank<'_> {
@@ -84,6 +91,7 @@ impl Actor for Rank<'_> {
         match self {
             Rank::Node(a) => a.handle(now, event),
             Rank::Manager(a) => a.handle(now, event),
+            Rank::Shard(a) => a.handle(now, event),
         }
     }
 }
@@ -184,6 +192,28 @@ pub fn depth_range(input: &RenderInput) -> [f32; 2] {
     [(lo - pad) as f32, (hi + pad) as f32]
 }
 
+/// The manager shards of a run: `cfg.manager_shards` (or the default for
+/// the node count) over the screen when the nodes share per-pixel levels;
+/// one shard (the manager) otherwise. Errors if the count given is out of
+/// range (`K < 1` or more than the screen's tiles), or if it asks for more
+/// than one shard of a run without per-pixel sharing.
+pub fn shard_map(
+    cfg: &Phase1Config,
+    pixels: Option<(u32, u32, usize)>,
+) -> anyhow::Result<ShardMap> {
+    match (pixels, cfg.manager_shards) {
+        (Some((w, h, _)), k) => {
+            let k = k.unwrap_or_else(|| ShardMap::default_count(cfg.nodes, ShardMap::tiles(w, h)));
+            ShardMap::new(w, h, k).map_err(|e| anyhow::anyhow!(e))
+        }
+        (None, Some(k)) if k != 1 => anyhow::bail!(
+            "--manager-shards {k}: only per-pixel sharing (--share with the pyramid \
+             structure, not --paper or --ert-structure flat) is sharded"
+        ),
+        (None, _) => Ok(ShardMap::single()),
+    }
+}
+
 /// Runs phase 1 over `nodes` (from [`build_nodes`]).
 pub fn run(
     mut nodes: Vec<NodeActor>,
@@ -226,17 +256,33 @@ pub fn run(
         .iter()
         .map(|a| a.renderer().remaining() as u64)
         .collect();
+    let map = shard_map(cfg, mcfg.pixels)?;
     let mut manager = ManagerActor::new(mcfg, initial, *profile, codec);
+    manager.set_shards(map);
+    for a in nodes.iter_mut() {
+        a.set_manager_shards(map);
+    }
+    let mut shards: Vec<ShardActor> = match mcfg.pixels {
+        Some(shape) => (1..map.count())
+            .map(|s| ShardActor::new(s, map, n, shape, *profile, codec))
+            .collect(),
+        None => Vec::new(),
+    };
     let t0 = Instant::now();
     let (stopped_at, trace, traffic) = {
         let mut ranks: Vec<Rank> = nodes.iter_mut().map(Rank::Node).collect();
         ranks.push(Rank::Manager(&mut manager));
+        ranks.extend(shards.iter_mut().map(Rank::Shard));
         drive(ranks, cfg.clock, model, cfg.record_trace, "phase 1")?
     };
     let host_s = t0.elapsed().as_secs_f64();
     if let Some(e) = &manager.stats().error {
         anyhow::bail!("phase 1 failed at the manager: {e}");
     }
+    if let Some(e) = shards.iter().find_map(|s| s.stats().error.as_ref()) {
+        anyhow::bail!("phase 1 failed at {e}");
+    }
+    manager.record_shards(shards.iter().map(|s| s.stats()));
     if let Some((k, e)) = nodes
         .iter()
         .enumerate()
