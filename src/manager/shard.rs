@@ -187,3 +187,103 @@ impl Actor for ShardActor {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::node::pixel_share::NOT_REACHED;
+    use proptest::prelude::*;
+
+    fn share(p: &[(u32, Vec<u16>)]) -> Vec<u8> {
+        PixelLevels {
+            width: 40,
+            height: 36,
+            levels: 2,
+            footprint: [0, 39, 0, 35],
+            pixels: p.to_vec(),
+        }
+        .encode()
+    }
+
+    proptest! {
+        /// Splitting every share by shard and serving the parts at `K`
+        /// shards gives every pixel the certified depth one manager gives
+        /// it, and every node receives, over its replies from all shards,
+        /// exactly the final depths of the pixels that changed.
+        #[test]
+        fn shards_certify_what_one_manager_certifies(
+            k in 1usize..6,
+            shares in proptest::collection::vec(
+                (0usize..3, proptest::collection::btree_map(0u32..1440, proptest::collection::vec(0u16..60, 2), 0..30)),
+                1..20,
+            ),
+        ) {
+            let map = ShardMap::new(40, 36, k).unwrap();
+            let mut one = PixelStore::new(40, 36, 2, 3);
+            let mut parts: Vec<PixelStore> = (0..k).map(|_| PixelStore::new(40, 36, 2, 3)).collect();
+            let mut seen = vec![vec![NOT_REACHED; 1440]; 3];
+            for (j, px) in shares {
+                let px: Vec<(u32, Vec<u16>)> = px.into_iter().map(|(p, mut c)| { c.sort_unstable(); (p, c) }).collect();
+                serve_pixel_share(&mut one, &ShardMap::single(), 0, j, &share(&px)).unwrap();
+                for (s, store) in parts.iter_mut().enumerate() {
+                    let mine: Vec<_> = px.iter().filter(|(p, _)| map.shard_of_pixel(*p, 40) == s).cloned().collect();
+                    let (r, _) = serve_pixel_share(store, &map, s, j, &share(&mine)).unwrap();
+                    for (p, c) in r.pixels {
+                        prop_assert_eq!(map.shard_of_pixel(p, 40), s);
+                        prop_assert!(c < seen[j][p as usize]);
+                        seen[j][p as usize] = c;
+                    }
+                }
+            }
+            for p in 0..1440u32 {
+                let s = map.shard_of_pixel(p, 40);
+                prop_assert_eq!(parts[s].certified()[p as usize], one.certified()[p as usize]);
+            }
+        }
+    }
+
+    #[test]
+    fn a_pixel_of_another_shard_is_an_error() {
+        let map = ShardMap::new(40, 36, 4).unwrap();
+        let mut store = PixelStore::new(40, 36, 2, 3);
+        // Pixel (20, 0) is in tile (1, 0): shard 1.
+        assert_eq!(map.shard_of_pixel(20, 40), 1);
+        let e = serve_pixel_share(&mut store, &map, 0, 2, &share(&[(20, vec![3, 4])])).unwrap_err();
+        assert!(e.contains("belongs to manager shard 1, not 0"), "{e}");
+        assert!(serve_pixel_share(&mut store, &map, 1, 2, &share(&[(20, vec![3, 4])])).is_ok());
+        assert!(serve_pixel_share(&mut store, &map, 1, 2, &[1, 2, 3]).is_err());
+    }
+
+    /// A shard stops on the manager's Finish and reports a bad message to
+    /// the manager with Abort instead of panicking.
+    #[test]
+    fn shard_actor_aborts_on_bad_messages_and_stops_on_finish() {
+        let codec = Codec::default();
+        let map = ShardMap::new(40, 36, 2).unwrap();
+        let profile = CostProfile::named("pentium4").unwrap();
+        let mut a = ShardActor::new(1, map, 3, (40, 36, 2), profile, codec);
+        let env = |from: usize, kind: MessageKind, payload: Vec<u8>| {
+            Event::Message(Envelope {
+                from: NodeId::from(from),
+                to: NodeId::from(4),
+                kind,
+                payload,
+            })
+        };
+        let share_bytes = codec
+            .encode(&ErtShare {
+                remaining: 0,
+                front: 0.0,
+                help: false,
+                table: vec![9, 9],
+            })
+            .unwrap();
+        let out = a.handle(0.0, env(0, MessageKind::ErtShare, share_bytes));
+        assert!(a.stats().error.is_some());
+        assert!(matches!(out.as_slice(), [Action::Send { to, .. }] if to.index() == 3));
+        let fin = codec.encode(&Control::Finish).unwrap();
+        let out = a.handle(0.0, env(3, MessageKind::Control, fin));
+        assert!(matches!(out.as_slice(), [Action::Stop]));
+        assert!(a.handle(0.0, env(0, MessageKind::ErtShare, vec![])).is_empty());
+    }
+}
