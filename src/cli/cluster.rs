@@ -270,6 +270,15 @@ impl Validate for ClusterArgs {
             ert_how,
         )?;
         needs(
+            "--schedule-waves",
+            self.ert_mode.schedule_waves > 1,
+            ert.is_on()
+                && mode == Sharing::Manager
+                && !self.ert_mode.paper
+                && self.data != Some(DataMode::Partitioned),
+            "replicated data (the default; not --paper or --data partitioned) and sharing through the manager: add --share and --ert < 1",
+        )?;
+        needs(
             "--manager-shards",
             self.ert_mode.manager_shards.is_some(),
             ert.is_on() && mode == Sharing::Manager,
@@ -355,6 +364,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 release_lag: a.ert_mode.release_lag,
             },
             manager_shards: a.ert_mode.manager_shards,
+            schedule_waves: a.ert_mode.schedule_waves,
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },

@@ -51,6 +51,15 @@ pub struct ClusterErtArgs {
     /// (16 at 256 nodes). Must lie between 1 and the number of tiles.
     #[arg(long, value_name = "K")]
     pub manager_shards: Option<usize>,
+    /// Global front-to-back schedule (replicated data, with --share): all
+    /// cells, by depth, are cut into W waves and every wave is dealt evenly
+    /// over the nodes (owners keep a screen strip, the rest goes to the
+    /// nodes holding less), so a back node scans the front nodes' nearest
+    /// cells first and its own back cells last (src/node/schedule.rs); the
+    /// ids moved and the records built are charged at the start. 0 or 1:
+    /// off (each node scans its part; the default).
+    #[arg(long, value_name = "W", default_value_t = 0)]
+    pub schedule_waves: usize,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
     /// front-first help, no release ordering. Overrides --ert-structure,

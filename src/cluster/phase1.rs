@@ -50,6 +50,10 @@ pub struct Phase1Config {
     pub data: DataMode,
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
+    /// Global front-to-back schedule ([`crate::node::schedule`], with
+    /// replicated data and sharing): depth waves dealt evenly over the
+    /// nodes; 0 or 1: off (each node scans its part).
+    pub schedule_waves: usize,
     /// Manager shards `K` for per-pixel sharing (`--manager-shards`):
     /// `None`, the default for the node count
     /// ([`ShardMap::default_count`]: 1 up to 16 nodes). Only per-pixel
@@ -118,8 +122,10 @@ pub fn build_nodes(
     };
     let replica = (cfg.data == DataMode::Replicated)
         .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
-    placement
-        .parts
+    let waves = (cfg.schedule_waves > 1 && cfg.share && replica.is_some())
+        .then(|| wave_schedule(input, placement, cfg.schedule_waves));
+    let parts = waves.as_ref().map_or(&placement.parts, |w| &w.parts);
+    parts
         .iter()
         .enumerate()
         .map(|(k, part)| {
@@ -142,6 +148,9 @@ pub fn build_nodes(
                 policy: cfg.policy,
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
+            if let Some(w) = &waves {
+                a.set_planned_moves(w.given[k], w.received[k]);
+            }
             if overlap {
                 a.set_peers(
                     (0..n)
@@ -152,6 +161,25 @@ pub fn build_nodes(
             Ok(a)
         })
         .collect()
+}
+
+/// The global front-to-back schedule of [`crate::node::schedule`] over
+/// `placement`: depth key the centroid's camera `z`, screen position its
+/// pixel.
+fn wave_schedule(
+    input: &RenderInput,
+    placement: &Placement,
+    waves: usize,
+) -> crate::node::schedule::WaveSchedule {
+    let view = input.scene.view();
+    let c = crate::node::placement::centroids(&input.mesh);
+    let cam: Vec<[f64; 3]> = c.iter().map(|&p| view.to_camera(p)).collect();
+    let depth: Vec<f64> = cam.iter().map(|q| q[2]).collect();
+    let screen: Vec<[f64; 2]> = cam
+        .iter()
+        .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
+        .collect();
+    crate::node::schedule::global_waves(&placement.parts, &depth, &screen, waves)
 }
 
 /// Depth codes for per-pixel sharing over the frame's depth range: the

@@ -153,6 +153,9 @@ pub struct NodeActor {
     release_pending: bool,
     /// The unprocessed count the manager last heard from this node.
     reported: u64,
+    /// Global schedule ([`crate::node::schedule`]): cells this node gave
+    /// and received when the frame's waves were dealt (charged at Start).
+    planned: (u64, u64),
     stats: NodeStats,
 }
 
@@ -184,6 +187,7 @@ impl NodeActor {
             help_pending: false,
             release_pending: false,
             reported: u64::MAX,
+            planned: (0, 0),
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -207,6 +211,17 @@ impl NodeActor {
     pub fn set_manager_shards(&mut self, map: ShardMap) {
         self.renderer.set_manager_shards(map);
         self.in_flight = vec![0; map.count()];
+    }
+
+    /// Global schedule ([`crate::node::schedule`]): the node gave `given`
+    /// and received `received` cells (as ids) when the waves were dealt;
+    /// at Start it is charged writing the given ids, reading the received
+    /// ones and building their records from its copy of the mesh, before
+    /// it scans.
+    pub fn set_planned_moves(&mut self, given: u64, received: u64) {
+        self.planned = (given, received);
+        self.stats.cells_given += given;
+        self.stats.cells_taken += received;
     }
 
     /// The ranks this node shares its table with directly (overlap sharing).
@@ -592,11 +607,24 @@ impl Actor for NodeActor {
         }
         match event {
             Event::Start => {
-                let s = if self.cfg.share {
-                    self.send_release(&mut out)
-                } else {
-                    0.0
-                };
+                let (given, received) = self.planned;
+                let mut s = 0.0;
+                if given + received > 0 {
+                    let ops = OpCounts {
+                        cell_ids_moved: given + received,
+                        cells_received: received,
+                        ..Default::default()
+                    };
+                    s = self.secs(&ops);
+                    self.stats.steal_s += s;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Steal,
+                    });
+                }
+                if self.cfg.share {
+                    s += self.send_release(&mut out);
+                }
                 self.scan(now + s, &mut out)
             }
             Event::Wake(SCAN) => {

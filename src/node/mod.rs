@@ -17,6 +17,8 @@
 //! - [`levels`] and [`pixel_share`]: ERT information that composes across
 //!   nodes (opacity levels per block, or per pixel for the pyramid);
 //!   [`shard_map`]: which manager shard owns which screen tile.
+//! - [`schedule`]: a global front-to-back schedule over the placement
+//!   (replicated data: waves of depth, each split evenly over the nodes).
 //! - [`actor`]: the [`NodeActor`], phase 1 of a cluster node as a
 //!   [`crate::net::Actor`] (scan in chunks, weak ERT sharing, DLB).
 //! - [`cost`]: the compute-time cost model, operation counts → seconds.
@@ -38,6 +40,7 @@ pub mod placement;
 pub mod release;
 pub mod renderer;
 pub mod replica;
+pub mod schedule;
 pub mod shard_map;
 pub mod table;
 pub mod union;
