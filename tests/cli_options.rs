@@ -63,6 +63,18 @@ fn item1_silent_no_ops_and_clamps_are_errors_or_warnings() {
             vec!["--ert", "0.9", "--share", "--paper", "--manager-shards", "2"],
             "--manager-shards 2 with --paper",
         ),
+        (
+            vec![
+                "--ert",
+                "0.9",
+                "--share",
+                "--data",
+                "partitioned",
+                "--schedule-waves",
+                "4",
+            ],
+            "--schedule-waves needs replicated data",
+        ),
     ] {
         let mut a = vec!["cluster", s.as_str()];
         a.extend(args);

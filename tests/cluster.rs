@@ -825,3 +825,38 @@ fn sharded_manager_within_bound_and_deterministic() {
     let e = cluster::run(&input, &flat).unwrap_err();
     assert!(format!("{e:#}").contains("per-pixel sharing"), "{e:#}");
 }
+
+/// The global front-to-back schedule (`--schedule-waves`, replicated data):
+/// image within the ERT bound, deterministic, no cell lost or doubled, the
+/// planned moves counted as cells moved, and with one wave nothing moves.
+#[test]
+fn global_schedule_within_bound_and_deterministic() {
+    let input = small("b");
+    let (full, bound) = full_image_and_bound(&input);
+    for (n, waves) in [(3, 4), (8, 4), (8, 1)] {
+        let mut cfg = default_mode(n, None);
+        cfg.phase1.schedule_waves = waves;
+        let out = cluster::run(&input, &cfg).unwrap();
+        let r = &out.report;
+        let d = max_diff(&out.image, &full);
+        eprintln!(
+            "N {n} W {waves}: {d:.4} (bound {bound:.4}), skipped {}, moved {}",
+            r.cells_skipped_ert, r.cells_moved
+        );
+        assert!(d <= bound + 1e-5, "N {n} W {waves}: {d} > {bound}");
+        let processed: u64 = r.nodes.iter().map(|x| x.cells_processed).sum();
+        let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
+        assert_eq!(processed + culled, r.cells_total, "no cell lost");
+        let plain = cluster::run(&input, &default_mode(n, None)).unwrap();
+        if waves > 1 {
+            assert!(r.cells_moved > plain.report.cells_moved, "N {n}");
+        } else {
+            assert_eq!(bits(&out.image), bits(&plain.image));
+            assert_eq!(r.frame_s, plain.report.frame_s);
+        }
+        let again = cluster::run(&input, &cfg).unwrap();
+        assert_eq!(bits(&out.image), bits(&again.image));
+        assert_eq!(r.frame_s, again.report.frame_s);
+        assert_eq!(r.cells_skipped_ert, again.report.cells_skipped_ert);
+    }
+}
