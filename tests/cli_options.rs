@@ -60,7 +60,14 @@ fn item1_silent_no_ops_and_clamps_are_errors_or_warnings() {
             "--manager-shards must be between 1 and the number of 16x16 screen tiles",
         ),
         (
-            vec!["--ert", "0.9", "--share", "--paper", "--manager-shards", "2"],
+            vec![
+                "--ert",
+                "0.9",
+                "--share",
+                "--paper",
+                "--manager-shards",
+                "2",
+            ],
             "--manager-shards 2 with --paper",
         ),
         (

@@ -801,7 +801,10 @@ fn sharded_manager_within_bound_and_deterministic() {
             let k = shards.unwrap_or(2);
             assert_eq!(r.manager_shards, k);
             assert_eq!(r.manager.shard_busy_s.len(), k);
-            assert!(r.manager.shard_shares.iter().all(|&s| s > 0), "view {view} N {n}");
+            assert!(
+                r.manager.shard_shares.iter().all(|&s| s > 0),
+                "view {view} N {n}"
+            );
             assert!(r.manager.shard_busy_s.iter().all(|&s| s > 0.0));
             assert!(r.shard_busy_max_s >= r.manager_busy_s);
             let processed: u64 = r.nodes.iter().map(|x| x.cells_processed).sum();

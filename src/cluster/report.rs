@@ -388,9 +388,7 @@ fn t_share(trace: &SimTrace, n: usize, shards: usize) -> TShare {
         }
         match (e.kind, e.message) {
             (TraceKind::Send, Some(MessageKind::ErtShare)) => sends[k * shards + s].push(e.start),
-            (TraceKind::Recv, Some(MessageKind::ErtReply)) => {
-                replies[k * shards + s].push(e.end)
-            }
+            (TraceKind::Recv, Some(MessageKind::ErtReply)) => replies[k * shards + s].push(e.end),
             _ => {}
         }
     }

@@ -27,8 +27,8 @@ use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, N
 use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
 use crate::node::pixel_share::PixelStore;
-use crate::node::shard_map::ShardMap;
 use crate::node::release::{ReleaseShare, ReleaseStore};
+use crate::node::shard_map::ShardMap;
 use crate::node::{CostProfile, SharedTable};
 
 /// Fewest initial cells per node (mean) for front-first help: with thinner

@@ -17,5 +17,5 @@ pub mod protocol;
 pub mod shard;
 
 pub use actor::{ManagerActor, ManagerConfig, ManagerStats};
-pub use shard::{ShardActor, ShardStats};
 pub use protocol::{Control, ErtReply, ErtShare, WorkForward, WorkGrant, WorkRequest};
+pub use shard::{ShardActor, ShardStats};

@@ -151,7 +151,10 @@ impl ShardActor {
                 Ok(())
             }
             MessageKind::Control if j == self.nodes => {
-                match env.decode::<Control>(&self.codec).map_err(|e| e.to_string())? {
+                match env
+                    .decode::<Control>(&self.codec)
+                    .map_err(|e| e.to_string())?
+                {
                     Control::Finish => {
                         self.stopped = true;
                         out.push(Action::Stop);
@@ -284,6 +287,8 @@ mod tests {
         let fin = codec.encode(&Control::Finish).unwrap();
         let out = a.handle(0.0, env(3, MessageKind::Control, fin));
         assert!(matches!(out.as_slice(), [Action::Stop]));
-        assert!(a.handle(0.0, env(0, MessageKind::ErtShare, vec![])).is_empty());
+        assert!(a
+            .handle(0.0, env(0, MessageKind::ErtShare, vec![]))
+            .is_empty());
     }
 }

@@ -172,7 +172,10 @@ mod tests {
         let parts = vec![vec![0, 1, 2, 3], vec![4, 5, 6, 7]];
         let s = global_waves(&parts, &depth, &screen, 2);
         assert_eq!(s.parts, vec![vec![0, 1, 6, 7], vec![2, 3, 4, 5]]);
-        assert_eq!((s.given.clone(), s.received.clone()), (vec![2, 2], vec![2, 2]));
+        assert_eq!(
+            (s.given.clone(), s.received.clone()),
+            (vec![2, 2], vec![2, 2])
+        );
         assert_eq!(global_waves(&parts, &depth, &screen, 1).parts, parts);
     }
 }
