@@ -50,6 +50,38 @@ fn item1_silent_no_ops_and_clamps_are_errors_or_warnings() {
             "level sharing) needs sharing through the manager",
         ),
         (vec!["--ert-update", "0"], "--ert-update 0"),
+        (vec!["--manager-shards", "2"], "--manager-shards needs"),
+        (
+            vec!["--ert", "0.9", "--share", "--manager-shards", "0"],
+            "--manager-shards 0: must be at least 1",
+        ),
+        (
+            vec!["--ert", "0.9", "--share", "--manager-shards", "100000"],
+            "--manager-shards must be between 1 and the number of 16x16 screen tiles",
+        ),
+        (
+            vec![
+                "--ert",
+                "0.9",
+                "--share",
+                "--paper",
+                "--manager-shards",
+                "2",
+            ],
+            "--manager-shards 2 with --paper",
+        ),
+        (
+            vec![
+                "--ert",
+                "0.9",
+                "--share",
+                "--data",
+                "partitioned",
+                "--schedule-waves",
+                "4",
+            ],
+            "--schedule-waves needs replicated data",
+        ),
     ] {
         let mut a = vec!["cluster", s.as_str()];
         a.extend(args);

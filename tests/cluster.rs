@@ -35,6 +35,8 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             dlb,
             data: DataMode::Partitioned,
             policy: NodePolicy::default(),
+            manager_shards: None,
+            schedule_waves: 0,
             clock: ClockKind::Virtual,
             record_trace: true,
         },
@@ -700,4 +702,164 @@ fn release_ordering_within_bound_and_deterministic() {
     assert!(r.flat_table(), "no sharing: the flat table is kept");
     r.enable_pixel_sharing(pvrsim::node::pixel_share::DepthQuant::new(0.0, 1.0));
     assert!(!r.flat_table(), "per-pixel sharing: the pyramid only");
+}
+
+/// The default mode as `pvrsim cluster --ert 0.9 --share --dlb` runs it
+/// (replicated data, pyramid, 4 per-pixel levels, help 0.3 / 0.33), on
+/// `n` nodes with `shards` manager shards.
+fn default_mode(n: usize, shards: Option<usize>) -> ClusterConfig {
+    use pvrsim::render::cell::ert::ErtStructure;
+    let ert = NodeErt {
+        structure: ErtStructure::Pyramid,
+        share_levels: 4,
+        ..NodeErt::PAPER
+    };
+    let mut cfg = config(n, ert, true, true, "binary-swap");
+    cfg.phase1.data = DataMode::Replicated;
+    cfg.phase1.policy.help_gap = 0.3;
+    cfg.phase1.policy.help_fraction = 0.33;
+    cfg.phase1.manager_shards = shards;
+    cfg.phase1.record_trace = false;
+    cfg
+}
+
+/// FNV-1a over the f32 bit patterns of every pixel (as
+/// `examples/image_digest.rs`).
+fn digest(img: &Image) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bits(img).iter().flat_map(|c| c.to_le_bytes()) {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// One manager shard is the unsharded protocol: on aorta-small view B the
+/// run with `--manager-shards 1` gives the image (bit for bit), the skip
+/// count, the times and the bytes measured before sharding existed
+/// (commit 1189a21, this function's configuration), at 8 nodes (where 1 is
+/// also the default) and at 32.
+#[test]
+fn one_manager_shard_is_the_unsharded_protocol() {
+    let input = small("b");
+    // (nodes, skipped, tsc_max_s, frame_s, bytes, image digest) at 1189a21.
+    let before = [
+        (
+            8,
+            4676,
+            0.7527758480514384,
+            0.8626453716585478,
+            949_916,
+            0x46882fd2d27c266,
+        ),
+        (
+            32,
+            2986,
+            0.2029645965742239,
+            0.31209660314498205,
+            1_966_966,
+            0xaad2454e2324041,
+        ),
+    ];
+    for (n, skipped, tsc, frame, bytes, dig) in before {
+        for shards in [Some(1), None] {
+            if n > 16 && shards.is_none() {
+                continue; // the default is sharded there
+            }
+            let out = cluster::run(&input, &default_mode(n, shards)).unwrap();
+            let r = &out.report;
+            assert_eq!(r.manager_shards, 1);
+            assert_eq!(r.cells_skipped_ert, skipped, "N {n}");
+            assert_eq!(r.tsc_max_s, tsc, "N {n}");
+            assert_eq!(r.frame_s, frame, "N {n}");
+            assert_eq!(r.bytes_total, bytes, "N {n}");
+            assert_eq!(digest(&out.image), dig, "N {n}");
+        }
+    }
+}
+
+/// A sharded manager (K = 4, and the default at 32 nodes, K = 2): image
+/// within the ERT bound of the sequential ERT-off image on both small
+/// views, deterministic (image, times, skips, bytes), no cell lost, every
+/// shard served shares and its busy time is reported; out-of-range counts
+/// and sharding a mode without per-pixel sharing are errors.
+#[test]
+fn sharded_manager_within_bound_and_deterministic() {
+    for view in ["a", "b"] {
+        let input = small(view);
+        let (full, bound) = full_image_and_bound(&input);
+        for (n, shards) in [(8, Some(4)), (32, None), (3, Some(4))] {
+            let cfg = default_mode(n, shards);
+            let out = cluster::run(&input, &cfg).unwrap();
+            let r = &out.report;
+            let d = max_diff(&out.image, &full);
+            eprintln!(
+                "view {view} N {n} K {}: {d:.4} (bound {bound:.4}), skipped {}, shard busy {:?}, shares {:?}",
+                r.manager_shards, r.cells_skipped_ert, r.manager.shard_busy_s, r.manager.shard_shares
+            );
+            assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
+            let k = shards.unwrap_or(2);
+            assert_eq!(r.manager_shards, k);
+            assert_eq!(r.manager.shard_busy_s.len(), k);
+            assert!(
+                r.manager.shard_shares.iter().all(|&s| s > 0),
+                "view {view} N {n}"
+            );
+            assert!(r.manager.shard_busy_s.iter().all(|&s| s > 0.0));
+            assert!(r.shard_busy_max_s >= r.manager_busy_s);
+            let processed: u64 = r.nodes.iter().map(|x| x.cells_processed).sum();
+            let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
+            assert_eq!(processed + culled, r.cells_total, "no cell lost");
+            let again = cluster::run(&input, &cfg).unwrap();
+            assert_eq!(bits(&out.image), bits(&again.image));
+            assert_eq!(r.frame_s, again.report.frame_s);
+            assert_eq!(r.cells_skipped_ert, again.report.cells_skipped_ert);
+            assert_eq!(r.bytes_total, again.report.bytes_total);
+            assert_eq!(r.manager.shard_busy_s, again.report.manager.shard_busy_s);
+        }
+    }
+    let input = small("b");
+    for k in [0, 100_000] {
+        let e = cluster::run(&input, &default_mode(8, Some(k))).unwrap_err();
+        assert!(format!("{e:#}").contains("--manager-shards"), "{e:#}");
+    }
+    let mut flat = default_mode(8, Some(2));
+    flat.phase1.node.ert = NodeErt::PAPER;
+    let e = cluster::run(&input, &flat).unwrap_err();
+    assert!(format!("{e:#}").contains("per-pixel sharing"), "{e:#}");
+}
+
+/// The global front-to-back schedule (`--schedule-waves`, replicated data):
+/// image within the ERT bound, deterministic, no cell lost or doubled, the
+/// planned moves counted as cells moved, and with one wave nothing moves.
+#[test]
+fn global_schedule_within_bound_and_deterministic() {
+    let input = small("b");
+    let (full, bound) = full_image_and_bound(&input);
+    for (n, waves) in [(3, 4), (8, 4), (8, 1)] {
+        let mut cfg = default_mode(n, None);
+        cfg.phase1.schedule_waves = waves;
+        let out = cluster::run(&input, &cfg).unwrap();
+        let r = &out.report;
+        let d = max_diff(&out.image, &full);
+        eprintln!(
+            "N {n} W {waves}: {d:.4} (bound {bound:.4}), skipped {}, moved {}",
+            r.cells_skipped_ert, r.cells_moved
+        );
+        assert!(d <= bound + 1e-5, "N {n} W {waves}: {d} > {bound}");
+        let processed: u64 = r.nodes.iter().map(|x| x.cells_processed).sum();
+        let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
+        assert_eq!(processed + culled, r.cells_total, "no cell lost");
+        let plain = cluster::run(&input, &default_mode(n, None)).unwrap();
+        if waves > 1 {
+            assert!(r.cells_moved > plain.report.cells_moved, "N {n}");
+        } else {
+            assert_eq!(bits(&out.image), bits(&plain.image));
+            assert_eq!(r.frame_s, plain.report.frame_s);
+        }
+        let again = cluster::run(&input, &cfg).unwrap();
+        assert_eq!(bits(&out.image), bits(&again.image));
+        assert_eq!(r.frame_s, again.report.frame_s);
+        assert_eq!(r.cells_skipped_ert, again.report.cells_skipped_ert);
+    }
 }

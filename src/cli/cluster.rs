@@ -269,6 +269,21 @@ impl Validate for ClusterArgs {
             ert.is_on(),
             ert_how,
         )?;
+        needs(
+            "--schedule-waves",
+            self.ert_mode.schedule_waves > 1,
+            ert.is_on()
+                && mode == Sharing::Manager
+                && !self.ert_mode.paper
+                && self.data != Some(DataMode::Partitioned),
+            "replicated data (the default; not --paper or --data partitioned) and sharing through the manager: add --share and --ert < 1",
+        )?;
+        needs(
+            "--manager-shards",
+            self.ert_mode.manager_shards.is_some(),
+            ert.is_on() && mode == Sharing::Manager,
+            "per-pixel sharing through the manager: add --share (or --sharing manager) and --ert < 1",
+        )?;
         let levels = self.share_levels.is_some_and(|l| l > 1) || self.share_sub > 1;
         needs(
             "--share-levels/--share-sub (level sharing)",
@@ -348,6 +363,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 release_block: mode.release_block,
                 release_lag: a.ert_mode.release_lag,
             },
+            manager_shards: a.ert_mode.manager_shards,
+            schedule_waves: a.ert_mode.schedule_waves,
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },
@@ -381,6 +398,11 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
     match a.net.apply(&mut cfg)? {
         None => cluster::run(&input, &cfg),
         Some(kind) => {
+            anyhow::ensure!(
+                a.ert_mode.manager_shards.is_none_or(|k| k == 1),
+                "--manager-shards runs on the simulated cluster (or --transport threads) only: \
+                 remote workers talk to one manager"
+            );
             if cfg.phase1.data == DataMode::Replicated {
                 anyhow::ensure!(
                     a.data.is_none(),

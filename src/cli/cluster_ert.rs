@@ -42,6 +42,24 @@ pub struct ClusterErtArgs {
     /// cell waits after the nodes in front start covering its blocks.
     #[arg(long, value_name = "FRACTION", default_value_t = 0.1)]
     pub release_lag: f32,
+    /// Manager shards K for per-pixel sharing (with --share, the pyramid
+    /// structure): the screen's 16 x 16 tiles are dealt to K shards in a
+    /// lattice; shard 0 is the manager (load balancing, end of phase 1),
+    /// shards 1..K run on their own PCs; each node sends each shard the
+    /// changed pixels of its tiles and gets back its deltas
+    /// (src/manager/shard.rs). Default: 1 up to 16 nodes, then ceil(N/16)
+    /// (16 at 256 nodes). Must lie between 1 and the number of tiles.
+    #[arg(long, value_name = "K")]
+    pub manager_shards: Option<usize>,
+    /// Global front-to-back schedule (replicated data, with --share): all
+    /// cells, by depth, are cut into W waves and every wave is dealt evenly
+    /// over the nodes (owners keep a screen strip, the rest goes to the
+    /// nodes holding less), so a back node scans the front nodes' nearest
+    /// cells first and its own back cells last (src/node/schedule.rs); the
+    /// ids moved and the records built are charged at the start. 0 or 1:
+    /// off (each node scans its part; the default).
+    #[arg(long, value_name = "W", default_value_t = 0)]
+    pub schedule_waves: usize,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
     /// front-first help, no release ordering. Overrides --ert-structure,
@@ -84,6 +102,17 @@ impl ClusterErtArgs {
             "--release-lag must be a fraction in [0, 1], got {}",
             self.release_lag
         );
+        if let Some(k) = self.manager_shards {
+            anyhow::ensure!(
+                k >= 1,
+                "--manager-shards {k}: must be at least 1 (1 = one manager, no sharding)"
+            );
+            anyhow::ensure!(
+                !(self.paper && k > 1),
+                "--manager-shards {k} with --paper: the paper's protocol has one manager \
+                 (only per-pixel sharing is sharded)"
+            );
+        }
         if self.paper {
             return Ok(ErtMode {
                 structure: ErtStructure::Flat,

@@ -71,7 +71,7 @@ pub enum Command {
     /// The splatting experiments of docs/experiments/splatting.md (generated data; the 256^3 grid needs ../shared/data).
     SplatExperiments(splat_experiments::ExperimentArgs),
     /// Render on a simulated PC cluster (N nodes + manager; threads, processes, TCP): meshes with ERT, sharing and DLB, grids as bricks with ordered compositing and RLE; image, report, timeline.
-    Cluster(cluster::ClusterArgs),
+    Cluster(Box<cluster::ClusterArgs>),
     /// Print a mesh's counts, bounds, fields and quality, or a grid's size, spacing, range and memory.
     Info(info::InfoArgs),
     /// Generate the built-in demo dataset, render it, write demo.png and a stats summary.
@@ -96,7 +96,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Splat(a) => splat::run(a),
         Command::SplatExperiments(a) => splat_experiments::run(a),
-        Command::Cluster(a) => cluster::run(a),
+        Command::Cluster(a) => cluster::run(*a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Generate(a) => generate::run(a),

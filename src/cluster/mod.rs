@@ -127,6 +127,8 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
             share: false,
             overlap: false,
             dlb: false,
+            manager_shards: None,
+            schedule_waves: 0,
             // Same kind of time as the run itself (see `sequential_reference`).
             clock: p1.clock,
             record_trace: false,

@@ -5,11 +5,12 @@
 
 use std::time::Instant;
 
-use crate::manager::{ManagerActor, ManagerConfig};
+use crate::manager::{ManagerActor, ManagerConfig, ShardActor};
 use crate::net::{
     run_threads, Action, Actor, ChannelNetwork, Codec, ComputeMode, Event, NetworkModel,
     SimOptions, SimTrace, Simulation, TrafficStats, WallOptions,
 };
+use crate::node::shard_map::ShardMap;
 use crate::node::{
     CostProfile, DataMode, NodeActor, NodeConfig, NodeOptions, NodePolicy, NodeRenderer, Placement,
     Replica, WorkUnit,
@@ -49,6 +50,15 @@ pub struct Phase1Config {
     pub data: DataMode,
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
+    /// Global front-to-back schedule ([`crate::node::schedule`], with
+    /// replicated data and sharing): depth waves dealt evenly over the
+    /// nodes; 0 or 1: off (each node scans its part).
+    pub schedule_waves: usize,
+    /// Manager shards `K` for per-pixel sharing (`--manager-shards`):
+    /// `None`, the default for the node count
+    /// ([`ShardMap::default_count`]: 1 up to 16 nodes). Only per-pixel
+    /// sharing is sharded; other modes run one manager.
+    pub manager_shards: Option<usize>,
     /// Clock.
     pub clock: ClockKind,
     /// Record the timeline.
@@ -77,6 +87,7 @@ pub struct Phase1 {
 enum Rank<'a> {
     Node(&'a mut NodeActor),
     Manager(&'a mut ManagerActor),
+    Shard(&'a mut ShardActor),
 }
 
 impl Actor for Rank<'_> {
@@ -84,6 +95,7 @@ impl Actor for Rank<'_> {
         match self {
             Rank::Node(a) => a.handle(now, event),
             Rank::Manager(a) => a.handle(now, event),
+            Rank::Shard(a) => a.handle(now, event),
         }
     }
 }
@@ -110,8 +122,10 @@ pub fn build_nodes(
     };
     let replica = (cfg.data == DataMode::Replicated)
         .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
-    placement
-        .parts
+    let waves = (cfg.schedule_waves > 1 && cfg.share && replica.is_some())
+        .then(|| wave_schedule(input, placement, cfg.schedule_waves));
+    let parts = waves.as_ref().map_or(&placement.parts, |w| &w.parts);
+    parts
         .iter()
         .enumerate()
         .map(|(k, part)| {
@@ -134,6 +148,9 @@ pub fn build_nodes(
                 policy: cfg.policy,
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
+            if let Some(w) = &waves {
+                a.set_planned_moves(w.given[k], w.received[k]);
+            }
             if overlap {
                 a.set_peers(
                     (0..n)
@@ -144,6 +161,25 @@ pub fn build_nodes(
             Ok(a)
         })
         .collect()
+}
+
+/// The global front-to-back schedule of [`crate::node::schedule`] over
+/// `placement`: depth key the centroid's camera `z`, screen position its
+/// pixel.
+fn wave_schedule(
+    input: &RenderInput,
+    placement: &Placement,
+    waves: usize,
+) -> crate::node::schedule::WaveSchedule {
+    let view = input.scene.view();
+    let c = crate::node::placement::centroids(&input.mesh);
+    let cam: Vec<[f64; 3]> = c.iter().map(|&p| view.to_camera(p)).collect();
+    let depth: Vec<f64> = cam.iter().map(|q| q[2]).collect();
+    let screen: Vec<[f64; 2]> = cam
+        .iter()
+        .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
+        .collect();
+    crate::node::schedule::global_waves(&placement.parts, &depth, &screen, waves)
 }
 
 /// Depth codes for per-pixel sharing over the frame's depth range: the
@@ -182,6 +218,28 @@ pub fn depth_range(input: &RenderInput) -> [f32; 2] {
     // f64 extremes.
     let pad = 1e-4 * (hi - lo).abs().max(1.0);
     [(lo - pad) as f32, (hi + pad) as f32]
+}
+
+/// The manager shards of a run: `cfg.manager_shards` (or the default for
+/// the node count) over the screen when the nodes share per-pixel levels;
+/// one shard (the manager) otherwise. Errors if the count given is out of
+/// range (`K < 1` or more than the screen's tiles), or if it asks for more
+/// than one shard of a run without per-pixel sharing.
+pub fn shard_map(
+    cfg: &Phase1Config,
+    pixels: Option<(u32, u32, usize)>,
+) -> anyhow::Result<ShardMap> {
+    match (pixels, cfg.manager_shards) {
+        (Some((w, h, _)), k) => {
+            let k = k.unwrap_or_else(|| ShardMap::default_count(cfg.nodes, ShardMap::tiles(w, h)));
+            ShardMap::new(w, h, k).map_err(|e| anyhow::anyhow!(e))
+        }
+        (None, Some(k)) if k != 1 => anyhow::bail!(
+            "--manager-shards {k}: only per-pixel sharing (--share with the pyramid \
+             structure, not --paper or --ert-structure flat) is sharded"
+        ),
+        (None, _) => Ok(ShardMap::single()),
+    }
 }
 
 /// Runs phase 1 over `nodes` (from [`build_nodes`]).
@@ -226,17 +284,33 @@ pub fn run(
         .iter()
         .map(|a| a.renderer().remaining() as u64)
         .collect();
+    let map = shard_map(cfg, mcfg.pixels)?;
     let mut manager = ManagerActor::new(mcfg, initial, *profile, codec);
+    manager.set_shards(map);
+    for a in nodes.iter_mut() {
+        a.set_manager_shards(map);
+    }
+    let mut shards: Vec<ShardActor> = match mcfg.pixels {
+        Some(shape) => (1..map.count())
+            .map(|s| ShardActor::new(s, map, n, shape, *profile, codec))
+            .collect(),
+        None => Vec::new(),
+    };
     let t0 = Instant::now();
     let (stopped_at, trace, traffic) = {
         let mut ranks: Vec<Rank> = nodes.iter_mut().map(Rank::Node).collect();
         ranks.push(Rank::Manager(&mut manager));
+        ranks.extend(shards.iter_mut().map(Rank::Shard));
         drive(ranks, cfg.clock, model, cfg.record_trace, "phase 1")?
     };
     let host_s = t0.elapsed().as_secs_f64();
     if let Some(e) = &manager.stats().error {
         anyhow::bail!("phase 1 failed at the manager: {e}");
     }
+    if let Some(e) = shards.iter().find_map(|s| s.stats().error.as_ref()) {
+        anyhow::bail!("phase 1 failed at {e}");
+    }
+    manager.record_shards(shards.iter().map(|s| s.stats()));
     if let Some((k, e)) = nodes
         .iter()
         .enumerate()

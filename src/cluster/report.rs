@@ -34,7 +34,7 @@ use super::phase2::Phase2;
 use super::{ClockKind, ClusterConfig};
 use crate::compositor::CompositeStats;
 use crate::manager::ManagerStats;
-use crate::net::{MessageKind, NodeId, SimTrace, TraceKind, TrafficStats};
+use crate::net::{MessageKind, SimTrace, TraceKind, TrafficStats};
 use crate::node::{NodeActor, NodeStats};
 use crate::render::RenderInput;
 
@@ -245,6 +245,12 @@ pub struct ClusterReport {
     /// Modelled seconds the manager spent merging tables (`manager.busy_s`):
     /// compare with `phase1_s` to see when it is the bottleneck.
     pub manager_busy_s: f64,
+    /// Manager shards `K` (`--manager-shards`; 1: one manager).
+    pub manager_shards: usize,
+    /// Busy seconds of the busiest manager shard (shard 0, the manager,
+    /// included; `manager_busy_s` when `K = 1`). Per shard:
+    /// `manager.shard_busy_s`.
+    pub shard_busy_max_s: f64,
     /// List entries held by all nodes at the end of phase 1 (sum of
     /// `nodes[].segments_stored`).
     pub segments_stored: u64,
@@ -340,10 +346,12 @@ impl Replication {
     }
 }
 
-/// Per rank (nodes, then the manager at index `n`), per kind, total seconds
-/// of distinct spans (the thread driver records one span per compute action
-/// of a handler, all equal); and each rank's end of its last scan span.
-fn wall_busy(trace: &SimTrace, n: usize) -> (Vec<f64>, Vec<BTreeMap<TraceKind, f64>>) {
+/// Per rank (nodes, then the manager at index `n`, then its shards up to
+/// index `n` of `ranks`), per kind, total seconds of distinct spans (the
+/// thread driver records one span per compute action of a handler, all
+/// equal); and each rank's end of its last scan span.
+fn wall_busy(trace: &SimTrace, ranks: usize) -> (Vec<f64>, Vec<BTreeMap<TraceKind, f64>>) {
+    let n = ranks - 1;
     let mut last_scan = vec![0.0f64; n + 1];
     let mut busy = vec![BTreeMap::new(); n + 1];
     let mut prev: Vec<Option<(f64, f64, TraceKind)>> = vec![None; n + 1];
@@ -364,25 +372,30 @@ fn wall_busy(trace: &SimTrace, n: usize) -> (Vec<f64>, Vec<BTreeMap<TraceKind, f
     (last_scan, busy)
 }
 
-fn t_share(trace: &SimTrace, n: usize) -> TShare {
-    let manager = NodeId::from(n);
-    let mut sends: Vec<Vec<f64>> = vec![Vec::new(); n];
-    let mut replies: Vec<Vec<f64>> = vec![Vec::new(); n];
+/// ERT exchange times of nodes `0..n` with the manager (rank `n`) and its
+/// shards (ranks `n + 1 .. n + shards`).
+fn t_share(trace: &SimTrace, n: usize, shards: usize) -> TShare {
+    let pairs = n * shards;
+    let mut sends: Vec<Vec<f64>> = vec![Vec::new(); pairs];
+    let mut replies: Vec<Vec<f64>> = vec![Vec::new(); pairs];
     for e in &trace.events {
         let k = e.node.index();
-        if k >= n || e.peer != Some(manager) {
+        let Some(s) = e.peer.and_then(|p| p.index().checked_sub(n)) else {
+            continue;
+        };
+        if k >= n || s >= shards {
             continue;
         }
         match (e.kind, e.message) {
-            (TraceKind::Send, Some(MessageKind::ErtShare)) => sends[k].push(e.start),
-            (TraceKind::Recv, Some(MessageKind::ErtReply)) => replies[k].push(e.end),
+            (TraceKind::Send, Some(MessageKind::ErtShare)) => sends[k * shards + s].push(e.start),
+            (TraceKind::Recv, Some(MessageKind::ErtReply)) => replies[k * shards + s].push(e.end),
             _ => {}
         }
     }
     let mut all = Vec::new();
-    for k in 0..n {
+    for p in 0..pairs {
         // FIFO per pair: the i-th reply answers the i-th share.
-        for (s, r) in sends[k].iter().zip(&replies[k]) {
+        for (s, r) in sends[p].iter().zip(&replies[p]) {
             all.push(r - s);
         }
     }
@@ -405,8 +418,9 @@ pub fn build(i: Inputs) -> ClusterReport {
     let p1 = &cfg.phase1;
     let n = i.nodes.len();
     let wall = p1.clock == ClockKind::Wall;
+    let shards = i.manager.shards.max(1);
     let (wall_tsc, wall_busy) = if wall {
-        wall_busy(i.trace1, n)
+        wall_busy(i.trace1, n + shards)
     } else {
         (Vec::new(), Vec::new())
     };
@@ -487,6 +501,22 @@ pub fn build(i: Inputs) -> ClusterReport {
     } else {
         i.manager.busy_s
     };
+    let mut manager = i.manager;
+    if wall {
+        // Per shard from its spans, as for the manager.
+        manager.shard_busy_s = (n..n + shards)
+            .map(|k| {
+                wall_busy
+                    .get(k)
+                    .map_or(0.0, |b| b.values().sum::<f64>().max(0.0))
+            })
+            .collect();
+    }
+    let shard_busy_max_s = manager
+        .shard_busy_s
+        .iter()
+        .copied()
+        .fold(manager_busy_s, f64::max);
     let modelled_name = |name: &str| {
         if wall {
             "n/a (wall clock)".to_string()
@@ -529,7 +559,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         }
         .to_string(),
         help_gap: p1.policy.help_gap,
-        help_forwards: i.manager.help_forwards,
+        help_forwards: manager.help_forwards,
         data: p1.data,
         replication: (p1.data == crate::node::DataMode::Replicated)
             .then(|| Replication::new(i.input, n, &cfg.network)),
@@ -552,9 +582,11 @@ pub fn build(i: Inputs) -> ClusterReport {
         bytes_total: traffic.total_sent().bytes,
         bytes_by_kind,
         messages_by_kind,
-        t_share: t_share(i.trace1, n),
+        t_share: t_share(i.trace1, n, shards),
         manager_busy_s,
-        manager: i.manager,
+        manager_shards: shards,
+        shard_busy_max_s,
+        manager,
         segments_stored: nodes.iter().map(|x| x.segments_stored).sum(),
         cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
         cells_skipped_ert: skipped,
@@ -682,6 +714,14 @@ pub fn summary(r: &ClusterReport) -> String {
         1e3 * r.t_share.max_s,
         r.manager_busy_s
     );
+    if r.manager_shards > 1 {
+        let total: f64 = r.manager.shard_busy_s.iter().sum();
+        let _ = writeln!(
+            s,
+            "manager shards: {} (shard 0 is the manager; the others run on their own PCs): busiest {:.4} s, all {:.4} s, shares per shard {:?}",
+            r.manager_shards, r.shard_busy_max_s, total, r.manager.shard_shares
+        );
+    }
     let kinds: Vec<String> = r
         .bytes_by_kind
         .iter()

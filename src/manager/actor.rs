@@ -22,11 +22,13 @@
 use std::collections::VecDeque;
 
 use super::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkRequest};
+use super::shard::serve_pixel_share;
 use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, MessageKind, NodeId};
 use crate::node::levels::{BlockGrid, LevelDelta, LevelStore};
 use crate::node::manager_table::merge_into;
-use crate::node::pixel_share::{PixelLevels, PixelStore};
+use crate::node::pixel_share::PixelStore;
 use crate::node::release::{ReleaseShare, ReleaseStore};
+use crate::node::shard_map::ShardMap;
 use crate::node::{CostProfile, SharedTable};
 
 /// Fewest initial cells per node (mean) for front-first help: with thinner
@@ -83,6 +85,13 @@ pub struct ManagerStats {
     pub help_forwards: u64,
     /// Modelled seconds spent merging tables.
     pub busy_s: f64,
+    /// Manager shards `K` (per-pixel sharing; 1: unsharded).
+    pub shards: usize,
+    /// Per shard, modelled seconds spent combining and replying (index 0:
+    /// this manager's ERT work, `busy_s`; filled in by the driver).
+    pub shard_busy_s: Vec<f64>,
+    /// Per shard, shares served.
+    pub shard_shares: Vec<u64>,
     /// When the manager sent `Finish` (end of phase 1).
     pub finish_at: Option<f64>,
     /// First protocol error seen, if any.
@@ -98,6 +107,7 @@ pub struct ManagerActor {
     table: SharedTable,
     store: Option<LevelStore>,
     pixels: Option<PixelStore>,
+    shards: ShardMap,
     release: Option<ReleaseStore>,
     remaining: Vec<u64>,
     /// Per node, `grants_taken` of its latest request (`None`: none yet).
@@ -143,6 +153,7 @@ impl ManagerActor {
             table: SharedTable::empty(cfg.table_dims.0, cfg.table_dims.1),
             store: cfg.levels.map(|(g, l)| LevelStore::new(g, l, n)),
             pixels: cfg.pixels.map(|(w, h, l)| PixelStore::new(w, h, l, n)),
+            shards: ShardMap::single(),
             release: cfg.release.map(|d| ReleaseStore::new(d, n)),
             cfg,
             codec,
@@ -156,7 +167,30 @@ impl ManagerActor {
             front: vec![f32::NEG_INFINITY; n],
             waiting: VecDeque::new(),
             finished: false,
-            stats: ManagerStats::default(),
+            stats: ManagerStats {
+                shards: 1,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// Shards the per-pixel store by screen tile ([`ShardMap`]): this
+    /// manager keeps shard 0 and ends phase 1 for shards `1..K` too (ranks
+    /// `nodes + 1 ..`, [`super::ShardActor`]s). Call before the run.
+    pub fn set_shards(&mut self, map: ShardMap) {
+        self.shards = map;
+        self.stats.shards = map.count();
+    }
+
+    /// Records, after the run, what shards `1..K` did beside this manager's
+    /// own ERT work (shard 0) in [`ManagerStats::shard_busy_s`] and
+    /// [`ManagerStats::shard_shares`].
+    pub fn record_shards<'a>(&mut self, shards: impl Iterator<Item = &'a super::ShardStats>) {
+        self.stats.shard_busy_s = vec![self.stats.busy_s];
+        self.stats.shard_shares = vec![self.stats.shares_merged];
+        for s in shards {
+            self.stats.shard_busy_s.push(s.busy_s);
+            self.stats.shard_shares.push(s.shares_merged);
         }
     }
 
@@ -190,6 +224,13 @@ impl ManagerActor {
     fn on_message(&mut self, env: Envelope, out: &mut Vec<Action>) -> Result<(), String> {
         let j = env.from.index();
         if j >= self.cfg.nodes {
+            // A shard reports an error (it stops on our Finish).
+            if j < self.cfg.nodes + self.shards.count() && env.kind == MessageKind::Control {
+                let m: Control = env.decode(&self.codec).map_err(|e| e.to_string())?;
+                if m == Control::Abort {
+                    return Err(format!("manager shard {} aborted", j - self.cfg.nodes));
+                }
+            }
             return Err(format!("message from unknown rank {}", env.from));
         }
         match env.kind {
@@ -225,11 +266,8 @@ impl ManagerActor {
                     self.help(j, out);
                 }
                 if let Some(store) = self.pixels.as_mut() {
-                    let (w, h, l) = store.shape();
-                    let d = PixelLevels::decode(&m.table, w, h, l).map_err(|e| e.to_string())?;
-                    let work = store.apply(j, &d).map_err(|e| e.to_string())?;
-                    let (reply, rwork) = store.reply(j);
-                    let secs = (work + rwork) as f64 * self.profile.per_shared_entry;
+                    let (reply, work) = serve_pixel_share(store, &self.shards, 0, j, &m.table)?;
+                    let secs = work as f64 * self.profile.per_shared_entry;
                     self.stats.shares_merged += 1;
                     self.stats.entries_improved += reply.pixels.len() as u64;
                     self.stats.busy_s += secs;
@@ -413,6 +451,9 @@ impl ManagerActor {
         self.finished = true;
         for k in 0..self.cfg.nodes {
             self.send(out, k, &Control::Finish);
+        }
+        for s in 1..self.shards.count() {
+            self.send(out, self.cfg.nodes + s, &Control::Finish);
         }
         out.push(Action::Stop);
     }

@@ -6,12 +6,16 @@
 //! - [`actor`]: the [`ManagerActor`], an [`crate::net::Actor`] that merges
 //!   ERT tables (weak sharing), routes work requests to the node with the
 //!   most unprocessed cells, and detects the end of phase 1.
+//! - [`shard`]: the [`ShardActor`], one screen region of a sharded
+//!   manager's per-pixel ERT store (`--manager-shards K`).
 //!
 //! The node side is [`crate::node::actor::NodeActor`]. The protocol, with the
 //! reasons for each choice, is described in `src/manager/README.md`.
 
 pub mod actor;
 pub mod protocol;
+pub mod shard;
 
 pub use actor::{ManagerActor, ManagerConfig, ManagerStats};
 pub use protocol::{Control, ErtReply, ErtShare, WorkForward, WorkGrant, WorkRequest};
+pub use shard::{ShardActor, ShardStats};

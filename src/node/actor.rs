@@ -25,6 +25,7 @@
 
 use crate::manager::protocol::{Control, ErtReply, ErtShare, WorkForward, WorkGrant, WorkRequest};
 use crate::net::{Action, Activity, Actor, Codec, Envelope, Event, Message, MessageKind, NodeId};
+use crate::node::shard_map::ShardMap;
 use crate::node::{compute_time, CostProfile, NodeRenderer, OpCounts, SharedTable};
 
 const SCAN: u64 = 1;
@@ -143,14 +144,18 @@ pub struct NodeActor {
     deferred: Vec<(usize, SharedTable)>,
     /// Overlap sharing: the ranks this node sends its table to directly.
     peers: Vec<usize>,
-    /// Shares sent to the manager whose replies have not come back yet.
-    shares_in_flight: u32,
+    /// Per manager shard (shard 0: the manager), shares sent whose replies
+    /// have not come back yet.
+    in_flight: Vec<u32>,
     /// A front-first help request is out (cleared by any grant).
     help_pending: bool,
     /// The release share is out, its reply not applied yet.
     release_pending: bool,
     /// The unprocessed count the manager last heard from this node.
     reported: u64,
+    /// Global schedule ([`crate::node::schedule`]): cells this node gave
+    /// and received when the frame's waves were dealt (charged at Start).
+    planned: (u64, u64),
     stats: NodeStats,
 }
 
@@ -178,10 +183,11 @@ impl NodeActor {
             chunks_since_progress: 0,
             deferred: Vec::new(),
             peers: Vec::new(),
-            shares_in_flight: 0,
+            in_flight: vec![0],
             help_pending: false,
             release_pending: false,
             reported: u64::MAX,
+            planned: (0, 0),
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -194,6 +200,28 @@ impl NodeActor {
     /// the same per-entry rule as the manager's. Empty (the default): off.
     pub fn set_peers(&mut self, peers: Vec<usize>) {
         self.peers = peers;
+    }
+
+    /// Per-pixel sharing with a sharded manager ([`ShardMap`]): shard `s`
+    /// is rank `manager + s`; at each update point the node sends each
+    /// shard owning a tile under its footprint the changed pixels of its
+    /// tiles (shard 0 always: the load report travels with it), each shard
+    /// with its own share window. Call before the run; `K = 1` (the
+    /// default) is the unsharded protocol.
+    pub fn set_manager_shards(&mut self, map: ShardMap) {
+        self.renderer.set_manager_shards(map);
+        self.in_flight = vec![0; map.count()];
+    }
+
+    /// Global schedule ([`crate::node::schedule`]): the node gave `given`
+    /// and received `received` cells (as ids) when the waves were dealt;
+    /// at Start it is charged writing the given ids, reading the received
+    /// ones and building their records from its copy of the mesh, before
+    /// it scans.
+    pub fn set_planned_moves(&mut self, given: u64, received: u64) {
+        self.planned = (given, received);
+        self.stats.cells_given += given;
+        self.stats.cells_taken += received;
     }
 
     /// The ranks this node shares its table with directly (overlap sharing).
@@ -285,37 +313,18 @@ impl NodeActor {
                 let window = self.cfg.policy.share_window;
                 let worth_sharing =
                     window == 0 || self.renderer.remaining() >= self.cfg.policy.chunk.max(1);
-                let room = window == 0 || self.shares_in_flight < window;
-                if self.cfg.share && worth_sharing && room {
-                    self.shares_in_flight += 1;
-                    let delta = self
+                if self.cfg.share && worth_sharing {
+                    // Per manager shard (one without sharding): the shards
+                    // owning tiles under the footprint, each with room.
+                    let touched = self
                         .renderer
-                        .take_pixel_levels()
-                        .or_else(|| self.renderer.take_level_delta());
-                    let table = match delta {
-                        Some((bytes, ops)) => {
-                            let s = self.secs(&ops);
-                            out.push(Action::Compute {
-                                seconds: s,
-                                activity: Activity::Share,
-                            });
-                            t += s;
-                            self.stats.share_s += s;
-                            bytes
+                        .manager_shards_touched()
+                        .unwrap_or_else(|| vec![true]);
+                    for (shard, _) in touched.iter().enumerate().filter(|(_, &on)| on) {
+                        if window == 0 || self.in_flight[shard] < window {
+                            t += self.share_with(shard, out);
                         }
-                        None => self.renderer.local_table().encode(),
-                    };
-                    let help = self.cfg.policy.help_gap > 0.0 && self.cfg.dlb && !self.help_pending;
-                    self.help_pending |= help;
-                    let m = ErtShare {
-                        remaining: self.renderer.remaining() as u64,
-                        front: self.renderer.front_depth(),
-                        help,
-                        table,
-                    };
-                    self.stats.shares_sent += 1;
-                    self.reported = m.remaining;
-                    self.send(out, self.cfg.manager, &m);
+                    }
                 } else if !self.cfg.share && !self.peers.is_empty() && worth_sharing {
                     let m = ErtReply {
                         table: self.renderer.local_table().encode(),
@@ -359,6 +368,47 @@ impl NodeActor {
         }
     }
 
+    /// Sends manager shard `shard` (rank `manager + shard`) this node's ERT
+    /// information for its tiles: per-pixel levels, a level delta or the
+    /// local table by the run's mode; the load report and a help request
+    /// ride with shard 0's. Returns the seconds charged for packing.
+    fn share_with(&mut self, shard: usize, out: &mut Vec<Action>) -> f64 {
+        self.in_flight[shard] += 1;
+        let mut t = 0.0;
+        let delta = self
+            .renderer
+            .take_pixel_levels(shard)
+            .or_else(|| self.renderer.take_level_delta());
+        let table = match delta {
+            Some((bytes, ops)) => {
+                let s = self.secs(&ops);
+                out.push(Action::Compute {
+                    seconds: s,
+                    activity: Activity::Share,
+                });
+                t += s;
+                self.stats.share_s += s;
+                bytes
+            }
+            None => self.renderer.local_table().encode(),
+        };
+        let help =
+            shard == 0 && self.cfg.policy.help_gap > 0.0 && self.cfg.dlb && !self.help_pending;
+        self.help_pending |= help;
+        let m = ErtShare {
+            remaining: self.renderer.remaining() as u64,
+            front: self.renderer.front_depth(),
+            help,
+            table,
+        };
+        self.stats.shares_sent += 1;
+        if shard == 0 {
+            self.reported = m.remaining;
+        }
+        self.send(out, self.cfg.manager + shard, &m);
+        t
+    }
+
     /// Release ordering, at the start: the node's release share goes to
     /// the manager as its first [`ErtShare`] (one share in flight); the
     /// first reply is the release map.
@@ -374,7 +424,7 @@ impl NodeActor {
         });
         self.stats.share_s += s;
         self.release_pending = true;
-        self.shares_in_flight += 1;
+        self.in_flight[0] += 1;
         self.stats.shares_sent += 1;
         let m = ErtShare {
             remaining: self.renderer.remaining() as u64,
@@ -391,8 +441,12 @@ impl NodeActor {
         match env.kind {
             MessageKind::ErtReply => {
                 let m: ErtReply = env.decode(&self.codec).map_err(|e| err(&e))?;
-                if env.from.index() == self.cfg.manager {
-                    self.shares_in_flight = self.shares_in_flight.saturating_sub(1);
+                let from = env.from.index();
+                if let Some(n) = from
+                    .checked_sub(self.cfg.manager)
+                    .and_then(|s| self.in_flight.get_mut(s))
+                {
+                    *n = n.saturating_sub(1);
                 }
                 if self.release_pending && env.from.index() == self.cfg.manager {
                     self.release_pending = false;
@@ -553,11 +607,24 @@ impl Actor for NodeActor {
         }
         match event {
             Event::Start => {
-                let s = if self.cfg.share {
-                    self.send_release(&mut out)
-                } else {
-                    0.0
-                };
+                let (given, received) = self.planned;
+                let mut s = 0.0;
+                if given + received > 0 {
+                    let ops = OpCounts {
+                        cell_ids_moved: given + received,
+                        cells_received: received,
+                        ..Default::default()
+                    };
+                    s = self.secs(&ops);
+                    self.stats.steal_s += s;
+                    out.push(Action::Compute {
+                        seconds: s,
+                        activity: Activity::Steal,
+                    });
+                }
+                if self.cfg.share {
+                    s += self.send_release(&mut out);
+                }
                 self.scan(now + s, &mut out)
             }
             Event::Wake(SCAN) => {

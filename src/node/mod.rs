@@ -15,7 +15,10 @@
 //!   manager (1 bit + one depth per entry), and [`manager_table`]: the
 //!   manager's merge rule.
 //! - [`levels`] and [`pixel_share`]: ERT information that composes across
-//!   nodes (opacity levels per block, or per pixel for the pyramid).
+//!   nodes (opacity levels per block, or per pixel for the pyramid);
+//!   [`shard_map`]: which manager shard owns which screen tile.
+//! - [`schedule`]: a global front-to-back schedule over the placement
+//!   (replicated data: waves of depth, each split evenly over the nodes).
 //! - [`actor`]: the [`NodeActor`], phase 1 of a cluster node as a
 //!   [`crate::net::Actor`] (scan in chunks, weak ERT sharing, DLB).
 //! - [`cost`]: the compute-time cost model, operation counts → seconds.
@@ -37,6 +40,8 @@ pub mod placement;
 pub mod release;
 pub mod renderer;
 pub mod replica;
+pub mod schedule;
+pub mod shard_map;
 pub mod table;
 pub mod union;
 pub mod work;

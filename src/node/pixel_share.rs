@@ -60,6 +60,7 @@
 //! threshold (up to `f32` rounding of the levels, as in [`super::levels`]).
 
 use super::levels::level_alphas;
+use super::shard_map::ShardMap;
 use super::table::TableError;
 
 /// The code of "not reached / not terminated".
@@ -554,7 +555,10 @@ pub struct NodePixelLevels {
     /// Depth codes.
     pub quant: DepthQuant,
     unsent_flag: Vec<bool>,
-    unsent: Vec<u32>,
+    /// Per manager shard, the changed pixels it owns not yet sent.
+    unsent: Vec<Vec<u32>>,
+    shards: ShardMap,
+    width: u32,
 }
 
 impl NodePixelLevels {
@@ -567,8 +571,27 @@ impl NodePixelLevels {
             alphas,
             quant,
             unsent_flag: vec![false; n],
-            unsent: Vec::new(),
+            unsent: vec![Vec::new()],
+            shards: ShardMap::single(),
+            width,
         }
+    }
+
+    /// Splits the pixels to send by manager shard (`map`, for this image);
+    /// call before the first update.
+    pub fn set_shards(&mut self, map: ShardMap) {
+        let mut all: Vec<u32> = self.unsent.drain(..).flatten().collect();
+        all.sort_unstable();
+        self.shards = map;
+        self.unsent = vec![Vec::new(); map.count()];
+        for p in all {
+            self.unsent[map.shard_of_pixel(p, self.width)].push(p);
+        }
+    }
+
+    /// The manager shards' map.
+    pub fn shards(&self) -> &ShardMap {
+        &self.shards
     }
 
     /// Number of levels.
@@ -581,15 +604,27 @@ impl NodePixelLevels {
     pub fn mark(&mut self, p: usize) {
         if !self.unsent_flag[p] {
             self.unsent_flag[p] = true;
-            self.unsent.push(p as u32);
+            let s = self.shards.shard_of_pixel(p as u32, self.width);
+            self.unsent[s].push(p as u32);
         }
     }
 
-    /// Takes the changed pixels as a [`PixelLevels`] share with the sender's
-    /// `footprint`; also returns how many codes were packed.
-    pub fn take(&mut self, width: u32, height: u32, footprint: [u32; 4]) -> (PixelLevels, u64) {
+    /// Takes the changed pixels of manager shard `shard` as a
+    /// [`PixelLevels`] share with the sender's `footprint`; also returns how
+    /// many codes were packed.
+    pub fn take(
+        &mut self,
+        shard: usize,
+        width: u32,
+        height: u32,
+        footprint: [u32; 4],
+    ) -> (PixelLevels, u64) {
         let l = self.levels();
-        let mut ids = std::mem::take(&mut self.unsent);
+        let mut ids = self
+            .unsent
+            .get_mut(shard)
+            .map(std::mem::take)
+            .unwrap_or_default();
         ids.sort_unstable();
         let pixels: Vec<(u32, Vec<u16>)> = ids
             .iter()

@@ -7,6 +7,7 @@ use super::NodeRenderer;
 use crate::node::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
 use crate::node::ops::OpCounts;
 use crate::node::pixel_share::{DepthQuant, NodePixelLevels, PixelDepths};
+use crate::node::shard_map::ShardMap;
 use crate::node::table::TableError;
 use crate::render::cell::segment::Segment;
 
@@ -37,15 +38,33 @@ impl NodeRenderer {
             .map(|p| (self.view.width, self.view.height, p.levels()))
     }
 
-    /// Per-pixel level sharing: the pixels whose level depths changed since
-    /// the last call, encoded ([`crate::node::pixel_share::PixelLevels::encode`]);
-    /// packing counted as `shared_entries_merged` (one per code). `None` if
+    /// Per-pixel level sharing with a sharded manager: which shard owns
+    /// which screen tile (call before the first step). No effect if
     /// per-pixel sharing is off.
-    pub fn take_pixel_levels(&mut self) -> Option<(Vec<u8>, OpCounts)> {
+    pub fn set_manager_shards(&mut self, map: ShardMap) {
+        if let Some(pl) = self.pixel_levels.as_mut() {
+            pl.set_shards(map);
+        }
+    }
+
+    /// Per-pixel level sharing: per manager shard, whether it owns a tile
+    /// under this node's footprint (shard 0, the manager, always). `None`
+    /// if per-pixel sharing is off.
+    pub fn manager_shards_touched(&self) -> Option<Vec<bool>> {
+        let pl = self.pixel_levels.as_ref()?;
+        Some(pl.shards().touched(self.footprint))
+    }
+
+    /// Per-pixel level sharing: the pixels of manager shard `shard`'s tiles
+    /// whose level depths changed since the last call for that shard,
+    /// encoded ([`crate::node::pixel_share::PixelLevels::encode`]); packing
+    /// counted as `shared_entries_merged` (one per code). `None` if
+    /// per-pixel sharing is off.
+    pub fn take_pixel_levels(&mut self, shard: usize) -> Option<(Vec<u8>, OpCounts)> {
         let (w, h) = (self.view.width, self.view.height);
         let footprint = self.footprint;
         let pl = self.pixel_levels.as_mut()?;
-        let (d, packed) = pl.take(w, h, footprint);
+        let (d, packed) = pl.take(shard, w, h, footprint);
         let ops = OpCounts {
             shared_entries_merged: packed,
             ..Default::default()
