@@ -331,7 +331,13 @@ pub fn finish(
         .strategy
         .schedule(total, screen(s.image.width, s.image.height));
     let bg = s.image.background.map(|x| x as f32);
-    let (image, rounds) = layer_exec::run(&sched, prep.codec.as_ref(), p1.layers, bg)?;
+    let (image, rounds) = layer_exec::run(
+        &sched,
+        prep.codec.as_ref(),
+        p1.layers,
+        bg,
+        prep.strategy.merges_early(),
+    )?;
     let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); rounds.len()]; total];
     let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); total];
     let mut bytes_sent = vec![0u64; total];
@@ -340,7 +346,14 @@ pub fn finish(
     for (r, lr) in rounds.iter().enumerate() {
         if lr.composite {
             for (k, &px) in lr.blended.iter().enumerate() {
-                plans[k][r].before = blend_time(px, &cfg.profile);
+                plans[k][r].before += blend_time(px, &cfg.profile);
+            }
+        }
+        // Early merges (radix-k) happen once the round's pieces are in:
+        // charged before the next round's sends.
+        for (k, &px) in lr.merged.iter().enumerate() {
+            if px > 0 && r + 1 < rounds.len() {
+                plans[k][r + 1].before += blend_time(px, &cfg.profile);
             }
         }
         let (mut rb, mut rr) = (0, 0);
@@ -396,7 +409,7 @@ pub fn finish(
         network: cfg.network_name.clone(),
         profile: cfg.profile_name.clone(),
         placement: cfg.placement,
-        compositor: prep.strategy.name().to_string(),
+        compositor: prep.strategy.label(),
         codec: prep.codec.name().to_string(),
         frame_s: render_s + composite_s,
         fps: 1.0 / (render_s + composite_s),
