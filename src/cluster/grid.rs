@@ -273,7 +273,6 @@ pub struct Phase1Out {
 pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
     let prep = prepare(input, cfg)?;
     let whole = Arc::new(input.clone());
-    let renderer = cfg.renderer.build();
     let mut actors: Vec<GridNodeActor> = (0..prep.total)
         .map(|k| {
             GridNodeActor::new(
@@ -284,7 +283,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
                 cfg.slice,
                 prep.codec.depth(),
                 cfg.profile,
-                renderer.clone(),
+                cfg.renderer,
             )
         })
         .collect();
@@ -482,11 +481,13 @@ pub fn summary(r: &GridReport) -> String {
     );
     for n in &r.nodes {
         s.push_str(&format!(
-            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, upload {:.4} + paging {:.4} for {} B) sent {} B\n",
+            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, draw set-up {:.4} for {} textures, upload {:.4} + paging {:.4} for {} B) sent {} B\n",
             n.stats.rank,
             n.stats.bricks,
             n.render_end_s,
             n.stats.device.fill_s,
+            n.stats.device.setup_s,
+            n.stats.device.textures,
             n.stats.device.upload_s,
             n.stats.device.paging_s,
             n.stats.device.uploaded_bytes,

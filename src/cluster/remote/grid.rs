@@ -401,7 +401,7 @@ fn render(setup: &GridSetup, bytes: &[u8]) -> anyhow::Result<GridResult> {
         opts,
         lc.depth(),
         setup.profile,
-        setup.renderer.build(),
+        setup.renderer,
     );
     let actions = actor.handle(0.0, Event::Start);
     debug_assert!(actions.iter().any(|a| matches!(a, Action::Stop)));
