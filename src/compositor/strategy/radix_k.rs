@@ -70,8 +70,8 @@ pub fn factors(n: usize, k: usize) -> Vec<usize> {
     while m > 1 {
         let f = (2..=k.min(m))
             .rev()
-            .find(|f| m % f == 0)
-            .unwrap_or_else(|| (2..=m).find(|p| m % p == 0).unwrap_or(m));
+            .find(|&f| m.is_multiple_of(f))
+            .unwrap_or_else(|| (2..=m).find(|&p| m.is_multiple_of(p)).unwrap_or(m));
         out.push(f);
         m /= f;
     }
