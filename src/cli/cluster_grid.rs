@@ -133,8 +133,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
             anyhow::ensure!(
                 a.grid.master,
                 "--transport {} for grid scenes runs the paper's setting: the workers send \
-                 their subimages to the master; add --master (binary swap and direct send \
-                 between grid workers are not built)",
+                 their subimages to the master; add --master (binary swap, direct send and \
+                 radix-k between grid workers are not built)",
                 t.name()
             );
             anyhow::ensure!(

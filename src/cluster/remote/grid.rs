@@ -123,8 +123,8 @@ impl GridRemote {
         anyhow::ensure!(
             cfg.master && cfg.compositor == "master",
             "--transport {} for grid scenes runs the paper's setting: the workers send their \
-             subimages to the master (--master); binary swap and direct send between grid \
-             workers are not built",
+             subimages to the master (--master); binary swap, direct send and radix-k between \
+             grid workers are not built",
             self.transport
         );
         anyhow::ensure!(
