@@ -87,8 +87,8 @@ pub struct ClusterArgs {
     /// `--paper` uses, and the only mode of the remote transports).
     #[arg(long, value_enum)]
     pub data: Option<crate::node::DataMode>,
-    /// Compositing strategy of phase 2: `binary-swap`, `direct-send` or
-    /// `master` (everything to rank 0).
+    /// Compositing strategy of phase 2: `binary-swap`, `direct-send`,
+    /// `radix-k` (k from `--radix-k`) or `master` (everything to rank 0).
     #[arg(long, default_value = "binary-swap")]
     pub compositor: String,
     /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`;
@@ -369,7 +369,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             record_trace: true,
         },
         placement: a.placement,
-        compositor: a.compositor.clone(),
+        compositor: super::cluster_grid::compositor_name(&a.compositor, a.grid.radix_k)?,
         codec: a.codec.clone(),
         network: load_network(network)?,
         network_name: network.to_string(),

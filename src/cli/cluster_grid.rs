@@ -44,6 +44,30 @@ pub struct GridArgs {
     /// block at most τ times the transfer function's scalar range; default 0.05).
     #[arg(long, value_name = "T")]
     pub tolerance: Option<f64>,
+    /// With `--compositor radix-k`: the target group size k of each round
+    /// (default 8, IceT's; rounds' sizes multiply to the rank count, a
+    /// prime factor above k gets a round of its own).
+    #[arg(long, value_name = "K")]
+    pub radix_k: Option<usize>,
+}
+
+/// The compositor name `--compositor` and `--radix-k` describe (`radix-k:K`
+/// when k is given), checked: `--radix-k` without `--compositor radix-k`
+/// is refused rather than ignored.
+pub fn compositor_name(compositor: &str, radix_k: Option<usize>) -> anyhow::Result<String> {
+    let name = match radix_k {
+        None => compositor.to_string(),
+        Some(k) => {
+            anyhow::ensure!(
+                matches!(compositor, "radix-k" | "radixk"),
+                "--radix-k {k} sets radix-k's group size; it needs --compositor radix-k \
+                 (got --compositor {compositor})"
+            );
+            format!("radix-k:{k}")
+        }
+    };
+    crate::compositor::strategy::from_name(&name).map_err(|e| anyhow::anyhow!(e))?;
+    Ok(name)
 }
 
 /// Refuses grid-only options on a mesh scene.
@@ -109,8 +133,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
             anyhow::ensure!(
                 a.grid.master,
                 "--transport {} for grid scenes runs the paper's setting: the workers send \
-                 their subimages to the master; add --master (binary swap and direct send \
-                 between grid workers are not built)",
+                 their subimages to the master; add --master (binary swap, direct send and \
+                 radix-k between grid workers are not built)",
                 t.name()
             );
             anyhow::ensure!(
@@ -124,13 +148,18 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     let g = &a.grid;
     let compositor = if g.master {
         anyhow::ensure!(
+            g.radix_k.is_none(),
+            "--radix-k sets radix-k's group size; --master composites every subimage at the \
+             master (drop one of them)"
+        );
+        anyhow::ensure!(
             matches!(a.compositor.as_str(), "binary-swap" | "master"),
             "--master composites every subimage at the master; it cannot be combined with --compositor {}",
             a.compositor
         );
         "master".to_string()
     } else {
-        a.compositor.clone()
+        compositor_name(&a.compositor, g.radix_k)?
     };
     // `rle` (the default) means the paper's RLE at 16 bits for layers.
     let codec = match a.codec.as_str() {

@@ -273,7 +273,6 @@ pub struct Phase1Out {
 pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
     let prep = prepare(input, cfg)?;
     let whole = Arc::new(input.clone());
-    let renderer = cfg.renderer.build();
     let mut actors: Vec<GridNodeActor> = (0..prep.total)
         .map(|k| {
             GridNodeActor::new(
@@ -284,7 +283,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
                 cfg.slice,
                 prep.codec.depth(),
                 cfg.profile,
-                renderer.clone(),
+                cfg.renderer,
             )
         })
         .collect();
@@ -331,7 +330,13 @@ pub fn finish(
         .strategy
         .schedule(total, screen(s.image.width, s.image.height));
     let bg = s.image.background.map(|x| x as f32);
-    let (image, rounds) = layer_exec::run(&sched, prep.codec.as_ref(), p1.layers, bg)?;
+    let (image, rounds) = layer_exec::run(
+        &sched,
+        prep.codec.as_ref(),
+        p1.layers,
+        bg,
+        prep.strategy.merges_early(),
+    )?;
     let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); rounds.len()]; total];
     let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); total];
     let mut bytes_sent = vec![0u64; total];
@@ -340,7 +345,14 @@ pub fn finish(
     for (r, lr) in rounds.iter().enumerate() {
         if lr.composite {
             for (k, &px) in lr.blended.iter().enumerate() {
-                plans[k][r].before = blend_time(px, &cfg.profile);
+                plans[k][r].before += blend_time(px, &cfg.profile);
+            }
+        }
+        // Early merges (radix-k) happen once the round's pieces are in:
+        // charged before the next round's sends.
+        for (k, &px) in lr.merged.iter().enumerate() {
+            if px > 0 && r + 1 < rounds.len() {
+                plans[k][r + 1].before += blend_time(px, &cfg.profile);
             }
         }
         let (mut rb, mut rr) = (0, 0);
@@ -396,7 +408,7 @@ pub fn finish(
         network: cfg.network_name.clone(),
         profile: cfg.profile_name.clone(),
         placement: cfg.placement,
-        compositor: prep.strategy.name().to_string(),
+        compositor: prep.strategy.label(),
         codec: prep.codec.name().to_string(),
         frame_s: render_s + composite_s,
         fps: 1.0 / (render_s + composite_s),
@@ -469,11 +481,13 @@ pub fn summary(r: &GridReport) -> String {
     );
     for n in &r.nodes {
         s.push_str(&format!(
-            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, upload {:.4} + paging {:.4} for {} B) sent {} B\n",
+            "  rank {:>2}: bricks {:?} render {:.4} s (fill {:.4}, draw set-up {:.4} for {} textures, upload {:.4} + paging {:.4} for {} B) sent {} B\n",
             n.stats.rank,
             n.stats.bricks,
             n.render_end_s,
             n.stats.device.fill_s,
+            n.stats.device.setup_s,
+            n.stats.device.textures,
             n.stats.device.upload_s,
             n.stats.device.paging_s,
             n.stats.device.uploaded_bytes,

@@ -44,6 +44,8 @@ fn every_strategy_and_codec_gives_the_single_node_image() {
             ("master", false),
             ("binary-swap", false),
             ("direct-send", false),
+            ("radix-k:2", false),
+            ("radix-k", false),
         ] {
             for codec in ["raw", "rle-paper", "sparse", "raw16", "rle16", "sparse16"] {
                 let out = run(&inp, &cfg(comp, codec, master)).unwrap();
@@ -64,6 +66,43 @@ fn every_strategy_and_codec_gives_the_single_node_image() {
                 assert_eq!(again.image.pixels, out.image.pixels, "deterministic");
                 assert_eq!(again.report.frame_s, out.report.frame_s, "deterministic");
             }
+        }
+    }
+}
+
+/// Radix-k against the master on the same frame: the same image within
+/// the roundings of the 16-bit layers (one `1/2` of `1/65535` per merge
+/// of adjacent ranks, at most `d^3 - 1` along a pixel, plus the gathered
+/// piece's), bytes counted per round, one round per factor.
+#[test]
+fn radix_k_matches_the_master_within_the_layer_roundings() {
+    let inp = seam_input(OBLIQUE, 48);
+    for d in [2u32, 3] {
+        for (nodes, k, rounds) in [(4usize, 2usize, 2usize), (4, 8, 1), (6, 2, 2), (5, 4, 1)] {
+            let mut m = cfg("master", layer_codec::DEFAULT, false);
+            m.nodes = nodes;
+            m.subvolumes = d;
+            let master = run(&inp, &m).unwrap();
+            let mut r = m.clone();
+            r.compositor = format!("radix-k:{k}");
+            let out = run(&inp, &r).unwrap();
+            let e = out.image.error_against(&master.image);
+            let bound = (d.pow(3) + 1) as f64 * 0.5 * 255.0 / 65535.0 + 1e-3;
+            assert!(e.max_abs <= bound, "d={d} n={nodes} k={k}: {e} > {bound}");
+            let labels: Vec<&str> = out.report.rounds.iter().map(|x| x.0.as_str()).collect();
+            assert_eq!(labels.len(), rounds + 2, "{labels:?}");
+            assert!(labels[0].starts_with("radix 0 (k="), "{labels:?}");
+            assert_eq!(
+                out.report.rounds.iter().map(|x| x.2).sum::<u64>(),
+                out.report.bytes_total
+            );
+            assert!(out.report.rounds[0].2 > 0);
+            assert_eq!(out.report.compositor, format!("radix-k:{k}"));
+            eprintln!(
+                "d={d} n={nodes} k={k}: radix-k vs master {e}; bytes {} vs {}; frame {:.4} vs {:.4} s",
+                out.report.bytes_total, master.report.bytes_total, out.report.frame_s,
+                master.report.frame_s
+            );
         }
     }
 }

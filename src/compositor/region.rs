@@ -50,6 +50,36 @@ pub fn halves(r: &Rect) -> (Rect, Rect) {
     }
 }
 
+/// Cuts `r` across its longer side into `k` pieces of about equal pixel
+/// count, in order (left to right or top to bottom); piece `j` spans
+/// `[j L / k, (j + 1) L / k)` of the side's length `L`, so pieces are empty
+/// when `k > L`. Radix-k's cut (binary swap's `halves` is `k = 2` up to
+/// which half gets the odd row).
+pub fn pieces(r: &Rect, k: usize) -> Vec<Rect> {
+    let k = k.max(1);
+    let along_x = r.width() >= r.height();
+    let len = if along_x { r.width() } else { r.height() } as usize;
+    (0..k)
+        .map(|j| {
+            let a = (j * len / k) as u32;
+            let b = ((j + 1) * len / k) as u32;
+            if along_x {
+                Rect {
+                    x0: r.x0 + a,
+                    x1: r.x0 + b,
+                    ..*r
+                }
+            } else {
+                Rect {
+                    y0: r.y0 + a,
+                    y1: r.y0 + b,
+                    ..*r
+                }
+            }
+        })
+        .collect()
+}
+
 /// Cuts `r` into `n` full-width row strips, top to bottom, of about equal
 /// weight: equal pixel count without `row_weight`, else about equal sum of
 /// `row_weight` (one entry per row of `r`, non-negative). Strips may be
@@ -108,6 +138,15 @@ mod tests {
             assert_eq!(s.iter().map(area).sum::<usize>(), area(&r));
         }
         let w: Vec<f64> = (0..35).map(|y| if y < 5 { 10.0 } else { 1.0 }).collect();
+        for k in [1, 2, 3, 8, 101, 200] {
+            let p = pieces(&r, k);
+            assert_eq!(p.len(), k);
+            assert_eq!(p.iter().map(area).sum::<usize>(), area(&r));
+            for (i, a) in p.iter().enumerate() {
+                assert!(contains(&r, a));
+                assert!(p[i + 1..].iter().all(|b| !overlaps(a, b)));
+            }
+        }
         let s = strips(&r, 4, Some(&w));
         assert_eq!(s.iter().map(area).sum::<usize>(), area(&r));
         assert!(s[0].height() < s[3].height(), "{s:?}");

@@ -81,6 +81,11 @@ pub struct CostProfile {
     /// Device model: bytes per second of paging from disk (with
     /// `host_bytes`).
     pub disk_bytes_per_s: f64,
+    /// Device model: seconds of host-side set-up per texture drawn per
+    /// frame (texture bind, state and draw call: one per brick with
+    /// `slice3d`, one per block with adaptive sampling, whose blocks are
+    /// separate textures). 0: not charged.
+    pub per_texture_draw: f64,
     /// Per cell id written into or read from an id unit (replicated data);
     /// 0 = not measured for this profile: [`CostProfile::cell_id_cost`]
     /// then derives it from `per_work_cell`.

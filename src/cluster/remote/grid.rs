@@ -123,8 +123,8 @@ impl GridRemote {
         anyhow::ensure!(
             cfg.master && cfg.compositor == "master",
             "--transport {} for grid scenes runs the paper's setting: the workers send their \
-             subimages to the master (--master); binary swap and direct send between grid \
-             workers are not built",
+             subimages to the master (--master); binary swap, direct send and radix-k between \
+             grid workers are not built",
             self.transport
         );
         anyhow::ensure!(
@@ -401,7 +401,7 @@ fn render(setup: &GridSetup, bytes: &[u8]) -> anyhow::Result<GridResult> {
         opts,
         lc.depth(),
         setup.profile,
-        setup.renderer.build(),
+        setup.renderer,
     );
     let actions = actor.handle(0.0, Event::Start);
     debug_assert!(actions.iter().any(|a| matches!(a, Action::Stop)));

@@ -7,6 +7,12 @@
 //! compositing: ranks never overlap, so the order is the visibility order
 //! whichever node held what); the gather sends the composited piece as one
 //! layer.
+//!
+//! With `merge_early` (radix-k, [`Strategy::merges_early`]), after every
+//! lists round each rank composites the layers it holds whose ranks chain
+//! ([`merge_adjacent`]): the next round then sends one layer per chain.
+//!
+//! [`Strategy::merges_early`]: crate::compositor::Strategy::merges_early
 
 use crate::compositor::codec::layers::{raw_bytes, LayerCodec};
 use crate::compositor::codec::Limits;
@@ -14,7 +20,7 @@ use crate::compositor::region::area;
 use crate::compositor::schedule::{RoundKind, Schedule};
 use crate::image::Image;
 
-use super::{composite, Layer};
+use super::{composite, merge_adjacent, Layer};
 
 /// One message of a round.
 #[derive(Debug, Clone)]
@@ -40,6 +46,9 @@ pub struct LayerRound {
     pub composite: bool,
     /// Per node, pixels blended in the composite round.
     pub blended: Vec<u64>,
+    /// Per node, pixels blended merging adjacent layers after this (lists)
+    /// round's messages arrived (`merge_early` only).
+    pub merged: Vec<u64>,
     /// The messages.
     pub messages: Vec<LayerMessage>,
 }
@@ -102,12 +111,15 @@ pub fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>
 }
 
 /// Runs `schedule` over `held[node]` (each node's layers); returns the image
-/// at the root (over `background`) and the rounds' messages.
+/// at the root (over `background`) and the rounds' messages. With
+/// `merge_early`, rank-adjacent layers are composited after each lists
+/// round (see the module doc).
 pub fn run(
     schedule: &Schedule,
     codec: &dyn LayerCodec,
     mut held: Vec<Vec<Layer>>,
     background: [f32; 3],
+    merge_early: bool,
 ) -> anyhow::Result<(Image, Vec<LayerRound>)> {
     schedule.validate().map_err(|e| anyhow::anyhow!(e))?;
     let n = schedule.nodes;
@@ -134,6 +146,7 @@ pub fn run(
             label: round.label.clone(),
             composite: round.kind == RoundKind::Composite,
             blended: vec![0; n],
+            merged: vec![0; n],
             messages: Vec::new(),
         };
         match round.kind {
@@ -166,6 +179,12 @@ pub fn run(
                         None => Vec::new(),
                     };
                     h.append(&mut inbox[k]);
+                    if merge_early {
+                        let (m, px) =
+                            merge_adjacent(std::mem::take(h)).map_err(|e| anyhow::anyhow!(e))?;
+                        *h = m;
+                        lr.merged[k] = px;
+                    }
                 }
             }
             RoundKind::Composite => {
@@ -230,3 +249,7 @@ fn keep_of(s: &Schedule, k: usize) -> Option<crate::render::cell::scan::Rect> {
     }
     r
 }
+
+#[cfg(test)]
+#[path = "exec_tests.rs"]
+mod tests;

@@ -201,6 +201,48 @@ pub fn composite(region: &Rect, layers: &[&Layer]) -> Result<Vec<[f32; 4]>, Stri
     Ok(out)
 }
 
+/// Composites every run of layers whose rank ranges chain (`a.hi + 1 ==
+/// b.lo`) into one layer covering the run's ranks, over the bounding box of
+/// the run's rectangles, quantised at the run's depth (one rounding, at most
+/// `1/2` of `1/M` a channel, per merge). Layers that chain with nothing are
+/// kept as they are. Returns the layers (sorted by rank) and the pixels
+/// blended. Overlapping ranks are an error, as in [`composite`].
+pub fn merge_adjacent(mut layers: Vec<Layer>) -> Result<(Vec<Layer>, u64), String> {
+    layers.sort_by_key(|l| l.ranks[0]);
+    let mut out: Vec<Layer> = Vec::with_capacity(layers.len());
+    let mut blended = 0u64;
+    let mut i = 0;
+    while i < layers.len() {
+        let mut j = i + 1;
+        while j < layers.len() && layers[j - 1].ranks[1] + 1 == layers[j].ranks[0] {
+            j += 1;
+        }
+        if j - i == 1 {
+            out.push(layers[i].clone());
+        } else {
+            let run = &layers[i..j];
+            let depth = run[0].depth;
+            if run.iter().any(|l| l.depth != depth) {
+                return Err("layers of different depths cannot be merged".into());
+            }
+            let bbox = run.iter().skip(1).fold(run[0].rect, |a, l| Rect {
+                x0: a.x0.min(l.rect.x0),
+                y0: a.y0.min(l.rect.y0),
+                x1: a.x1.max(l.rect.x1),
+                y1: a.y1.max(l.rect.y1),
+            });
+            let refs: Vec<&Layer> = run.iter().collect();
+            let px = composite(&bbox, &refs)?;
+            blended += run.iter().map(|l| l.px.len() as u64).sum::<u64>();
+            let mut m = Layer::quantize(bbox, run[0].ranks[0], depth, &px);
+            m.ranks[1] = run[j - i - 1].ranks[1];
+            out.push(m);
+        }
+        i = j;
+    }
+    Ok((out, blended))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

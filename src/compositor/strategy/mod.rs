@@ -5,10 +5,12 @@
 mod binary_swap;
 mod direct_send;
 mod master;
+mod radix_k;
 
 pub use binary_swap::BinarySwap;
 pub use direct_send::DirectSend;
 pub use master::Master;
+pub use radix_k::{factors as radix_factors, RadixK, DEFAULT_K as RADIX_K_DEFAULT};
 
 use crate::render::cell::scan::Rect;
 
@@ -18,11 +20,23 @@ use super::schedule::Schedule;
 pub trait Strategy: Send + Sync {
     /// The name [`from_name`] knows it by.
     fn name(&self) -> &'static str;
+    /// The name with its parameters, as [`from_name`] takes it back
+    /// (`radix-k:4`); the plain name for strategies without parameters.
+    fn label(&self) -> String {
+        self.name().to_string()
+    }
     /// Whether the result keeps visibility order exactly (required for
     /// translucent volumes: "over" is not commutative). Strategies that merge
     /// depth-sorted segment lists do; ones that blend pre-composited images
     /// in rank order would not, for cells spread over nodes arbitrarily.
     fn preserves_order(&self) -> bool;
+    /// Whether an executor of visibility-ranked layers should composite
+    /// the layers a rank holds whose ranks are adjacent after every lists
+    /// round (IceT's per-round compositing, where it is exact for any
+    /// placement). Segment lists ignore it (merging lists is exact anyway).
+    fn merges_early(&self) -> bool {
+        false
+    }
     /// The rounds for `nodes` nodes compositing `image` (`nodes >= 1`).
     fn schedule(&self, nodes: usize, image: Rect) -> Schedule;
 }
@@ -39,6 +53,10 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
             "log2(n) rounds of pairwise half swaps (rank XOR 2^i); extra nodes of a non-power-of-two count fold into a partner first; then gather",
         ),
         (
+            "radix-k",
+            "rounds with group sizes k_i (product n, each at most k unless a prime factor of n is larger): each group splits its region into k_i pieces, every member sends each piece to its owner; layers adjacent in visibility order are composited after each round; `radix-k:K` sets k (default 8, IceT's); then gather",
+        ),
+        (
             "master",
             "every node sends all it holds to rank 0 (the master), which composites alone (the sort-last grid paper); 1 round, n-1 messages",
         ),
@@ -51,6 +69,16 @@ pub fn from_name(name: &str) -> Result<Box<dyn Strategy>, String> {
         "direct-send" | "direct" => Ok(Box::new(DirectSend::default())),
         "binary-swap" | "bswap" => Ok(Box::new(BinarySwap)),
         "master" => Ok(Box::new(Master)),
+        "radix-k" | "radixk" => Ok(Box::new(RadixK::default())),
+        _ if name.starts_with("radix-k:") => {
+            let k = &name["radix-k:".len()..];
+            match k.parse::<usize>() {
+                Ok(k) if (2..=4096).contains(&k) => Ok(Box::new(RadixK { k })),
+                _ => Err(format!(
+                    "`{name}`: radix-k's k must be a whole number from 2 to 4096 (got `{k}`)"
+                )),
+            }
+        }
         _ => Err(format!(
             "unknown compositing strategy `{name}`; choose one of: {}",
             list()
@@ -117,5 +145,13 @@ mod tests {
             }
         }
         assert!(from_name("nope").err().unwrap().contains("binary-swap"));
+        assert_eq!(from_name("radix-k:3").unwrap().label(), "radix-k:3");
+        assert_eq!(from_name("radix-k").unwrap().label(), "radix-k:8");
+        for bad in ["radix-k:1", "radix-k:x", "radix-k:"] {
+            assert!(
+                from_name(bad).err().unwrap().contains("from 2 to 4096"),
+                "{bad}"
+            );
+        }
     }
 }

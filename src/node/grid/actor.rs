@@ -18,7 +18,7 @@ use crate::render::VolumeInput;
 
 use super::bricks::Brick;
 use super::device::{device_bytes, frame_time, BrickWork, DeviceTime};
-use super::render::{render_brick, BrickRenderer, LayerSpec};
+use super::render::{render_brick, BrickRenderer, LayerSpec, RendererKind};
 
 /// What a grid node did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -58,6 +58,7 @@ pub struct GridNodeActor {
     depth: Depth,
     profile: CostProfile,
     renderer: BrickRenderer,
+    kind: RendererKind,
     layers: Vec<Layer>,
     stats: GridNodeStats,
 }
@@ -75,7 +76,7 @@ impl GridNodeActor {
         opts: Slice3dOptions,
         depth: Depth,
         profile: CostProfile,
-        renderer: BrickRenderer,
+        kind: RendererKind,
     ) -> GridNodeActor {
         let stats = GridNodeStats {
             rank,
@@ -89,7 +90,8 @@ impl GridNodeActor {
             opts,
             depth,
             profile,
-            renderer,
+            renderer: kind.build(),
+            kind,
             layers: Vec::new(),
             stats,
         }
@@ -135,6 +137,7 @@ impl GridNodeActor {
                     fragments: st.samples_taken + st.samples_skipped_empty + st.samples_skipped_ert,
                     samples_taken: st.samples_taken,
                     pixels: out.layer.px.len() as u64,
+                    textures: self.kind.textures(vol.dims),
                 };
                 self.stats.texture_bytes += st.texture_bytes;
                 self.stats.original_bytes += vol.voxels.bytes();

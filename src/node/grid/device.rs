@@ -13,6 +13,9 @@
 //!   LRU paging under a cyclic sweep larger than memory evicts every page
 //!   before its reuse, so all of `U`, not only `T - host_bytes`, comes from
 //!   disk); read-back of the subimage `4 · pixels / readback_bytes_per_s`;
+//!   and the host's draw set-up, `textures · per_texture_draw` (a texture
+//!   bind and a draw call per texture: one per brick, or one per block of
+//!   adaptive sampling, so that many small blocks cost);
 //! - without: `samples taken · per_sample` (the software slicer).
 //!
 //! Blending a received subimage: per pixel `1 / fill_rate + 4 /
@@ -33,6 +36,8 @@ pub struct BrickWork {
     pub samples_taken: u64,
     /// Pixels of the subimage.
     pub pixels: u64,
+    /// Textures drawn (1 for a brick, its blocks with adaptive sampling).
+    pub textures: u64,
 }
 
 /// Modelled seconds of one node's frame, by part.
@@ -47,6 +52,12 @@ pub struct DeviceTime {
     pub paging_s: f64,
     /// Subimage read-back.
     pub readback_s: f64,
+    /// Draw set-up, `textures · per_texture_draw`.
+    #[serde(default)]
+    pub setup_s: f64,
+    /// Textures drawn.
+    #[serde(default)]
+    pub textures: u64,
     /// Texture bytes that stay resident.
     pub resident_bytes: u64,
     /// Texture bytes uploaded every frame.
@@ -62,7 +73,7 @@ pub struct DeviceTime {
 impl DeviceTime {
     /// The sum of the parts.
     pub fn total(&self) -> f64 {
-        self.fill_s + self.upload_s + self.paging_s + self.readback_s
+        self.fill_s + self.upload_s + self.paging_s + self.readback_s + self.setup_s
     }
 }
 
@@ -89,6 +100,8 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
             t.oversized_bricks += 1;
         }
         t.fill_s += b.fragments as f64 / p.fill_rate;
+        t.textures += b.textures;
+        t.setup_s += b.textures as f64 * p.per_texture_draw;
         if p.texture_bytes <= 0.0 || (used + b.texture_bytes) as f64 <= p.texture_bytes {
             used += b.texture_bytes;
             t.resident_bytes += b.texture_bytes;
@@ -152,6 +165,7 @@ mod tests {
             fragments: 5,
             samples_taken: 1,
             pixels: 1,
+            textures: 3,
         };
         let t = frame_time(&[b(60), b(30), b(40)], &p);
         assert_eq!(t.resident_bytes, 90);
@@ -192,5 +206,14 @@ mod tests {
         };
         assert_eq!(frame_time(&[b(60), b(30)], &cpu).total(), 4.0);
         assert!(check(&CostProfile::default(), "x").is_err());
+        // Draw set-up: per texture drawn, on top of the rest.
+        let draw = CostProfile {
+            per_texture_draw: 0.25,
+            ..p
+        };
+        let t = frame_time(&[b(60), b(30)], &draw);
+        assert_eq!(t.textures, 6);
+        assert!((t.setup_s - 1.5).abs() < 1e-12);
+        assert!((t.total() - frame_time(&[b(60), b(30)], &p).total() - 1.5).abs() < 1e-12);
     }
 }

@@ -58,6 +58,20 @@ impl RendererKind {
         }
     }
 
+    /// Textures a brick of `dims` samples is drawn as: 1 with `slice3d`;
+    /// with adaptive sampling its blocks (each a texture at its own
+    /// resolution), as many as the build cuts per axis.
+    pub fn textures(self, dims: [u64; 3]) -> u64 {
+        match self {
+            RendererKind::Slice3d => 1,
+            RendererKind::Adaptive { blocks, .. } => dims
+                .iter()
+                .map(|&n| crate::render::adaptive::axis::split(n, blocks).len() as u64 - 1)
+                .product::<u64>()
+                .max(1),
+        }
+    }
+
     /// Checks the options before any brick is rendered.
     pub fn check(self, opts: &Slice3dOptions) -> Result<()> {
         match self {
