@@ -152,7 +152,8 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         st.fill_rate,
         st.order_ms,
         st.splat_ms,
-        st.ert_threshold,
+        // The option is an f32: print it as given (0.99, not 0.9900000095…).
+        st.ert_threshold as f32,
         st.pieces_skipped_ert,
         st.pieces,
         st.ert_error_bound * 255.0
