@@ -403,6 +403,14 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
                 "--manager-shards runs on the simulated cluster (or --transport threads) only: \
                  remote workers talk to one manager"
             );
+            if a.ert_mode.manager_shards.is_none() && a.nodes > 16 {
+                eprintln!(
+                    "note: remote workers talk to one manager: 1 manager shard (the simulated \
+                     cluster's default for {} nodes would be {})",
+                    a.nodes,
+                    a.nodes.div_ceil(crate::node::shard_map::NODES_PER_SHARD)
+                );
+            }
             if cfg.phase1.data == DataMode::Replicated {
                 anyhow::ensure!(
                     a.data.is_none(),
