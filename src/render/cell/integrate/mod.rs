@@ -30,6 +30,12 @@ use super::fastmath::{exp_neg, fclamp, fmax, fmin, ln};
 use super::segment::Rgba;
 use crate::scene::transfer::{TransferFunction, OPACITY_MAX};
 
+mod batch;
+#[cfg(test)]
+mod tests;
+
+pub use batch::{Batch, BATCH, NO_PIECE};
+
 /// Which integrator turns a segment's `(s_a, s_b, length)` into colour and alpha.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
@@ -367,214 +373,15 @@ fn zero_runs(pieces: &[Piece], breaks: &[f32]) -> Vec<(f32, f32)> {
     merged
 }
 
-/// Lanes in an integration batch.
-pub const BATCH: usize = 128;
-
-/// `Batch::piece_hint` value meaning "look the piece up".
-pub const NO_PIECE: u16 = u16::MAX;
-
 /// Cells of the piece lookup table.
 const LUT: usize = 1024;
-
-/// Segments to integrate together, structure of arrays, so the common case
-/// (every segment of a tet within one transfer-function piece) runs as one
-/// vectorised loop.
-#[derive(Debug, Clone)]
-pub struct Batch {
-    /// Lanes in use.
-    pub n: usize,
-    /// Scalar at entry.
-    pub s_in: [f32; BATCH],
-    /// Scalar at exit.
-    pub s_out: [f32; BATCH],
-    /// Length in world units.
-    pub len: [f32; BATCH],
-    /// Results: premultiplied red, green, blue and alpha.
-    pub rgba: [[f32; BATCH]; 4],
-    /// Per lane, the transfer-function piece holding both ends if the caller
-    /// knows it (the whole cell's scalar range lies in one piece), else
-    /// [`NO_PIECE`].
-    pub piece_hint: [u16; BATCH],
-    /// Scratch: each lane's transfer-function piece, gathered.
-    lanes: Lanes,
-}
-
-impl Default for Batch {
-    fn default() -> Self {
-        Batch {
-            n: 0,
-            s_in: [0.0; BATCH],
-            s_out: [0.0; BATCH],
-            len: [0.0; BATCH],
-            rgba: [[0.0; BATCH]; 4],
-            piece_hint: [NO_PIECE; BATCH],
-            lanes: Lanes {
-                split: [false; BATCH],
-                piece: [0; BATCH],
-            },
-        }
-    }
-}
-
-impl Batch {
-    /// The result of lane `i`.
-    #[inline(always)]
-    pub fn result(&self, i: usize) -> Rgba {
-        Rgba {
-            rgb: [self.rgba[0][i], self.rgba[1][i], self.rgba[2][i]],
-            a: self.rgba[3][i],
-        }
-    }
-    #[inline(always)]
-    fn set(&mut self, i: usize, v: Rgba) {
-        self.rgba[0][i] = v.rgb[0];
-        self.rgba[1][i] = v.rgb[1];
-        self.rgba[2][i] = v.rgb[2];
-        self.rgba[3][i] = v.a;
-    }
-}
-
-/// Per lane: its transfer-function piece, and whether the scalar code must
-/// redo it.
-#[derive(Debug, Clone)]
-struct Lanes {
-    split: [bool; BATCH],
-    /// Always a valid index into the pieces (lanes past `n` keep an old one).
-    piece: [u32; BATCH],
-}
-
-impl PreparedTf {
-    /// Integrates the first `b.n` lanes of `b` into `b.rgba`. Same results as
-    /// [`PreparedTf::integrate`] lane by lane, up to f32 rounding.
-    ///
-    /// Three passes, each a simple loop over lanes so that the compiler can
-    /// vectorise the first and the last: find each lane's piece (a branch-free
-    /// count of control points at or below the scalar), gather that piece's
-    /// parameters, then do the math. Lanes that cross a control point or need
-    /// sub-steps are redone one by one by the scalar code.
-    pub fn integrate_batch(&self, integrator: Integrator, b: &mut Batch) {
-        let lanes = ((b.n + 7) & !7).min(BATCH);
-        // Pass 1 (scalar): each lane's piece; a lane whose ends lie in
-        // different pieces crosses a control point and is split later.
-        for l in 0..b.n {
-            let hint = b.piece_hint[l];
-            let (i, split) = match integrator {
-                _ if hint != NO_PIECE => (hint as usize, false),
-                Integrator::Exact => {
-                    let i = self.piece_index(b.s_in[l]);
-                    (i, i != self.piece_index(b.s_out[l]))
-                }
-                Integrator::Midpoint => (self.piece_index(0.5 * (b.s_in[l] + b.s_out[l])), false),
-            };
-            b.lanes.split[l] = split;
-            b.lanes.piece[l] = i.min(self.pieces.len() - 1) as u32;
-        }
-        // Pass 2 (vectorised): the math, on whole vectors of lanes (lanes past
-        // `n` hold stale inputs; their results are ignored).
-        let (inv_ud, exact) = (self.inv_unit_distance, integrator == Integrator::Exact);
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { math_avx2(b, &self.table, lanes, inv_ud, exact) };
-            } else {
-                math_lanes(b, &self.table, lanes, inv_ud, exact);
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        math_lanes(b, &self.table, lanes, inv_ud, exact);
-        if exact {
-            // Pass 3 (scalar, rare): lanes that cross a control point or need sub-steps.
-            for l in 0..b.n {
-                if b.lanes.split[l] {
-                    let v = self.exact(b.s_in[l], b.s_out[l], b.len[l]);
-                    b.set(l, v);
-                }
-            }
-        }
-    }
-}
-
-/// Pass 2 compiled for AVX2 (eight lanes per instruction). No FMA: the
-/// results are bit-identical to the SSE2 build, so images do not depend on
-/// the machine.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn math_avx2(b: &mut Batch, t: &PieceTable, lanes: usize, inv_ud: f32, exact: bool) {
-    math_lanes(b, t, lanes, inv_ud, exact)
-}
-
-/// Pass 2 of [`PreparedTf::integrate_batch`]: per lane, the exact sub-step
-/// (or the midpoint rule) from the gathered piece parameters.
-#[inline(always)]
-fn math_lanes(b: &mut Batch, t: &PieceTable, lanes: usize, inv_ud: f32, exact: bool) {
-    let omax = OPACITY_MAX as f32;
-    let g = &mut b.lanes;
-    // A lane's piece parameter `v[piece]`. SAFETY: `Lanes::piece` only ever
-    // holds indices below the number of pieces (set from `piece_index` and
-    // clamped in pass 1, zero-initialised), and every column has that length.
-    // Unchecked, so the loops below vectorise with gathers.
-    let n = t.s0.len();
-    let at = |v: &[f32], i: u32| -> f32 {
-        debug_assert!((i as usize) < n && v.len() == n);
-        unsafe { *v.get_unchecked(i as usize) }
-    };
-    if exact {
-        for l in 0..lanes {
-            let i = g.piece[l];
-            let (s0, inv_w, o0, d_o) = (at(&t.s0, i), at(&t.inv_w, i), at(&t.o0, i), at(&t.d_o, i));
-            let c0p = [at(&t.c0[0], i), at(&t.c0[1], i), at(&t.c0[2], i)];
-            let d_c = [at(&t.d_c[0], i), at(&t.d_c[1], i), at(&t.d_c[2], i)];
-            let k = b.len[l] * inv_ud;
-            let w0 = fclamp((b.s_in[l] - s0) * inv_w, 0.0, 1.0);
-            let w1 = fclamp((b.s_out[l] - s0) * inv_w, 0.0, 1.0);
-            let u0 = 1.0 - fmin(o0 + d_o * w0, omax);
-            let u1 = 1.0 - fmin(o0 + d_o * w1, omax);
-            let (l0, l1) = (-ln(u0), -ln(u1));
-            let d_est = k * fmax(l0, l1);
-            let rel = (u1 - u0).abs() / fmin(u0, u1);
-            g.split[l] |= d_est * 2.5 > 1.0 || rel * 3.0 > 1.0;
-            let c0 = [
-                c0p[0] + d_c[0] * w0,
-                c0p[1] + d_c[1] * w0,
-                c0p[2] + d_c[2] * w0,
-            ];
-            let c1 = [
-                c0p[0] + d_c[0] * w1,
-                c0p[1] + d_c[1] * w1,
-                c0p[2] + d_c[2] * w1,
-            ];
-            let v = sub_step(u0, u1, l0, l1, c0, c1, k);
-            b.rgba[0][l] = v.rgb[0];
-            b.rgba[1][l] = v.rgb[1];
-            b.rgba[2][l] = v.rgb[2];
-            b.rgba[3][l] = v.a;
-        }
-    } else {
-        for l in 0..lanes {
-            let i = g.piece[l];
-            let k = b.len[l] * inv_ud;
-            let w = fclamp(
-                (0.5 * (b.s_in[l] + b.s_out[l]) - at(&t.s0, i)) * at(&t.inv_w, i),
-                0.0,
-                1.0,
-            );
-            let o = fmin(at(&t.o0, i) + at(&t.d_o, i) * w, omax);
-            let a = 1.0 - exp_neg(k * ln(1.0 - o));
-            for c in 0..3 {
-                b.rgba[c][l] = (at(&t.c0[c], i) + at(&t.d_c[c], i) * w) * a;
-            }
-            b.rgba[3][l] = a;
-        }
-    }
-}
 
 /// `∫_0^1 -ln(u(x)) dx` for `u` linear from `u0` to `u1`, given `λ = -ln u` at
 /// both ends. Exact form `(u1 λ1 - u0 λ0) / (u1 - u0) + 1`; when the ends are
 /// close, the series `(λ0 + λ1)/2 - Σ_{n≥1} e^{2n} / (2n + 1)` with
 /// `e = (u1 - u0) / (u1 + u0)` (from `artanh(e)/e`), which avoids the cancellation.
 #[inline(always)]
-fn mean_neg_log(u0: f32, u1: f32, l0: f32, l1: f32) -> f32 {
+pub(super) fn mean_neg_log(u0: f32, u1: f32, l0: f32, l1: f32) -> f32 {
     let e = (u1 - u0) / (u1 + u0);
     let e2 = e * e;
     let series = 0.5 * (l0 + l1) - e2 * (1.0 / 3.0 + e2 * (1.0 / 5.0 + e2 * (1.0 / 7.0)));
@@ -590,7 +397,15 @@ fn mean_neg_log(u0: f32, u1: f32, l0: f32, l1: f32) -> f32 {
 
 /// One Simpson step: `u`, `λ`, `c` linear from end 0 to end 1, `k` unit distances.
 #[inline(always)]
-fn sub_step(u0: f32, u1: f32, l0: f32, l1: f32, c0: [f32; 3], c1: [f32; 3], k: f32) -> Rgba {
+pub(super) fn sub_step(
+    u0: f32,
+    u1: f32,
+    l0: f32,
+    l1: f32,
+    c0: [f32; 3],
+    c1: [f32; 3],
+    k: f32,
+) -> Rgba {
     let um = 0.5 * (u0 + u1);
     let lm = -ln(um);
     let d_half = 0.5 * k * mean_neg_log(u0, um, l0, lm);
@@ -606,161 +421,5 @@ fn sub_step(u0: f32, u1: f32, l0: f32, l1: f32, c0: [f32; 3], c1: [f32; 3], k: f
             c1[2] * a - (c1[2] - c0[2]) * int_a,
         ],
         a,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::transfer::ControlPoint;
-
-    fn aorta_tf() -> TransferFunction {
-        let pts = [
-            [0.0000, 0.2300, 0.2990, 0.7540, 0.0000],
-            [0.0400, 0.2815, 0.3616, 0.7927, 0.2094],
-            [0.1000, 0.3588, 0.4554, 0.8508, 0.6979],
-            [0.2400, 0.5391, 0.6744, 0.9863, 0.6979],
-            [0.2500, 0.5520, 0.6900, 0.9960, 0.6595],
-            [0.3400, 0.6647, 0.7530, 0.9488, 0.3141],
-            [0.5000, 0.8650, 0.8650, 0.8650, 0.0838],
-            [0.7500, 0.9580, 0.6040, 0.4820, 0.1256],
-            [1.0000, 0.7060, 0.0160, 0.1500, 0.2443],
-        ];
-        TransferFunction::from_rows(&pts, 5.0)
-    }
-
-    /// Brute-force f64 integral: many small steps, each with the exact
-    /// constant-extinction formula at its midpoint, composited.
-    fn brute(tf: &TransferFunction, sa: f64, sb: f64, len: f64) -> (f64, [f64; 3]) {
-        let n = 20_000;
-        let (mut t, mut c) = (1.0f64, [0.0f64; 3]);
-        for i in 0..n {
-            let x = (i as f64 + 0.5) / n as f64;
-            let s = sa + (sb - sa) * x;
-            let (rgb, _) = tf.eval(s);
-            let a = 1.0 - (-tf.extinction(s) * len / n as f64).exp();
-            for k in 0..3 {
-                c[k] += t * a * rgb[k];
-            }
-            t *= 1.0 - a;
-        }
-        (1.0 - t, c)
-    }
-
-    #[test]
-    fn exact_is_within_1e4_of_the_true_integral() {
-        let tf = aorta_tf();
-        let p = PreparedTf::new(&tf);
-        let mut worst = 0.0f64;
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for _ in 0..3000 {
-            let sa = rnd() * 1.1 - 0.05;
-            let sb = if rnd() < 0.5 {
-                sa + (rnd() - 0.5) * 0.1
-            } else {
-                rnd() * 1.1 - 0.05
-            };
-            let len = [0.01, 0.5, 2.0, 10.0, 40.0][(rnd() * 5.0) as usize % 5] * rnd();
-            let got = p.exact(sa as f32, sb as f32, len as f32);
-            let (a, c) = brute(&tf, sa, sb, len);
-            let err = (got.a as f64 - a).abs().max(
-                (0..3)
-                    .map(|k| (got.rgb[k] as f64 - c[k]).abs())
-                    .fold(0.0, f64::max),
-            );
-            worst = worst.max(err);
-            assert!(
-                err < 1e-4,
-                "sa={sa} sb={sb} len={len}: got {got:?}, want a={a} c={c:?}, err {err}"
-            );
-        }
-        eprintln!("worst exact error {worst:e}");
-    }
-
-    #[test]
-    fn opacity_one_and_zero_length_are_finite() {
-        let tf = TransferFunction {
-            points: vec![
-                ControlPoint {
-                    s: 0.0,
-                    rgb: [1.0, 0.5, 0.0],
-                    opacity: 1.0,
-                },
-                ControlPoint {
-                    s: 1.0,
-                    rgb: [1.0, 0.5, 0.0],
-                    opacity: 1.0,
-                },
-            ],
-            unit_distance: 1.0,
-        };
-        let p = PreparedTf::new(&tf);
-        for integ in [Integrator::Exact, Integrator::Midpoint] {
-            let r = p.integrate(integ, 0.2, 0.8, 3.0);
-            assert!(
-                r.a > 0.999_999 && r.a <= 1.0 && r.rgb.iter().all(|v| v.is_finite()),
-                "{r:?}"
-            );
-            let z = p.integrate(integ, 0.2, 0.8, 0.0);
-            assert_eq!(z.a, 0.0);
-        }
-    }
-
-    /// The definition: zero opacity at both ends and at every control point
-    /// between them (the opacity is linear in between).
-    fn transparent_by_definition(p: &PreparedTf, lo: f32, hi: f32) -> bool {
-        if p.eval(lo).0 > 0.0 || p.eval(hi).0 > 0.0 {
-            return false;
-        }
-        let (i0, i1) = (p.piece_index(lo), p.piece_index(hi));
-        (i0..i1).all(|b| p.pieces[b + 1].o0 <= 0.0)
-    }
-
-    proptest::proptest! {
-        #[test]
-        fn zero_runs_agree_with_the_definition(
-            ops in proptest::collection::vec(0u8..4, 2..9),
-            cuts in proptest::collection::vec(0.0f64..1.0, 2..9),
-            queries in proptest::collection::vec((-0.2f32..1.2, 0.0f32..0.5), 1..60),
-        ) {
-            // Control points at sorted positions (duplicates allowed), with
-            // opacity 0 half of the time so zero runs of every shape occur.
-            let n = ops.len().min(cuts.len());
-            let mut s: Vec<f64> = cuts[..n].to_vec();
-            s.sort_by(|a, b| a.total_cmp(b));
-            let points = (0..n)
-                .map(|i| ControlPoint {
-                    s: s[i],
-                    rgb: [0.5, 0.5, 0.5],
-                    opacity: [0.0, 0.0, 0.3, 1.0][ops[i] as usize],
-                })
-                .collect();
-            let p = PreparedTf::new(&TransferFunction { points, unit_distance: 1.0 });
-            // Also ask about the control points themselves.
-            let mut qs = queries.clone();
-            qs.extend(s.iter().map(|&v| (v as f32, 0.0)));
-            for (lo, w) in qs {
-                let hi = lo + w;
-                proptest::prop_assert_eq!(
-                    p.is_transparent(lo, hi),
-                    transparent_by_definition(&p, lo, hi),
-                    "[{}, {}] with {:?}", lo, hi, p.zero_runs
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn transparent_intervals() {
-        let p = PreparedTf::new(&aorta_tf());
-        assert!(p.is_transparent(-1.0, 0.0));
-        assert!(!p.is_transparent(-1.0, 0.01));
-        assert!(!p.is_transparent(0.3, 0.31));
     }
 }

@@ -1,0 +1,152 @@
+use super::*;
+use crate::scene::transfer::ControlPoint;
+
+fn aorta_tf() -> TransferFunction {
+    let pts = [
+        [0.0000, 0.2300, 0.2990, 0.7540, 0.0000],
+        [0.0400, 0.2815, 0.3616, 0.7927, 0.2094],
+        [0.1000, 0.3588, 0.4554, 0.8508, 0.6979],
+        [0.2400, 0.5391, 0.6744, 0.9863, 0.6979],
+        [0.2500, 0.5520, 0.6900, 0.9960, 0.6595],
+        [0.3400, 0.6647, 0.7530, 0.9488, 0.3141],
+        [0.5000, 0.8650, 0.8650, 0.8650, 0.0838],
+        [0.7500, 0.9580, 0.6040, 0.4820, 0.1256],
+        [1.0000, 0.7060, 0.0160, 0.1500, 0.2443],
+    ];
+    TransferFunction::from_rows(&pts, 5.0)
+}
+
+/// Brute-force f64 integral: many small steps, each with the exact
+/// constant-extinction formula at its midpoint, composited.
+fn brute(tf: &TransferFunction, sa: f64, sb: f64, len: f64) -> (f64, [f64; 3]) {
+    let n = 20_000;
+    let (mut t, mut c) = (1.0f64, [0.0f64; 3]);
+    for i in 0..n {
+        let x = (i as f64 + 0.5) / n as f64;
+        let s = sa + (sb - sa) * x;
+        let (rgb, _) = tf.eval(s);
+        let a = 1.0 - (-tf.extinction(s) * len / n as f64).exp();
+        for k in 0..3 {
+            c[k] += t * a * rgb[k];
+        }
+        t *= 1.0 - a;
+    }
+    (1.0 - t, c)
+}
+
+#[test]
+fn exact_is_within_1e4_of_the_true_integral() {
+    let tf = aorta_tf();
+    let p = PreparedTf::new(&tf);
+    let mut worst = 0.0f64;
+    let mut seed = 12345u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..3000 {
+        let sa = rnd() * 1.1 - 0.05;
+        let sb = if rnd() < 0.5 {
+            sa + (rnd() - 0.5) * 0.1
+        } else {
+            rnd() * 1.1 - 0.05
+        };
+        let len = [0.01, 0.5, 2.0, 10.0, 40.0][(rnd() * 5.0) as usize % 5] * rnd();
+        let got = p.exact(sa as f32, sb as f32, len as f32);
+        let (a, c) = brute(&tf, sa, sb, len);
+        let err = (got.a as f64 - a).abs().max(
+            (0..3)
+                .map(|k| (got.rgb[k] as f64 - c[k]).abs())
+                .fold(0.0, f64::max),
+        );
+        worst = worst.max(err);
+        assert!(
+            err < 1e-4,
+            "sa={sa} sb={sb} len={len}: got {got:?}, want a={a} c={c:?}, err {err}"
+        );
+    }
+    eprintln!("worst exact error {worst:e}");
+}
+
+#[test]
+fn opacity_one_and_zero_length_are_finite() {
+    let tf = TransferFunction {
+        points: vec![
+            ControlPoint {
+                s: 0.0,
+                rgb: [1.0, 0.5, 0.0],
+                opacity: 1.0,
+            },
+            ControlPoint {
+                s: 1.0,
+                rgb: [1.0, 0.5, 0.0],
+                opacity: 1.0,
+            },
+        ],
+        unit_distance: 1.0,
+    };
+    let p = PreparedTf::new(&tf);
+    for integ in [Integrator::Exact, Integrator::Midpoint] {
+        let r = p.integrate(integ, 0.2, 0.8, 3.0);
+        assert!(
+            r.a > 0.999_999 && r.a <= 1.0 && r.rgb.iter().all(|v| v.is_finite()),
+            "{r:?}"
+        );
+        let z = p.integrate(integ, 0.2, 0.8, 0.0);
+        assert_eq!(z.a, 0.0);
+    }
+}
+
+/// The definition: zero opacity at both ends and at every control point
+/// between them (the opacity is linear in between).
+fn transparent_by_definition(p: &PreparedTf, lo: f32, hi: f32) -> bool {
+    if p.eval(lo).0 > 0.0 || p.eval(hi).0 > 0.0 {
+        return false;
+    }
+    let (i0, i1) = (p.piece_index(lo), p.piece_index(hi));
+    (i0..i1).all(|b| p.pieces[b + 1].o0 <= 0.0)
+}
+
+proptest::proptest! {
+    #[test]
+    fn zero_runs_agree_with_the_definition(
+        ops in proptest::collection::vec(0u8..4, 2..9),
+        cuts in proptest::collection::vec(0.0f64..1.0, 2..9),
+        queries in proptest::collection::vec((-0.2f32..1.2, 0.0f32..0.5), 1..60),
+    ) {
+        // Control points at sorted positions (duplicates allowed), with
+        // opacity 0 half of the time so zero runs of every shape occur.
+        let n = ops.len().min(cuts.len());
+        let mut s: Vec<f64> = cuts[..n].to_vec();
+        s.sort_by(|a, b| a.total_cmp(b));
+        let points = (0..n)
+            .map(|i| ControlPoint {
+                s: s[i],
+                rgb: [0.5, 0.5, 0.5],
+                opacity: [0.0, 0.0, 0.3, 1.0][ops[i] as usize],
+            })
+            .collect();
+        let p = PreparedTf::new(&TransferFunction { points, unit_distance: 1.0 });
+        // Also ask about the control points themselves.
+        let mut qs = queries.clone();
+        qs.extend(s.iter().map(|&v| (v as f32, 0.0)));
+        for (lo, w) in qs {
+            let hi = lo + w;
+            proptest::prop_assert_eq!(
+                p.is_transparent(lo, hi),
+                transparent_by_definition(&p, lo, hi),
+                "[{}, {}] with {:?}", lo, hi, p.zero_runs
+            );
+        }
+    }
+}
+
+#[test]
+fn transparent_intervals() {
+    let p = PreparedTf::new(&aorta_tf());
+    assert!(p.is_transparent(-1.0, 0.0));
+    assert!(!p.is_transparent(-1.0, 0.01));
+    assert!(!p.is_transparent(0.3, 0.31));
+}
