@@ -13,6 +13,7 @@
 
 pub mod adaptive;
 pub mod cell;
+pub mod gauss;
 pub mod grid_reference;
 pub mod input;
 pub mod reference;

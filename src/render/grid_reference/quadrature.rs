@@ -32,86 +32,14 @@
 //! the box, so the per-pixel error sums to at most `tol`. Otherwise each half
 //! is refined the same way (depth limit [`MAX_DEPTH`], counted).
 //!
-//! Written for the grid reference alone (the mesh reference has its own):
-//! the two oracles share no code.
+//! The two oracles share only the rule's table of nodes, weights and `S`
+//! ([`crate::render::gauss`], tested on its own); the integrand, the error
+//! control and the walk are the grid reference's.
 
-use std::sync::OnceLock;
+use crate::render::gauss::{rule, M};
 
-/// Nodes of the rule.
-pub const M: usize = 8;
 /// Deepest interval halving.
 pub const MAX_DEPTH: u32 = 40;
-
-/// Nodes, weights and spectral integration matrix.
-struct Rule {
-    x: [f64; M],
-    w: [f64; M],
-    s: [[f64; M]; M],
-}
-
-/// `P_n(x)` and `P_n'(x)` by the three-term recurrence.
-fn legendre(n: usize, x: f64) -> (f64, f64) {
-    let (mut p0, mut p1) = (1.0, x);
-    for k in 2..=n {
-        let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-        p0 = p1;
-        p1 = p2;
-    }
-    (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
-}
-
-fn rule() -> &'static Rule {
-    static R: OnceLock<Rule> = OnceLock::new();
-    R.get_or_init(|| {
-        let mut x = [0.0; M];
-        let mut w = [0.0; M];
-        for (k, (xk, wk)) in x.iter_mut().zip(w.iter_mut()).enumerate() {
-            // Newton from the Chebyshev-like guess; nodes ascending.
-            let mut r = -(std::f64::consts::PI * (k as f64 + 0.75) / (M as f64 + 0.5)).cos();
-            for _ in 0..100 {
-                let (p, dp) = legendre(M, r);
-                let dr = p / dp;
-                r -= dr;
-                if dr.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let (_, dp) = legendre(M, r);
-            *xk = r;
-            *wk = 2.0 / ((1.0 - r * r) * dp * dp);
-        }
-        // S_kj = ∫_{-1}^{x_k} l_j: expand l_j in monomials, integrate exactly.
-        let mut s = [[0.0; M]; M];
-        for j in 0..M {
-            let mut coef = vec![1.0f64]; // ascending powers
-            let mut denom = 1.0;
-            for (i, &xi) in x.iter().enumerate() {
-                if i == j {
-                    continue;
-                }
-                // multiply by (y - x_i)
-                let mut next = vec![0.0; coef.len() + 1];
-                for (p, &c) in coef.iter().enumerate() {
-                    next[p + 1] += c;
-                    next[p] -= c * xi;
-                }
-                coef = next;
-                denom *= x[j] - xi;
-            }
-            let prim = |y: f64| {
-                coef.iter()
-                    .enumerate()
-                    .rev()
-                    .fold(0.0, |acc, (p, &c)| acc * y + c / (p + 1) as f64)
-                    * y
-            };
-            for k in 0..M {
-                s[k][j] = (prim(x[k]) - prim(-1.0)) / denom;
-            }
-        }
-        Rule { x, w, s }
-    })
-}
 
 /// Premultiplied colour and transmittance of a stretch.
 #[derive(Debug, Clone, Copy, PartialEq)]

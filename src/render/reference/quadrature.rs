@@ -49,77 +49,13 @@
 //! integrands — analytic between kinks — it is by a wide margin: the kept
 //! result is the finer one, whose error is typically `2^-16` of the estimate).
 
-use std::sync::OnceLock;
+use crate::render::gauss::{rule, M};
 
 use crate::scene::transfer::OPACITY_MAX;
 use crate::scene::TransferFunction;
 
-/// Number of Gauss–Legendre nodes of the rule.
-const M: usize = 8;
 /// Deepest interval halving.
 const MAX_DEPTH: u32 = 30;
-
-/// Nodes, weights and spectral integration matrix of the collocation rule.
-struct Rule {
-    x: [f64; M],
-    w: [f64; M],
-    s: [[f64; M]; M],
-}
-
-fn legendre(n: usize, x: f64) -> (f64, f64) {
-    // P_n(x) and P_n'(x) by the three-term recurrence.
-    let (mut p0, mut p1) = (1.0, x);
-    for k in 2..=n {
-        let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-        p0 = p1;
-        p1 = p2;
-    }
-    let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-    (p1, dp)
-}
-
-fn rule() -> &'static Rule {
-    static RULE: OnceLock<Rule> = OnceLock::new();
-    RULE.get_or_init(|| {
-        let mut x = [0.0; M];
-        let mut w = [0.0; M];
-        for i in 0..M {
-            // Newton from the Chebyshev-like initial guess; nodes ascending.
-            let mut z = -(std::f64::consts::PI * (i as f64 + 0.75) / (M as f64 + 0.5)).cos();
-            for _ in 0..100 {
-                let (p, dp) = legendre(M, z);
-                let dz = p / dp;
-                z -= dz;
-                if dz.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let (_, dp) = legendre(M, z);
-            x[i] = z;
-            w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-        }
-        let lagrange = |j: usize, y: f64| -> f64 {
-            let mut v = 1.0;
-            for i in 0..M {
-                if i != j {
-                    v *= (y - x[i]) / (x[j] - x[i]);
-                }
-            }
-            v
-        };
-        // S_kj = ∫_{-1}^{x_k} l_j: Gauss on [-1, x_k] is exact for degree 7.
-        let mut s = [[0.0; M]; M];
-        for k in 0..M {
-            let half = 0.5 * (x[k] + 1.0);
-            for (j, sj) in s[k].iter_mut().enumerate() {
-                *sj = (0..M)
-                    .map(|q| w[q] * half * lagrange(j, -1.0 + half * (x[q] + 1.0)))
-                    .sum();
-            }
-        }
-        Rule { x, w, s }
-    })
-}
 
 /// Colour and transmittance of a stretch, or of everything in front.
 #[derive(Debug, Clone, Copy, PartialEq)]
