@@ -25,6 +25,7 @@ pub mod channel;
 pub mod clock;
 pub mod cost;
 pub mod error;
+mod inbox;
 pub mod message;
 pub mod metered;
 #[cfg(feature = "mpi")]

@@ -39,13 +39,14 @@ use std::sync::{Mutex, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
+use crossbeam_channel::{Receiver, Sender, TryRecvError};
 use mpi::point_to_point::{Destination, MatchedReceiveVec, Source};
 use mpi::request::{Request, StaticScope};
 use mpi::topology::Communicator;
 use mpi::traits::Equivalence;
 
 use super::error::{NetError, NetResult};
+use super::inbox::{self, lock, Inbox, Wait};
 use super::message::{Codec, Envelope, MessageKind, NodeId};
 use super::remote::{RemoteTransport, WireStats};
 use super::transport::{check_rank, Transport};
@@ -70,7 +71,7 @@ enum Command {
 }
 
 /// What the MPI thread hands the actor side.
-enum Incoming {
+pub(crate) enum Incoming {
     Msg { from: i32, tag: i32, bytes: Vec<u8> },
     Goodbye(i32),
     Lost(i32, String),
@@ -426,16 +427,6 @@ impl MpiTransport {
         NetError::PeerLost { peer: name, reason }
     }
 
-    fn check_failed(&self) -> NetResult<()> {
-        match &*lock(&self.failed) {
-            Some((peer, reason)) => Err(NetError::PeerLost {
-                peer: peer.clone(),
-                reason: reason.clone(),
-            }),
-            None => Ok(()),
-        }
-    }
-
     /// An inbox item as a message, `None` (a benign goodbye), or an error.
     fn take(&self, item: Incoming) -> NetResult<Option<Envelope>> {
         match item {
@@ -468,10 +459,6 @@ impl MpiTransport {
             Incoming::Lost(r, why) => Err(self.fail(self.node_of(r), why)),
         }
     }
-}
-
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 impl Transport for MpiTransport {
@@ -512,53 +499,15 @@ impl Transport for MpiTransport {
     }
 
     fn recv(&self) -> NetResult<Envelope> {
-        loop {
-            self.check_failed()?;
-            let item = self
-                .world()?
-                .inbox
-                .recv()
-                .map_err(|_| NetError::Disconnected { rank: self.me })?;
-            if let Some(e) = self.take(item)? {
-                return Ok(e);
-            }
-        }
+        inbox::receive_blocking(self)
     }
 
     fn recv_timeout(&self, timeout: Duration) -> NetResult<Option<Envelope>> {
-        let until = Instant::now() + timeout;
-        loop {
-            self.check_failed()?;
-            let left = until.saturating_duration_since(Instant::now());
-            match self.world()?.inbox.recv_timeout(left) {
-                Ok(item) => {
-                    if let Some(e) = self.take(item)? {
-                        return Ok(Some(e));
-                    }
-                }
-                Err(RecvTimeoutError::Timeout) => return Ok(None),
-                Err(RecvTimeoutError::Disconnected) => {
-                    return Err(NetError::Disconnected { rank: self.me })
-                }
-            }
-        }
+        inbox::receive(self, Wait::Until(Instant::now() + timeout))
     }
 
     fn try_recv(&self) -> NetResult<Option<Envelope>> {
-        loop {
-            self.check_failed()?;
-            match self.world()?.inbox.try_recv() {
-                Ok(item) => {
-                    if let Some(e) = self.take(item)? {
-                        return Ok(Some(e));
-                    }
-                }
-                Err(TryRecvError::Empty) => return Ok(None),
-                Err(TryRecvError::Disconnected) => {
-                    return Err(NetError::Disconnected { rank: self.me })
-                }
-            }
-        }
+        inbox::receive(self, Wait::Poll)
     }
 }
 
@@ -628,5 +577,21 @@ impl RemoteTransport for MpiTransport {
             .enumerate()
             .map(|(k, p)| (k != self.me.index() && p.said_goodbye).then_some(true))
             .collect()
+    }
+}
+
+impl Inbox for MpiTransport {
+    type Item = Incoming;
+    fn me(&self) -> NodeId {
+        self.me
+    }
+    fn inbox(&self) -> NetResult<&Receiver<Incoming>> {
+        Ok(&self.world()?.inbox)
+    }
+    fn failed(&self) -> &Mutex<Option<(String, String)>> {
+        &self.failed
+    }
+    fn take(&self, item: Incoming) -> NetResult<Option<Envelope>> {
+        MpiTransport::take(self, item)
     }
 }

@@ -23,9 +23,9 @@
 //! read (frames, heartbeats, goodbyes) in [`WireStats`].
 
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
+use crossbeam_channel::{Receiver, Sender};
 use tokio::io::AsyncWriteExt;
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::net::TcpStream;
@@ -35,6 +35,7 @@ use tokio::task::JoinHandle;
 
 use super::frame::{data_frame_bytes, encode_frame, read_frame_async, LinkFrame, TAG_HEARTBEAT};
 use crate::net::error::{NetError, NetResult};
+use crate::net::inbox::{self, lock, Inbox, Wait};
 use crate::net::message::{Codec, Envelope, MessageKind, NodeId};
 use crate::net::remote::{RemoteTransport, WireStats};
 use crate::net::transport::{check_rank, Transport};
@@ -76,7 +77,7 @@ pub struct Link {
     pub stream: TcpStream,
 }
 
-enum Incoming {
+pub(crate) enum Incoming {
     Msg(Envelope),
     Goodbye(NodeId),
     Lost(NodeId, String),
@@ -209,16 +210,6 @@ impl TcpTransport {
             Incoming::Lost(r, why) => Err(self.fail(r, why)),
         }
     }
-
-    fn check_failed(&self) -> NetResult<()> {
-        match &*lock(&self.failed) {
-            Some((peer, reason)) => Err(NetError::PeerLost {
-                peer: peer.clone(),
-                reason: reason.clone(),
-            }),
-            None => Ok(()),
-        }
-    }
 }
 
 impl RemoteTransport for TcpTransport {
@@ -321,10 +312,6 @@ impl Drop for TcpTransport {
     }
 }
 
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
-
 impl Transport for TcpTransport {
     fn rank(&self) -> NodeId {
         self.rank
@@ -384,52 +371,15 @@ impl Transport for TcpTransport {
     }
 
     fn recv(&self) -> NetResult<Envelope> {
-        loop {
-            self.check_failed()?;
-            let item = self
-                .inbox
-                .recv()
-                .map_err(|_| NetError::Disconnected { rank: self.rank })?;
-            if let Some(e) = self.take(item)? {
-                return Ok(e);
-            }
-        }
+        inbox::receive_blocking(self)
     }
 
     fn recv_timeout(&self, timeout: Duration) -> NetResult<Option<Envelope>> {
-        let until = std::time::Instant::now() + timeout;
-        loop {
-            self.check_failed()?;
-            let left = until.saturating_duration_since(std::time::Instant::now());
-            match self.inbox.recv_timeout(left) {
-                Ok(item) => {
-                    if let Some(e) = self.take(item)? {
-                        return Ok(Some(e));
-                    }
-                }
-                Err(RecvTimeoutError::Timeout) => return Ok(None),
-                Err(RecvTimeoutError::Disconnected) => {
-                    return Err(NetError::Disconnected { rank: self.rank })
-                }
-            }
-        }
+        inbox::receive(self, Wait::Until(Instant::now() + timeout))
     }
 
     fn try_recv(&self) -> NetResult<Option<Envelope>> {
-        loop {
-            self.check_failed()?;
-            match self.inbox.try_recv() {
-                Ok(item) => {
-                    if let Some(e) = self.take(item)? {
-                        return Ok(Some(e));
-                    }
-                }
-                Err(TryRecvError::Empty) => return Ok(None),
-                Err(TryRecvError::Disconnected) => {
-                    return Err(NetError::Disconnected { rank: self.rank })
-                }
-            }
-        }
+        inbox::receive(self, Wait::Poll)
     }
 }
 
@@ -509,5 +459,21 @@ async fn reader(
                 return;
             }
         }
+    }
+}
+
+impl Inbox for TcpTransport {
+    type Item = Incoming;
+    fn me(&self) -> NodeId {
+        self.rank
+    }
+    fn inbox(&self) -> NetResult<&Receiver<Incoming>> {
+        Ok(&self.inbox)
+    }
+    fn failed(&self) -> &Mutex<Option<(String, String)>> {
+        &self.failed
+    }
+    fn take(&self, item: Incoming) -> NetResult<Option<Envelope>> {
+        TcpTransport::take(self, item)
     }
 }
