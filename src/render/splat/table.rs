@@ -26,6 +26,9 @@ use super::footprint::Footprint;
 use super::raster::floor_i;
 use crate::render::cell::fastmath::exp_neg;
 
+/// Pixels per run of alphas (two SSE vectors, one AVX vector).
+pub const LANES: usize = 8;
+
 /// The tabulated kernel of one orthographic frame.
 #[derive(Debug, Clone)]
 pub struct FootprintTable {
@@ -35,7 +38,10 @@ pub struct FootprintTable {
     k: i64,
     /// `2k + 1`.
     side: usize,
-    /// `g` by `((phase_y P + phase_x) side + row) side + col`.
+    /// Weights per table row: `side` plus [`LANES`] zeros, so that a run
+    /// of `LANES` weights from any column stays inside the row.
+    stride: usize,
+    /// `g` by `((phase_y P + phase_x) side + row) stride + col`.
     weights: Vec<f32>,
     /// Non-zero columns `[first, end)` by `(phase_y P + phase_x) side + row`.
     spans: Vec<[u16; 2]>,
@@ -48,8 +54,9 @@ impl FootprintTable {
         let p = phases.max(1) as i64;
         let k = (f.rx.max(f.ry).ceil() as i64 + 1).max(1);
         let side = (2 * k + 1) as usize;
+        let stride = side + LANES;
         let q = f.q.map(|x| x as f64);
-        let mut weights = vec![0.0f32; (p * p) as usize * side * side];
+        let mut weights = vec![0.0f32; (p * p) as usize * side * stride];
         let mut spans = vec![[0u16; 2]; (p * p) as usize * side];
         for py in 0..p {
             for px in 0..p {
@@ -61,7 +68,7 @@ impl FootprintTable {
                         let dx = (col as i64 - k) as f64 + 0.5 - px as f64 / p as f64;
                         let e = q[0] * dx * dx + 2.0 * q[1] * dx * dy + q[2] * dy * dy;
                         if e <= cut as f64 {
-                            weights[(phase * side + row) * side + col] = (-e).exp() as f32;
+                            weights[(phase * side + row) * stride + col] = (-e).exp() as f32;
                             first = first.min(col);
                             end = col + 1;
                         }
@@ -78,6 +85,7 @@ impl FootprintTable {
             phases: p,
             k,
             side,
+            stride,
             weights,
             spans,
         }
@@ -86,7 +94,7 @@ impl FootprintTable {
     /// Composites a splat centred at `(x, y)` with centre optical depth
     /// `depth0` and colour `rgb` into rows `[j0, j1)` held by `band`
     /// (`w` pixels per row), in front of what is there (premultiplied).
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn draw<C: Composite>(
         &self,
@@ -117,19 +125,31 @@ impl FootprintTable {
             if ca >= cb {
                 continue;
             }
-            let wt =
-                &self.weights[(phase * self.side + row) * self.side..][ca as usize..cb as usize];
+            let wrow = &self.weights[(phase * self.side + row) * self.stride..][..self.stride];
             let i_start = (i_first + ca) as usize;
             let pix = &mut band[(j - j0) as usize * w as usize..][i_start..(i_first + cb) as usize];
-            // alpha = 1 - exp(-tau l0 g): first the alphas of up to 32
-            // pixels (a loop the compiler vectorises), then the blend.
-            for (c, (pix, wt)) in pix.chunks_mut(32).zip(wt.chunks(32)).enumerate() {
-                let mut a = [0.0f32; 32];
+            // alpha = 1 - exp(-tau l0 g): the alphas of LANES pixels at a
+            // time (a fixed-width loop the compiler vectorises, no scalar
+            // remainder: the row's zero padding fills the last run), then
+            // the blend of the pixels that exist.
+            let mut c = ca as usize;
+            let mut done = 0usize;
+            while done < pix.len() {
+                let wt: &[f32; LANES] = wrow[c..c + LANES].try_into().expect("padded row");
+                let mut a = [0.0f32; LANES];
                 for (a, &g) in a.iter_mut().zip(wt) {
                     *a = 1.0 - exp_neg(-depth0 * g);
                 }
-                let n = pix.len();
-                comp.run(pix, (j - j0) as usize, i_start + 32 * c, &a[..n], rgb);
+                let n = (pix.len() - done).min(LANES);
+                comp.run(
+                    &mut pix[done..done + n],
+                    (j - j0) as usize,
+                    i_start + done,
+                    &a[..n],
+                    rgb,
+                );
+                c += LANES;
+                done += LANES;
             }
         }
     }
