@@ -110,8 +110,20 @@ impl FootprintTable {
     ) {
         let p = self.phases;
         let (xs, ys) = (floor_i(x * p as f32 + 0.5), floor_i(y * p as f32 + 0.5));
-        let (bx, by) = (xs.div_euclid(p), ys.div_euclid(p));
-        let phase = (ys.rem_euclid(p) * p + xs.rem_euclid(p)) as usize;
+        // Euclidean quotient and remainder by P: by shift and mask when P
+        // is a power of two (the default 32; an arithmetic shift is the
+        // floor division), else by division.
+        let (bx, by, phase) = if p & (p - 1) == 0 {
+            let sh = p.trailing_zeros();
+            let m = p - 1;
+            (xs >> sh, ys >> sh, (((ys & m) << sh) | (xs & m)) as usize)
+        } else {
+            (
+                xs.div_euclid(p),
+                ys.div_euclid(p),
+                (ys.rem_euclid(p) * p + xs.rem_euclid(p)) as usize,
+            )
+        };
         // Rows by - k ..= by + k, clipped to the band.
         let ra = (by - self.k).max(j0);
         let rb = (by + self.k).min(j1 - 1);
@@ -174,43 +186,51 @@ mod tests {
             ry: 3.0 * (0.21f32 / (4.0 * (0.21 * 0.33 - 0.07 * 0.07))).sqrt(),
         };
         let cut = 4.5f32;
-        let p = 8;
-        let t = FootprintTable::new(&f, cut, p);
-        let (w, h) = (24u32, 20u32);
-        for (x, y) in [(10.3f32, 9.81f32), (11.0, 7.5), (3.06, 12.94), (0.4, 1.2)] {
-            let mut img = vec![[0.0f32; 4]; (w * h) as usize];
-            let depth0 = 0.7f32;
-            t.draw(
-                x,
-                y,
-                depth0,
-                [1.0, 0.5, 0.25],
-                &mut img,
-                w,
-                0,
-                h as i64,
-                &mut Over,
-            );
-            let (xq, yq) = (
-                (x * p as f32 + 0.5).floor() / p as f32,
-                (y * p as f32 + 0.5).floor() / p as f32,
-            );
-            for j in 0..h {
-                for i in 0..w {
-                    let (dx, dy) = ((i as f32 + 0.5 - xq) as f64, (j as f32 + 0.5 - yq) as f64);
-                    let e = 0.21 * dx * dx + 2.0 * -0.07 * dx * dy + 0.33 * dy * dy;
-                    let want = if e <= cut as f64 {
-                        1.0 - (-(depth0 as f64) * (-e).exp()).exp()
-                    } else {
-                        0.0
-                    };
-                    let got = img[(j * w + i) as usize];
-                    assert!(
-                        (got[3] as f64 - want).abs() < 1e-5,
-                        "({i},{j}) centre ({x},{y}): {} vs {want}",
-                        got[3]
-                    );
-                    assert!((got[1] - 0.5 * got[3]).abs() < 1e-6);
+        // 8 phases: shift and mask; 12: division.
+        for p in [8, 12] {
+            let t = FootprintTable::new(&f, cut, p);
+            let (w, h) = (24u32, 20u32);
+            for (x, y) in [
+                (10.3f32, 9.81f32),
+                (11.0, 7.5),
+                (3.06, 12.94),
+                (0.4, 1.2),
+                (-0.3, 0.2),
+            ] {
+                let mut img = vec![[0.0f32; 4]; (w * h) as usize];
+                let depth0 = 0.7f32;
+                t.draw(
+                    x,
+                    y,
+                    depth0,
+                    [1.0, 0.5, 0.25],
+                    &mut img,
+                    w,
+                    0,
+                    h as i64,
+                    &mut Over,
+                );
+                let (xq, yq) = (
+                    (x * p as f32 + 0.5).floor() / p as f32,
+                    (y * p as f32 + 0.5).floor() / p as f32,
+                );
+                for j in 0..h {
+                    for i in 0..w {
+                        let (dx, dy) = ((i as f32 + 0.5 - xq) as f64, (j as f32 + 0.5 - yq) as f64);
+                        let e = 0.21 * dx * dx + 2.0 * -0.07 * dx * dy + 0.33 * dy * dy;
+                        let want = if e <= cut as f64 {
+                            1.0 - (-(depth0 as f64) * (-e).exp()).exp()
+                        } else {
+                            0.0
+                        };
+                        let got = img[(j * w + i) as usize];
+                        assert!(
+                            (got[3] as f64 - want).abs() < 1e-5,
+                            "({i},{j}) centre ({x},{y}): {} vs {want}",
+                            got[3]
+                        );
+                        assert!((got[1] - 0.5 * got[3]).abs() < 1e-6);
+                    }
                 }
             }
         }

@@ -88,7 +88,10 @@ where
             let ends: Vec<usize> = next.iter().zip(n).map(|(s, n)| s + n).collect();
             e.each(c, |b, item| {
                 let k = next[b];
-                assert!(k < ends[b], "scatter: chunk {c} listed more items than it counted");
+                assert!(
+                    k < ends[b],
+                    "scatter: chunk {c} listed more items than it counted"
+                );
                 // SAFETY: `k` is inside chunk c's own range of bucket b
                 // (checked), inside the reserved capacity (`ends <= base +
                 // total`), and written once (`next[b]` only grows).
@@ -126,7 +129,9 @@ mod tests {
     fn scatter_is_the_stable_counting_sort() {
         let mut seed = 12345u64;
         let mut rnd = |m: u64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 33) % m
         };
         for (chunks, buckets) in [(1, 1), (3, 1), (1, 5), (7, 13), (16, 40)] {
