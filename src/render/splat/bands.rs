@@ -220,8 +220,17 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
         pieces_skipped: 0,
         bands: 1,
     };
+    // The table's rows of the splat drawn next, fetched while this one is
+    // drawn.
+    let prefetch = |k: Option<&u32>| {
+        if let (Kernel::Table(t), Some(&k)) = (kernel, k) {
+            let s = &splats[k as usize];
+            t.prefetch(s.x, s.y);
+        }
+    };
     if ert >= 1.0 {
-        for &k in list {
+        for (n, &k) in list.iter().enumerate() {
+            prefetch(list.get(n + 1));
             draw(&splats[k as usize], band, w, j0, j1, cut, kernel, &mut Over);
         }
         return c;
@@ -233,6 +242,8 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
             c.pieces_skipped += (list.len() - n) as u64;
             break;
         }
+        // Front to back: the next splat is the one before in the list.
+        prefetch((list.len() - n).checked_sub(2).map(|m| &list[m]));
         let s = &splats[k as usize];
         // The splat's rectangle, clipped to the band and the image.
         let (ja, jb) = row_span(s, h, pad);
