@@ -70,9 +70,9 @@ where
     let mut acc = base;
     for b in 0..buckets {
         bucket_starts.push(acc);
-        for c in 0..chunks {
-            starts[c][b] = acc;
-            acc += counts[c][b];
+        for (st, n) in starts.iter_mut().zip(&counts) {
+            st[b] = acc;
+            acc += n[b];
         }
     }
     bucket_starts.push(acc);
@@ -152,9 +152,9 @@ mod tests {
             assert_eq!(out.len(), want.len() + 1);
             assert_eq!(starts.len(), buckets + 1);
             assert_eq!((starts[0], starts[buckets]), (1, out.len()));
-            for b in 0..buckets {
+            for (b, range) in starts.windows(2).enumerate() {
                 let n = want.iter().filter(|x| x.0 == b).count();
-                assert_eq!(starts[b + 1] - starts[b], n, "bucket {b}");
+                assert_eq!(range[1] - range[0], n, "bucket {b}");
             }
             assert_eq!(out[0], (usize::MAX, 7));
             let got: Vec<u32> = out[1..].iter().map(|x| x.1).collect();
