@@ -54,12 +54,14 @@ pub struct SplatBenchRow {
     pub wall_ms: f64,
     /// Ordering + pre-pass + projection of that frame, ms.
     pub order_ms: f64,
-    /// Of `order_ms`: pre-pass and ordering (0 for `full`).
-    pub prepass_order_ms: f64,
-    /// Of `order_ms`: projection (0 for `full`).
+    /// Of `order_ms`: the transparency pre-pass (0 for `full`).
+    pub prepass_ms: f64,
+    /// Of `order_ms`: ordering with projection (0 for `full`).
     pub project_ms: f64,
     /// Rasterising of that frame, ms.
     pub splat_ms: f64,
+    /// Of `splat_ms`: binning the splats by band.
+    pub bin_ms: f64,
     /// Process CPU ms (all threads) of that frame, order + splat.
     pub cpu_ms: f64,
     /// (splat, band) pieces and the share skipped by early splat
@@ -210,9 +212,10 @@ fn bench_grid(
                     path: path.clone(),
                     wall_ms,
                     order_ms: st.order_ms,
-                    prepass_order_ms: st.prepass_order_ms,
+                    prepass_ms: st.prepass_ms,
                     project_ms: st.project_ms,
                     splat_ms: st.splat_ms,
+                    bin_ms: st.bin_ms,
                     cpu_ms: st.order_cpu_ms + st.splat_cpu_ms,
                     pieces: st.pieces,
                     pieces_skipped_ert: st.pieces_skipped_ert,
@@ -222,13 +225,14 @@ fn bench_grid(
                     vs_reference: r,
                 };
                 println!(
-                    "| {name} | {:.4} | {} | {threads} | {path} | {:.0} | {:.0} + {:.0} | {:.0} | {:.0} | {:.1} % | {:.2} | {:.2} / {:.3} | {} |",
+                    "| {name} | {:.4} | {} | {threads} | {path} | {:.0} | {:.0} + {:.0} | {:.0} + {:.0} | {:.0} | {:.1} % | {:.2} | {:.2} / {:.3} | {} |",
                     row.fill,
                     row.drawn,
                     row.wall_ms,
-                    row.prepass_order_ms,
+                    row.prepass_ms,
                     row.project_ms,
-                    row.splat_ms,
+                    row.bin_ms,
+                    row.splat_ms - row.bin_ms,
                     row.cpu_ms,
                     100.0 * row.pieces_skipped_ert as f64 / row.pieces.max(1) as f64,
                     row.ert_bound_255,
@@ -271,11 +275,11 @@ pub fn run(data_dir: &Path, b: &SplatBench, json: Option<&Path>) -> anyhow::Resu
         load_average()
     );
     println!(
-        "columns: wall ms; pre-pass+order and projection wall ms; rasteriser wall ms; process CPU ms; \
+        "columns: wall ms; pre-pass and order+projection wall ms; binning + rasteriser wall ms; process CPU ms; \
          (splat, band) pieces skipped by ERT; the ERT bound; error vs the first path and vs the grid \
          reference (max-abs / RMSE in 1/255)\n"
     );
-    println!("| grid | fill | drawn | threads | path | wall ms | pre-pass+order + project ms | splat ms | CPU ms | ERT skipped | ERT bound | vs {} | vs reference |", paths[0].0);
+    println!("| grid | fill | drawn | threads | path | wall ms | pre-pass + order&project ms | bin + raster ms | CPU ms | ERT skipped | ERT bound | vs {} | vs reference |", paths[0].0);
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rows = Vec::new();
     if b.grids.iter().any(|g| g == "hydrogen") {

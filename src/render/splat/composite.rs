@@ -40,12 +40,14 @@ pub struct Over;
 impl Composite for Over {
     #[inline(always)]
     fn run(&mut self, pix: &mut [[f32; 4]], _r: usize, _i0: usize, alpha: &[f32], rgb: [f32; 3]) {
+        // (c, 1) alpha + (1 - alpha) p on the four channels at once
+        // (`1 * a` is `a` exactly).
+        let c = [rgb[0], rgb[1], rgb[2], 1.0];
         for (p, &a) in pix.iter_mut().zip(alpha) {
             let t = 1.0 - a;
-            p[0] = rgb[0] * a + t * p[0];
-            p[1] = rgb[1] * a + t * p[1];
-            p[2] = rgb[2] * a + t * p[2];
-            p[3] = a + t * p[3];
+            for (pk, ck) in p.iter_mut().zip(c) {
+                *pk = ck * a + t * *pk;
+            }
         }
     }
 }
@@ -122,13 +124,15 @@ impl Composite for Under<'_> {
     fn run(&mut self, pix: &mut [[f32; 4]], r: usize, i0: usize, alpha: &[f32], rgb: [f32; 3]) {
         let t = self.t;
         let row0 = (r / TILE) * self.map.tiles_w;
+        // (C, A) += (c, 1) (1 - A) alpha on the four channels at once
+        // (`1 * wa` is `wa` exactly, so `A` is `A + wa` as before).
+        let c = [rgb[0], rgb[1], rgb[2], 1.0];
         for (k, (p, &a)) in pix.iter_mut().zip(alpha).enumerate() {
             let a0 = p[3];
             let wa = (1.0 - a0) * a;
-            p[0] += rgb[0] * wa;
-            p[1] += rgb[1] * wa;
-            p[2] += rgb[2] * wa;
-            p[3] = a0 + wa;
+            for (pk, ck) in p.iter_mut().zip(c) {
+                *pk += ck * wa;
+            }
             // Each pixel crosses the threshold once: a rare branch.
             if a0 < t && p[3] >= t {
                 let n = &mut self.map.open[row0 + (i0 + k) / TILE];

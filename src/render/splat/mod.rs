@@ -9,12 +9,14 @@
 //! - [`composite`]: back to front / front to back, early splat elimination;
 //! - [`bands`]: the banded rasterising phase;
 //! - [`table`]: tabulated footprints at sub-pixel phases (orthographic);
+//! - [`mem`]: huge pages for the frame's large buffers;
 //! - [`render`]: the frame (order + project, then banded rasterising).
 
 pub mod bands;
 pub mod classify;
 pub mod composite;
 pub mod footprint;
+pub mod mem;
 pub mod order;
 pub mod raster;
 pub mod render;

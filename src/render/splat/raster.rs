@@ -46,6 +46,27 @@ pub struct SplatShape {
     pub ry: f32,
 }
 
+impl SplatShape {
+    /// A kept voxel whose footprint misses the image (or lies behind the
+    /// eye): kept in the list so that the parallel ordering can write every
+    /// voxel to its slot, never drawn (empty rows, zero depth).
+    pub const HOLE: SplatShape = SplatShape {
+        x: 0.0,
+        y: 0.0,
+        q: [0.0; 3],
+        depth0: 0.0,
+        rgb: [0.0; 3],
+        rx: -1.0,
+        ry: -1.0,
+    };
+
+    /// True for [`SplatShape::HOLE`].
+    #[inline(always)]
+    pub fn is_hole(&self) -> bool {
+        self.ry < 0.0
+    }
+}
+
 /// `floor(x)` as an integer without a libm call (the default x86-64 target
 /// has no `roundss`, so `f32::floor` is a function call per use).
 #[inline(always)]

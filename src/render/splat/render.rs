@@ -4,14 +4,17 @@
 //!    [`Order`] (threshold culling: `tau = 0` voxels are never drawn), each
 //!    projected to its EWA [`Footprint`](super::footprint::Footprint); the
 //!    splats go into one list, in drawing order. With `sparse` (default) the
-//!    transparency pre-pass builds line masks of the kept voxels and the
-//!    axis/DDA orders walk only those (same sequence as the full walk,
-//!    [`order::collect_kept`]), and the projection runs in parallel over the
-//!    ordered list (rayon's ordered collect); without it, the full walk
-//!    tests every voxel's threshold and projects as it goes, on one thread.
+//!    transparency pre-pass builds line masks of the kept voxels (in
+//!    parallel, `prepass_ms`) and the axis/DDA orders walk only those (same
+//!    sequence as the full walk, [`order::collect_kept_map`]), in parallel
+//!    chunks of slices / planes, projecting each voxel as it is written to
+//!    its slot (`project_ms`; off-screen voxels stay as never-drawn holes);
+//!    without it, the full walk tests every voxel's threshold and projects
+//!    as it goes, on one thread.
 //! 2. **Splat** (`splat_ms`): the image is cut into horizontal bands, rayon
-//!    tasks ([`bands`]); every band walks the whole list and composites the
-//!    footprints' rows that fall inside it: back to front without ERT
+//!    tasks ([`bands`]); the splats are binned by band once (`bin_ms`) and
+//!    every band walks its own splats and composites their rows that fall
+//!    inside it: back to front without ERT
 //!    (`C <- c alpha + (1 - alpha) C`, `A <- alpha + (1 - alpha) A`,
 //!    premultiplied, the splat in front), or front to back with early splat
 //!    elimination (default, threshold `ert`; [`super::composite`]).
@@ -110,13 +113,16 @@ pub struct SplatStats {
     pub order_ms: f64,
     /// Rasterising and compositing, ms.
     pub splat_ms: f64,
-    /// Of `order_ms`: the transparency pre-pass and the ordering (sparse
-    /// path; the full walk orders and projects together, so 0 there).
-    pub prepass_order_ms: f64,
-    /// Of `order_ms`: the projection of the ordered voxels (sparse path).
+    /// Of `order_ms`: the transparency pre-pass, building the line masks
+    /// (sparse path; the full walk orders and projects together, so 0
+    /// there).
+    pub prepass_ms: f64,
+    /// Of `order_ms`: the ordering of the kept voxels with their projection
+    /// (sparse path: one parallel pass writes each projected voxel to its
+    /// slot; 0 for the full walk).
     pub project_ms: f64,
-    /// Of `splat_ms`: the row spans of the splats.
-    pub spans_ms: f64,
+    /// Of `splat_ms`: binning the splats by band ([`bands::bin`]).
+    pub bin_ms: f64,
     /// Of `splat_ms`: the banded rasteriser.
     pub raster_ms: f64,
     /// Early splat elimination threshold (1 = off).
@@ -205,29 +211,32 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         })
     };
     let mut mask_passes = 0u64;
-    let mut prepass_order_ms = 0.0;
-    let (splats, visible) = if opts.sparse {
+    let mut prepass_ms = 0.0;
+    let (splats, visible, offscreen) = if opts.sparse {
         let kept = |idx: u64| {
             let c = class.get(idx);
             (c.tau > 0.0).then_some(c)
         };
-        let mut idxs = Vec::new();
         let visible = |idx: u64| class.visible(idx);
-        mask_passes = order::collect_kept(
+        // Projection as the ordering writes each voxel (in parallel);
+        // off-screen voxels stay in the list as holes, never drawn.
+        let emit = |i: u64, c: Class| splat_of(i, c).unwrap_or(Splat::HOLE);
+        let mut splats = Vec::new();
+        let k = order::collect_kept_map(
             opts.order,
             dims,
             &order_view,
             &visible,
             &kept,
+            &emit,
             &mut SortScratch::default(),
-            &mut idxs,
-        ) as u64;
-        prepass_order_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let splats: Vec<Splat> = idxs
-            .par_iter()
-            .filter_map(|&(i, c)| splat_of(i, c))
-            .collect();
-        (splats, idxs.len() as u64)
+            &mut splats,
+        );
+        mask_passes = k.masks as u64;
+        prepass_ms = k.prepass_ms;
+        let holes = splats.par_iter().filter(|s| s.is_hole()).count() as u64;
+        let n = splats.len() as u64;
+        (splats, n, holes)
     } else {
         let mut splats = Vec::new();
         let mut visible = 0u64;
@@ -242,12 +251,12 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
                 splats.extend(splat_of(idx, class.get(idx)));
             },
         );
-        (splats, visible)
+        let offscreen = visible - splats.len() as u64;
+        (splats, visible, offscreen)
     };
-    let offscreen = visible - splats.len() as u64;
     let order_ms = t0.elapsed().as_secs_f64() * 1e3;
     let project_ms = if opts.sparse {
-        order_ms - prepass_order_ms
+        order_ms - prepass_ms
     } else {
         0.0
     };
@@ -264,9 +273,10 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         None if opts.incremental => Kernel::Incremental,
         None => Kernel::Exact,
     };
-    let spans = bands::spans(&splats, h, kernel);
-    let spans_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let (acc, counts) = bands::rasterise(&splats, &spans, (w, h), cut, kernel, opts.ert);
+    let bins = bands::bin(&splats, h, kernel);
+    let bin_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let (acc, counts) = bands::rasterise(&splats, &bins, (w, h), cut, kernel, opts.ert);
+    drop(bins);
     let splat_ms = t1.elapsed().as_secs_f64() * 1e3;
     let c2 = process_cpu_s();
 
@@ -277,7 +287,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         *px = [a[0] + t * bg[0], a[1] + t * bg[1], a[2] + t * bg[2], a[3]];
     }
     let total: u64 = dims.iter().product();
-    let drawn = splats.len() as u64;
+    let drawn = visible - offscreen;
     let stats = SplatStats {
         order: opts.order.name().into(),
         voxels_total: total,
@@ -293,10 +303,10 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         },
         order_ms,
         splat_ms,
-        prepass_order_ms,
+        prepass_ms,
         project_ms,
-        spans_ms,
-        raster_ms: splat_ms - spans_ms,
+        bin_ms,
+        raster_ms: splat_ms - bin_ms,
         ert_threshold: opts.ert.min(1.0) as f64,
         ert_error_bound: ert_bound(opts.ert, &scene.transfer, scene.image.background),
         pieces: counts.pieces,

@@ -31,10 +31,11 @@ pub struct LineMask<T> {
     /// `n_b`: line id is `g_b + n_b g_c`.
     n_b: u64,
     bits: Vec<u64>,
-    /// Per line: index in `payload` of its first kept voxel.
-    offsets: Vec<usize>,
-    /// Kept voxels' payloads, line by line, ascending `g_a` within a line.
-    payload: Vec<T>,
+    /// Per line `g_b + n_b g_c`: its kept voxels' range in `payload[g_c]`.
+    offsets: Vec<[usize; 2]>,
+    /// Per `g_c`: the kept voxels' payloads of its `n_b` lines, line by
+    /// line, ascending `g_a` within a line (built by one task each).
+    payload: Vec<Vec<T>>,
 }
 
 impl<T: Copy + Send + Sync> LineMask<T> {
@@ -60,10 +61,13 @@ impl<T: Copy + Send + Sync> LineMask<T> {
         let mut bits = vec![0u64; lines * words];
         let st = super::strides(dims);
         let mut payload = Vec::new();
+        let mut offsets = Vec::new();
         if words > 0 && lines > 0 {
             // One chunk per g_c: the n_b lines of that slab (an x-y or x-z
             // slab of memory, or one y-z slab of rows for lines along x).
-            let chunks: Vec<Vec<T>> = bits
+            // Each chunk keeps its own payloads and line offsets (no serial
+            // concatenation of the payloads afterwards).
+            let chunks: Vec<(Vec<T>, Vec<[usize; 2]>)> = bits
                 .par_chunks_mut(n_b as usize * words)
                 .enumerate()
                 .map(|(gc, chunk)| {
@@ -72,21 +76,16 @@ impl<T: Copy + Send + Sync> LineMask<T> {
                         |ga: u64, gb: u64| (base + ga as i64 * st[axis] + gb as i64 * st[b]) as u64;
                     if axis == 0 {
                         // Lines along x: each line is one row of memory.
-                        let mut out = Vec::new();
                         for gb in 0..n_b {
                             let line = &mut chunk[gb as usize * words..][..words];
                             for ga in 0..n_a {
                                 if keep(idx(ga, gb)) {
                                     line[(ga / 64) as usize] |= 1 << (ga % 64);
-                                    out.extend(class(idx(ga, gb)));
                                 }
                             }
                         }
-                        out
                     } else {
-                        // b == 0 (x): rows of memory run across the lines;
-                        // bits first, then the payloads line by line (the
-                        // slab is small enough to stay in cache).
+                        // b == 0 (x): rows of memory run across the lines.
                         for ga in 0..n_a {
                             let (w, bit) = ((ga / 64) as usize, 1u64 << (ga % 64));
                             for gb in 0..n_b {
@@ -95,32 +94,41 @@ impl<T: Copy + Send + Sync> LineMask<T> {
                                 }
                             }
                         }
-                        let mut out = Vec::new();
-                        for gb in 0..n_b {
-                            let line = &chunk[gb as usize * words..][..words];
-                            for_each_bit(line, 0, n_a, false, |ga, _| {
-                                out.extend(class(idx(ga, gb)));
-                            });
-                        }
-                        out
                     }
+                    // Then the payloads line by line, into a buffer of the
+                    // exact size (no reallocation; the slab is small enough
+                    // to stay in cache).
+                    let kept: usize = chunk.iter().map(|x| x.count_ones() as usize).sum();
+                    let mut out = Vec::with_capacity(kept);
+                    let mut offs = Vec::with_capacity(n_b as usize);
+                    for gb in 0..n_b {
+                        let start = out.len();
+                        let line = &chunk[gb as usize * words..][..words];
+                        for_each_bit(line, 0, n_a, false, |ga, _| {
+                            out.extend(class(idx(ga, gb)));
+                        });
+                        offs.push([start, out.len()]);
+                    }
+                    // Every kept voxel has its payload, line by line.
+                    for (gb, o) in offs.iter().enumerate() {
+                        let line = &chunk[gb * words..][..words];
+                        let kept: usize = line.iter().map(|x| x.count_ones() as usize).sum();
+                        assert_eq!(
+                            kept,
+                            o[1] - o[0],
+                            "class(idx) must be Some exactly where keep(idx)"
+                        );
+                    }
+                    (out, offs)
                 })
                 .collect();
-            payload.reserve(chunks.iter().map(Vec::len).sum());
-            chunks.into_iter().for_each(|v| payload.extend(v));
+            offsets.reserve(lines);
+            payload.reserve(chunks.len());
+            for (pay, offs) in chunks {
+                offsets.extend(offs);
+                payload.push(pay);
+            }
         }
-        let mut offsets = Vec::with_capacity(lines + 1);
-        let mut acc = 0usize;
-        for line in bits.chunks(words.max(1)) {
-            offsets.push(acc);
-            acc += line.iter().map(|x| x.count_ones() as usize).sum::<usize>();
-        }
-        offsets.push(acc);
-        assert_eq!(
-            acc,
-            payload.len(),
-            "class(idx) must be Some exactly where keep(idx)"
-        );
         LineMask {
             axis,
             others,
@@ -136,10 +144,12 @@ impl<T: Copy + Send + Sync> LineMask<T> {
     /// coordinate is ignored) and the payloads of its kept voxels.
     #[inline]
     pub fn line(&self, g: [u64; 3]) -> (&[u64], &[T]) {
-        let id = (g[self.others[0]] + self.n_b * g[self.others[1]]) as usize;
+        let g_c = g[self.others[1]] as usize;
+        let id = g[self.others[0]] as usize + self.n_b as usize * g_c;
+        let [a, b] = self.offsets[id];
         (
             &self.bits[id * self.words..][..self.words],
-            &self.payload[self.offsets[id]..self.offsets[id + 1]],
+            &self.payload[g_c][a..b],
         )
     }
 }
@@ -150,6 +160,8 @@ pub struct Masks<'k, T, P: Fn(u64) -> bool + Sync, K: Fn(u64) -> Option<T> + Syn
     keep: &'k P,
     class: &'k K,
     masks: [Option<LineMask<T>>; 3],
+    /// Wall seconds spent building masks.
+    build_s: f64,
 }
 
 impl<'k, T, P, K> Masks<'k, T, P, K>
@@ -165,13 +177,25 @@ where
             keep,
             class,
             masks: [None, None, None],
+            build_s: 0.0,
         }
     }
 
     /// The mask along `axis` (built now if needed).
     pub fn get(&mut self, axis: usize) -> &LineMask<T> {
         let (dims, keep, class) = (self.dims, self.keep, self.class);
-        self.masks[axis].get_or_insert_with(|| LineMask::build(dims, axis, keep, class))
+        let build_s = &mut self.build_s;
+        self.masks[axis].get_or_insert_with(|| {
+            let t0 = std::time::Instant::now();
+            let m = LineMask::build(dims, axis, keep, class);
+            *build_s += t0.elapsed().as_secs_f64();
+            m
+        })
+    }
+
+    /// Wall milliseconds spent building the masks so far.
+    pub fn build_ms(&self) -> f64 {
+        self.build_s * 1e3
     }
 
     /// How many masks were built (each is one pass over the volume).

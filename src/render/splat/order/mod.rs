@@ -43,6 +43,7 @@
 pub mod axis;
 pub mod dda;
 pub mod mask;
+pub mod scatter;
 pub mod sort;
 pub mod sparse;
 
@@ -302,14 +303,19 @@ pub fn collect(order: Order, dims: [u64; 3], view: &OrderView) -> Vec<u64> {
     out
 }
 
+/// What [`collect_kept_map`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct KeptStats {
+    /// Line masks built (one volume pass each).
+    pub masks: usize,
+    /// Wall ms of building them (the transparency pre-pass).
+    pub prepass_ms: f64,
+}
+
 /// The kept voxels (`keep(idx)`) in `order`, back to front, into `out`
 /// (cleared first) with their payloads (`class(idx)`, which must be `Some`
-/// exactly where `keep` holds; `keep` is the cheap test run on every voxel),
-/// through the transparency pre-pass: the axis and DDA orders build the
-/// line masks of [`mask`] (one pass over the volume each, in parallel) and
-/// walk only the kept voxels ([`sparse`]), emitting exactly the sequence of
-/// [`visit_kept`]; the sorts test each voxel as in [`visit_with`] and read
-/// the payloads in sorted order. Returns the number of masks built.
+/// exactly where `keep` holds; `keep` is the cheap test run on every voxel):
+/// [`collect_kept_map`] without a map. Returns the number of masks built.
 pub fn collect_kept<T: Copy + Send + Sync + Default>(
     order: Order,
     dims: [u64; 3],
@@ -320,22 +326,55 @@ pub fn collect_kept<T: Copy + Send + Sync + Default>(
     out: &mut Vec<(u64, T)>,
 ) -> usize {
     out.clear();
+    collect_kept_map(order, dims, view, keep, class, &|i, t| (i, t), scratch, out).masks
+}
+
+/// The kept voxels (`keep(idx)`) in `order`, back to front, each mapped by
+/// `emit(idx, class(idx))`, appended to `out` (`class` must be `Some`
+/// exactly where `keep` holds; `keep` is the cheap test run on every
+/// voxel), through the transparency pre-pass: the axis and DDA orders build
+/// the line masks of [`mask`] (one pass over the volume each, in parallel)
+/// and walk only the kept voxels ([`sparse`], in parallel), emitting
+/// exactly the sequence of [`visit_kept`]; the sorts test each voxel as in
+/// [`visit_with`] and read the payloads in sorted order (mapped in
+/// parallel).
+#[allow(clippy::too_many_arguments)]
+pub fn collect_kept_map<T: Copy + Send + Sync, S: Send>(
+    order: Order,
+    dims: [u64; 3],
+    view: &OrderView,
+    keep: &(impl Fn(u64) -> bool + Sync),
+    class: &(impl Fn(u64) -> Option<T> + Sync),
+    emit: &(impl Fn(u64, T) -> S + Sync),
+    scratch: &mut sort::SortScratch,
+    out: &mut Vec<S>,
+) -> KeptStats {
+    use rayon::prelude::*;
     let boxes = octants(dims, view);
     let mut masks = mask::Masks::new(dims, keep, class);
     match order {
         Order::Axis => boxes
             .iter()
-            .for_each(|o| sparse::axis_sparse(o, dims, &mut masks, out)),
-        Order::Dda => {
-            let mut counts = Vec::new();
-            boxes
-                .iter()
-                .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, out, &mut counts))
-        }
+            .for_each(|o| sparse::axis_sparse(o, dims, &mut masks, emit, out)),
+        Order::Dda => boxes
+            .iter()
+            .for_each(|o| sparse::dda_sparse(o, dims, &mut masks, emit, out)),
         Order::Quicksort | Order::Radix => {
             sort::sorted(order == Order::Radix, &boxes, dims, view, keep, scratch);
-            out.extend(scratch.out.iter().filter_map(|&i| class(i).map(|t| (i, t))));
+            let mut mapped = Vec::new();
+            scratch
+                .out
+                .par_iter()
+                .map(|&i| {
+                    let t = class(i).expect("class(idx) must be Some exactly where keep(idx)");
+                    emit(i, t)
+                })
+                .collect_into_vec(&mut mapped);
+            out.append(&mut mapped);
         }
     }
-    masks.built()
+    KeptStats {
+        masks: masks.built(),
+        prepass_ms: masks.build_ms(),
+    }
 }
