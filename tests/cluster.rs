@@ -37,6 +37,8 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             policy: NodePolicy::default(),
             manager_shards: None,
             schedule_waves: 0,
+            schedule_leaf_cells: 0,
+            schedule_min_cells: 0,
             clock: ClockKind::Virtual,
             record_trace: true,
         },

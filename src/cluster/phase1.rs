@@ -51,9 +51,18 @@ pub struct Phase1Config {
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
     /// Global front-to-back schedule ([`crate::node::schedule`], with
-    /// replicated data and sharing): depth waves dealt evenly over the
-    /// nodes; 0 or 1: off (each node scans its part).
+    /// replicated data and sharing): depth waves of leaves dealt evenly
+    /// over the nodes, computed by every node itself; 0 or 1: off (each
+    /// node scans its part).
     pub schedule_waves: usize,
+    /// Global schedule: runs only with at least this many cells per node
+    /// on average (0: whenever `schedule_waves > 1`; the default's rule,
+    /// [`crate::node::schedule::MIN_CELLS_PER_NODE`], keeps it off where
+    /// keying the leaves would cost more than it saves).
+    pub schedule_min_cells: usize,
+    /// Global schedule: cells per leaf (each node's placement part cut by
+    /// bisection into leaves of about this many cells; the unit dealt).
+    pub schedule_leaf_cells: usize,
     /// Manager shards `K` for per-pixel sharing (`--manager-shards`):
     /// `None`, the default for the node count
     /// ([`ShardMap::default_count`]: 1 up to 16 nodes). Only per-pixel
@@ -122,8 +131,14 @@ pub fn build_nodes(
     };
     let replica = (cfg.data == DataMode::Replicated)
         .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
-    let waves = (cfg.schedule_waves > 1 && cfg.share && replica.is_some())
-        .then(|| wave_schedule(input, placement, cfg.schedule_waves));
+    let waves = (effective_waves(cfg, input.mesh.tets.len()) > 1).then(|| {
+        wave_schedule(
+            input,
+            placement,
+            cfg.schedule_waves,
+            cfg.schedule_leaf_cells,
+        )
+    });
     let parts = waves.as_ref().map_or(&placement.parts, |w| &w.parts);
     parts
         .iter()
@@ -149,7 +164,7 @@ pub fn build_nodes(
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
             if let Some(w) = &waves {
-                a.set_planned_moves(w.given[k], w.received[k]);
+                a.set_schedule(w.keyed, w.given[k], w.received[k]);
             }
             if overlap {
                 a.set_peers(
@@ -163,23 +178,41 @@ pub fn build_nodes(
         .collect()
 }
 
+/// The waves of the global schedule a run of `cfg` over `cells` cells uses:
+/// `cfg.schedule_waves` with sharing through the manager, replicated data
+/// and at least `schedule_min_cells` cells per node; else 0 (off).
+pub fn effective_waves(cfg: &Phase1Config, cells: usize) -> usize {
+    let on = cfg.schedule_waves > 1
+        && cfg.share
+        && cfg.node.ert.enabled()
+        && cfg.data == DataMode::Replicated
+        && cells >= cfg.schedule_min_cells.saturating_mul(cfg.nodes.max(1));
+    if on {
+        cfg.schedule_waves
+    } else {
+        0
+    }
+}
+
 /// The global front-to-back schedule of [`crate::node::schedule`] over
-/// `placement`: depth key the centroid's camera `z`, screen position its
-/// pixel.
+/// `placement`: leaves of about `leaf_cells` cells (view-independent, once
+/// per dataset), keyed by their centre's camera `z` and pixel (per frame).
 fn wave_schedule(
     input: &RenderInput,
     placement: &Placement,
     waves: usize,
+    leaf_cells: usize,
 ) -> crate::node::schedule::WaveSchedule {
     let view = input.scene.view();
     let c = crate::node::placement::centroids(&input.mesh);
-    let cam: Vec<[f64; 3]> = c.iter().map(|&p| view.to_camera(p)).collect();
+    let leaves = crate::node::schedule::Leaves::new(&placement.parts, &c, leaf_cells);
+    let cam: Vec<[f64; 3]> = leaves.centre.iter().map(|&p| view.to_camera(p)).collect();
     let depth: Vec<f64> = cam.iter().map(|q| q[2]).collect();
     let screen: Vec<[f64; 2]> = cam
         .iter()
         .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
         .collect();
-    crate::node::schedule::global_waves(&placement.parts, &depth, &screen, waves)
+    crate::node::schedule::leaf_waves(&leaves, &depth, &screen, placement.parts.len(), waves)
 }
 
 /// Depth codes for per-pixel sharing over the frame's depth range: the
