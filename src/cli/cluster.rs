@@ -388,6 +388,13 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             } else {
                 crate::node::schedule::MIN_CELLS_PER_NODE
             },
+            schedule_min_stacking: a.ert_mode.schedule_min_stacking.unwrap_or(
+                if a.ert_mode.schedule_waves.is_some() {
+                    0.0
+                } else {
+                    crate::node::schedule::MIN_STACKING
+                },
+            ),
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },

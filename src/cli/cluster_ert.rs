@@ -68,6 +68,13 @@ pub struct ClusterErtArgs {
     /// dataset). Smaller: finer balance, more keys to compute per frame.
     #[arg(long, value_name = "CELLS", default_value_t = crate::node::schedule::DEFAULT_LEAF_CELLS)]
     pub schedule_leaf_cells: usize,
+    /// Global schedule: apply it only when the placement's parts are
+    /// stacked along the view by at least this fraction of the depth range
+    /// (the largest gap between a node's nearest leaf and the nearest leaf
+    /// of all; the nodes compute it with the schedule). Default: 0.3 for
+    /// the default schedule, 0 (always) with --schedule-waves given.
+    #[arg(long, value_name = "FRACTION")]
+    pub schedule_min_stacking: Option<f64>,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
     /// front-first help, no release ordering. Overrides --ert-structure,
@@ -110,6 +117,12 @@ impl ClusterErtArgs {
             "--release-lag must be a fraction in [0, 1], got {}",
             self.release_lag
         );
+        if let Some(f) = self.schedule_min_stacking {
+            anyhow::ensure!(
+                f.is_finite() && f >= 0.0,
+                "--schedule-min-stacking must be a fraction >= 0 (0 = always apply), got {f}"
+            );
+        }
         if let Some(k) = self.manager_shards {
             anyhow::ensure!(
                 k >= 1,

@@ -60,6 +60,10 @@ pub struct Phase1Config {
     /// [`crate::node::schedule::MIN_CELLS_PER_NODE`], keeps it off where
     /// keying the leaves would cost more than it saves).
     pub schedule_min_cells: usize,
+    /// Global schedule: applied only when the placement's parts are
+    /// stacked along the view by at least this
+    /// ([`crate::node::schedule::stacking`]; 0: always).
+    pub schedule_min_stacking: f64,
     /// Global schedule: cells per leaf (each node's placement part cut by
     /// bisection into leaves of about this many cells; the unit dealt).
     pub schedule_leaf_cells: usize,
@@ -139,7 +143,13 @@ pub fn build_nodes(
             cfg.schedule_leaf_cells,
         )
     });
-    let parts = waves.as_ref().map_or(&placement.parts, |w| &w.parts);
+    let applied = waves
+        .as_ref()
+        .is_some_and(|w| w.stacking >= cfg.schedule_min_stacking);
+    let parts = match &waves {
+        Some(w) if applied => &w.parts,
+        _ => &placement.parts,
+    };
     parts
         .iter()
         .enumerate()
@@ -164,7 +174,7 @@ pub fn build_nodes(
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
             if let Some(w) = &waves {
-                a.set_schedule(w.keyed, w.given[k], w.received[k]);
+                a.set_schedule(w, applied);
             }
             if overlap {
                 a.set_peers(

@@ -120,6 +120,17 @@ pub struct NodeStats {
     /// Global schedule: cells of other nodes' parts dealt to this node.
     #[serde(default)]
     pub cells_scheduled_in: u64,
+    /// Global schedule: leaves keyed at the start (0: no schedule computed).
+    #[serde(default)]
+    pub schedule_keyed: u64,
+    /// Global schedule: the placement's stacking along the view
+    /// ([`crate::node::schedule::stacking`]), which decides whether the
+    /// schedule computed is applied.
+    #[serde(default)]
+    pub schedule_stacking: f64,
+    /// Global schedule: applied (else the node scans its placement part).
+    #[serde(default)]
+    pub schedule_applied: bool,
     /// Tables sent to the manager.
     pub shares_sent: u64,
     /// Replies applied.
@@ -221,16 +232,23 @@ impl NodeActor {
     }
 
     /// Global schedule ([`crate::node::schedule`]): at Start the node keys
-    /// `keyed` leaves to compute the frame's schedule itself (charged as
-    /// [`OpCounts::units_keyed`]); the schedule dealt `given` cells of its
-    /// placement part to others and `received` cells of theirs to it. No
-    /// message carries them: every node holds the mesh and computes the
-    /// same schedule, and the node's cells (from [`NodeActor::new`]'s
-    /// renderer) are already the scheduled ones.
-    pub fn set_schedule(&mut self, keyed: u64, given: u64, received: u64) {
-        self.keyed = keyed;
-        self.stats.cells_scheduled_out += given;
-        self.stats.cells_scheduled_in += received;
+    /// `w.keyed` leaves to compute the frame's schedule itself (charged as
+    /// [`OpCounts::units_keyed`]); if `applied`, the schedule dealt
+    /// `w.given[rank]` cells of its placement part to others and
+    /// `w.received[rank]` cells of theirs to it. No message carries them:
+    /// every node holds the mesh and computes the same schedule, and the
+    /// node's cells (from [`NodeActor::new`]'s renderer) are already the
+    /// scheduled ones.
+    pub fn set_schedule(&mut self, w: &crate::node::schedule::WaveSchedule, applied: bool) {
+        let k = self.cfg.rank;
+        self.keyed = w.keyed;
+        self.stats.schedule_keyed = w.keyed;
+        self.stats.schedule_stacking = w.stacking;
+        self.stats.schedule_applied = applied;
+        if applied {
+            self.stats.cells_scheduled_out += w.given[k];
+            self.stats.cells_scheduled_in += w.received[k];
+        }
     }
 
     /// The ranks this node shares its table with directly (overlap sharing).

@@ -60,6 +60,11 @@ pub const DEFAULT_WAVES: usize = 4;
 /// Cells per leaf of the default schedule.
 pub const DEFAULT_LEAF_CELLS: usize = 512;
 
+/// The default schedule is applied only when the parts are stacked along
+/// the view by more than this ([`stacking`]; front-first help's default
+/// gap): on aorta view A (0.xx) it would move cells for nothing.
+pub const MIN_STACKING: f64 = 0.3;
+
 /// The default schedule runs only with at least this many cells per node
 /// on average: below it a node's part is a few leaves, so waves cannot be
 /// dealt evenly, and keying every leaf weighs against a short scan.
@@ -77,6 +82,9 @@ pub struct WaveSchedule {
     pub received: Vec<u64>,
     /// Leaves every node keys per frame (the schedule's compute).
     pub keyed: u64,
+    /// How far the placement's parts are stacked along the view
+    /// ([`stacking`]).
+    pub stacking: f64,
 }
 
 /// View-independent leaves: every node's part cut by recursive bisection
@@ -277,7 +285,36 @@ pub fn leaf_waves(
         given,
         received,
         keyed: leaves.len() as u64,
+        stacking: stacking(&leaves.owner, depth, n),
     }
+}
+
+/// How far the parts `owner` describes are stacked along the view: the
+/// largest gap between a node's nearest unit and the nearest unit of all,
+/// as a fraction of the units' depth range,
+///
+/// `max_k (min_{u in k} depth_u - min_u depth_u) / (max_u depth_u - min_u depth_u)`
+///
+/// (0 with fewer than two distinct depths). The same measure as front-first
+/// help's gap, on leaves at the start: with the parts side by side on the
+/// screen (aorta view A) every node starts near the front and a schedule
+/// only moves cells; with parts behind parts (view B) back nodes start far
+/// behind.
+pub fn stacking(owner: &[u32], depth: &[f64], n: usize) -> f64 {
+    let mut near = vec![f64::INFINITY; n];
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (&k, &d) in owner.iter().zip(depth) {
+        near[k as usize] = near[k as usize].min(d);
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    if hi <= lo {
+        return 0.0;
+    }
+    near.iter()
+        .filter(|d| d.is_finite())
+        .map(|&d| (d - lo) / (hi - lo))
+        .fold(0.0, f64::max)
 }
 
 #[cfg(test)]
