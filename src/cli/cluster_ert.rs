@@ -60,7 +60,8 @@ pub struct ClusterErtArgs {
     /// the schedule itself (charged: one cell record per leaf); nothing
     /// travels. 0 or 1: off (each node scans its part). Default with
     /// --share --dlb, the pyramid and replicated data: 4 when there are at
-    /// least 2,500 cells per node, else off.
+    /// least 2,500 cells per node and the parts are stacked along the view
+    /// (--schedule-min-stacking), else off.
     #[arg(long, value_name = "W")]
     pub schedule_waves: Option<usize>,
     /// Global schedule: cells per leaf, the unit dealt (each node's part is
@@ -70,9 +71,10 @@ pub struct ClusterErtArgs {
     pub schedule_leaf_cells: usize,
     /// Global schedule: apply it only when the placement's parts are
     /// stacked along the view by at least this fraction of the depth range
-    /// (the largest gap between a node's nearest leaf and the nearest leaf
-    /// of all; the nodes compute it with the schedule). Default: 0.3 for
-    /// the default schedule, 0 (always) with --schedule-waves given.
+    /// (the largest gap between a part's nearest probe leaf and the nearest
+    /// of all, 4 coarse leaves per part). Default: 0.8 for the default
+    /// schedule (aorta view B 0.85, view A 0.50, the demo 0.75 at 8 nodes),
+    /// 0 (always) with --schedule-waves given.
     #[arg(long, value_name = "FRACTION")]
     pub schedule_min_stacking: Option<f64>,
     /// The paper's protocol exactly: flat D x D table, single-entry test,

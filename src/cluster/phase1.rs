@@ -141,11 +141,11 @@ pub fn build_nodes(
             placement,
             cfg.schedule_waves,
             cfg.schedule_leaf_cells,
+            cfg.schedule_min_stacking,
         )
     });
-    let applied = waves
-        .as_ref()
-        .is_some_and(|w| w.stacking >= cfg.schedule_min_stacking);
+    let applied = waves.as_ref().is_some_and(|w| w.1);
+    let waves = waves.map(|w| w.0);
     let parts = match &waves {
         Some(w) if applied => &w.parts,
         _ => &placement.parts,
@@ -205,24 +205,52 @@ pub fn effective_waves(cfg: &Phase1Config, cells: usize) -> usize {
 }
 
 /// The global front-to-back schedule of [`crate::node::schedule`] over
-/// `placement`: leaves of about `leaf_cells` cells (view-independent, once
-/// per dataset), keyed by their centre's camera `z` and pixel (per frame).
+/// `placement`, as every node computes it: first the parts' stacking along
+/// the view from [`crate::node::schedule::PROBES_PER_NODE`] coarse leaves
+/// per part; below `min_stacking` the placement stays (returned with
+/// `false`, only the probes keyed); else leaves of about `leaf_cells` cells
+/// dealt in `waves` waves. Leaves are view-independent (once per dataset);
+/// their keys (centre's camera `z` and pixel) are per frame.
 fn wave_schedule(
     input: &RenderInput,
     placement: &Placement,
     waves: usize,
     leaf_cells: usize,
-) -> crate::node::schedule::WaveSchedule {
+    min_stacking: f64,
+) -> (crate::node::schedule::WaveSchedule, bool) {
+    use crate::node::schedule::{leaf_waves, stacking, Leaves, WaveSchedule, PROBES_PER_NODE};
     let view = input.scene.view();
+    let n = placement.parts.len();
     let c = crate::node::placement::centroids(&input.mesh);
-    let leaves = crate::node::schedule::Leaves::new(&placement.parts, &c, leaf_cells);
-    let cam: Vec<[f64; 3]> = leaves.centre.iter().map(|&p| view.to_camera(p)).collect();
-    let depth: Vec<f64> = cam.iter().map(|q| q[2]).collect();
-    let screen: Vec<[f64; 2]> = cam
-        .iter()
-        .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
-        .collect();
-    crate::node::schedule::leaf_waves(&leaves, &depth, &screen, placement.parts.len(), waves)
+    let keys = |leaves: &Leaves| -> (Vec<f64>, Vec<[f64; 2]>) {
+        let cam: Vec<[f64; 3]> = leaves.centre.iter().map(|&p| view.to_camera(p)).collect();
+        let depth = cam.iter().map(|q| q[2]).collect();
+        let screen = cam
+            .iter()
+            .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
+            .collect();
+        (depth, screen)
+    };
+    let per_part = placement.parts.iter().map(Vec::len).max().unwrap_or(0);
+    let probes = Leaves::new(&placement.parts, &c, per_part.div_ceil(PROBES_PER_NODE));
+    let (pd, _) = keys(&probes);
+    let st = stacking(&probes.owner, &pd, n);
+    if st < min_stacking {
+        let none = WaveSchedule {
+            parts: placement.parts.clone(),
+            given: vec![0; n],
+            received: vec![0; n],
+            keyed: probes.len() as u64,
+            stacking: st,
+        };
+        return (none, false);
+    }
+    let leaves = Leaves::new(&placement.parts, &c, leaf_cells);
+    let (depth, screen) = keys(&leaves);
+    let mut w = leaf_waves(&leaves, &depth, &screen, n, waves);
+    w.keyed += probes.len() as u64;
+    w.stacking = st;
+    (w, true)
 }
 
 /// Depth codes for per-pixel sharing over the frame's depth range: the

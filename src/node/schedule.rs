@@ -32,6 +32,13 @@
 //!   leaves, its own back cells come last, and every node reaches a depth at
 //!   about the same time as the others.
 //!
+//! ## When it is applied
+//!
+//! Only when the placement's parts are stacked along the view: every node
+//! first keys [`PROBES_PER_NODE`] coarse leaves per part and measures
+//! [`stacking`]; below the threshold ([`MIN_STACKING`] by default) each node
+//! scans its placement part and only the probes were keyed.
+//!
 //! ## What it costs, and why nothing travels
 //!
 //! The schedule is a deterministic function of the view, `W` and the
@@ -61,9 +68,15 @@ pub const DEFAULT_WAVES: usize = 4;
 pub const DEFAULT_LEAF_CELLS: usize = 512;
 
 /// The default schedule is applied only when the parts are stacked along
-/// the view by more than this ([`stacking`]; front-first help's default
-/// gap): on aorta view A (0.xx) it would move cells for nothing.
-pub const MIN_STACKING: f64 = 0.3;
+/// the view by at least this ([`stacking`] over [`PROBES_PER_NODE`]
+/// coarse leaves per part). Measured at 8 nodes (docs/experiments/cluster.md):
+/// aorta view B 0.85 (the schedule: 11.49 -> 9.81 s), the demo's vessel
+/// 0.75 and view A 0.50 (there it makes the frame slower).
+pub const MIN_STACKING: f64 = 0.8;
+
+/// Coarse leaves per part keyed first, to measure the parts' stacking
+/// before keying every leaf (a few records per node).
+pub const PROBES_PER_NODE: usize = 4;
 
 /// The default schedule runs only with at least this many cells per node
 /// on average: below it a node's part is a few leaves, so waves cannot be
