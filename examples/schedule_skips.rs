@@ -23,7 +23,9 @@ struct Line {
 
 fn main() -> anyhow::Result<()> {
     let mut a = std::env::args().skip(1);
-    let scene = a.next().ok_or_else(|| anyhow::anyhow!("usage: SCENE [NODES] [MIN] [RATIO]"))?;
+    let scene = a
+        .next()
+        .ok_or_else(|| anyhow::anyhow!("usage: SCENE [NODES] [MIN] [RATIO]"))?;
     let nodes = a.next().unwrap_or_else(|| "8".into());
     let min: u64 = a.next().map_or(Ok(136_000), |s| s.parse())?;
     let ratio: f64 = a.next().map_or(Ok(1.5), |s| s.parse())?;
@@ -43,7 +45,11 @@ fn main() -> anyhow::Result<()> {
         r.schedule_stacking,
         r.cells_scheduled
     );
-    anyhow::ensure!(r.cells_skipped_ert >= min, "skipped {} < {min}", r.cells_skipped_ert);
+    anyhow::ensure!(
+        r.cells_skipped_ert >= min,
+        "skipped {} < {min}",
+        r.cells_skipped_ert
+    );
     anyhow::ensure!(over >= ratio, "{over:.3}x over Base < {ratio}x");
     Ok(())
 }

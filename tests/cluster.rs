@@ -866,7 +866,10 @@ fn global_schedule_within_bound_and_deterministic() {
         assert_eq!(processed + culled, r.cells_total, "no cell lost");
         let plain = cluster::run(&input, &default_mode(n, None)).unwrap();
         // Nothing travels for the schedule: the grants are DLB's and help's.
-        assert!(r.bytes_by_kind.get("work-grant").copied().unwrap_or(0) < 4 * (r.cells_moved + 8 * n as u64));
+        assert!(
+            r.bytes_by_kind.get("work-grant").copied().unwrap_or(0)
+                < 4 * (r.cells_moved + 8 * n as u64)
+        );
         if waves > 1 && min_stacking <= 1.0 {
             assert!(r.schedule_applied);
             assert!(r.cells_scheduled > 0, "N {n}");

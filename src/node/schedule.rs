@@ -221,7 +221,9 @@ pub fn deal_waves(
         }
         let sum: u64 = wave.iter().map(|&u| weight[u as usize]).sum();
         // Twice the target, in cells, to stay in integers.
-        let target2 = |k: usize| -> u64 { (2 * sum) / n as u64 + u64::from(k < ((2 * sum) % n as u64) as usize) };
+        let target2 = |k: usize| -> u64 {
+            (2 * sum) / n as u64 + u64::from(k < ((2 * sum) % n as u64) as usize)
+        };
         // Owners keep a prefix of their strip while its midpoint fits the
         // target; the rest is spare.
         let mut kept2 = vec![0u64; n];
@@ -241,7 +243,9 @@ pub fn deal_waves(
         }
         // Spare units go to the nodes below target, by the midpoint of
         // each unit in the spare run mapped onto the needs' run.
-        let need2: Vec<u64> = (0..n).map(|k| target2(k).saturating_sub(kept2[k])).collect();
+        let need2: Vec<u64> = (0..n)
+            .map(|k| target2(k).saturating_sub(kept2[k]))
+            .collect();
         let need_total: u64 = need2.iter().sum();
         let spare_total: u64 = spare.iter().map(|&u| 2 * weight[u as usize]).sum();
         if spare_total == 0 || need_total == 0 {
@@ -253,7 +257,8 @@ pub fn deal_waves(
         for &u in &spare {
             let w2 = 2 * weight[u as usize];
             // Midpoint on the needs' scale (u128: no overflow).
-            let m = ((2 * cum2 + w2) as u128 * need_total as u128 / (2 * spare_total) as u128) as u64;
+            let m =
+                ((2 * cum2 + w2) as u128 * need_total as u128 / (2 * spare_total) as u128) as u64;
             while at + 1 < n && m >= need_end {
                 at += 1;
                 need_end += need2[at];
