@@ -380,7 +380,9 @@ mod tests {
         let w = [1; 8];
         assert_eq!(
             deal_waves(&owner, &w, &depth, &screen, 2, 2),
-            vec![0, 0, 1, 1, 0, 0, 1, 1]
+            // Wave 1 (units 0-3, node 0's): node 0 keeps its first two in
+            // screen order, node 1 gets 2 and 3; wave 2 the other way.
+            vec![0, 0, 1, 1, 1, 1, 0, 0]
         );
         assert_eq!(
             deal_waves(&owner, &w, &depth, &screen, 2, 1),
