@@ -82,6 +82,14 @@ fn item1_silent_no_ops_and_clamps_are_errors_or_warnings() {
             ],
             "--schedule-waves needs replicated data",
         ),
+        (
+            vec!["--ert", "0.9", "--share", "--schedule-leaf-cells", "0"],
+            "--schedule-leaf-cells 0: must be at least 1",
+        ),
+        (
+            vec!["--ert", "0.9", "--share", "--schedule-min-stacking=-1"],
+            "--schedule-min-stacking must be a fraction >= 0",
+        ),
     ] {
         let mut a = vec!["cluster", s.as_str()];
         a.extend(args);

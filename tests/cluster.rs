@@ -37,6 +37,9 @@ fn config(n: usize, ert: NodeErt, share: bool, dlb: bool, compositor: &str) -> C
             policy: NodePolicy::default(),
             manager_shards: None,
             schedule_waves: 0,
+            schedule_leaf_cells: 0,
+            schedule_min_cells: 0,
+            schedule_min_stacking: 0.0,
             clock: ClockKind::Virtual,
             record_trace: true,
         },
@@ -831,31 +834,60 @@ fn sharded_manager_within_bound_and_deterministic() {
 
 /// The global front-to-back schedule (`--schedule-waves`, replicated data):
 /// image within the ERT bound, deterministic, no cell lost or doubled, the
-/// planned moves counted as cells moved, and with one wave nothing moves.
+/// cells dealt counted apart from DLB's moves and nothing sent for them;
+/// with one wave, or below the stacking threshold, each node scans its
+/// placement part (same image and skips as without a schedule), the leaves
+/// still keyed and charged.
 #[test]
 fn global_schedule_within_bound_and_deterministic() {
     let input = small("b");
     let (full, bound) = full_image_and_bound(&input);
-    for (n, waves) in [(3, 4), (8, 4), (8, 1)] {
+    for (n, waves, leaf, min_stacking) in [
+        (3, 4, 64, 0.0),
+        (8, 4, 64, 0.0),
+        (8, 3, 1, 0.0),
+        (8, 1, 64, 0.0),
+        (8, 4, 64, 1.5),
+    ] {
         let mut cfg = default_mode(n, None);
         cfg.phase1.schedule_waves = waves;
+        cfg.phase1.schedule_leaf_cells = leaf;
+        cfg.phase1.schedule_min_stacking = min_stacking;
         let out = cluster::run(&input, &cfg).unwrap();
         let r = &out.report;
         let d = max_diff(&out.image, &full);
         eprintln!(
-            "N {n} W {waves}: {d:.4} (bound {bound:.4}), skipped {}, moved {}",
-            r.cells_skipped_ert, r.cells_moved
+            "N {n} W {waves} S {leaf}: {d:.4} (bound {bound:.4}), skipped {}, scheduled {}, moved {}",
+            r.cells_skipped_ert, r.cells_scheduled, r.cells_moved
         );
         assert!(d <= bound + 1e-5, "N {n} W {waves}: {d} > {bound}");
         let processed: u64 = r.nodes.iter().map(|x| x.cells_processed).sum();
         let culled: u64 = r.nodes.iter().map(|x| x.cells_culled).sum();
         assert_eq!(processed + culled, r.cells_total, "no cell lost");
         let plain = cluster::run(&input, &default_mode(n, None)).unwrap();
-        if waves > 1 {
-            assert!(r.cells_moved > plain.report.cells_moved, "N {n}");
+        // Nothing travels for the schedule: the grants are DLB's and help's.
+        assert!(
+            r.bytes_by_kind.get("work-grant").copied().unwrap_or(0)
+                < 4 * (r.cells_moved + 8 * n as u64)
+        );
+        if waves > 1 && min_stacking <= 1.0 {
+            assert!(r.schedule_applied);
+            assert!(r.cells_scheduled > 0, "N {n}");
+            assert_eq!(r.schedule_waves, waves);
         } else {
+            assert!(!r.schedule_applied);
+            assert_eq!(r.cells_scheduled, 0);
             assert_eq!(bits(&out.image), bits(&plain.image));
-            assert_eq!(r.frame_s, plain.report.frame_s);
+            assert_eq!(r.cells_skipped_ert, plain.report.cells_skipped_ert);
+            // Not applied: the nodes still keyed every leaf (one record
+            // each) before scanning, so the whole run is later by a whole
+            // number of records, at least one leaf per node.
+            let k = (r.tsc_max_s - plain.report.tsc_max_s) / cfg.profile.per_cell_receive;
+            if waves > 1 {
+                assert!((k - k.round()).abs() < 1e-3 && k.round() >= n as f64, "{k}");
+            } else {
+                assert_eq!(r.frame_s, plain.report.frame_s);
+            }
         }
         let again = cluster::run(&input, &cfg).unwrap();
         assert_eq!(bits(&out.image), bits(&again.image));

@@ -257,6 +257,11 @@ impl Validate for ClusterArgs {
         at_least("--ert-table", self.ert_table, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
         at_least("--chunk", self.chunk, 1)?;
+        at_least(
+            "--schedule-leaf-cells",
+            self.ert_mode.schedule_leaf_cells,
+            1,
+        )?;
         at_least("--min-grant", self.min_grant, 1)?;
         at_least("--progress-every", self.progress_every, 1)?;
         validate::image_size(self.width, self.height)?;
@@ -271,7 +276,7 @@ impl Validate for ClusterArgs {
         )?;
         needs(
             "--schedule-waves",
-            self.ert_mode.schedule_waves > 1,
+            self.ert_mode.schedule_waves.is_some_and(|w| w > 1),
             ert.is_on()
                 && mode == Sharing::Manager
                 && !self.ert_mode.paper
@@ -364,7 +369,32 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 release_lag: a.ert_mode.release_lag,
             },
             manager_shards: a.ert_mode.manager_shards,
-            schedule_waves: a.ert_mode.schedule_waves,
+            schedule_waves: a.ert_mode.schedule_waves.unwrap_or(
+                if !paper
+                    && a.ert < 1.0
+                    && a.sharing_mode() == Sharing::Manager
+                    && a.dlb
+                    && mode.structure == crate::render::cell::ert::ErtStructure::Pyramid
+                    && a.data != Some(DataMode::Partitioned)
+                {
+                    crate::node::schedule::DEFAULT_WAVES
+                } else {
+                    0
+                },
+            ),
+            schedule_leaf_cells: a.ert_mode.schedule_leaf_cells,
+            schedule_min_cells: if a.ert_mode.schedule_waves.is_some() {
+                0
+            } else {
+                crate::node::schedule::MIN_CELLS_PER_NODE
+            },
+            schedule_min_stacking: a.ert_mode.schedule_min_stacking.unwrap_or(
+                if a.ert_mode.schedule_waves.is_some() {
+                    0.0
+                } else {
+                    crate::node::schedule::MIN_STACKING
+                },
+            ),
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },
@@ -418,6 +448,11 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
                 );
                 eprintln!("note: remote workers hold their part of the mesh only: --data partitioned (cells move with their vertices)");
                 cfg.phase1.data = DataMode::Partitioned;
+                anyhow::ensure!(
+                    a.ert_mode.schedule_waves.is_none_or(|w| w <= 1),
+                    "--schedule-waves needs replicated data, which runs on the simulated cluster only"
+                );
+                cfg.phase1.schedule_waves = 0;
             }
             let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
             out.report.transport = Some(crate::cluster::remote::transport_section(

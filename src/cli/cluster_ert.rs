@@ -51,15 +51,32 @@ pub struct ClusterErtArgs {
     /// (16 at 256 nodes). Must lie between 1 and the number of tiles.
     #[arg(long, value_name = "K")]
     pub manager_shards: Option<usize>,
-    /// Global front-to-back schedule (replicated data, with --share): all
-    /// cells, by depth, are cut into W waves and every wave is dealt evenly
-    /// over the nodes (owners keep a screen strip, the rest goes to the
-    /// nodes holding less), so a back node scans the front nodes' nearest
-    /// cells first and its own back cells last (src/node/schedule.rs); the
-    /// ids moved and the records built are charged at the start. 0 or 1:
-    /// off (each node scans its part; the default).
-    #[arg(long, value_name = "W", default_value_t = 0)]
-    pub schedule_waves: usize,
+    /// Global front-to-back schedule (replicated data, with --share): each
+    /// node's part is cut into leaves (--schedule-leaf-cells), the leaves,
+    /// by depth, into W waves, and every wave is dealt evenly over the
+    /// nodes (owners keep a screen strip, the rest goes to the nodes holding
+    /// less), so a back node scans the front nodes' nearest leaves first and
+    /// its own back cells last (src/node/schedule.rs). Every node computes
+    /// the schedule itself (charged: one cell record per leaf); nothing
+    /// travels. 0 or 1: off (each node scans its part). Default with
+    /// --share --dlb, the pyramid and replicated data: 4 when there are at
+    /// least 2,500 cells per node and the parts are stacked along the view
+    /// (--schedule-min-stacking), else off.
+    #[arg(long, value_name = "W")]
+    pub schedule_waves: Option<usize>,
+    /// Global schedule: cells per leaf, the unit dealt (each node's part is
+    /// cut by bisection into leaves of about this many cells, once per
+    /// dataset). Smaller: finer balance, more keys to compute per frame.
+    #[arg(long, value_name = "CELLS", default_value_t = crate::node::schedule::DEFAULT_LEAF_CELLS)]
+    pub schedule_leaf_cells: usize,
+    /// Global schedule: apply it only when the placement's parts are
+    /// stacked along the view by at least this fraction of the depth range
+    /// (the largest gap between a part's nearest probe leaf and the nearest
+    /// of all, 4 coarse leaves per part). Default: 0.8 for the default
+    /// schedule (aorta view B 0.85, view A 0.50, the demo 0.75 at 8 nodes),
+    /// 0 (always) with --schedule-waves given.
+    #[arg(long, value_name = "FRACTION")]
+    pub schedule_min_stacking: Option<f64>,
     /// The paper's protocol exactly: flat D x D table, single-entry test,
     /// per-entry sharing (1 level, whole entries), no share window, no
     /// front-first help, no release ordering. Overrides --ert-structure,
@@ -102,6 +119,12 @@ impl ClusterErtArgs {
             "--release-lag must be a fraction in [0, 1], got {}",
             self.release_lag
         );
+        if let Some(f) = self.schedule_min_stacking {
+            anyhow::ensure!(
+                f.is_finite() && f >= 0.0,
+                "--schedule-min-stacking must be a fraction >= 0 (0 = always apply), got {f}"
+            );
+        }
         if let Some(k) = self.manager_shards {
             anyhow::ensure!(
                 k >= 1,

@@ -129,6 +129,9 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
             dlb: false,
             manager_shards: None,
             schedule_waves: 0,
+            schedule_leaf_cells: 0,
+            schedule_min_cells: 0,
+            schedule_min_stacking: 0.0,
             // Same kind of time as the run itself (see `sequential_reference`).
             clock: p1.clock,
             record_trace: false,

@@ -51,9 +51,22 @@ pub struct Phase1Config {
     /// Pacing, work giving and share window of every node.
     pub policy: NodePolicy,
     /// Global front-to-back schedule ([`crate::node::schedule`], with
-    /// replicated data and sharing): depth waves dealt evenly over the
-    /// nodes; 0 or 1: off (each node scans its part).
+    /// replicated data and sharing): depth waves of leaves dealt evenly
+    /// over the nodes, computed by every node itself; 0 or 1: off (each
+    /// node scans its part).
     pub schedule_waves: usize,
+    /// Global schedule: runs only with at least this many cells per node
+    /// on average (0: whenever `schedule_waves > 1`; the default's rule,
+    /// [`crate::node::schedule::MIN_CELLS_PER_NODE`], keeps it off where
+    /// keying the leaves would cost more than it saves).
+    pub schedule_min_cells: usize,
+    /// Global schedule: applied only when the placement's parts are
+    /// stacked along the view by at least this
+    /// ([`crate::node::schedule::stacking`]; 0: always).
+    pub schedule_min_stacking: f64,
+    /// Global schedule: cells per leaf (each node's placement part cut by
+    /// bisection into leaves of about this many cells; the unit dealt).
+    pub schedule_leaf_cells: usize,
     /// Manager shards `K` for per-pixel sharing (`--manager-shards`):
     /// `None`, the default for the node count
     /// ([`ShardMap::default_count`]: 1 up to 16 nodes). Only per-pixel
@@ -122,9 +135,21 @@ pub fn build_nodes(
     };
     let replica = (cfg.data == DataMode::Replicated)
         .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
-    let waves = (cfg.schedule_waves > 1 && cfg.share && replica.is_some())
-        .then(|| wave_schedule(input, placement, cfg.schedule_waves));
-    let parts = waves.as_ref().map_or(&placement.parts, |w| &w.parts);
+    let waves = (effective_waves(cfg, input.mesh.tets.len()) > 1).then(|| {
+        wave_schedule(
+            input,
+            placement,
+            cfg.schedule_waves,
+            cfg.schedule_leaf_cells,
+            cfg.schedule_min_stacking,
+        )
+    });
+    let applied = waves.as_ref().is_some_and(|w| w.1);
+    let waves = waves.map(|w| w.0);
+    let parts = match &waves {
+        Some(w) if applied => &w.parts,
+        _ => &placement.parts,
+    };
     parts
         .iter()
         .enumerate()
@@ -149,7 +174,7 @@ pub fn build_nodes(
             };
             let mut a = NodeActor::new(nc, r, *profile, codec, part.len() as u64);
             if let Some(w) = &waves {
-                a.set_planned_moves(w.given[k], w.received[k]);
+                a.set_schedule(w, applied);
             }
             if overlap {
                 a.set_peers(
@@ -163,23 +188,69 @@ pub fn build_nodes(
         .collect()
 }
 
+/// The waves of the global schedule a run of `cfg` over `cells` cells uses:
+/// `cfg.schedule_waves` with sharing through the manager, replicated data
+/// and at least `schedule_min_cells` cells per node; else 0 (off).
+pub fn effective_waves(cfg: &Phase1Config, cells: usize) -> usize {
+    let on = cfg.schedule_waves > 1
+        && cfg.share
+        && cfg.node.ert.enabled()
+        && cfg.data == DataMode::Replicated
+        && cells >= cfg.schedule_min_cells.saturating_mul(cfg.nodes.max(1));
+    if on {
+        cfg.schedule_waves
+    } else {
+        0
+    }
+}
+
 /// The global front-to-back schedule of [`crate::node::schedule`] over
-/// `placement`: depth key the centroid's camera `z`, screen position its
-/// pixel.
+/// `placement`, as every node computes it: first the parts' stacking along
+/// the view from [`crate::node::schedule::PROBES_PER_NODE`] coarse leaves
+/// per part; below `min_stacking` the placement stays (returned with
+/// `false`, only the probes keyed); else leaves of about `leaf_cells` cells
+/// dealt in `waves` waves. Leaves are view-independent (once per dataset);
+/// their keys (centre's camera `z` and pixel) are per frame.
 fn wave_schedule(
     input: &RenderInput,
     placement: &Placement,
     waves: usize,
-) -> crate::node::schedule::WaveSchedule {
+    leaf_cells: usize,
+    min_stacking: f64,
+) -> (crate::node::schedule::WaveSchedule, bool) {
+    use crate::node::schedule::{leaf_waves, stacking, Leaves, WaveSchedule, PROBES_PER_NODE};
     let view = input.scene.view();
+    let n = placement.parts.len();
     let c = crate::node::placement::centroids(&input.mesh);
-    let cam: Vec<[f64; 3]> = c.iter().map(|&p| view.to_camera(p)).collect();
-    let depth: Vec<f64> = cam.iter().map(|q| q[2]).collect();
-    let screen: Vec<[f64; 2]> = cam
-        .iter()
-        .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
-        .collect();
-    crate::node::schedule::global_waves(&placement.parts, &depth, &screen, waves)
+    let keys = |leaves: &Leaves| -> (Vec<f64>, Vec<[f64; 2]>) {
+        let cam: Vec<[f64; 3]> = leaves.centre.iter().map(|&p| view.to_camera(p)).collect();
+        let depth = cam.iter().map(|q| q[2]).collect();
+        let screen = cam
+            .iter()
+            .map(|&q| view.camera_to_pixel(q).unwrap_or([q[0], -q[1]]))
+            .collect();
+        (depth, screen)
+    };
+    let per_part = placement.parts.iter().map(Vec::len).max().unwrap_or(0);
+    let probes = Leaves::new(&placement.parts, &c, per_part.div_ceil(PROBES_PER_NODE));
+    let (pd, _) = keys(&probes);
+    let st = stacking(&probes.owner, &pd, n);
+    if st < min_stacking {
+        let none = WaveSchedule {
+            parts: placement.parts.clone(),
+            given: vec![0; n],
+            received: vec![0; n],
+            keyed: probes.len() as u64,
+            stacking: st,
+        };
+        return (none, false);
+    }
+    let leaves = Leaves::new(&placement.parts, &c, leaf_cells);
+    let (depth, screen) = keys(&leaves);
+    let mut w = leaf_waves(&leaves, &depth, &screen, n, waves);
+    w.keyed += probes.len() as u64;
+    w.stacking = st;
+    (w, true)
 }
 
 /// Depth codes for per-pixel sharing over the frame's depth range: the

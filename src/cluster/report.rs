@@ -260,6 +260,19 @@ pub struct ClusterReport {
     pub cells_skipped_ert: u64,
     /// Cells moved by DLB.
     pub cells_moved: u64,
+    /// Global front-to-back schedule ([`crate::node::schedule`]): waves
+    /// used (0: off).
+    pub schedule_waves: usize,
+    /// Global schedule: cells per leaf.
+    pub schedule_leaf_cells: usize,
+    /// Global schedule: the placement's stacking along the view the nodes
+    /// computed (`null`: no schedule computed).
+    pub schedule_stacking: Option<f64>,
+    /// Global schedule: applied (stacking at least the threshold).
+    pub schedule_applied: bool,
+    /// Global schedule: cells dealt to another node than their placement
+    /// part's (computed on every node; no byte travels).
+    pub cells_scheduled: u64,
     /// Modelled seconds of the sequential run at the same settings.
     pub sequential_s: Option<f64>,
     /// Cells it skipped by ERT.
@@ -591,6 +604,15 @@ pub fn build(i: Inputs) -> ClusterReport {
         cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
         cells_skipped_ert: skipped,
         cells_moved: nodes.iter().map(|x| x.cells_taken).sum(),
+        schedule_waves: super::phase1::effective_waves(p1, i.input.mesh.tets.len()),
+        schedule_leaf_cells: p1.schedule_leaf_cells,
+        schedule_stacking: i
+            .nodes
+            .first()
+            .filter(|a| a.stats.schedule_keyed > 0)
+            .map(|a| a.stats.schedule_stacking),
+        schedule_applied: i.nodes.iter().any(|a| a.stats.schedule_applied),
+        cells_scheduled: i.nodes.iter().map(|a| a.stats.cells_scheduled_in).sum(),
         sequential_s: seq_s,
         sequential_skipped: refs.map(|r| r.seq_skipped),
         base_tsc_max_s: base,
@@ -714,6 +736,20 @@ pub fn summary(r: &ClusterReport) -> String {
         1e3 * r.t_share.max_s,
         r.manager_busy_s
     );
+    if let Some(st) = r.schedule_stacking {
+        let _ = writeln!(
+            s,
+            "schedule: {} waves of leaves of {} cells, computed on every node (no byte travels); parts stacked {:.2} along the view: {}",
+            r.schedule_waves,
+            r.schedule_leaf_cells,
+            st,
+            if r.schedule_applied {
+                format!("applied, {} cells dealt to another node than their placement part's", r.cells_scheduled)
+            } else {
+                "not applied (below the threshold), each node scans its part".to_string()
+            }
+        );
+    }
     if r.manager_shards > 1 {
         let total: f64 = r.manager.shard_busy_s.iter().sum();
         let _ = writeln!(

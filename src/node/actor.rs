@@ -113,6 +113,24 @@ pub struct NodeStats {
     pub cells_given: u64,
     /// Cells taken from others (DLB).
     pub cells_taken: u64,
+    /// Global schedule ([`crate::node::schedule`]): cells of this node's
+    /// placement part dealt to other nodes for the frame (nothing travels).
+    #[serde(default)]
+    pub cells_scheduled_out: u64,
+    /// Global schedule: cells of other nodes' parts dealt to this node.
+    #[serde(default)]
+    pub cells_scheduled_in: u64,
+    /// Global schedule: leaves keyed at the start (0: no schedule computed).
+    #[serde(default)]
+    pub schedule_keyed: u64,
+    /// Global schedule: the placement's stacking along the view
+    /// ([`crate::node::schedule::stacking`]), which decides whether the
+    /// schedule computed is applied.
+    #[serde(default)]
+    pub schedule_stacking: f64,
+    /// Global schedule: applied (else the node scans its placement part).
+    #[serde(default)]
+    pub schedule_applied: bool,
     /// Tables sent to the manager.
     pub shares_sent: u64,
     /// Replies applied.
@@ -153,9 +171,9 @@ pub struct NodeActor {
     release_pending: bool,
     /// The unprocessed count the manager last heard from this node.
     reported: u64,
-    /// Global schedule ([`crate::node::schedule`]): cells this node gave
-    /// and received when the frame's waves were dealt (charged at Start).
-    planned: (u64, u64),
+    /// Global schedule ([`crate::node::schedule`]): leaves this node keys
+    /// at Start to compute the frame's schedule (0: no schedule).
+    keyed: u64,
     stats: NodeStats,
 }
 
@@ -187,7 +205,7 @@ impl NodeActor {
             help_pending: false,
             release_pending: false,
             reported: u64::MAX,
-            planned: (0, 0),
+            keyed: 0,
             stats: NodeStats {
                 cells_initial,
                 ..Default::default()
@@ -213,15 +231,24 @@ impl NodeActor {
         self.in_flight = vec![0; map.count()];
     }
 
-    /// Global schedule ([`crate::node::schedule`]): the node gave `given`
-    /// and received `received` cells (as ids) when the waves were dealt;
-    /// at Start it is charged writing the given ids, reading the received
-    /// ones and building their records from its copy of the mesh, before
-    /// it scans.
-    pub fn set_planned_moves(&mut self, given: u64, received: u64) {
-        self.planned = (given, received);
-        self.stats.cells_given += given;
-        self.stats.cells_taken += received;
+    /// Global schedule ([`crate::node::schedule`]): at Start the node keys
+    /// `w.keyed` leaves to compute the frame's schedule itself (charged as
+    /// [`OpCounts::units_keyed`]); if `applied`, the schedule dealt
+    /// `w.given[rank]` cells of its placement part to others and
+    /// `w.received[rank]` cells of theirs to it. No message carries them:
+    /// every node holds the mesh and computes the same schedule, and the
+    /// node's cells (from [`NodeActor::new`]'s renderer) are already the
+    /// scheduled ones.
+    pub fn set_schedule(&mut self, w: &crate::node::schedule::WaveSchedule, applied: bool) {
+        let k = self.cfg.rank;
+        self.keyed = w.keyed;
+        self.stats.schedule_keyed = w.keyed;
+        self.stats.schedule_stacking = w.stacking;
+        self.stats.schedule_applied = applied;
+        if applied {
+            self.stats.cells_scheduled_out += w.given[k];
+            self.stats.cells_scheduled_in += w.received[k];
+        }
     }
 
     /// The ranks this node shares its table with directly (overlap sharing).
@@ -607,12 +634,10 @@ impl Actor for NodeActor {
         }
         match event {
             Event::Start => {
-                let (given, received) = self.planned;
                 let mut s = 0.0;
-                if given + received > 0 {
+                if self.keyed > 0 {
                     let ops = OpCounts {
-                        cell_ids_moved: given + received,
-                        cells_received: received,
+                        units_keyed: self.keyed,
                         ..Default::default()
                     };
                     s = self.secs(&ops);

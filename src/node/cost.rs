@@ -31,7 +31,8 @@ use super::ops::OpCounts;
 pub struct CostProfile {
     /// Per vertex transformed to screen space.
     pub per_vertex_project: f64,
-    /// Per cell received (record built or culled).
+    /// Per cell received (record built or culled); also per leaf keyed for
+    /// a global schedule (`OpCounts::units_keyed`).
     pub per_cell_receive: f64,
     /// Per cell tested against the ERT table.
     pub per_cell_test: f64,
@@ -133,7 +134,7 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
     let f = |n: u64, c: f64| n as f64 * c;
     Breakdown {
         receive: f(o.vertices_projected, p.per_vertex_project)
-            + f(o.cells_received, p.per_cell_receive),
+            + f(o.cells_received + o.units_keyed, p.per_cell_receive),
         ert_test: f(o.cells_tested + o.cells_reordered, p.per_cell_test),
         scan: f(o.cells_projected, p.per_cell_setup)
             + f(o.pixels_tested, p.per_pixel_test)

@@ -45,6 +45,10 @@ pub struct OpCounts {
     /// Cells keyed and moved by a release reorder ([`super::release`]).
     #[serde(default)]
     pub cells_reordered: u64,
+    /// Leaves keyed (depth and pixel of their centre) to compute a global
+    /// front-to-back schedule ([`super::schedule`]); priced as a cell record.
+    #[serde(default)]
+    pub units_keyed: u64,
 }
 
 impl OpCounts {
@@ -71,7 +75,8 @@ impl OpCounts {
             shared_entries_merged,
             work_cells_moved,
             cell_ids_moved,
-            cells_reordered
+            cells_reordered,
+            units_keyed
         );
     }
 

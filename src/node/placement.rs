@@ -147,8 +147,14 @@ fn bbox(ids: &[u32], c: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 }
 
 /// Recursive bisection of `ids` by their points `c`, cutting along the
-/// longest of the first `axes` coordinates.
-fn rcb(ids: &mut [u32], c: &[[f64; 3]], axes: usize, targets: &[usize], out: &mut Vec<Vec<u32>>) {
+/// longest of the first `axes` coordinates; appends one part per target.
+pub(crate) fn rcb(
+    ids: &mut [u32],
+    c: &[[f64; 3]],
+    axes: usize,
+    targets: &[usize],
+    out: &mut Vec<Vec<u32>>,
+) {
     if targets.len() <= 1 {
         let mut part = ids.to_vec();
         part.sort_unstable();
