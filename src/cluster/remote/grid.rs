@@ -40,6 +40,7 @@ use crate::compositor::region::{area, screen};
 use crate::data::{Volume, Voxels};
 use crate::net::tcp::{self, Role, TcpOptions, Token};
 use crate::net::{Action, Actor, Codec, Event, NodeId, SimTrace};
+use crate::node::grid::cache::BrickTextures;
 use crate::node::grid::GridNodeActor;
 use crate::node::grid::GridNodeStats;
 use crate::render::VolumeInput;
@@ -167,6 +168,7 @@ impl GridRemote {
                 bricks: held.iter().map(|h| WireBrick::new(&h.0, h.2)).collect(),
                 bricks_sha256: sha256(&bytes),
                 max_message_bytes: codec.max_message_bytes,
+                texture_cache: cfg.texture_cache,
             };
             let addr = self.workers[k].clone();
             let token = self.token.clone();
@@ -275,6 +277,15 @@ impl GridRemote {
     }
 }
 
+/// What a grid worker keeps from one session to the next: its last
+/// bricks' samples (decoded) and their textures ([`crate::node::grid::cache`]),
+/// valid while the set-up names the same brick bytes (SHA-256).
+#[derive(Default)]
+pub struct GridWorkerCache {
+    bricks: Option<([u8; 32], Vec<Arc<Volume>>)>,
+    textures: Option<BrickTextures>,
+}
+
 /// Serves a grid session on a worker (`setup` came first on `stream`):
 /// samples from the cache or the coordinator, the bricks rendered, the
 /// layers sent back. `cache` is the worker's content cache.
@@ -283,6 +294,7 @@ pub(super) fn serve(
     mut stream: TcpStream,
     cache: &mut VecDeque<([u8; 32], Vec<u8>)>,
     cache_entries: usize,
+    kept: &mut GridWorkerCache,
     setup: GridSetup,
     coord: NodeId,
     name: &str,
@@ -335,7 +347,7 @@ pub(super) fn serve(
             bytes
         }
     };
-    let result = render(&setup, &bytes).map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
+    let result = render(&setup, &bytes, kept).map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
     let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
     rt.block_on(tcp::raw::write_msg(
         &mut stream,
@@ -356,8 +368,24 @@ pub(super) fn serve(
 }
 
 /// Renders the set-up's bricks with the same actor as the other clocks.
-fn render(setup: &GridSetup, bytes: &[u8]) -> anyhow::Result<GridResult> {
-    let vols = decode_bricks(bytes, &setup.field).map_err(|e| anyhow::anyhow!(e))?;
+fn render(
+    setup: &GridSetup,
+    bytes: &[u8],
+    kept: &mut GridWorkerCache,
+) -> anyhow::Result<GridResult> {
+    let vols: Vec<Arc<Volume>> = match &kept.bricks {
+        Some((h, v)) if *h == setup.bricks_sha256 => v.clone(),
+        _ => {
+            kept.textures = None;
+            let v: Vec<Arc<Volume>> = decode_bricks(bytes, &setup.field)
+                .map_err(|e| anyhow::anyhow!(e))?
+                .into_iter()
+                .map(Arc::new)
+                .collect();
+            kept.bricks = Some((setup.bricks_sha256, v.clone()));
+            v
+        }
+    };
     anyhow::ensure!(
         vols.len() == setup.bricks.len(),
         "{} bricks' samples for {} bricks",
@@ -391,7 +419,7 @@ fn render(setup: &GridSetup, bytes: &[u8]) -> anyhow::Result<GridResult> {
         .bricks
         .iter()
         .zip(vols)
-        .map(|(b, v)| (b.brick(), Arc::new(v), b.rank))
+        .map(|(b, v)| (b.brick(), v, b.rank))
         .collect();
     let mut actor = GridNodeActor::new(
         setup.rank as usize,
@@ -402,8 +430,14 @@ fn render(setup: &GridSetup, bytes: &[u8]) -> anyhow::Result<GridResult> {
         lc.depth(),
         setup.profile,
         setup.renderer,
-    );
+    )
+    .with_textures(if setup.texture_cache {
+        Some(kept.textures.take().unwrap_or_default())
+    } else {
+        None
+    });
     let actions = actor.handle(0.0, Event::Start);
+    kept.textures = actor.take_textures();
     debug_assert!(actions.iter().any(|a| matches!(a, Action::Stop)));
     if let Some(e) = &actor.stats().error {
         anyhow::bail!("grid node {}: {e}", setup.rank);

@@ -172,6 +172,9 @@ pub struct GridSetup {
     pub bricks_sha256: [u8; 32],
     /// Payload limit of frames.
     pub max_message_bytes: u64,
+    /// Keep the bricks' textures for the next session with the same bricks
+    /// (`--no-texture-cache` turns it off).
+    pub texture_cache: bool,
 }
 
 impl GridSetup {

@@ -37,6 +37,7 @@ pub struct Worker {
     token: Token,
     opts: TcpOptions,
     cache: VecDeque<([u8; 32], Vec<u8>)>,
+    grid: super::grid::GridWorkerCache,
     /// Give up if no session starts within this (`None`: wait forever).
     pub accept_timeout: Option<Duration>,
     /// Test hook (hidden `--test-kill-after-chunks K`): the process kills
@@ -104,6 +105,7 @@ impl Worker {
             token,
             opts,
             cache: VecDeque::new(),
+            grid: Default::default(),
             accept_timeout: None,
             kill_after_chunks: None,
             kill_in_phase2: false,
@@ -192,6 +194,7 @@ impl Worker {
                         stream,
                         &mut self.cache,
                         CACHE_ENTRIES,
+                        &mut self.grid,
                         *s,
                         coord,
                         &name,
