@@ -171,14 +171,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     let threads = match a.net.transport {
         None => false,
         Some(TransportKind::Threads) => true,
-        Some(t) => {
-            anyhow::ensure!(
-                a.grid.master,
-                "--transport {} for grid scenes runs the paper's setting: the workers send \
-                 their subimages to the master; add --master (binary swap, direct send and \
-                 radix-k between grid workers are not built)",
-                t.name()
-            );
+        Some(_) => {
             anyhow::ensure!(
                 a.net.on_failure == super::transport_args::OnFailure::Abort,
                 "--on-failure reassign is for cell projection; a grid frame fails with an error \

@@ -386,13 +386,10 @@ pub fn finish(
     p1: Phase1Out,
 ) -> anyhow::Result<GridOutcome> {
     let s = &input.scene;
-    let total = prep.total;
-    let ends = p1.ends;
-    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
     let t2 = std::time::Instant::now();
     let sched = prep
         .strategy
-        .schedule(total, screen(s.image.width, s.image.height));
+        .schedule(prep.total, screen(s.image.width, s.image.height));
     let bg = s.image.background.map(|x| x as f32);
     let (image, rounds) = layer_exec::run(
         &sched,
@@ -401,6 +398,29 @@ pub fn finish(
         bg,
         prep.strategy.merges_early(),
     )?;
+    let p1 = Phase1Out {
+        layers: Vec::new(),
+        ..p1
+    };
+    report(input, cfg, prep, p1, image, rounds, t2)
+}
+
+/// The outcome of a frame whose phase 2 ran (in-process, or worker to
+/// worker with `rounds` from the ranks' logs) since `t2`: the rounds
+/// replayed on the modelled network, the report.
+pub fn report(
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    prep: &Prepared,
+    p1: Phase1Out,
+    image: Image,
+    rounds: Vec<layer_exec::LayerRound>,
+    t2: std::time::Instant,
+) -> anyhow::Result<GridOutcome> {
+    let s = &input.scene;
+    let total = prep.total;
+    let ends = p1.ends;
+    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
     let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); rounds.len()]; total];
     let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); total];
     let mut bytes_sent = vec![0u64; total];
