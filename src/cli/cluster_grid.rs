@@ -368,7 +368,11 @@ pub fn run(a: &ClusterArgs, scene: Scene) -> anyhow::Result<()> {
         println!(
             "{} frames, wall seconds each: {}; total {:.4} s; bricks from kept textures each: {:?}",
             outs.len(),
-            walls.iter().map(|w| format!("{w:.4}")).collect::<Vec<_>>().join(" "),
+            walls
+                .iter()
+                .map(|w| format!("{w:.4}"))
+                .collect::<Vec<_>>()
+                .join(" "),
             walls.iter().sum::<f64>(),
             cached
         );

@@ -310,7 +310,11 @@ pub fn run_frames(
     let mut outs = Vec::with_capacity(cameras.len());
     let mut input = input.clone();
     for (f, cam) in cameras.iter().enumerate() {
-        let t = if f == 0 { t0 } else { std::time::Instant::now() };
+        let t = if f == 0 {
+            t0
+        } else {
+            std::time::Instant::now()
+        };
         input.scene.camera = cam.clone();
         prep.view(&input, cfg);
         let whole = Arc::new(input.clone());

@@ -47,7 +47,10 @@ fn kept_textures_give_the_same_frames_bit_for_bit() {
             c.texture_cache = false;
             let fresh = run_frames(&inp, &c, &cams).unwrap();
             for (f, (a, b)) in kept.iter().zip(&fresh).enumerate() {
-                assert_eq!(a.image.pixels, b.image.pixels, "{classify:?} {comp} frame {f}");
+                assert_eq!(
+                    a.image.pixels, b.image.pixels,
+                    "{classify:?} {comp} frame {f}"
+                );
                 assert_eq!(a.report.bytes_total, b.report.bytes_total);
                 assert_eq!(b.report.textures_cached, 0);
                 // Every brick is drawn from a kept texture after frame 0.

@@ -36,11 +36,11 @@ use super::session::{sha256, Session};
 use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out};
 use crate::cluster::ClockKind;
 use crate::compositor::codec::layers::from_name as layer_codec;
+use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::{LayerGather, LayerRank};
 use crate::compositor::layer::Layer;
-use crate::compositor::{Payload, RoundKind, Schedule};
-use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::region::{area, screen};
+use crate::compositor::{Payload, RoundKind, Schedule};
 use crate::data::{Volume, Voxels};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{
@@ -182,7 +182,11 @@ impl GridRemote {
                 bricks_sha256: sha256(&bytes),
                 max_message_bytes: codec.max_message_bytes,
                 texture_cache: cfg.texture_cache,
-                peers: if p2p { self.workers.clone() } else { Vec::new() },
+                peers: if p2p {
+                    self.workers.clone()
+                } else {
+                    Vec::new()
+                },
                 compositor: cfg.compositor.clone(),
                 bricks_total: prep.bricks.len() as u32,
                 recv_timeout_s: self.recv_timeout.as_secs_f64(),
@@ -219,11 +223,15 @@ impl GridRemote {
                 };
                 let t_sent = Instant::now();
                 if p2p {
-                    return Ok(Reply::Stream(Box::new(Link {
-                        rank: to,
-                        name,
-                        stream: s,
-                    }), sent, t_sent));
+                    return Ok(Reply::Stream(
+                        Box::new(Link {
+                            rank: to,
+                            name,
+                            stream: s,
+                        }),
+                        sent,
+                        t_sent,
+                    ));
                 }
                 let m: Session = tcp::raw::read_msg(&mut s, &codec, wait, &name).await?;
                 let payload = codec.encode(&m)?.len() as u64;
@@ -276,10 +284,7 @@ impl GridRemote {
         }
         if p2p {
             m.setup_s = last_sent.duration_since(t_setup).as_secs_f64();
-            let opts = TcpOptions {
-                codec,
-                ..self.tcp
-            };
+            let opts = TcpOptions { codec, ..self.tcp };
             let t = TcpTransport::new(rt.clone(), me, cfg.nodes + 1, links, opts)?;
             let r = self.collect_p2p(&t, input, &cfg, &prep, &mut m, last_sent);
             t.close(Duration::from_secs(2));
@@ -402,8 +407,11 @@ impl GridRemote {
                         GridMsg::Done(log) if stats[from].is_some() && logs[from].is_none() => {
                             anyhow::ensure!(
                                 log.merged.len() == sched.rounds.len()
-                                    && log.sent.iter().all(|s| (s.round as usize) < sched.rounds.len()
-                                        && (s.to as usize) < n),
+                                    && log
+                                        .sent
+                                        .iter()
+                                        .all(|s| (s.round as usize) < sched.rounds.len()
+                                            && (s.to as usize) < n),
                                 "{name} sent a phase-2 log that does not fit the schedule"
                             );
                             t.set_essential(e.from, false);

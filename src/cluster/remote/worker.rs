@@ -599,10 +599,7 @@ pub(super) async fn mesh(
                         if ok {
                             links.push(Link {
                                 rank: NodeId(h.rank),
-                                name: format!(
-                                    "worker {} ({})",
-                                    h.rank, peers[h.rank as usize]
-                                ),
+                                name: format!("worker {} ({})", h.rank, peers[h.rank as usize]),
                                 stream: s,
                             });
                         } else {

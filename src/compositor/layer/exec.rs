@@ -161,7 +161,12 @@ pub fn run(
         held.len()
     );
     let img = schedule.image;
-    let bricks = held.iter().flatten().map(|l| l.ranks[1] + 1).max().unwrap_or(0);
+    let bricks = held
+        .iter()
+        .flatten()
+        .map(|l| l.ranks[1] + 1)
+        .max()
+        .unwrap_or(0);
     let mut ranks: Vec<LayerRank> = held
         .into_iter()
         .map(|h| LayerRank::new(codec, img, h, bricks, merge_early))

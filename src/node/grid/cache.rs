@@ -75,9 +75,11 @@ impl BrickTextures {
         input: &VolumeInput,
     ) -> (Arc<Prepared>, bool) {
         debug_assert!(Arc::ptr_eq(samples, &input.volume));
-        if let Some(e) = self.entries.iter().find(|e| {
-            e.brick == brick && Arc::ptr_eq(&e.samples, samples) && e.key == *key
-        }) {
+        if let Some(e) = self
+            .entries
+            .iter()
+            .find(|e| e.brick == brick && Arc::ptr_eq(&e.samples, samples) && e.key == *key)
+        {
             self.hits += 1;
             return (e.prepared.clone(), false);
         }

@@ -19,7 +19,8 @@ use super::bricks::{screen_rect, Brick};
 
 /// The shape of a brick renderer: `slice3d::render` (or `render_prepared`
 /// over a cached texture), or an adaptive one.
-pub type RenderFn = dyn Fn(&VolumeInput, &Slice3dOptions) -> Result<(Image, SliceStats)> + Send + Sync;
+pub type RenderFn =
+    dyn Fn(&VolumeInput, &Slice3dOptions) -> Result<(Image, SliceStats)> + Send + Sync;
 
 /// A brick renderer: `slice3d::render`, or an adaptive one with the same shape.
 pub type BrickRenderer = Arc<RenderFn>;
