@@ -75,7 +75,7 @@ pub fn orbit(cam: &crate::scene::Camera, frames: u32, turn_deg: f64) -> Vec<crat
     (0..frames.max(1))
         .map(|k| {
             let q = DQuat::from_axis_angle(axis, (k as f64 * turn_deg).to_radians());
-            let mut c = cam.clone();
+            let mut c = *cam;
             if k > 0 && axis != DVec3::ZERO {
                 c.eye = (target + q * (DVec3::from(cam.eye) - target)).to_array();
             }
@@ -348,7 +348,7 @@ fn run_remote_frames(
     let mut input = input.clone();
     let mut outs = Vec::with_capacity(cams.len());
     for (f, c) in cams.iter().enumerate() {
-        input.scene.camera = c.clone();
+        input.scene.camera = *c;
         let t = std::time::Instant::now();
         let (mut out, _) = r
             .run(&input, cfg)

@@ -315,7 +315,7 @@ pub fn run_frames(
         } else {
             std::time::Instant::now()
         };
-        input.scene.camera = cam.clone();
+        input.scene.camera = *cam;
         prep.view(&input, cfg);
         let whole = Arc::new(input.clone());
         if f == 0 {

@@ -513,6 +513,7 @@ pub struct GridWorkerCache {
 /// Serves a grid session on a worker (`setup` came first on `stream`):
 /// samples from the cache or the coordinator, the bricks rendered, the
 /// layers sent back. `cache` is the worker's content cache.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn serve(
     rt: &Runtime,
     mut stream: TcpStream,
