@@ -120,13 +120,61 @@ fn same_grid_image_on_the_virtual_clock_threads_and_processes() {
     }
 }
 
+/// Without a master the workers composite among themselves (binary swap,
+/// direct send, radix-k, master at worker 0): the image of threads bit for
+/// bit, the same bytes in every round; a second frame reuses the workers'
+/// bricks and textures and gives the threads' second frame.
+#[test]
+fn grid_workers_composite_worker_to_worker_as_threads_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let s1 = scene(dir.path(), "[60, -50, 70]");
+    let s2 = scene(dir.path(), "[-40, -70, 50.5]");
+    let workers =
+        LocalWorkers::spawn_serving(Path::new(EXE), 4, &[], Duration::from_secs(30), false)
+            .unwrap();
+    for comp in ["binary-swap", "direct-send", "radix-k", "master"] {
+        for (k, s) in [&s1, &s2].into_iter().enumerate() {
+            let args = ["--nodes", "4", "--subvolumes", "2", "--compositor", comp];
+            let (input, cfg) = config(s, &args).unwrap();
+            let threads = run(&input, &cfg).unwrap();
+            assert!(
+                threads.image.pixels.iter().any(|p| p[3] > 0.2),
+                "a visible frame"
+            );
+            let (procs, m) = remote(&workers).run(&input, &cfg).unwrap();
+            assert_eq!(bits(&procs.image), bits(&threads.image), "{comp} view {k}");
+            assert_eq!(
+                procs.report.rounds, threads.report.rounds,
+                "{comp} view {k}"
+            );
+            assert!(procs.report.bytes_total > 0);
+            assert_eq!(m.layer_bytes, threads.report.bytes_total, "{comp}");
+            if comp != "binary-swap" || k > 0 {
+                assert_eq!(m.bricks_cached, 4, "{comp} view {k}");
+                assert_eq!(procs.report.textures_cached, 8, "{comp} view {k}");
+            }
+        }
+    }
+}
+
 #[test]
 fn remote_grid_runs_refuse_what_they_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let s = scene(dir.path(), "[60, -50, 70]");
-    let e = config(&s, &["--nodes", "4", "--transport", "processes"])
-        .err()
-        .expect("refused");
+    let e = config(
+        &s,
+        &[
+            "--nodes",
+            "4",
+            "--master",
+            "--compositor",
+            "direct-send",
+            "--transport",
+            "processes",
+        ],
+    )
+    .err()
+    .expect("refused");
     assert!(e.to_string().contains("--master"), "{e}");
     let e = config(
         &s,

@@ -49,6 +49,39 @@ pub struct GridArgs {
     /// prime factor above k gets a round of its own).
     #[arg(long, value_name = "K")]
     pub radix_k: Option<usize>,
+    /// Grid scenes: render N frames on the same nodes, the camera turning
+    /// `--turn` degrees about the scene's up axis between frames (the
+    /// nodes keep their bricks' textures); the outputs are the last
+    /// frame's, and every frame's wall time is printed.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Grid scenes with --frames: degrees the eye turns about the target
+    /// (around the camera's up vector) from one frame to the next (default 0).
+    #[arg(long, value_name = "DEG")]
+    pub turn: Option<f64>,
+    /// Grid scenes: prepare every brick's texture every frame (no cache
+    /// across frames; for measuring what the cache saves).
+    #[arg(long)]
+    pub no_texture_cache: bool,
+}
+
+/// The cameras of `--frames N --turn DEG`: the scene's camera, then the
+/// eye turned `k DEG` degrees about the target around the camera's up
+/// vector (`eye' = target + R_up(k DEG) (eye - target)`).
+pub fn orbit(cam: &crate::scene::Camera, frames: u32, turn_deg: f64) -> Vec<crate::scene::Camera> {
+    use glam::{DQuat, DVec3};
+    let target = DVec3::from(cam.target);
+    let axis = DVec3::from(cam.up).normalize_or_zero();
+    (0..frames.max(1))
+        .map(|k| {
+            let q = DQuat::from_axis_angle(axis, (k as f64 * turn_deg).to_radians());
+            let mut c = *cam;
+            if k > 0 && axis != DVec3::ZERO {
+                c.eye = (target + q * (DVec3::from(cam.eye) - target)).to_array();
+            }
+            c
+        })
+        .collect()
 }
 
 /// The compositor name `--compositor` and `--radix-k` describe (`radix-k:K`
@@ -87,6 +120,15 @@ pub fn refuse_on_mesh(g: &GridArgs) -> anyhow::Result<()> {
     }
     if g.tolerance.is_some() {
         bad.push("--tolerance");
+    }
+    if g.frames.is_some() {
+        bad.push("--frames");
+    }
+    if g.turn.is_some() {
+        bad.push("--turn");
+    }
+    if g.no_texture_cache {
+        bad.push("--no-texture-cache");
     }
     anyhow::ensure!(
         bad.is_empty(),
@@ -129,14 +171,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     let threads = match a.net.transport {
         None => false,
         Some(TransportKind::Threads) => true,
-        Some(t) => {
-            anyhow::ensure!(
-                a.grid.master,
-                "--transport {} for grid scenes runs the paper's setting: the workers send \
-                 their subimages to the master; add --master (binary swap, direct send and \
-                 radix-k between grid workers are not built)",
-                t.name()
-            );
+        Some(_) => {
             anyhow::ensure!(
                 a.net.on_failure == super::transport_args::OnFailure::Abort,
                 "--on-failure reassign is for cell projection; a grid frame fails with an error \
@@ -201,12 +236,40 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         profile,
         profile_name,
         record_trace: true,
+        texture_cache: !g.no_texture_cache,
     })
 }
 
-/// Loads the volume and runs the grid cluster.
+/// Loads the volume and runs the grid cluster; the last frame's outcome.
 pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
+    let mut outs = execute_frames(a, scene)?;
+    Ok(outs.pop().expect("at least one frame"))
+}
+
+/// The cameras `--frames` and `--turn` ask for (checked).
+fn cameras(g: &GridArgs, cam: &crate::scene::Camera) -> anyhow::Result<Vec<crate::scene::Camera>> {
+    let frames = g.frames.unwrap_or(1);
+    anyhow::ensure!(frames >= 1, "--frames must be at least 1");
+    anyhow::ensure!(
+        frames <= 100_000,
+        "--frames {frames}: at most 100000 frames in one run"
+    );
+    let turn = g.turn.unwrap_or(0.0);
+    anyhow::ensure!(
+        turn.is_finite(),
+        "--turn must be a finite angle in degrees, got {turn}"
+    );
+    anyhow::ensure!(
+        g.turn.is_none() || g.frames.is_some(),
+        "--turn turns the camera between frames; give --frames N with it"
+    );
+    Ok(orbit(cam, frames, turn))
+}
+
+/// Loads the volume and runs every frame of `--frames` on the same nodes.
+pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridOutcome>> {
     let cfg = config(a)?;
+    let cams = cameras(&a.grid, &scene.camera)?;
     let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
         .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
     let mut input = VolumeInput::new(scene, Arc::new(vol))?;
@@ -227,7 +290,7 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
         transport: kind.name().to_string(),
     };
     match t.transport {
-        None | Some(TransportKind::Threads) => grid::run(&input, &cfg),
+        None | Some(TransportKind::Threads) => grid::run_frames(&input, &cfg, &cams),
         Some(TransportKind::Processes) => {
             let exe = std::env::current_exe().context("cannot find this program's path")?;
             let extra = vec![
@@ -235,14 +298,15 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
                 t.heartbeat_timeout.to_string(),
             ];
             let mut w = LocalWorkers::spawn(&exe, cfg.nodes, &extra, Duration::from_secs(30))?;
-            let (out, _) = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes)
-                .run(&input, &cfg)?;
+            let r = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes);
+            let outs = run_remote_frames(&r, &input, &cfg, &cams);
             let bad = w.finish(Duration::from_secs(10));
+            let outs = outs?;
             anyhow::ensure!(
                 bad.is_empty(),
                 "worker processes {bad:?} did not exit cleanly"
             );
-            Ok(out)
+            Ok(outs)
         }
         Some(TransportKind::Tcp) => {
             let workers = match &t.hostfile {
@@ -259,9 +323,12 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
                 Some(p) => Token::load(p)?,
                 None => Token::none(),
             };
-            Ok(remote(workers, token, TransportKind::Tcp)
-                .run(&input, &cfg)?
-                .0)
+            run_remote_frames(
+                &remote(workers, token, TransportKind::Tcp),
+                &input,
+                &cfg,
+                &cams,
+            )
         }
         Some(TransportKind::Mpi) => anyhow::bail!(
             "--transport mpi: grid scenes run on threads, processes or tcp; under MPI only \
@@ -270,9 +337,47 @@ pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
     }
 }
 
+/// One session per camera on the same workers (they keep their bricks and
+/// textures from session to session).
+fn run_remote_frames(
+    r: &GridRemote,
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    cams: &[crate::scene::Camera],
+) -> anyhow::Result<Vec<GridOutcome>> {
+    let mut input = input.clone();
+    let mut outs = Vec::with_capacity(cams.len());
+    for (f, c) in cams.iter().enumerate() {
+        input.scene.camera = *c;
+        let t = std::time::Instant::now();
+        let (mut out, _) = r
+            .run(&input, cfg)
+            .with_context(|| format!("frame {f} of {}", cams.len()))?;
+        out.report.wall_s = t.elapsed().as_secs_f64();
+        outs.push(out);
+    }
+    Ok(outs)
+}
+
 /// Runs a grid scene and writes the outputs `pvrsim cluster` names.
 pub fn run(a: &ClusterArgs, scene: Scene) -> anyhow::Result<()> {
-    let out = execute(a, scene)?;
+    let mut outs = execute_frames(a, scene)?;
+    if outs.len() > 1 {
+        let walls: Vec<f64> = outs.iter().map(|o| o.report.wall_s).collect();
+        let cached: Vec<u64> = outs.iter().map(|o| o.report.textures_cached).collect();
+        println!(
+            "{} frames, wall seconds each: {}; total {:.4} s; bricks from kept textures each: {:?}",
+            outs.len(),
+            walls
+                .iter()
+                .map(|w| format!("{w:.4}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            walls.iter().sum::<f64>(),
+            cached
+        );
+    }
+    let out = outs.pop().expect("at least one frame");
     out.image.save_png(&a.output)?;
     println!("wrote {}", a.output.display());
     if let Some(p) = &a.report {

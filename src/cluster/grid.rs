@@ -65,6 +65,9 @@ pub struct GridConfig {
     pub profile_name: String,
     /// Record the timeline.
     pub record_trace: bool,
+    /// Keep each node's brick textures across frames ([`crate::node::grid::cache`];
+    /// `false`: prepare every brick every frame, to measure what it saves).
+    pub texture_cache: bool,
 }
 
 /// Per rank, in the report.
@@ -138,6 +141,11 @@ pub struct GridReport {
     pub nodes: Vec<GridNodeReport>,
     /// Host seconds of phase 1 and 2.
     pub host_s: [f64; 2],
+    /// Host seconds of the whole frame at the driver (view set-up, phase 1,
+    /// phase 2; over a transport, the coordinator's).
+    pub wall_s: f64,
+    /// Bricks drawn from a texture kept from an earlier frame (all nodes).
+    pub textures_cached: u64,
     /// What the transport measured (`--transport processes|tcp`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transport: Option<crate::cluster::remote::grid::GridMeasured>,
@@ -220,8 +228,6 @@ pub fn prepare(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<Prepared
         cfg.nodes
     );
     let s = &input.scene;
-    let view = s.camera.view(s.image.width, s.image.height);
-    let ranks = visibility_ranks(&view, &input.volume, d, &bricks);
     let vols: Vec<Arc<Volume>> = bricks
         .iter()
         .map(|b| Arc::new(extract(&input.volume, b)))
@@ -240,19 +246,32 @@ pub fn prepare(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<Prepared
         })
         .collect();
     let parts = place(bricks.len(), cfg.nodes, cfg.placement, &weight);
-    let planes = whole_planes(input, &cfg.slice);
     let off = usize::from(cfg.master);
-    Ok(Prepared {
+    let mut prep = Prepared {
         bricks,
-        ranks,
+        ranks: Vec::new(),
         vols,
         parts,
-        planes,
+        planes: None,
         codec,
         strategy,
         off,
         total: cfg.nodes + off,
-    })
+    };
+    prep.view(input, cfg);
+    Ok(prep)
+}
+
+impl Prepared {
+    /// Sets what depends on the view of `input` (same volume, bricks and
+    /// transfer function as when prepared): the bricks' visibility ranks
+    /// and the whole's slice planes.
+    pub fn view(&mut self, input: &VolumeInput, cfg: &GridConfig) {
+        let s = &input.scene;
+        let view = s.camera.view(s.image.width, s.image.height);
+        self.ranks = visibility_ranks(&view, &input.volume, cfg.subvolumes, &self.bricks);
+        self.planes = whole_planes(input, &cfg.slice);
+    }
 }
 
 /// What phase 1 produced, per rank.
@@ -271,22 +290,71 @@ pub struct Phase1Out {
 
 /// Runs one frame of `input` on the grid cluster.
 pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome> {
-    let prep = prepare(input, cfg)?;
-    let whole = Arc::new(input.clone());
-    let mut actors: Vec<GridNodeActor> = (0..prep.total)
-        .map(|k| {
-            GridNodeActor::new(
-                k,
-                whole.clone(),
-                prep.planes,
-                prep.held(k),
-                cfg.slice,
-                prep.codec.depth(),
-                cfg.profile,
-                cfg.renderer,
-            )
-        })
-        .collect();
+    let mut out = run_frames(input, cfg, std::slice::from_ref(&input.scene.camera))?;
+    Ok(out.pop().expect("one frame"))
+}
+
+/// Runs one frame per camera of `cameras` (`input` with each camera in
+/// turn) on the same nodes: bricks are cut and placed once, and each node
+/// keeps its bricks' textures from frame to frame (unless
+/// `cfg.texture_cache` is off), as a cluster keeps what it uploaded.
+pub fn run_frames(
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    cameras: &[crate::scene::Camera],
+) -> anyhow::Result<Vec<GridOutcome>> {
+    anyhow::ensure!(!cameras.is_empty(), "no frame to render");
+    let t0 = std::time::Instant::now();
+    let mut prep = prepare(input, cfg)?;
+    let mut actors: Vec<GridNodeActor> = Vec::new();
+    let mut outs = Vec::with_capacity(cameras.len());
+    let mut input = input.clone();
+    for (f, cam) in cameras.iter().enumerate() {
+        let t = if f == 0 {
+            t0
+        } else {
+            std::time::Instant::now()
+        };
+        input.scene.camera = *cam;
+        prep.view(&input, cfg);
+        let whole = Arc::new(input.clone());
+        if f == 0 {
+            actors = (0..prep.total)
+                .map(|k| {
+                    let a = GridNodeActor::new(
+                        k,
+                        whole.clone(),
+                        prep.planes,
+                        prep.held(k),
+                        cfg.slice,
+                        prep.codec.depth(),
+                        cfg.profile,
+                        cfg.renderer,
+                    );
+                    let keep = cfg.texture_cache.then(Default::default);
+                    a.with_textures(keep)
+                })
+                .collect();
+        } else {
+            for (k, a) in actors.iter_mut().enumerate() {
+                let ranks: Vec<u32> = prep.held(k).iter().map(|h| h.2).collect();
+                a.next_frame(whole.clone(), prep.planes, &ranks)?;
+            }
+        }
+        let mut out = phase1_and_2(&input, cfg, &prep, &mut actors)?;
+        out.report.wall_s = t.elapsed().as_secs_f64();
+        outs.push(out);
+    }
+    Ok(outs)
+}
+
+/// One frame on `actors` (set up for it): phase 1, phase 2, the report.
+fn phase1_and_2(
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    prep: &Prepared,
+    actors: &mut [GridNodeActor],
+) -> anyhow::Result<GridOutcome> {
     let t1 = std::time::Instant::now();
     let (stopped, trace1, _traffic1) = drive(
         actors.iter_mut().collect::<Vec<_>>(),
@@ -310,7 +378,7 @@ pub fn run(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<GridOutcome>
         host_s,
         trace: trace1,
     };
-    finish(input, cfg, &prep, p1)
+    finish(input, cfg, prep, p1)
 }
 
 /// Phase 2 over the ranks' layers (every message encoded and decoded,
@@ -322,13 +390,10 @@ pub fn finish(
     p1: Phase1Out,
 ) -> anyhow::Result<GridOutcome> {
     let s = &input.scene;
-    let total = prep.total;
-    let ends = p1.ends;
-    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
     let t2 = std::time::Instant::now();
     let sched = prep
         .strategy
-        .schedule(total, screen(s.image.width, s.image.height));
+        .schedule(prep.total, screen(s.image.width, s.image.height));
     let bg = s.image.background.map(|x| x as f32);
     let (image, rounds) = layer_exec::run(
         &sched,
@@ -337,6 +402,29 @@ pub fn finish(
         bg,
         prep.strategy.merges_early(),
     )?;
+    let p1 = Phase1Out {
+        layers: Vec::new(),
+        ..p1
+    };
+    report(input, cfg, prep, p1, image, rounds, t2)
+}
+
+/// The outcome of a frame whose phase 2 ran (in-process, or worker to
+/// worker with `rounds` from the ranks' logs) since `t2`: the rounds
+/// replayed on the modelled network, the report.
+pub fn report(
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    prep: &Prepared,
+    p1: Phase1Out,
+    image: Image,
+    rounds: Vec<layer_exec::LayerRound>,
+    t2: std::time::Instant,
+) -> anyhow::Result<GridOutcome> {
+    let s = &input.scene;
+    let total = prep.total;
+    let ends = p1.ends;
+    let render_s = ends.iter().fold(0.0f64, |a, &b| a.max(b));
     let mut plans: Vec<Vec<RoundPlan>> = vec![vec![RoundPlan::default(); rounds.len()]; total];
     let mut costs: Vec<BTreeMap<(u32, u32), f64>> = vec![BTreeMap::new(); total];
     let mut bytes_sent = vec![0u64; total];
@@ -398,6 +486,7 @@ pub fn finish(
     if bytes > 0 {
         by_kind.insert("image".to_string(), bytes);
     }
+    let textures_cached = p1.stats.iter().map(|s| s.textures_cached).sum();
     let report = GridReport {
         image: [s.image.width, s.image.height],
         volume_dims: input.volume.dims,
@@ -447,6 +536,8 @@ pub fn finish(
             })
             .collect(),
         host_s: [p1.host_s, host2],
+        wall_s: p1.host_s + host2,
+        textures_cached,
         transport: None,
     };
     Ok(GridOutcome {

@@ -23,6 +23,43 @@ fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
         profile: CostProfile::named("radeon9700").unwrap(),
         profile_name: "radeon9700".into(),
         record_trace: false,
+        texture_cache: true,
+    }
+}
+
+/// Frames on the same nodes with the textures kept give the images of
+/// frames that prepare every brick again (bit for bit), for each
+/// classification (pre-classification keys its RGBA8 texture on the
+/// transfer function), and later frames do draw from kept textures.
+#[test]
+fn kept_textures_give_the_same_frames_bit_for_bit() {
+    let inp = seam_input(OBLIQUE, 40);
+    let cams = crate::cli::cluster_grid::orbit(&inp.scene.camera, 3, 25.0);
+    for classify in [
+        crate::render::slicing::Classify::Post,
+        crate::render::slicing::Classify::Pre,
+        crate::render::slicing::Classify::Preint,
+    ] {
+        for comp in ["master", "binary-swap"] {
+            let mut c = cfg(comp, "rle16", comp == "master");
+            c.slice.classify = classify;
+            let kept = run_frames(&inp, &c, &cams).unwrap();
+            c.texture_cache = false;
+            let fresh = run_frames(&inp, &c, &cams).unwrap();
+            for (f, (a, b)) in kept.iter().zip(&fresh).enumerate() {
+                assert_eq!(
+                    a.image.pixels, b.image.pixels,
+                    "{classify:?} {comp} frame {f}"
+                );
+                assert_eq!(a.report.bytes_total, b.report.bytes_total);
+                assert_eq!(b.report.textures_cached, 0);
+                // Every brick is drawn from a kept texture after frame 0.
+                let want = if f == 0 { 0 } else { 8 };
+                assert_eq!(a.report.textures_cached, want, "{classify:?} frame {f}");
+            }
+            // The frames differ (the camera turned), so the test can fail.
+            assert_ne!(kept[0].image.pixels, kept[2].image.pixels);
+        }
     }
 }
 

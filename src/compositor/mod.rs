@@ -11,6 +11,8 @@
 //!   `binary-swap`), selected by name.
 //! - [`schedule`]: the schedule data type and its validity check.
 //! - [`exec`]: runs a schedule in-process, round by round, with real bytes.
+//! - [`partial`]: one rank's side of a schedule for either partial kind
+//!   (lists, layers), what phase 2 worker to worker runs.
 //!
 //! The protocol is described in `src/compositor/README.md`.
 #![warn(missing_docs)]
@@ -19,6 +21,7 @@ pub mod codec;
 pub mod exec;
 pub mod layer;
 pub mod lists;
+pub mod partial;
 pub mod region;
 pub mod schedule;
 pub mod strategy;

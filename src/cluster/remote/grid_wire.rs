@@ -172,6 +172,19 @@ pub struct GridSetup {
     pub bricks_sha256: [u8; 32],
     /// Payload limit of frames.
     pub max_message_bytes: u64,
+    /// Keep the bricks' textures for the next session with the same bricks
+    /// (`--no-texture-cache` turns it off).
+    pub texture_cache: bool,
+    /// Phase 2 worker to worker: every rendering rank's address (rank `k`
+    /// at `peers[k]`), the workers forming a mesh; empty: the layers go to
+    /// the coordinator, the master (`--master`).
+    pub peers: Vec<String>,
+    /// The compositing strategy's name (with `peers`).
+    pub compositor: String,
+    /// Bricks in all, `d^3` (visibility ranks are below it).
+    pub bricks_total: u32,
+    /// Longest wait for a peer's message in phase 2, seconds.
+    pub recv_timeout_s: f64,
 }
 
 impl GridSetup {
@@ -182,6 +195,25 @@ impl GridSetup {
             return Err(format!("rank {} of {} nodes", self.rank, self.nodes));
         }
         crate::compositor::codec::layers::from_name(&self.codec)?;
+        if !self.peers.is_empty() {
+            if self.peers.len() != self.nodes as usize {
+                return Err(format!(
+                    "{} peer addresses for {} nodes",
+                    self.peers.len(),
+                    self.nodes
+                ));
+            }
+            crate::compositor::strategy::from_name(&self.compositor)?;
+        }
+        if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
+            return Err(format!("receive timeout {} s", self.recv_timeout_s));
+        }
+        if self.bricks.iter().any(|b| b.rank >= self.bricks_total) {
+            return Err(format!(
+                "a visibility rank at or above the brick count {}",
+                self.bricks_total
+            ));
+        }
         self.slice.options()?;
         if !(self.range[0].is_finite()
             && self.range[1].is_finite()

@@ -1,6 +1,11 @@
 //! Phase 2 worker to worker: each rank runs its part of the compositor's
 //! [`Schedule`] over the transport it already has for phase 1, and only the
-//! final pixels reach the coordinator.
+//! final pixels reach the coordinator. One executor ([`run_partial`]) for
+//! both partial kinds through [`RankPartial`]: segment lists (mesh scenes,
+//! [`ListRank`]) and visibility-ranked RGBA layers (grid scenes,
+//! [`crate::compositor::layer::rank::LayerRank`]; a lists round's payload is
+//! then "my layers cropped to the rectangle", and the root hands its own
+//! piece over as raw f32).
 //!
 //! The steps are the in-process executor's ([`NodeState`]: encode a
 //! payload, keep a region, merge what arrives, composite), so the image is
@@ -33,6 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::compositor::codec::Codec as ListCodec;
 use crate::compositor::exec::{assemble, NodeState};
+use crate::compositor::partial::{ListRank, RankPartial};
 use crate::compositor::{
     CompositeStats, ExecOptions, Message, Payload, RegionLists, RoundKind, RoundStats, Schedule,
 };
@@ -125,6 +131,9 @@ pub struct SentLog {
     pub bytes: u64,
     /// Bytes under the raw codec.
     pub raw_bytes: u64,
+    /// Pixels carried (layers; 0 for lists).
+    #[serde(default)]
+    pub pixels: u64,
 }
 
 impl SentLog {
@@ -147,6 +156,9 @@ pub struct MergeLog {
     pub merges: u64,
     /// Entries removed by partial composition.
     pub segments_merged: u64,
+    /// Pixels blended merging adjacent layers early (layers, radix-k).
+    #[serde(default)]
+    pub blended: u64,
 }
 
 /// What one rank did in phase 2.
@@ -156,7 +168,8 @@ pub struct RankLog {
     pub sent: Vec<SentLog>,
     /// Per round, what it merged.
     pub merged: Vec<MergeLog>,
-    /// Its composite round: `(round, pixels, list entries)` it held.
+    /// Its composite round: `(round, pixels, entries)` it held (list
+    /// entries, or layers).
     pub composite: Option<(u32, u64, u64)>,
     /// Codec bytes of its own pixels handed to the coordinator (the
     /// schedule's root only; not a message of the schedule).
@@ -183,8 +196,30 @@ pub fn run_rank<T: Transport>(
     received: Vec<Envelope>,
     timeout: Duration,
 ) -> anyhow::Result<RankLog> {
+    let mut state = ListRank {
+        state: NodeState::new(lists),
+        codec,
+        opts,
+    };
+    run_partial(t, me, coordinator, schedule, &mut state, received, timeout)
+}
+
+/// Runs rank `me`'s part of `schedule` over `t` for either partial kind
+/// (`state`: [`ListRank`] or [`crate::compositor::layer::rank::LayerRank`]);
+/// gathered pixels and the root's hand-off go to rank `coordinator`.
+/// `received` holds messages that arrived before the rank started. Every
+/// lists round merges (even with nothing received: radix-k's early merges
+/// of layers). Returns the rank's log.
+pub fn run_partial<T: Transport, P: RankPartial>(
+    t: &T,
+    me: usize,
+    coordinator: NodeId,
+    schedule: &Schedule,
+    state: &mut P,
+    received: Vec<Envelope>,
+    timeout: Duration,
+) -> anyhow::Result<RankLog> {
     let t0 = Instant::now();
-    let mut state = NodeState::new(lists);
     let mut log = RankLog {
         merged: vec![MergeLog::default(); schedule.rounds.len()],
         ..Default::default()
@@ -201,23 +236,26 @@ pub fn run_rank<T: Transport>(
             RoundKind::Lists => {
                 let mut out = Vec::new();
                 for e in round.sends.iter().filter(|e| e.from == me) {
-                    let (bytes, raw) = state.encode_payload(codec, e.what)?;
-                    out.push((e.to, e.what, bytes, raw));
+                    let enc = state.encode(e.what)?.ok_or_else(|| {
+                        anyhow::anyhow!("phase 2, round {r}: rank {me} holds nothing to send")
+                    })?;
+                    out.push((e.to, e.what, enc));
                 }
                 state.keep(round.keep.get(me).copied().flatten());
-                for (to, what, bytes, raw) in out {
+                for (to, what, enc) in out {
                     log.sent.push(SentLog {
                         round: r32,
                         to: to as u32,
                         lists: true,
                         rect: to_arr(what.rect()),
-                        bytes: bytes.len() as u64,
-                        raw_bytes: raw,
+                        bytes: enc.bytes.len() as u64,
+                        raw_bytes: enc.raw_bytes,
+                        pixels: enc.pixels,
                     });
                     t.send(
                         NodeId::from(to),
                         MessageKind::Segments,
-                        encode_message(r32, what, &bytes),
+                        encode_message(r32, what, &enc.bytes),
                     )?;
                 }
                 let want = round.sends.iter().filter(|e| e.to == me).count();
@@ -238,49 +276,47 @@ pub fn run_rank<T: Transport>(
                     got.len()
                 );
                 got.sort_by_key(|m| m.from);
-                let mut st = RoundStats::default();
-                for m in &got {
-                    state.apply(codec, opts, m, &mut st)?;
-                }
+                let c = state.merge(&got)?;
                 log.merged[r] = MergeLog {
-                    segments: st.segments,
-                    merges: st.merges,
-                    segments_merged: st.segments_merged,
+                    segments: c.segments,
+                    merges: c.merges,
+                    segments_merged: c.segments_merged,
+                    blended: c.blended,
                 };
             }
             RoundKind::Composite => {
-                if let Some(l) = &state.lists {
-                    log.composite = Some((r32, l.pixels() as u64, l.segments().len() as u64));
+                if let Some((px, entries)) = state.composite()? {
+                    log.composite = Some((r32, px, entries));
                 }
-                state.composite();
             }
             RoundKind::Gather => {
                 for e in round.sends.iter().filter(|e| e.from == me) {
-                    let (bytes, raw) = state.encode_payload(codec, e.what)?;
+                    let Some(enc) = state.encode(e.what)? else {
+                        continue;
+                    };
                     log.sent.push(SentLog {
                         round: r32,
                         to: e.to as u32,
                         lists: false,
                         rect: to_arr(e.what.rect()),
-                        bytes: bytes.len() as u64,
-                        raw_bytes: raw,
+                        bytes: enc.bytes.len() as u64,
+                        raw_bytes: enc.raw_bytes,
+                        pixels: enc.pixels,
                     });
                     t.send(
                         coordinator,
                         MessageKind::Image,
-                        encode_message(r32, e.what, &bytes),
+                        encode_message(r32, e.what, &enc.bytes),
                     )?;
                 }
                 if me == schedule.root {
-                    for p in std::mem::take(&mut state.pixels) {
-                        let mut bytes = Vec::new();
-                        codec.encode_pixels(&p, &mut bytes);
+                    for (rect, bytes) in state.handoff() {
                         log.handoff_bytes += bytes.len() as u64;
                         log.handoff_messages += 1;
                         t.send(
                             coordinator,
                             MessageKind::Image,
-                            encode_message(r32, Payload::Pixels(p.rect), &bytes),
+                            encode_message(r32, Payload::Pixels(rect), &bytes),
                         )?;
                     }
                 }

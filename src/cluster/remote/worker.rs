@@ -37,6 +37,7 @@ pub struct Worker {
     token: Token,
     opts: TcpOptions,
     cache: VecDeque<([u8; 32], Vec<u8>)>,
+    grid: super::grid::GridWorkerCache,
     /// Give up if no session starts within this (`None`: wait forever).
     pub accept_timeout: Option<Duration>,
     /// Test hook (hidden `--test-kill-after-chunks K`): the process kills
@@ -104,6 +105,7 @@ impl Worker {
             token,
             opts,
             cache: VecDeque::new(),
+            grid: Default::default(),
             accept_timeout: None,
             kill_after_chunks: None,
             kill_in_phase2: false,
@@ -192,6 +194,13 @@ impl Worker {
                         stream,
                         &mut self.cache,
                         CACHE_ENTRIES,
+                        &mut self.grid,
+                        super::grid::Mesh {
+                            rt: &self.rt,
+                            listener: &self.listener,
+                            token: &self.token,
+                            opts: &self.opts,
+                        },
                         *s,
                         coord,
                         &name,
@@ -244,9 +253,14 @@ impl Worker {
             }
         };
         // The mesh: dial lower ranks, accept higher ones.
-        let mut links = self
-            .rt
-            .block_on(mesh(&self.listener, &self.token, &self.opts, &setup))?;
+        let mut links = self.rt.block_on(mesh(
+            &self.listener,
+            &self.token,
+            &self.opts,
+            setup.rank,
+            setup.nodes,
+            &setup.peers,
+        ))?;
         links.push(Link {
             rank: coord,
             name,
@@ -540,18 +554,20 @@ fn worker_lists(
     }
 }
 
-/// Dials every lower rank and accepts every higher one, concurrently.
-async fn mesh(
+/// Dials every lower rank and accepts every higher one, concurrently
+/// (rank `me` of `nodes` workers at `peers`).
+pub(super) async fn mesh(
     listener: &TcpListener,
     token: &Token,
     opts: &TcpOptions,
-    setup: &WorkerSetup,
+    me: u32,
+    nodes: u32,
+    peers: &[String],
 ) -> anyhow::Result<Vec<Link>> {
-    let me = setup.rank;
     let dial = async {
         let mut links = Vec::new();
         for j in 0..me {
-            let addr = &setup.peers[j as usize];
+            let addr = &peers[j as usize];
             let (s, hello) = tcp::connect(addr, token, Role::Worker, me, opts)
                 .await
                 .with_context(|| format!("node {me} connecting to node {j} at {addr}"))?;
@@ -570,7 +586,7 @@ async fn mesh(
     };
     let accept = async {
         let mut links: Vec<Link> = Vec::new();
-        let want = (setup.nodes - me - 1) as usize;
+        let want = (nodes - me - 1) as usize;
         let limit = opts.handshake_timeout * 2 + Duration::from_secs(5);
         let all = async {
             while links.len() < want {
@@ -578,15 +594,12 @@ async fn mesh(
                     Ok((s, h, from)) => {
                         let ok = h.role == Role::Worker
                             && h.rank > me
-                            && h.rank < setup.nodes
+                            && h.rank < nodes
                             && !links.iter().any(|l| l.rank.0 == h.rank);
                         if ok {
                             links.push(Link {
                                 rank: NodeId(h.rank),
-                                name: format!(
-                                    "worker {} ({})",
-                                    h.rank, setup.peers[h.rank as usize]
-                                ),
+                                name: format!("worker {} ({})", h.rank, peers[h.rank as usize]),
                                 stream: s,
                             });
                         } else {

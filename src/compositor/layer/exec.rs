@@ -16,11 +16,15 @@
 
 use crate::compositor::codec::layers::{raw_bytes, LayerCodec};
 use crate::compositor::codec::Limits;
-use crate::compositor::region::area;
+use crate::compositor::exec::Message;
+use crate::compositor::partial::RankPartial;
+use crate::compositor::region::{area, contains};
 use crate::compositor::schedule::{RoundKind, Schedule};
 use crate::image::Image;
+use crate::render::cell::scan::Rect;
 
-use super::{composite, merge_adjacent, Layer};
+use super::rank::{LayerGather, LayerRank};
+use super::Layer;
 
 /// One message of a round.
 #[derive(Debug, Clone)]
@@ -72,6 +76,15 @@ pub fn encode(codec: &dyn LayerCodec, layers: &[Layer]) -> (Vec<u8>, u64) {
 
 /// Decodes a message written by [`encode`], strictly (errors name the byte).
 pub fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>> {
+    decode_limited(codec, bytes, u32::MAX as u64)
+}
+
+/// [`decode`] with at most `max_pixels` pixels a layer.
+fn decode_limited(
+    codec: &dyn LayerCodec,
+    bytes: &[u8],
+    max_pixels: u64,
+) -> anyhow::Result<Vec<Layer>> {
     let word = |at: usize| -> anyhow::Result<usize> {
         let b = bytes
             .get(at..at + 4)
@@ -92,7 +105,7 @@ pub fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>
             .get(at + 4..at + 4 + len)
             .ok_or_else(|| anyhow::anyhow!("layer message truncated at byte {}", at + 4))?;
         let lim = Limits {
-            max_pixels: u32::MAX as u64,
+            max_pixels,
             ..Limits::default()
         };
         out.push(
@@ -110,14 +123,33 @@ pub fn decode(codec: &dyn LayerCodec, bytes: &[u8]) -> anyhow::Result<Vec<Layer>
     Ok(out)
 }
 
+/// Decodes a layer message addressed to the region `rect` (untrusted
+/// bytes): at most `area(rect)` pixels a layer, every layer inside `rect`.
+pub fn decode_within(
+    codec: &dyn LayerCodec,
+    bytes: &[u8],
+    rect: &Rect,
+) -> anyhow::Result<Vec<Layer>> {
+    let layers = decode_limited(codec, bytes, area(rect) as u64)?;
+    for l in &layers {
+        anyhow::ensure!(
+            contains(rect, &l.rect),
+            "a layer of {:?} outside the message's region {rect:?}",
+            l.rect
+        );
+    }
+    Ok(layers)
+}
+
 /// Runs `schedule` over `held[node]` (each node's layers); returns the image
 /// at the root (over `background`) and the rounds' messages. With
 /// `merge_early`, rank-adjacent layers are composited after each lists
-/// round (see the module doc).
+/// round (see the module doc). Each rank is a [`LayerRank`] and the root's
+/// image a [`LayerGather`], the steps phase 2 worker to worker runs.
 pub fn run(
     schedule: &Schedule,
     codec: &dyn LayerCodec,
-    mut held: Vec<Vec<Layer>>,
+    held: Vec<Vec<Layer>>,
     background: [f32; 3],
     merge_early: bool,
 ) -> anyhow::Result<(Image, Vec<LayerRound>)> {
@@ -129,18 +161,18 @@ pub fn run(
         held.len()
     );
     let img = schedule.image;
-    let mut pieces: Vec<Option<(crate::render::cell::scan::Rect, Vec<[f32; 4]>)>> = vec![None; n];
+    let bricks = held
+        .iter()
+        .flatten()
+        .map(|l| l.ranks[1] + 1)
+        .max()
+        .unwrap_or(0);
+    let mut ranks: Vec<LayerRank> = held
+        .into_iter()
+        .map(|h| LayerRank::new(codec, img, h, bricks, merge_early))
+        .collect();
+    let mut gather = LayerGather::new(codec, img);
     let mut rounds = Vec::new();
-    let mut out = vec![[0f32; 4]; area(&img)];
-    let paste = |out: &mut Vec<[f32; 4]>, r: &crate::render::cell::scan::Rect, px: &[[f32; 4]]| {
-        let w = img.width() as usize;
-        for y in r.y0..r.y1 {
-            for x in r.x0..r.x1 {
-                out[(y - img.y0) as usize * w + (x - img.x0) as usize] =
-                    px[((y - r.y0) * r.width() + (x - r.x0)) as usize];
-            }
-        }
-    };
     for round in &schedule.rounds {
         let mut lr = LayerRound {
             label: round.label.clone(),
@@ -151,103 +183,61 @@ pub fn run(
         };
         match round.kind {
             RoundKind::Lists => {
-                let mut inbox: Vec<Vec<Layer>> = vec![Vec::new(); n];
+                let mut inbox: Vec<Vec<Message>> = vec![Vec::new(); n];
                 for e in &round.sends {
-                    let r = e.what.rect();
-                    let part: Vec<Layer> = held[e.from]
-                        .iter()
-                        .map(|l| l.crop(&r))
-                        .filter(|l| area(&l.rect) > 0)
-                        .collect();
-                    let (bytes, raw) = encode(codec, &part);
+                    let enc = ranks[e.from]
+                        .encode(e.what)?
+                        .ok_or_else(|| anyhow::anyhow!("rank {} has no layers to send", e.from))?;
                     lr.messages.push(LayerMessage {
                         from: e.from,
                         to: e.to,
-                        bytes: bytes.len() as u64,
-                        raw_bytes: raw,
-                        pixels: part.iter().map(|l| l.px.len() as u64).sum(),
+                        bytes: enc.bytes.len() as u64,
+                        raw_bytes: enc.raw_bytes,
+                        pixels: enc.pixels,
                     });
-                    inbox[e.to].extend(decode(codec, &bytes)?);
+                    inbox[e.to].push(Message {
+                        from: e.from,
+                        to: e.to,
+                        what: e.what,
+                        bytes: enc.bytes,
+                        raw_bytes: enc.raw_bytes,
+                    });
                 }
-                for (k, h) in held.iter_mut().enumerate() {
-                    *h = match round.keep.get(k).copied().flatten() {
-                        Some(r) => h
-                            .iter()
-                            .map(|l| l.crop(&r))
-                            .filter(|l| area(&l.rect) > 0)
-                            .collect(),
-                        None => Vec::new(),
-                    };
-                    h.append(&mut inbox[k]);
-                    if merge_early {
-                        let (m, px) =
-                            merge_adjacent(std::mem::take(h)).map_err(|e| anyhow::anyhow!(e))?;
-                        *h = m;
-                        lr.merged[k] = px;
-                    }
+                for (k, r) in ranks.iter_mut().enumerate() {
+                    r.keep(round.keep.get(k).copied().flatten());
+                    inbox[k].sort_by_key(|m| m.from);
+                    lr.merged[k] = r.merge(&inbox[k])?.blended;
                 }
             }
             RoundKind::Composite => {
-                for k in 0..n {
-                    if held[k].is_empty() {
-                        continue; // nothing to blend: its region stays transparent
+                for (k, r) in ranks.iter_mut().enumerate() {
+                    if let Some((px, _)) = r.composite()? {
+                        lr.blended[k] = px;
                     }
-                    let Some(r) = keep_of(schedule, k) else {
-                        continue;
-                    };
-                    let refs: Vec<&Layer> = held[k].iter().collect();
-                    lr.blended[k] = refs.iter().map(|l| l.px.len() as u64).sum();
-                    pieces[k] = Some((r, composite(&r, &refs).map_err(|e| anyhow::anyhow!(e))?));
                 }
             }
             RoundKind::Gather => {
                 for e in &round.sends {
-                    let Some((r, px)) = pieces[e.from].take() else {
+                    let Some(enc) = ranks[e.from].encode(e.what)? else {
                         continue;
                     };
-                    let l = Layer::quantize(r, 0, codec.depth(), &px);
-                    let (bytes, raw) = encode(codec, std::slice::from_ref(&l));
                     lr.messages.push(LayerMessage {
                         from: e.from,
                         to: e.to,
-                        bytes: bytes.len() as u64,
-                        raw_bytes: raw,
-                        pixels: l.px.len() as u64,
+                        bytes: enc.bytes.len() as u64,
+                        raw_bytes: enc.raw_bytes,
+                        pixels: enc.pixels,
                     });
-                    for got in decode(codec, &bytes)? {
-                        paste(&mut out, &got.rect, &got.to_f32());
-                    }
+                    gather.take(e.what.rect(), &enc.bytes)?;
                 }
-                if let Some((r, px)) = pieces[schedule.root].take() {
-                    paste(&mut out, &r, &px);
+                for (r, bytes) in ranks[schedule.root].handoff() {
+                    gather.take_handoff(r, &bytes)?;
                 }
             }
         }
         rounds.push(lr);
     }
-    let mut image = Image::new(img.width(), img.height());
-    for (o, p) in image.pixels.iter_mut().zip(out) {
-        let t = 1.0 - p[3];
-        *o = [
-            p[0] + t * background[0],
-            p[1] + t * background[1],
-            p[2] + t * background[2],
-            p[3],
-        ];
-    }
-    Ok((image, rounds))
-}
-
-/// The region node `k` holds after the schedule's last lists round (the
-/// whole screen if no round cut it).
-fn keep_of(s: &Schedule, k: usize) -> Option<crate::render::cell::scan::Rect> {
-    let mut r = Some(s.image);
-    for round in &s.rounds {
-        if round.kind == RoundKind::Lists {
-            r = round.keep.get(k).copied().flatten();
-        }
-    }
-    r
+    Ok((gather.image(background), rounds))
 }
 
 #[cfg(test)]

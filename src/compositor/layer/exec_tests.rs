@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::compositor::codec::layers::from_name as codec;
-use crate::compositor::layer::Depth;
+use crate::compositor::layer::{composite, Depth};
 use crate::compositor::region::screen;
 use crate::compositor::strategy::{from_name, RadixK, Strategy};
 use crate::render::cell::scan::Rect;

@@ -27,6 +27,7 @@
 //! quantisation and `A = 0` implies `RGB = 0` (the codecs rely on it).
 
 pub mod exec;
+pub mod rank;
 
 use crate::render::cell::scan::Rect;
 

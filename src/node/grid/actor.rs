@@ -17,8 +17,10 @@ use crate::render::slice3d::Slice3dOptions;
 use crate::render::VolumeInput;
 
 use super::bricks::Brick;
+use super::cache::{BrickTextures, TextureKey};
 use super::device::{device_bytes, frame_time, BrickWork, DeviceTime};
 use super::render::{render_brick, BrickRenderer, LayerSpec, RendererKind};
+use crate::render::slice3d;
 
 /// What a grid node did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -45,6 +47,10 @@ pub struct GridNodeStats {
     pub prepare_s: f64,
     /// Host seconds spent rendering.
     pub host_s: f64,
+    /// Bricks whose texture came from the node's cache this frame (kept
+    /// from an earlier frame; `slice3d` only).
+    #[serde(default)]
+    pub textures_cached: u64,
     /// The error that stopped the node, if any.
     pub error: Option<String>,
 }
@@ -61,6 +67,7 @@ pub struct GridNodeActor {
     kind: RendererKind,
     layers: Vec<Layer>,
     stats: GridNodeStats,
+    textures: Option<BrickTextures>,
 }
 
 impl GridNodeActor {
@@ -94,7 +101,56 @@ impl GridNodeActor {
             kind,
             layers: Vec::new(),
             stats,
+            textures: Some(BrickTextures::default()),
         }
+    }
+
+    /// Keeps (`Some`, the default: an empty cache) or drops (`None`: every
+    /// frame prepares every brick again, the behaviour before the cache)
+    /// the node's brick textures ([`super::cache`]). A cache taken from an
+    /// earlier node ([`GridNodeActor::take_textures`]) carries its textures
+    /// over; entries whose samples or options differ are rebuilt.
+    pub fn with_textures(mut self, textures: Option<BrickTextures>) -> GridNodeActor {
+        self.textures = textures;
+        self
+    }
+
+    /// The node's brick textures (to hand to the next frame's node).
+    pub fn take_textures(&mut self) -> Option<BrickTextures> {
+        self.textures.take()
+    }
+
+    /// Sets up the next frame on the same node (same bricks and samples,
+    /// so the cached textures stay valid): the whole's input (the new
+    /// view), its slice planes, and each held brick's visibility rank, in
+    /// the order the bricks were given. Clears the last frame's layers and
+    /// numbers.
+    pub fn next_frame(
+        &mut self,
+        whole: Arc<VolumeInput>,
+        planes: Option<Planes>,
+        ranks: &[u32],
+    ) -> crate::error::Result<()> {
+        if ranks.len() != self.bricks.len() {
+            return Err(crate::error::Error::Invalid(format!(
+                "internal: {} visibility ranks for the {} bricks of node {}",
+                ranks.len(),
+                self.bricks.len(),
+                self.stats.rank
+            )));
+        }
+        for (b, &r) in self.bricks.iter_mut().zip(ranks) {
+            b.2 = r;
+        }
+        self.whole = whole;
+        self.planes = planes;
+        self.layers.clear();
+        self.stats = GridNodeStats {
+            rank: self.stats.rank,
+            bricks: self.stats.bricks.clone(),
+            ..Default::default()
+        };
+        Ok(())
     }
 
     /// The statistics.
@@ -112,18 +168,38 @@ impl GridNodeActor {
         let mut work = Vec::with_capacity(self.bricks.len());
         if let Some(planes) = self.planes {
             for (b, vol, rank) in &self.bricks {
-                let out = render_brick(
-                    &self.whole,
-                    planes,
-                    b,
-                    vol.clone(),
-                    LayerSpec {
-                        rank: *rank,
-                        depth: self.depth,
-                    },
-                    &self.opts,
-                    &self.renderer,
-                )?;
+                let spec = LayerSpec {
+                    rank: *rank,
+                    depth: self.depth,
+                };
+                let out = match (&mut self.textures, self.kind) {
+                    // slice3d over the brick's kept texture.
+                    (Some(cache), RendererKind::Slice3d) => {
+                        let input = VolumeInput {
+                            scene: self.whole.scene.clone(),
+                            volume: vol.clone(),
+                            range: self.whole.range,
+                        };
+                        let key = TextureKey::new(&input, self.opts.classify);
+                        let (prep, fresh) = cache.get(b.id, vol, &key, &input);
+                        self.stats.textures_cached += u64::from(!fresh);
+                        let r = move |i: &VolumeInput, o: &Slice3dOptions| {
+                            let (img, mut st) = slice3d::render_prepared(i, &prep, o)?;
+                            st.time_prepare_s = if fresh { prep.time_s } else { 0.0 };
+                            Ok((img, st))
+                        };
+                        render_brick(&self.whole, planes, b, vol.clone(), spec, &self.opts, &r)?
+                    }
+                    _ => render_brick(
+                        &self.whole,
+                        planes,
+                        b,
+                        vol.clone(),
+                        spec,
+                        &self.opts,
+                        &*self.renderer,
+                    )?,
+                };
                 let st = &out.stats;
                 // Stored bytes per sample: 4 with pre-classification (RGBA8),
                 // else the scalar's size.

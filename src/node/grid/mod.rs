@@ -7,11 +7,13 @@
 //!   rectangles, visibility order, placement (round robin, balanced).
 //! - [`render`]: one brick into one layer through a renderer of
 //!   `slice3d::render`'s shape.
+//! - [`cache`]: the bricks' textures kept across frames.
 //! - [`device`]: the modelled time (fill rate, texture memory, uploads).
 //! - [`actor`]: the node as an actor under the cluster's phase-1 driver.
 
 pub mod actor;
 pub mod bricks;
+pub mod cache;
 pub mod device;
 pub mod render;
 

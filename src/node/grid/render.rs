@@ -17,9 +17,13 @@ use crate::render::VolumeInput;
 
 use super::bricks::{screen_rect, Brick};
 
+/// The shape of a brick renderer: `slice3d::render` (or `render_prepared`
+/// over a cached texture), or an adaptive one.
+pub type RenderFn =
+    dyn Fn(&VolumeInput, &Slice3dOptions) -> Result<(Image, SliceStats)> + Send + Sync;
+
 /// A brick renderer: `slice3d::render`, or an adaptive one with the same shape.
-pub type BrickRenderer =
-    Arc<dyn Fn(&VolumeInput, &Slice3dOptions) -> Result<(Image, SliceStats)> + Send + Sync>;
+pub type BrickRenderer = Arc<RenderFn>;
 
 /// The default brick renderer: [`slice3d::render`].
 pub fn slice3d_renderer() -> BrickRenderer {
@@ -125,7 +129,7 @@ pub fn render_brick(
     vol: Arc<Volume>,
     spec: LayerSpec,
     opts: &Slice3dOptions,
-    renderer: &BrickRenderer,
+    renderer: &RenderFn,
 ) -> Result<BrickOutput> {
     let s = &whole.scene;
     let view = s.camera.view(s.image.width, s.image.height);

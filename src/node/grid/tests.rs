@@ -63,7 +63,7 @@ pub(crate) fn bricked(
                     depth,
                 },
                 opts,
-                &r,
+                &*r,
             )
             .unwrap()
         })
@@ -184,7 +184,7 @@ fn a_brick_owns_each_sample_once() {
                             depth: Depth::U16,
                         },
                         &opts,
-                        &r,
+                        &*r,
                     )
                     .unwrap()
                     .stats

@@ -227,21 +227,20 @@ pub fn render_prepared(
     // Pixels go to the threads in bands of PIXEL_TILE rows, and a band is
     // walked in PIXEL_TILE-square tiles: the rays of a tile pass through
     // the same texture tiles one after the other, while they are cached.
-    let pt = PIXEL_TILE;
     let run = |s: &(dyn Fn(&planes::RaySamples, &mut SampleCounts) -> [f32; 4] + Sync),
                image: &mut Image| {
         let w = w as usize;
         image
             .pixels
-            .par_chunks_mut(w * pt)
+            .par_chunks_mut(w * PIXEL_TILE)
             .enumerate()
             .map(|(band, rows)| {
                 let mut n = SampleCounts::default();
                 let nrows = rows.len() / w;
-                for i0 in (0..w).step_by(pt) {
+                for i0 in (0..w).step_by(PIXEL_TILE) {
                     for dj in 0..nrows {
-                        let j = band * pt + dj;
-                        for i in i0..(i0 + pt).min(w) {
+                        let j = band * PIXEL_TILE + dj;
+                        for i in i0..(i0 + PIXEL_TILE).min(w) {
                             let px = &mut rows[dj * w + i];
                             let r = match &opts.brick {
                                 None => {
