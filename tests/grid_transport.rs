@@ -176,6 +176,16 @@ fn remote_grid_runs_refuse_what_they_cannot_do() {
     .err()
     .expect("refused");
     assert!(e.to_string().contains("--master"), "{e}");
+    // binary-swap is the default compositor, but said aloud beside
+    // --master it is a conflict, not something to drop silently.
+    let e = config(
+        &s,
+        &["--nodes", "4", "--master", "--compositor", "binary-swap"],
+    )
+    .err()
+    .expect("refused");
+    assert!(e.to_string().contains("--compositor binary-swap"), "{e}");
+    assert!(config(&s, &["--nodes", "4", "--master", "--compositor", "master"]).is_ok());
     let e = config(
         &s,
         &["--nodes", "2", "--workers", "127.0.0.1:1,127.0.0.1:2"],

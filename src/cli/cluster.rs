@@ -89,8 +89,9 @@ pub struct ClusterArgs {
     pub data: Option<crate::node::DataMode>,
     /// Compositing strategy of phase 2: `binary-swap`, `direct-send`,
     /// `radix-k` (k from `--radix-k`) or `master` (everything to rank 0).
-    #[arg(long, default_value = "binary-swap")]
-    pub compositor: String,
+    /// Default `binary-swap` (`master` with `--master`).
+    #[arg(long)]
+    pub compositor: Option<String>,
     /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`;
     /// grid scenes: `rle16` (the paper's RLE at 16 bits a channel; `rle`
     /// means it there), `raw16`, `sparse16` (IceT's active runs), or the
@@ -399,7 +400,10 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             record_trace: true,
         },
         placement: a.placement,
-        compositor: super::cluster_grid::compositor_name(&a.compositor, a.grid.radix_k)?,
+        compositor: super::cluster_grid::compositor_name(
+            a.compositor.as_deref().unwrap_or("binary-swap"),
+            a.grid.radix_k,
+        )?,
         codec: a.codec.clone(),
         network: load_network(network)?,
         network_name: network.to_string(),

@@ -188,13 +188,13 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
              master (drop one of them)"
         );
         anyhow::ensure!(
-            matches!(a.compositor.as_str(), "binary-swap" | "master"),
+            matches!(a.compositor.as_deref(), None | Some("master")),
             "--master composites every subimage at the master; it cannot be combined with --compositor {}",
-            a.compositor
+            a.compositor.as_deref().unwrap_or_default()
         );
         "master".to_string()
     } else {
-        compositor_name(&a.compositor, g.radix_k)?
+        compositor_name(a.compositor.as_deref().unwrap_or("binary-swap"), g.radix_k)?
     };
     // `rle` (the default) means the paper's RLE at 16 bits for layers.
     let codec = match a.codec.as_str() {
