@@ -501,6 +501,49 @@ pub struct Mesh<'a> {
     pub opts: &'a TcpOptions,
 }
 
+impl Mesh<'_> {
+    /// This rank's transport to its peers and the coordinator: dials the
+    /// lower ranks and accepts the higher ones ([`super::worker::mesh`]),
+    /// adds the coordinator's link (`coord`, the session's stream), and
+    /// runs them with `codec`'s frame limit.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn transport(
+        &self,
+        rank: u32,
+        nodes: u32,
+        peers: &[String],
+        coord: NodeId,
+        name: String,
+        stream: TcpStream,
+        codec: Codec,
+    ) -> anyhow::Result<TcpTransport> {
+        let mut links = self.rt.block_on(super::worker::mesh(
+            self.listener,
+            self.token,
+            self.opts,
+            rank,
+            nodes,
+            peers,
+        ))?;
+        links.push(Link {
+            rank: coord,
+            name,
+            stream,
+        });
+        let opts = TcpOptions {
+            codec,
+            ..*self.opts
+        };
+        Ok(TcpTransport::new(
+            Arc::clone(self.rt),
+            NodeId(rank),
+            nodes as usize + 1,
+            links,
+            opts,
+        )?)
+    }
+}
+
 /// What a grid worker keeps from one session to the next: its last
 /// bricks' samples (decoded) and their textures ([`crate::node::grid::cache`]),
 /// valid while the set-up names the same brick bytes (SHA-256).
@@ -617,30 +660,14 @@ fn serve_p2p(
     name: &str,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
-    let me = NodeId(setup.rank);
-    let mut links = mesh.rt.block_on(super::worker::mesh(
-        mesh.listener,
-        mesh.token,
-        mesh.opts,
+    let t = mesh.transport(
         setup.rank,
         setup.nodes,
         &setup.peers,
-    ))?;
-    links.push(Link {
-        rank: coord,
-        name: name.to_string(),
+        coord,
+        name.to_string(),
         stream,
-    });
-    let opts = TcpOptions {
         codec,
-        ..*mesh.opts
-    };
-    let t = TcpTransport::new(
-        Arc::clone(mesh.rt),
-        me,
-        setup.nodes as usize + 1,
-        links,
-        opts,
     )?;
     t.set_essential(coord, true);
     let r = frame_p2p(&t, kept, setup, bytes, coord);

@@ -18,7 +18,7 @@ use tokio::runtime::Runtime;
 use super::guard::SessionGuard;
 use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
-use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
+use crate::net::tcp::{self, Link, Role, TcpOptions, Token};
 use crate::net::{
     run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, RemoteTransport, TrafficStats,
     WallClock, WallOptions,
@@ -253,26 +253,20 @@ impl Worker {
             }
         };
         // The mesh: dial lower ranks, accept higher ones.
-        let mut links = self.rt.block_on(mesh(
-            &self.listener,
-            &self.token,
-            &self.opts,
+        let t = super::grid::Mesh {
+            rt: &self.rt,
+            listener: &self.listener,
+            token: &self.token,
+            opts: &self.opts,
+        }
+        .transport(
             setup.rank,
             setup.nodes,
             &setup.peers,
-        ))?;
-        links.push(Link {
-            rank: coord,
+            coord,
             name,
             stream,
-        });
-        let opts = TcpOptions { codec, ..self.opts };
-        let t = TcpTransport::new(
-            Arc::clone(&self.rt),
-            me,
-            setup.nodes as usize + 1,
-            links,
-            opts,
+            codec,
         )?;
         run_node(
             &t,
