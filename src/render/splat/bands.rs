@@ -220,6 +220,11 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
         pieces_skipped: 0,
         bands: 1,
     };
+    // Alphas of one footprint (the table path).
+    let mut scratch = match kernel {
+        Kernel::Table(t) => t.scratch(),
+        _ => Vec::new(),
+    };
     // The table's rows of the splat drawn next, fetched while this one is
     // drawn.
     let prefetch = |k: Option<&u32>| {
@@ -231,7 +236,20 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
     if ert >= 1.0 {
         for (n, &k) in list.iter().enumerate() {
             prefetch(list.get(n + 1));
-            draw(&splats[k as usize], band, w, j0, j1, cut, kernel, &mut Over);
+            if let Some(&m) = list.get(n + SPLAT_AHEAD) {
+                prefetch_record(&splats[m as usize]);
+            }
+            draw(
+                &splats[k as usize],
+                band,
+                w,
+                j0,
+                j1,
+                cut,
+                kernel,
+                &mut scratch,
+                &mut Over,
+            );
         }
         return c;
     }
@@ -244,6 +262,9 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
         }
         // Front to back: the next splat is the one before in the list.
         prefetch((list.len() - n).checked_sub(2).map(|m| &list[m]));
+        if let Some(m) = (list.len() - n).checked_sub(1 + SPLAT_AHEAD) {
+            prefetch_record(&splats[list[m] as usize]);
+        }
         let s = &splats[k as usize];
         // The splat's rectangle, clipped to the band and the image.
         let (ja, jb) = row_span(s, h, pad);
@@ -264,9 +285,27 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
             t: ert,
             map: &mut map,
         };
-        draw(s, band, w, j0, j1, cut, kernel, &mut u);
+        draw(s, band, w, j0, j1, cut, kernel, &mut scratch, &mut u);
     }
     c
+}
+
+/// Splats ahead of the one drawn whose record is fetched into the cache
+/// (a band reads its splats from the whole list, skipping the other
+/// bands' ones, so the hardware prefetcher does not follow).
+const SPLAT_AHEAD: usize = 8;
+
+/// Asks the CPU to fetch one splat record (a hint; no effect on the image).
+#[inline(always)]
+fn prefetch_record(s: &SplatShape) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch of a live reference's memory (never faults).
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(s as *const SplatShape as *const i8) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = s;
 }
 
 /// True when every pixel in columns `[ia, ib]` of band-local rows
@@ -294,10 +333,11 @@ fn draw<C: Composite>(
     j1: i64,
     cut: f32,
     kernel: Kernel,
+    scratch: &mut [f32],
     comp: &mut C,
 ) {
     match kernel {
-        Kernel::Table(t) => t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1, comp),
+        Kernel::Table(t) => t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1, scratch, comp),
         Kernel::Incremental => draw_incremental(s, band, w, j0, j1, cut, comp),
         Kernel::Exact => draw_exact(s, band, w, j0, j1, cut, comp),
     }

@@ -43,6 +43,24 @@ impl Composite for Over {
         // (c, 1) alpha + (1 - alpha) p on the four channels at once
         // (`1 * a` is `a` exactly).
         let c = [rgb[0], rgb[1], rgb[2], 1.0];
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE is part of x86-64; loads and stores are of the
+            // 16-byte pixels of `pix` (unaligned forms).
+            unsafe {
+                let cv = _mm_loadu_ps(c.as_ptr());
+                let one = _mm_set1_ps(1.0);
+                for (p, &a) in pix.iter_mut().zip(alpha) {
+                    let av = _mm_set1_ps(a);
+                    let t = _mm_sub_ps(one, av);
+                    let pv = _mm_loadu_ps(p.as_ptr());
+                    let r = _mm_add_ps(_mm_mul_ps(cv, av), _mm_mul_ps(t, pv));
+                    _mm_storeu_ps(p.as_mut_ptr(), r);
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
         for (p, &a) in pix.iter_mut().zip(alpha) {
             let t = 1.0 - a;
             for (pk, ck) in p.iter_mut().zip(c) {
@@ -128,18 +146,47 @@ impl Composite for Under<'_> {
         // (`1 * wa` is `wa` exactly, so `A` is `A + wa` as before).
         let c = [rgb[0], rgb[1], rgb[2], 1.0];
         for (k, (p, &a)) in pix.iter_mut().zip(alpha).enumerate() {
-            let a0 = p[3];
-            let wa = (1.0 - a0) * a;
-            for (pk, ck) in p.iter_mut().zip(c) {
-                *pk += ck * wa;
-            }
+            let (a0, a1) = under_pixel(p, a, c);
             // Each pixel crosses the threshold once: a rare branch.
-            if a0 < t && p[3] >= t {
+            if a0 < t && a1 >= t {
                 let n = &mut self.map.open[row0 + (i0 + k) / TILE];
                 *n -= 1;
                 self.map.open_tiles -= (*n == 0) as usize;
             }
         }
+    }
+}
+
+/// `p += c (1 - A) a` on the four channels of one premultiplied pixel
+/// (`c[3] = 1`); returns `A` before and after. The same IEEE operations
+/// in the same order on every path (no fused multiply-add).
+#[inline(always)]
+fn under_pixel(p: &mut [f32; 4], a: f32, c: [f32; 4]) -> (f32, f32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE is part of x86-64; the load and store are of the 16
+        // bytes of `p` (unaligned forms).
+        unsafe {
+            let pv = _mm_loadu_ps(p.as_ptr());
+            let a0 = _mm_shuffle_ps::<0xff>(pv, pv);
+            let wa = _mm_mul_ps(_mm_sub_ps(_mm_set1_ps(1.0), a0), _mm_set1_ps(a));
+            let r = _mm_add_ps(pv, _mm_mul_ps(_mm_loadu_ps(c.as_ptr()), wa));
+            _mm_storeu_ps(p.as_mut_ptr(), r);
+            (
+                _mm_cvtss_f32(a0),
+                _mm_cvtss_f32(_mm_shuffle_ps::<0xff>(r, r)),
+            )
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let a0 = p[3];
+        let wa = (1.0 - a0) * a;
+        for (pk, ck) in p.iter_mut().zip(c) {
+            *pk += ck * wa;
+        }
+        (a0, p[3])
     }
 }
 

@@ -18,6 +18,7 @@ pub mod composite;
 pub mod footprint;
 pub mod mem;
 pub mod order;
+pub mod project;
 pub mod raster;
 pub mod render;
 pub mod table;

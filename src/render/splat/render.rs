@@ -33,6 +33,7 @@ use super::bands::{self, Kernel};
 use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
 use super::order::{self, sort::SortScratch, Order, OrderView};
+use super::project::{IndexSplit, OrthoCentres};
 use super::raster::SplatShape;
 use super::table::FootprintTable;
 use crate::error::Result;
@@ -191,12 +192,20 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
     };
     let dims = vol.dims;
     let (wf, hf) = (w as f32, h as f32);
+    let split = IndexSplit::new(dims);
+    // Orthographic: every footprint has one shape, and its centre is
+    // affine in the index.
+    let ortho = OrthoCentres::new(&view, vol).zip(model.orthographic_shape());
     // The splat of kept voxel `idx` of class `c`, or None when off screen.
     let splat_of = |idx: u64, c: Class| -> Option<Splat> {
-        let i = idx % dims[0];
-        let jk = idx / dims[0];
-        let g = [i as f64, (jk % dims[1]) as f64, (jk / dims[1]) as f64];
-        let f = model.project(vol.grid_to_world(g))?;
+        let g = split.split(idx);
+        let f = match ortho {
+            Some((oc, mut f)) => {
+                [f.x, f.y] = oc.centre(g);
+                f
+            }
+            None => model.project(vol.grid_to_world(g.map(|v| v as f64)))?,
+        };
         if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
             return None;
         }

@@ -29,7 +29,32 @@ use crate::render::cell::fastmath::exp_neg;
 /// Pixels per run of alphas (two SSE vectors, one AVX vector).
 pub const LANES: usize = 8;
 
+/// One table row of one phase: its non-zero columns `[c0, c1)` and where
+/// their weights start in the phase's packed block.
+#[derive(Debug, Clone, Copy, Default)]
+struct RowSpan {
+    c0: u32,
+    c1: u32,
+    off: u32,
+}
+
+/// One phase's packed block: rows `[row0, row1)` are the non-empty ones,
+/// their weights packed row after row from `start` (`len` of them, the
+/// block padded with zeros to a multiple of [`LANES`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct PhaseBlock {
+    start: u32,
+    len: u32,
+    row0: u32,
+    row1: u32,
+}
+
 /// The tabulated kernel of one orthographic frame.
+///
+/// Layout: per phase, the non-zero weights of all rows packed into one
+/// block (row after row, no per-row padding), so that the alphas of a whole
+/// footprint are computed in runs of [`LANES`] with no idle lanes but the
+/// last run's; then each row blends its slice of them.
 #[derive(Debug, Clone)]
 pub struct FootprintTable {
     /// Phases per pixel, `P`.
@@ -38,18 +63,15 @@ pub struct FootprintTable {
     k: i64,
     /// `2k + 1`.
     side: usize,
-    /// Weights per table row: `side` rounded up to [`LANES`] (a multiple of
-    /// 16 floats, 64 bytes, when `side > 8`), each row holding only its
-    /// non-zero span from the row's start, zero-padded, so that runs of
-    /// `LANES` weights from the span's start stay inside the row.
-    stride: usize,
-    /// Index in `weights` of the first row (64-byte aligned).
-    first: usize,
-    /// `g` at column `spans[..][0] + i` by `first + ((phase_y P + phase_x)
-    /// side + row) stride + i`.
+    /// Packed weights of every phase (each block 32-byte aligned in the
+    /// allocation's offsets and padded to [`LANES`]).
     weights: Vec<f32>,
-    /// Non-zero columns `[first, end)` by `(phase_y P + phase_x) side + row`.
-    spans: Vec<[u16; 2]>,
+    /// Blocks by phase index `phase_y P + phase_x`.
+    blocks: Vec<PhaseBlock>,
+    /// Row spans by `phase side + row`.
+    spans: Vec<RowSpan>,
+    /// Largest padded block: the alpha scratch a band needs.
+    max_len: usize,
 }
 
 impl FootprintTable {
@@ -59,15 +81,16 @@ impl FootprintTable {
         let p = phases.max(1) as i64;
         let k = (f.rx.max(f.ry).ceil() as i64 + 1).max(1);
         let side = (2 * k + 1) as usize;
-        let stride = side.next_multiple_of(LANES);
         let q = f.q.map(|x| x as f64);
-        // One cache line more, to start the rows on a 64-byte boundary.
-        let mut weights = vec![0.0f32; (p * p) as usize * side * stride + 16];
-        let first = (64 - weights.as_ptr() as usize % 64) % 64 / 4;
-        let mut spans = vec![[0u16; 2]; (p * p) as usize * side];
+        let mut weights = Vec::new();
+        let mut blocks = vec![PhaseBlock::default(); (p * p) as usize];
+        let mut spans = vec![RowSpan::default(); (p * p) as usize * side];
+        let mut max_len = 0;
         for py in 0..p {
             for px in 0..p {
                 let phase = (py * p + px) as usize;
+                let start = weights.len();
+                let (mut row0, mut row1) = (side, 0);
                 for row in 0..side {
                     let dy = (row as i64 - k) as f64 + 0.5 - py as f64 / p as f64;
                     let g = |col: usize| {
@@ -75,33 +98,59 @@ impl FootprintTable {
                         let e = q[0] * dx * dx + 2.0 * q[1] * dx * dy + q[2] * dy * dy;
                         (e <= cut as f64).then(|| (-e).exp() as f32)
                     };
-                    // The cut is an ellipse: its columns in a row are one run.
+                    // The cut is an ellipse: its columns in a row are one
+                    // run, and its rows one run of rows.
+                    let off = (weights.len() - start) as u32;
                     let Some(c0) = (0..side).find(|&col| g(col).is_some()) else {
+                        spans[phase * side + row] = RowSpan { c0: 0, c1: 0, off };
                         continue;
                     };
                     let c1 = (c0..side).find(|&col| g(col).is_none()).unwrap_or(side);
-                    let row0 = first + (phase * side + row) * stride;
-                    for col in c0..c1 {
-                        weights[row0 + col - c0] = g(col).expect("inside the run");
-                    }
-                    spans[phase * side + row] = [c0 as u16, c1 as u16];
+                    weights.extend((c0..c1).map(|col| g(col).expect("inside the run")));
+                    spans[phase * side + row] = RowSpan {
+                        c0: c0 as u32,
+                        c1: c1 as u32,
+                        off,
+                    };
+                    row0 = row0.min(row);
+                    row1 = row + 1;
                 }
+                let len = (weights.len() - start).next_multiple_of(LANES);
+                weights.resize(start + len, 0.0);
+                max_len = max_len.max(len);
+                blocks[phase] = PhaseBlock {
+                    start: start as u32,
+                    len: len as u32,
+                    row0: row0.min(row1) as u32,
+                    row1: row1 as u32,
+                };
             }
         }
+        assert!(
+            weights.len() < u32::MAX as usize,
+            "footprint table of {} weights",
+            weights.len()
+        );
         FootprintTable {
             phases: p,
             k,
             side,
-            stride,
-            first,
             weights,
+            blocks,
             spans,
+            max_len,
         }
+    }
+
+    /// Alpha scratch for [`FootprintTable::draw`]: one per band.
+    pub fn scratch(&self) -> Vec<f32> {
+        vec![0.0; self.max_len]
     }
 
     /// Composites a splat centred at `(x, y)` with centre optical depth
     /// `depth0` and colour `rgb` into rows `[j0, j1)` held by `band`
     /// (`w` pixels per row), in front of what is there (premultiplied).
+    /// `alpha` is scratch from [`FootprintTable::scratch`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn draw<C: Composite>(
@@ -114,52 +163,61 @@ impl FootprintTable {
         w: u32,
         j0: i64,
         j1: i64,
+        alpha: &mut [f32],
         comp: &mut C,
     ) {
         let (bx, by, phase) = self.split(x, y);
-        // Rows by - k ..= by + k, clipped to the band.
-        let ra = (by - self.k).max(j0);
-        let rb = (by + self.k).min(j1 - 1);
-        for j in ra..=rb {
-            let row = (j - by + self.k) as usize;
-            let [c0, c1] = self.spans[phase * self.side + row];
-            // Columns: pixel i = bx - k + col, clipped to [0, w).
-            let i_first = bx - self.k;
-            let ca = (c0 as i64).max(-i_first);
-            let cb = (c1 as i64).min(w as i64 - i_first);
+        let b = self.blocks[phase];
+        // Table rows [row0, row1) are pixel rows by - k + row; clipped to
+        // the band.
+        let top = by - self.k;
+        let ra = (b.row0 as i64).max(j0 - top);
+        let rb = (b.row1 as i64).min(j1 - top);
+        if ra >= rb {
+            return;
+        }
+        let spans = &self.spans[phase * self.side..][..self.side];
+        let (ra, rb) = (ra as usize, rb as usize);
+        // alpha = 1 - exp(-tau l0 g) for the packed weights of rows
+        // [ra, rb), LANES at a time from a run boundary (a fixed-width loop
+        // the compiler vectorises; the block's zero padding fills the last
+        // run).
+        let lo = spans[ra].off as usize / LANES * LANES;
+        let hi = (spans[rb - 1].off as usize + (spans[rb - 1].c1 - spans[rb - 1].c0) as usize)
+            .next_multiple_of(LANES);
+        let wts = &self.weights[b.start as usize..][..b.len as usize];
+        for (a8, g8) in alpha[lo..hi]
+            .chunks_exact_mut(LANES)
+            .zip(wts[lo..hi].chunks_exact(LANES))
+        {
+            // Through fixed-size arrays, so that the loop is one vector.
+            let g8: &[f32; LANES] = g8.try_into().expect("LANES");
+            let mut a = [0.0f32; LANES];
+            for (a, &g) in a.iter_mut().zip(g8) {
+                *a = 1.0 - exp_neg(-depth0 * g);
+            }
+            a8.copy_from_slice(&a);
+        }
+        // Columns: pixel i = bx - k + col, clipped to [0, w).
+        let i_first = bx - self.k;
+        let (cmin, cmax) = (-i_first, w as i64 - i_first);
+        for (row, s) in spans.iter().enumerate().take(rb).skip(ra) {
+            let ca = (s.c0 as i64).max(cmin);
+            let cb = (s.c1 as i64).min(cmax);
             if ca >= cb {
                 continue;
             }
-            let wrow = &self.weights[self.first + (phase * self.side + row) * self.stride..]
-                [..self.stride];
-            let row_pix = &mut band[(j - j0) as usize * w as usize..][..w as usize];
-            // alpha = 1 - exp(-tau l0 g): the alphas of LANES columns of the
-            // run at a time (a fixed-width loop the compiler vectorises, no
-            // scalar remainder: the row's zero padding fills the last run),
-            // then the blend of those inside the image, [ca, cb).
-            let (c0, ca, cb) = (c0 as usize, ca as usize, cb as usize);
-            let mut cc = 0usize;
-            while c0 + cc < cb {
-                let lo = (c0 + cc).max(ca);
-                let hi = (c0 + cc + LANES).min(cb);
-                if lo < hi {
-                    let wt: &[f32; LANES] = wrow[cc..cc + LANES].try_into().expect("padded row");
-                    let mut a = [0.0f32; LANES];
-                    for (a, &g) in a.iter_mut().zip(wt) {
-                        *a = 1.0 - exp_neg(-depth0 * g);
-                    }
-                    let i0 = (i_first + lo as i64) as usize;
-                    let i1 = (i_first + hi as i64) as usize;
-                    comp.run(
-                        &mut row_pix[i0..i1],
-                        (j - j0) as usize,
-                        i0,
-                        &a[lo - c0 - cc..hi - c0 - cc],
-                        rgb,
-                    );
-                }
-                cc += LANES;
-            }
+            let r = (top + row as i64 - j0) as usize;
+            let i0 = (i_first + ca) as usize;
+            let i1 = (i_first + cb) as usize;
+            let a0 = s.off as usize + (ca - s.c0 as i64) as usize;
+            comp.run(
+                &mut band[r * w as usize + i0..r * w as usize + i1],
+                r,
+                i0,
+                &alpha[a0..a0 + (i1 - i0)],
+                rgb,
+            );
         }
     }
 
@@ -173,19 +231,23 @@ impl FootprintTable {
         {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let (_, _, phase) = self.split(x, y);
-            let block = self.side * self.stride;
-            let start = self.first + phase * block;
-            let Some(rows) = self.weights.get(start..start + block) else {
+            let b = self.blocks[phase];
+            let Some(block) = self
+                .weights
+                .get(b.start as usize..(b.start + b.len) as usize)
+            else {
                 return;
             };
-            for line in rows.chunks(16) {
+            for line in block.chunks(16) {
                 // SAFETY: a prefetch of memory inside `weights` (it never
                 // faults and changes nothing observable).
                 unsafe { _mm_prefetch::<_MM_HINT_T0>(line.as_ptr() as *const i8) };
             }
-            if let Some(sp) = self.spans.get(phase * self.side..) {
-                // SAFETY: as above, inside `spans`.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(sp.as_ptr() as *const i8) };
+            if let Some(sp) = self.spans.get(phase * self.side..(phase + 1) * self.side) {
+                for line in sp.chunks(5) {
+                    // SAFETY: as above, inside `spans`.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(line.as_ptr() as *const i8) };
+                }
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -246,6 +308,7 @@ mod tests {
                 (-0.3, 0.2),
             ] {
                 let mut img = vec![[0.0f32; 4]; (w * h) as usize];
+                let mut scratch = t.scratch();
                 let depth0 = 0.7f32;
                 t.draw(
                     x,
@@ -256,6 +319,7 @@ mod tests {
                     w,
                     0,
                     h as i64,
+                    &mut scratch,
                     &mut Over,
                 );
                 let (xq, yq) = (
