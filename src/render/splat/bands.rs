@@ -21,7 +21,8 @@ use rayon::prelude::*;
 
 use super::composite::{Composite, OcclusionMap, Over, Under, TILE};
 use super::order::scatter::{scatter, Enumerate};
-use super::raster::{ceil_i, draw_exact, draw_incremental, floor_i, rows, SplatShape};
+use super::raster::{ceil_i, draw_exact, draw_incremental, floor_i};
+use super::record::{Conic, ShapeOf, Splat};
 use super::table::FootprintTable;
 
 /// How footprints are drawn.
@@ -44,14 +45,15 @@ impl Kernel<'_> {
     }
 }
 
-/// Rows `[ja, jb]` of splat `s` in a `h`-row image, widened by `pad`
-/// (empty, `ja > jb`, for a hole or a splat off the image).
+/// Rows `[ja, jb]` of splat `s` (shape `c`) in a `h`-row image: pixel
+/// centres `j + 1/2` within `ry` of the centre, widened by `pad` (empty,
+/// `ja > jb`, for a hole or a splat off the image).
 #[inline(always)]
-fn row_span(s: &SplatShape, h: i64, pad: i64) -> (i64, i64) {
+fn row_span<S>(s: &Splat<S>, c: &Conic, h: i64, pad: i64) -> (i64, i64) {
     if s.is_hole() {
         return (0, -1);
     }
-    let (ja, jb) = rows(s, 0, h);
+    let (ja, jb) = (ceil_i(s.y - c.ry - 0.5), floor_i(s.y + c.ry - 0.5));
     ((ja - pad).max(0), (jb + pad).min(h - 1))
 }
 
@@ -69,21 +71,22 @@ pub struct Bins {
 }
 
 /// Splats listed chunk by chunk, once per band their rows meet.
-struct BandPieces<'a> {
-    splats: &'a [SplatShape],
+struct BandPieces<'a, S> {
+    splats: &'a [Splat<S>],
+    shared: &'a Conic,
     chunks: usize,
     h: i64,
     pad: i64,
     rows_per: i64,
 }
 
-impl Enumerate<u32> for BandPieces<'_> {
+impl<S: ShapeOf> Enumerate<u32> for BandPieces<'_, S> {
     #[inline]
     fn each(&self, c: usize, mut f: impl FnMut(usize, u32)) {
         let n = self.splats.len();
         let (lo, hi) = (n * c / self.chunks, n * (c + 1) / self.chunks);
         for (k, s) in self.splats[lo..hi].iter().enumerate() {
-            let (ja, jb) = row_span(s, self.h, self.pad);
+            let (ja, jb) = row_span(s, s.shape.conic(self.shared), self.h, self.pad);
             if ja > jb {
                 continue;
             }
@@ -94,11 +97,11 @@ impl Enumerate<u32> for BandPieces<'_> {
     }
 }
 
-/// Bins `splats` (one list, drawing order) into the bands of an `h`-row
-/// image for `kernel` (rows widened by [`Kernel::pad`]): several bands per
-/// thread (the splats crowd in the middle rows), each a multiple of the
-/// occlusion tile high.
-pub fn bin(splats: &[SplatShape], h: u32, kernel: Kernel) -> Bins {
+/// Bins `splats` (one list, drawing order; shapes their own or `shared`)
+/// into the bands of an `h`-row image for `kernel` (rows widened by
+/// [`Kernel::pad`]): several bands per thread (the splats crowd in the
+/// middle rows), each a multiple of the occlusion tile high.
+pub fn bin<S: ShapeOf>(splats: &[Splat<S>], shared: &Conic, h: u32, kernel: Kernel) -> Bins {
     assert!(
         splats.len() < u32::MAX as usize,
         "more than 2^32 - 1 splats in one frame"
@@ -108,6 +111,7 @@ pub fn bin(splats: &[SplatShape], h: u32, kernel: Kernel) -> Bins {
     let bands = (h as usize).div_ceil(rows_per).max(1);
     let pieces = BandPieces {
         splats,
+        shared,
         chunks: (rayon::current_num_threads() * 4).clamp(1, splats.len().max(1)),
         h: h as i64,
         pad: kernel.pad(),
@@ -136,9 +140,12 @@ pub struct BandCounts {
 
 /// Rasterises `splats` (back-to-front list, binned by [`bin`]) into a
 /// `w x h` premultiplied RGBA buffer, with exponent cut `cut`, footprints
-/// by `kernel`, ERT threshold `ert` (`>= 1`: off).
-pub fn rasterise(
-    splats: &[SplatShape],
+/// by `kernel` (shapes the splats' own or `shared`), ERT threshold `ert`
+/// (`>= 1`: off).
+#[allow(clippy::too_many_arguments)]
+pub fn rasterise<S: ShapeOf>(
+    splats: &[Splat<S>],
+    shared: &Conic,
     bins: &Bins,
     (w, h): (u32, u32),
     cut: f32,
@@ -156,6 +163,7 @@ pub fn rasterise(
             let j0 = (b * bins.rows_per) as i64;
             let job = BandJob {
                 splats,
+                shared,
                 list,
                 w,
                 h: h as i64,
@@ -180,8 +188,10 @@ pub fn rasterise(
 }
 
 /// One band's work.
-struct BandJob<'a> {
-    splats: &'a [SplatShape],
+struct BandJob<'a, S> {
+    splats: &'a [Splat<S>],
+    /// The frame's shape (orthographic records have none).
+    shared: &'a Conic,
     /// The band's splats, in list order.
     list: &'a [u32],
     w: u32,
@@ -196,15 +206,16 @@ struct BandJob<'a> {
 /// [`band_pass`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn band_avx2(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
+unsafe fn band_avx2<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts {
     band_pass(job, band)
 }
 
 /// Composites the band's splats into `band` (module doc).
 #[inline(always)]
-fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
+fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts {
     let BandJob {
         splats,
+        shared,
         list,
         w,
         h,
@@ -241,6 +252,7 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
             }
             draw(
                 &splats[k as usize],
+                shared,
                 band,
                 w,
                 j0,
@@ -266,12 +278,13 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
             prefetch_record(&splats[list[m] as usize]);
         }
         let s = &splats[k as usize];
+        let sc = s.shape.conic(shared);
         // The splat's rectangle, clipped to the band and the image.
-        let (ja, jb) = row_span(s, h, pad);
+        let (ja, jb) = row_span(s, sc, h, pad);
         let ra = (ja.max(j0) - j0) as usize;
         let rb = (jb.min(j1 - 1) - j0) as usize;
-        let ia = (ceil_i(s.x - s.rx - 0.5) - pad).max(0) as usize;
-        let ib = (floor_i(s.x + s.rx - 0.5) + pad).min(w as i64 - 1);
+        let ia = (ceil_i(s.x - sc.rx - 0.5) - pad).max(0) as usize;
+        let ib = (floor_i(s.x + sc.rx - 0.5) + pad).min(w as i64 - 1);
         if ib < ia as i64 {
             continue;
         }
@@ -285,7 +298,7 @@ fn band_pass(job: &BandJob, band: &mut [[f32; 4]]) -> BandCounts {
             t: ert,
             map: &mut map,
         };
-        draw(s, band, w, j0, j1, cut, kernel, &mut scratch, &mut u);
+        draw(s, shared, band, w, j0, j1, cut, kernel, &mut scratch, &mut u);
     }
     c
 }
@@ -297,12 +310,12 @@ const SPLAT_AHEAD: usize = 8;
 
 /// Asks the CPU to fetch one splat record (a hint; no effect on the image).
 #[inline(always)]
-fn prefetch_record(s: &SplatShape) {
+fn prefetch_record<S>(s: &Splat<S>) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         // SAFETY: a prefetch of a live reference's memory (never faults).
-        unsafe { _mm_prefetch::<_MM_HINT_T0>(s as *const SplatShape as *const i8) };
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(s as *const Splat<S> as *const i8) };
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = s;
@@ -325,8 +338,9 @@ fn rect_closed(
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn draw<C: Composite>(
-    s: &SplatShape,
+fn draw<C: Composite, S: ShapeOf>(
+    s: &Splat<S>,
+    shared: &Conic,
     band: &mut [[f32; 4]],
     w: u32,
     j0: i64,
@@ -338,7 +352,7 @@ fn draw<C: Composite>(
 ) {
     match kernel {
         Kernel::Table(t) => t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1, scratch, comp),
-        Kernel::Incremental => draw_incremental(s, band, w, j0, j1, cut, comp),
-        Kernel::Exact => draw_exact(s, band, w, j0, j1, cut, comp),
+        Kernel::Incremental => draw_incremental(&s.full(shared), band, w, j0, j1, cut, comp),
+        Kernel::Exact => draw_exact(&s.full(shared), band, w, j0, j1, cut, comp),
     }
 }

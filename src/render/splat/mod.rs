@@ -20,6 +20,7 @@ pub mod mem;
 pub mod order;
 pub mod project;
 pub mod raster;
+pub mod record;
 pub mod render;
 pub mod table;
 

@@ -27,7 +27,8 @@
 use super::composite::Composite;
 use crate::render::cell::fastmath::exp_neg;
 
-/// What the rasteriser needs of one splat.
+/// What the per-pixel kernels read of one splat (a list record with its
+/// shape filled in, [`super::record::Splat::full`]).
 #[derive(Debug, Clone, Copy)]
 pub struct SplatShape {
     /// Centre, continuous pixel coordinates.
@@ -44,27 +45,6 @@ pub struct SplatShape {
     pub rx: f32,
     /// Half-height of the bounding box, pixels.
     pub ry: f32,
-}
-
-impl SplatShape {
-    /// A kept voxel whose footprint misses the image (or lies behind the
-    /// eye): kept in the list so that the parallel ordering can write every
-    /// voxel to its slot, never drawn (empty rows, zero depth).
-    pub const HOLE: SplatShape = SplatShape {
-        x: 0.0,
-        y: 0.0,
-        q: [0.0; 3],
-        depth0: 0.0,
-        rgb: [0.0; 3],
-        rx: -1.0,
-        ry: -1.0,
-    };
-
-    /// True for [`SplatShape::HOLE`].
-    #[inline(always)]
-    pub fn is_hole(&self) -> bool {
-        self.ry < 0.0
-    }
 }
 
 /// `floor(x)` as an integer without a libm call (the default x86-64 target

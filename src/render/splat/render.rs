@@ -29,12 +29,12 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::bands::{self, Kernel};
+use super::bands::{self, BandCounts, Kernel};
 use super::classify::{Class, Classifier};
 use super::footprint::FootprintModel;
 use super::order::{self, sort::SortScratch, Order, OrderView};
 use super::project::{IndexSplit, OrthoCentres};
-use super::raster::SplatShape;
+use super::record::{Conic, ShapeOf, Splat};
 use super::table::FootprintTable;
 use crate::error::Result;
 use crate::image::Image;
@@ -160,7 +160,139 @@ pub fn process_cpu_s() -> f64 {
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
-type Splat = SplatShape;
+/// What the order and splat phases of one frame give back.
+struct Frame {
+    /// Premultiplied RGBA, background not yet added.
+    acc: Vec<[f32; 4]>,
+    counts: BandCounts,
+    visible: u64,
+    offscreen: u64,
+    mask_passes: u64,
+    prepass_ms: f64,
+    order_ms: f64,
+    bin_ms: f64,
+    splat_ms: f64,
+    /// Process CPU seconds at the end of the order and splat phases.
+    c1: f64,
+    c2: f64,
+}
+
+/// Orders, projects and rasterises one frame with list records `Splat<S>`
+/// (`()`: the orthographic shape is the frame's; `Conic`: each record's);
+/// also whether the footprint table was used.
+fn frame<S: ShapeOf>(
+    input: &VolumeInput,
+    opts: &SplatOptions,
+    class: &Classifier,
+    model: &FootprintModel,
+    order_view: &OrderView,
+    t0: Instant,
+) -> (Frame, bool) {
+    let vol = &*input.volume;
+    let view = input.scene.view();
+    let (w, h) = (view.width, view.height);
+    let dims = vol.dims;
+    let (wf, hf) = (w as f32, h as f32);
+    let split = IndexSplit::new(dims);
+    // Orthographic: every footprint has one shape, and its centre is
+    // affine in the index.
+    let ortho = OrthoCentres::new(&view, vol).zip(model.orthographic_shape());
+    let shared = ortho.map(|(_, f)| Conic::of(&f)).unwrap_or_default();
+    // The splat of kept voxel `idx` of class `c`, or None when off screen.
+    let splat_of = |idx: u64, c: Class| -> Option<Splat<S>> {
+        let g = split.split(idx);
+        let f = match ortho {
+            Some((oc, mut f)) => {
+                [f.x, f.y] = oc.centre(g);
+                f
+            }
+            None => model.project(vol.grid_to_world(g.map(|v| v as f64)))?,
+        };
+        if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
+            return None;
+        }
+        Some(Splat::new(&f, c.tau * f.l0, c.rgb))
+    };
+    let mut mask_passes = 0u64;
+    let mut prepass_ms = 0.0;
+    let (splats, visible, offscreen) = if opts.sparse {
+        let kept = |idx: u64| {
+            let c = class.get(idx);
+            (c.tau > 0.0).then_some(c)
+        };
+        let visible = |idx: u64| class.visible(idx);
+        // Projection as the ordering writes each voxel (in parallel);
+        // off-screen voxels stay in the list as holes, never drawn.
+        let emit = |i: u64, c: Class| splat_of(i, c).unwrap_or(Splat::hole());
+        let mut splats = Vec::new();
+        let k = order::collect_kept_map(
+            opts.order,
+            dims,
+            order_view,
+            &visible,
+            &kept,
+            &emit,
+            &mut SortScratch::default(),
+            &mut splats,
+        );
+        mask_passes = k.masks as u64;
+        prepass_ms = k.prepass_ms;
+        let holes = splats.par_iter().filter(|s| s.is_hole()).count() as u64;
+        let n = splats.len() as u64;
+        (splats, n, holes)
+    } else {
+        let mut splats = Vec::new();
+        let mut visible = 0u64;
+        order::visit_with(
+            opts.order,
+            dims,
+            order_view,
+            |idx| class.visible(idx),
+            &mut SortScratch::default(),
+            |idx| {
+                visible += 1;
+                splats.extend(splat_of(idx, class.get(idx)));
+            },
+        );
+        let offscreen = visible - splats.len() as u64;
+        (splats, visible, offscreen)
+    };
+    let order_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+    let t1 = Instant::now();
+    let c1 = process_cpu_s();
+    let cut = model.exponent_cut();
+    let table = match model.orthographic_shape() {
+        Some(f) if opts.table_phases > 0 => Some(FootprintTable::new(&f, cut, opts.table_phases)),
+        _ => None,
+    };
+    let kernel = match &table {
+        Some(t) => Kernel::Table(t),
+        None if opts.incremental => Kernel::Incremental,
+        None => Kernel::Exact,
+    };
+    let bins = bands::bin(&splats, &shared, h, kernel);
+    let bin_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let (acc, counts) = bands::rasterise(&splats, &shared, &bins, (w, h), cut, kernel, opts.ert);
+    drop(bins);
+    drop(splats);
+    let splat_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let c2 = process_cpu_s();
+    let frame = Frame {
+        acc,
+        counts,
+        visible,
+        offscreen,
+        mask_passes,
+        prepass_ms,
+        order_ms,
+        bin_ms,
+        splat_ms,
+        c1,
+        c2,
+    };
+    (frame, table.is_some())
+}
 
 /// [`SplatStats::ert_error_bound`]: `(1 - ert) max(max radiance, max
 /// background)` for `ert < 1`, else 0 (derivation in [`super::composite`]).
@@ -190,104 +322,33 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             spacing: vol.spacing,
         },
     };
-    let dims = vol.dims;
-    let (wf, hf) = (w as f32, h as f32);
-    let split = IndexSplit::new(dims);
-    // Orthographic: every footprint has one shape, and its centre is
-    // affine in the index.
-    let ortho = OrthoCentres::new(&view, vol).zip(model.orthographic_shape());
-    // The splat of kept voxel `idx` of class `c`, or None when off screen.
-    let splat_of = |idx: u64, c: Class| -> Option<Splat> {
-        let g = split.split(idx);
-        let f = match ortho {
-            Some((oc, mut f)) => {
-                [f.x, f.y] = oc.centre(g);
-                f
-            }
-            None => model.project(vol.grid_to_world(g.map(|v| v as f64)))?,
-        };
-        if f.x + f.rx < 0.0 || f.x - f.rx > wf || f.y + f.ry < 0.0 || f.y - f.ry > hf {
-            return None;
+    let (frame, table_used) = match view.projection {
+        Projection::Orthographic { .. } => {
+            frame::<()>(input, opts, &class, &model, &order_view, t0)
         }
-        Some(Splat {
-            x: f.x,
-            y: f.y,
-            q: f.q,
-            depth0: c.tau * f.l0,
-            rgb: c.rgb,
-            rx: f.rx,
-            ry: f.ry,
-        })
+        Projection::Perspective { .. } => {
+            frame::<Conic>(input, opts, &class, &model, &order_view, t0)
+        }
     };
-    let mut mask_passes = 0u64;
-    let mut prepass_ms = 0.0;
-    let (splats, visible, offscreen) = if opts.sparse {
-        let kept = |idx: u64| {
-            let c = class.get(idx);
-            (c.tau > 0.0).then_some(c)
-        };
-        let visible = |idx: u64| class.visible(idx);
-        // Projection as the ordering writes each voxel (in parallel);
-        // off-screen voxels stay in the list as holes, never drawn.
-        let emit = |i: u64, c: Class| splat_of(i, c).unwrap_or(Splat::HOLE);
-        let mut splats = Vec::new();
-        let k = order::collect_kept_map(
-            opts.order,
-            dims,
-            &order_view,
-            &visible,
-            &kept,
-            &emit,
-            &mut SortScratch::default(),
-            &mut splats,
-        );
-        mask_passes = k.masks as u64;
-        prepass_ms = k.prepass_ms;
-        let holes = splats.par_iter().filter(|s| s.is_hole()).count() as u64;
-        let n = splats.len() as u64;
-        (splats, n, holes)
-    } else {
-        let mut splats = Vec::new();
-        let mut visible = 0u64;
-        order::visit_with(
-            opts.order,
-            dims,
-            &order_view,
-            |idx| class.visible(idx),
-            &mut SortScratch::default(),
-            |idx| {
-                visible += 1;
-                splats.extend(splat_of(idx, class.get(idx)));
-            },
-        );
-        let offscreen = visible - splats.len() as u64;
-        (splats, visible, offscreen)
-    };
-    let order_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let Frame {
+        acc,
+        counts,
+        visible,
+        offscreen,
+        mask_passes,
+        prepass_ms,
+        order_ms,
+        bin_ms,
+        splat_ms,
+        c1,
+        c2,
+    } = frame;
     let project_ms = if opts.sparse {
         order_ms - prepass_ms
     } else {
         0.0
     };
-
-    let t1 = Instant::now();
-    let c1 = process_cpu_s();
-    let cut = model.exponent_cut();
-    let table = match model.orthographic_shape() {
-        Some(f) if opts.table_phases > 0 => Some(FootprintTable::new(&f, cut, opts.table_phases)),
-        _ => None,
-    };
-    let kernel = match &table {
-        Some(t) => Kernel::Table(t),
-        None if opts.incremental => Kernel::Incremental,
-        None => Kernel::Exact,
-    };
-    let bins = bands::bin(&splats, h, kernel);
-    let bin_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let (acc, counts) = bands::rasterise(&splats, &bins, (w, h), cut, kernel, opts.ert);
-    drop(bins);
-    let splat_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let c2 = process_cpu_s();
+    let dims = vol.dims;
 
     let bg = scene.image.background.map(|c| c as f32);
     let mut img = Image::new(w, h);
@@ -305,7 +366,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         voxels_drawn: drawn,
         fill_rate: drawn as f64 / total as f64,
         mask_passes,
-        table_phases: if table.is_some() {
+        table_phases: if table_used {
             opts.table_phases
         } else {
             0
