@@ -19,6 +19,7 @@
 
 use rayon::prelude::*;
 
+use super::buffer::BandBuf;
 use super::composite::{Composite, OcclusionMap, Over, Under, TILE};
 use super::order::scatter::{scatter, Enumerate};
 use super::raster::{ceil_i, draw_exact, draw_incremental, floor_i};
@@ -210,9 +211,19 @@ unsafe fn band_avx2<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> Band
     band_pass(job, band)
 }
 
-/// Composites the band's splats into `band` (module doc).
+/// Composites the band's splats into `out` (its rows of the image, module
+/// doc) through a channel-plane buffer ([`BandBuf`]).
 #[inline(always)]
-fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts {
+fn band_pass<S: ShapeOf>(job: &BandJob<S>, out: &mut [[f32; 4]]) -> BandCounts {
+    let mut buf = BandBuf::new(job.w as usize, out.len() / job.w as usize);
+    let c = band_splats(job, &mut buf);
+    buf.write_rgba(out);
+    c
+}
+
+/// Composites the band's splats into `band`.
+#[inline(always)]
+fn band_splats<S: ShapeOf>(job: &BandJob<S>, band: &mut BandBuf) -> BandCounts {
     let BandJob {
         splats,
         shared,
@@ -224,7 +235,7 @@ fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts 
         kernel,
         ert,
     } = *job;
-    let rows = band.len() / w as usize;
+    let rows = band.rows();
     let j1 = j0 + rows as i64;
     let mut c = BandCounts {
         pieces: list.len() as u64,
@@ -254,9 +265,7 @@ fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts 
                 &splats[k as usize],
                 shared,
                 band,
-                w,
                 j0,
-                j1,
                 cut,
                 kernel,
                 &mut scratch,
@@ -290,7 +299,7 @@ fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts 
         }
         let ib = ib as usize;
         // Closed tiles (cheap), else every pixel of the rectangle.
-        if map.occluded(ia, ib, ra, rb) || rect_closed(band, w as usize, ia, ib, ra, rb, ert) {
+        if map.occluded(ia, ib, ra, rb) || rect_closed(band, ia, ib, ra, rb, ert) {
             c.pieces_skipped += 1;
             continue;
         }
@@ -298,7 +307,7 @@ fn band_pass<S: ShapeOf>(job: &BandJob<S>, band: &mut [[f32; 4]]) -> BandCounts 
             t: ert,
             map: &mut map,
         };
-        draw(s, shared, band, w, j0, j1, cut, kernel, &mut scratch, &mut u);
+        draw(s, shared, band, j0, cut, kernel, &mut scratch, &mut u);
     }
     c
 }
@@ -324,16 +333,8 @@ fn prefetch_record<S>(s: &Splat<S>) {
 /// True when every pixel in columns `[ia, ib]` of band-local rows
 /// `[ra, rb]` has `A >= t`.
 #[inline(always)]
-fn rect_closed(
-    band: &[[f32; 4]],
-    w: usize,
-    ia: usize,
-    ib: usize,
-    ra: usize,
-    rb: usize,
-    t: f32,
-) -> bool {
-    (ra..=rb).all(|r| band[r * w + ia..=r * w + ib].iter().all(|p| p[3] >= t))
+fn rect_closed(band: &BandBuf, ia: usize, ib: usize, ra: usize, rb: usize, t: f32) -> bool {
+    (ra..=rb).all(|r| band.alpha_row(r)[ia..=ib].iter().all(|&a| a >= t))
 }
 
 #[inline(always)]
@@ -341,18 +342,16 @@ fn rect_closed(
 fn draw<C: Composite, S: ShapeOf>(
     s: &Splat<S>,
     shared: &Conic,
-    band: &mut [[f32; 4]],
-    w: u32,
+    band: &mut BandBuf,
     j0: i64,
-    j1: i64,
     cut: f32,
     kernel: Kernel,
     scratch: &mut [f32],
     comp: &mut C,
 ) {
     match kernel {
-        Kernel::Table(t) => t.draw(s.x, s.y, s.depth0, s.rgb, band, w, j0, j1, scratch, comp),
-        Kernel::Incremental => draw_incremental(&s.full(shared), band, w, j0, j1, cut, comp),
-        Kernel::Exact => draw_exact(&s.full(shared), band, w, j0, j1, cut, comp),
+        Kernel::Table(t) => t.draw(s.x, s.y, s.depth0, s.rgb, band, j0, scratch, comp),
+        Kernel::Incremental => draw_incremental(&s.full(shared), band, j0, cut, comp),
+        Kernel::Exact => draw_exact(&s.full(shared), band, j0, cut, comp),
     }
 }

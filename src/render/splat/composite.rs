@@ -23,14 +23,38 @@
 //! every channel differs by at most `(1 - t) M`, the slicers' ERT bound
 //! (`SliceStats::ert_bound`) with the background added.
 
+use super::buffer::{BandBuf, Lanes, LANES};
+
 /// Tile side of the occlusion map, pixels.
 pub const TILE: usize = 8;
 
 /// How a splat's alphas enter the band.
 pub trait Composite {
-    /// Composites `alpha` (one per pixel) of colour `rgb` into `pix`, the
-    /// pixels `i0 ..` of band-local row `r`.
-    fn run(&mut self, pix: &mut [[f32; 4]], r: usize, i0: usize, alpha: &[f32], rgb: [f32; 3]);
+    /// Composites the first `n` of `alpha` (one per pixel) of colour `rgb`
+    /// into pixels `i0 .. i0 + n` of band-local row `r` of `buf`. `alpha`
+    /// must hold `n` rounded up to [`LANES`] values (those past `n` are
+    /// read and ignored), so that every run is whole vectors.
+    #[inline(always)]
+    fn run(&mut self, buf: &mut BandBuf, r: usize, i0: usize, alpha: &[f32], n: usize, rgb: [f32; 3]) {
+        let c = [rgb[0], rgb[1], rgb[2], 1.0];
+        let mut k = 0;
+        while k < n {
+            // LANES alphas; lanes past the run get 0 and leave their
+            // pixels as they are ([`super::buffer`]).
+            let v: &[f32; LANES] = alpha[k..k + LANES].try_into().expect("padded alphas");
+            let m = n - k;
+            let mut a8 = [0.0f32; LANES];
+            for (l, (a, &x)) in a8.iter_mut().zip(v).enumerate() {
+                *a = if l < m { x } else { 0.0 };
+            }
+            self.lanes(buf.lanes(r, i0 + k), r, i0 + k, &a8, c);
+            k += LANES;
+        }
+    }
+
+    /// Composites [`LANES`] alphas `a` of colour `c` (`c[3] = 1`) into the
+    /// pixels `i ..` of band-local row `r`.
+    fn lanes(&mut self, px: Lanes, r: usize, i: usize, a: &[f32; LANES], c: [f32; 4]);
 }
 
 /// Back to front: the splat in front of the pixel.
@@ -39,32 +63,12 @@ pub struct Over;
 
 impl Composite for Over {
     #[inline(always)]
-    fn run(&mut self, pix: &mut [[f32; 4]], _r: usize, _i0: usize, alpha: &[f32], rgb: [f32; 3]) {
-        // (c, 1) alpha + (1 - alpha) p on the four channels at once
-        // (`1 * a` is `a` exactly).
-        let c = [rgb[0], rgb[1], rgb[2], 1.0];
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            // SAFETY: SSE is part of x86-64; loads and stores are of the
-            // 16-byte pixels of `pix` (unaligned forms).
-            unsafe {
-                let cv = _mm_loadu_ps(c.as_ptr());
-                let one = _mm_set1_ps(1.0);
-                for (p, &a) in pix.iter_mut().zip(alpha) {
-                    let av = _mm_set1_ps(a);
-                    let t = _mm_sub_ps(one, av);
-                    let pv = _mm_loadu_ps(p.as_ptr());
-                    let r = _mm_add_ps(_mm_mul_ps(cv, av), _mm_mul_ps(t, pv));
-                    _mm_storeu_ps(p.as_mut_ptr(), r);
-                }
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        for (p, &a) in pix.iter_mut().zip(alpha) {
-            let t = 1.0 - a;
-            for (pk, ck) in p.iter_mut().zip(c) {
-                *pk = ck * a + t * *pk;
+    fn lanes(&mut self, px: Lanes, _r: usize, _i: usize, a: &[f32; LANES], c: [f32; 4]) {
+        // p <- c alpha + (1 - alpha) p per channel plane (`1 * a` is `a`
+        // exactly, so A <- alpha + (1 - alpha) A).
+        for (p, ck) in px.into_iter().zip(c) {
+            for (pk, &ak) in p.iter_mut().zip(a) {
+                *pk = ck * ak + (1.0 - ak) * *pk;
             }
         }
     }
@@ -139,54 +143,69 @@ pub struct Under<'a> {
 
 impl Composite for Under<'_> {
     #[inline(always)]
-    fn run(&mut self, pix: &mut [[f32; 4]], r: usize, i0: usize, alpha: &[f32], rgb: [f32; 3]) {
-        let t = self.t;
-        let row0 = (r / TILE) * self.map.tiles_w;
-        // (C, A) += (c, 1) (1 - A) alpha on the four channels at once
-        // (`1 * wa` is `wa` exactly, so `A` is `A + wa` as before).
-        let c = [rgb[0], rgb[1], rgb[2], 1.0];
-        for (k, (p, &a)) in pix.iter_mut().zip(alpha).enumerate() {
-            let (a0, a1) = under_pixel(p, a, c);
-            // Each pixel crosses the threshold once: a rare branch.
-            if a0 < t && a1 >= t {
-                let n = &mut self.map.open[row0 + (i0 + k) / TILE];
-                *n -= 1;
-                self.map.open_tiles -= (*n == 0) as usize;
-            }
+    fn lanes(&mut self, px: Lanes, r: usize, i: usize, a: &[f32; LANES], c: [f32; 4]) {
+        let mut crossed = under_lanes(px, a, c, self.t);
+        // Each pixel crosses the threshold once: a rare branch.
+        while crossed != 0 {
+            let l = crossed.trailing_zeros() as usize;
+            crossed &= crossed - 1;
+            let n = &mut self.map.open[(r / TILE) * self.map.tiles_w + (i + l) / TILE];
+            *n -= 1;
+            self.map.open_tiles -= (*n == 0) as usize;
         }
     }
 }
 
-/// `p += c (1 - A) a` on the four channels of one premultiplied pixel
-/// (`c[3] = 1`); returns `A` before and after. The same IEEE operations
-/// in the same order on every path (no fused multiply-add).
+/// `(C, A) += (c, 1) (1 - A) alpha` on [`LANES`] pixels (`1 * wa` is `wa`
+/// exactly, so `A <- A + wa`); returns the bit mask of the lanes whose `A`
+/// crossed `t`. The same IEEE operations on every path.
 #[inline(always)]
-fn under_pixel(p: &mut [f32; 4], a: f32, c: [f32; 4]) -> (f32, f32) {
+fn under_lanes(px: Lanes, a: &[f32; LANES], c: [f32; 4], t: f32) -> u32 {
+    let [pr, pg, pb, pa] = px;
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
-        // SAFETY: SSE is part of x86-64; the load and store are of the 16
-        // bytes of `p` (unaligned forms).
+        let mut crossed = 0u32;
+        // SAFETY: SSE is part of x86-64; every load and store is of four
+        // floats inside one of the eight-float lane arrays (unaligned forms).
         unsafe {
-            let pv = _mm_loadu_ps(p.as_ptr());
-            let a0 = _mm_shuffle_ps::<0xff>(pv, pv);
-            let wa = _mm_mul_ps(_mm_sub_ps(_mm_set1_ps(1.0), a0), _mm_set1_ps(a));
-            let r = _mm_add_ps(pv, _mm_mul_ps(_mm_loadu_ps(c.as_ptr()), wa));
-            _mm_storeu_ps(p.as_mut_ptr(), r);
-            (
-                _mm_cvtss_f32(a0),
-                _mm_cvtss_f32(_mm_shuffle_ps::<0xff>(r, r)),
-            )
+            let one = _mm_set1_ps(1.0);
+            let tv = _mm_set1_ps(t);
+            for h in 0..LANES / 4 {
+                let o = 4 * h;
+                let a0 = _mm_loadu_ps(pa.as_ptr().add(o));
+                let wa = _mm_mul_ps(_mm_sub_ps(one, a0), _mm_loadu_ps(a.as_ptr().add(o)));
+                let a1 = _mm_add_ps(a0, wa);
+                _mm_storeu_ps(pa.as_mut_ptr().add(o), a1);
+                for (p, ck) in [&mut *pr, &mut *pg, &mut *pb].into_iter().zip(c) {
+                    let q = _mm_loadu_ps(p.as_ptr().add(o));
+                    let q = _mm_add_ps(q, _mm_mul_ps(_mm_set1_ps(ck), wa));
+                    _mm_storeu_ps(p.as_mut_ptr().add(o), q);
+                }
+                let m = _mm_and_ps(_mm_cmplt_ps(a0, tv), _mm_cmpge_ps(a1, tv));
+                crossed |= (_mm_movemask_ps(m) as u32) << o;
+            }
         }
+        crossed
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let a0 = p[3];
-        let wa = (1.0 - a0) * a;
-        for (pk, ck) in p.iter_mut().zip(c) {
-            *pk += ck * wa;
+        let a0 = *pa;
+        let mut wa = [0.0f32; LANES];
+        for l in 0..LANES {
+            wa[l] = (1.0 - a0[l]) * a[l];
+            pa[l] = a0[l] + wa[l];
         }
-        (a0, p[3])
+        for (p, ck) in [pr, pg, pb].into_iter().zip(c) {
+            for (pk, &w) in p.iter_mut().zip(&wa) {
+                *pk += ck * w;
+            }
+        }
+        let mut crossed = 0u32;
+        for l in 0..LANES {
+            crossed |= ((a0[l] < t) as u32 & (pa[l] >= t) as u32) << l;
+        }
+        crossed
     }
 }
 
@@ -203,7 +222,7 @@ mod tests {
             .map(|k| (0.05 + 0.07 * k as f32, [0.1 * k as f32 % 1.0, 0.5, 0.9]))
             .collect();
         let (w, rows) = (11usize, 9usize);
-        let mut over = vec![[0.0f32; 4]; w * rows];
+        let mut over = BandBuf::new(w, rows);
         let mut under = over.clone();
         let mut map = OcclusionMap::new(w, rows);
         assert_eq!(map.open_pixels(), (w * rows) as u64);
@@ -211,35 +230,38 @@ mod tests {
         // Layers listed back to front; Under takes them reversed.
         for &(a, rgb) in &layers {
             for r in 0..rows {
-                Over.run(&mut over[r * w..][..w], r, 0, &vec![a; w], rgb);
+                Over.run(&mut over, r, 0, &vec![a; w + 8], w, rgb);
             }
         }
         let t = 0.99;
         for &(a, rgb) in layers.iter().rev() {
             for r in 0..rows {
                 let mut u = Under { t, map: &mut map };
-                u.run(&mut under[r * w..][..w], r, 0, &vec![a; w], rgb);
+                u.run(&mut under, r, 0, &vec![a; w + 8], w, rgb);
             }
         }
-        for (p, q) in over.iter().zip(&under) {
-            for c in 0..4 {
-                assert!((p[c] - q[c]).abs() < 1e-5, "{p:?} vs {q:?}");
+        for r in 0..rows {
+            for i in 0..w {
+                let (p, q) = (over.pixel(r, i), under.pixel(r, i));
+                for c in 0..4 {
+                    assert!((p[c] - q[c]).abs() < 1e-5, "{p:?} vs {q:?}");
+                }
             }
         }
-        assert!(under[0][3] >= t);
+        assert!(under.pixel(0, 0)[3] >= t);
         assert_eq!(map.open_pixels(), 0);
         assert!(map.all_closed());
         assert!(map.occluded(0, w - 1, 0, rows - 1));
         // A fresh map: one pixel below the threshold keeps its tile open.
         let mut m = OcclusionMap::new(w, rows);
-        let mut band = vec![[0.0f32; 4]; w * rows];
+        let mut band = BandBuf::new(w, rows);
         for r in 0..rows {
             let mut u = Under { t, map: &mut m };
-            let mut a = vec![0.995f32; w];
+            let mut a = vec![0.995f32; w + 8];
             if r == 3 {
                 a[9] = 0.5;
             }
-            u.run(&mut band[r * w..][..w], r, 0, &a, [1.0; 3]);
+            u.run(&mut band, r, 0, &a, w, [1.0; 3]);
         }
         assert_eq!(m.open_pixels(), 1);
         assert!(!m.all_closed());

@@ -13,6 +13,7 @@
 //! - [`render`]: the frame (order + project, then banded rasterising).
 
 pub mod bands;
+pub mod buffer;
 pub mod classify;
 pub mod composite;
 pub mod footprint;

@@ -24,6 +24,7 @@
 //! Both compute `alpha` for a run of pixels first (a loop the compiler can
 //! vectorise), then blend.
 
+use super::buffer::{BandBuf, LANES};
 use super::composite::Composite;
 use crate::render::cell::fastmath::exp_neg;
 
@@ -82,19 +83,12 @@ pub fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
     )
 }
 
-/// Composites `s` into rows `[j0, j1)` held by `band` (`w` pixels a row):
-/// the conic and an exponential at every pixel of the bounding box.
+/// Composites `s` into `band`, whose first row is image row `j0`: the
+/// conic and an exponential at every pixel of the bounding box.
 #[inline]
-pub fn draw_exact<C: Composite>(
-    s: &SplatShape,
-    band: &mut [[f32; 4]],
-    w: u32,
-    j0: i64,
-    j1: i64,
-    cut: f32,
-    comp: &mut C,
-) {
-    let (ja, jb) = rows(s, j0, j1);
+pub fn draw_exact<C: Composite>(s: &SplatShape, band: &mut BandBuf, j0: i64, cut: f32, comp: &mut C) {
+    let w = band.width();
+    let (ja, jb) = rows(s, j0, j0 + band.rows() as i64);
     if ja > jb {
         return;
     }
@@ -102,7 +96,6 @@ pub fn draw_exact<C: Composite>(
     let ib = floor_i(s.x + s.rx - 0.5).min(w as i64 - 1);
     for j in ja..=jb {
         let dy = j as f32 + 0.5 - s.y;
-        let row = &mut band[(j - j0) as usize * w as usize..][..w as usize];
         for i in ia..=ib {
             let dx = i as f32 + 0.5 - s.x;
             let e = s.q[0] * dx * dx + 2.0 * s.q[1] * dx * dy + s.q[2] * dy * dy;
@@ -111,13 +104,9 @@ pub fn draw_exact<C: Composite>(
             }
             let alpha = 1.0 - exp_neg(-s.depth0 * exp_neg(-e));
             let r = (j - j0) as usize;
-            comp.run(
-                std::slice::from_mut(&mut row[i as usize]),
-                r,
-                i as usize,
-                &[alpha],
-                s.rgb,
-            );
+            let mut a8 = [0.0f32; LANES];
+            a8[0] = alpha;
+            comp.run(band, r, i as usize, &a8, 1, s.rgb);
         }
     }
 }
@@ -127,14 +116,13 @@ pub fn draw_exact<C: Composite>(
 #[inline]
 pub fn draw_incremental<C: Composite>(
     s: &SplatShape,
-    band: &mut [[f32; 4]],
-    w: u32,
+    band: &mut BandBuf,
     j0: i64,
-    j1: i64,
     cut: f32,
     comp: &mut C,
 ) {
-    let (ja, jb) = rows(s, j0, j1);
+    let w = band.width();
+    let (ja, jb) = rows(s, j0, j0 + band.rows() as i64);
     if ja > jb {
         return;
     }
@@ -158,7 +146,6 @@ pub fn draw_incremental<C: Composite>(
         if ia > ib {
             continue;
         }
-        let row = &mut band[(j - j0) as usize * w as usize..][..w as usize];
         let dx0 = ia as f32 + 0.5 - s.x;
         let e0 = (q0 * dx0 + 2.0 * b) * dx0 + q2 * dy * dy;
         let mut g = exp_neg(-e0.max(0.0));
@@ -175,7 +162,7 @@ pub fn draw_incremental<C: Composite>(
             for a in &mut alpha[..n] {
                 *a = 1.0 - exp_neg(-s.depth0 * *a);
             }
-            comp.run(&mut row[i..i + n], (j - j0) as usize, i, &alpha[..n], s.rgb);
+            comp.run(band, (j - j0) as usize, i, &alpha, n, s.rgb);
             i += n;
         }
     }
@@ -215,15 +202,21 @@ mod tests {
                     rx,
                     ry,
                 };
-                let mut a = vec![[0.0f32; 4]; (w * h) as usize];
-                let mut b = a.clone();
-                draw_exact(&s, &mut a, w, 0, h as i64, cut, &mut Over);
+                let (w, h) = (w as usize, h as usize);
+                let mut a = BandBuf::new(w, h);
+                draw_exact(&s, &mut a, 0, cut, &mut Over);
                 // Two bands, to check the row clipping.
-                let (top, bottom) = b.split_at_mut((w * 13) as usize);
-                draw_incremental(&s, top, w, 0, 13, cut, &mut Over);
-                draw_incremental(&s, bottom, w, 13, h as i64, cut, &mut Over);
+                let mut top = BandBuf::new(w, 13);
+                let mut bottom = BandBuf::new(w, h - 13);
+                draw_incremental(&s, &mut top, 0, cut, &mut Over);
+                draw_incremental(&s, &mut bottom, 13, cut, &mut Over);
+                let mut b = vec![[0.0f32; 4]; w * h];
+                top.write_rgba(&mut b[..w * 13]);
+                bottom.write_rgba(&mut b[w * 13..]);
+                let mut av = vec![[0.0f32; 4]; w * h];
+                a.write_rgba(&mut av);
                 let mut drawn = 0;
-                for (k, (p, r)) in a.iter().zip(&b).enumerate() {
+                for (k, (p, r)) in av.iter().zip(&b).enumerate() {
                     drawn += (p[3] > 0.0) as u32;
                     // A pixel at e = cut may fall either side of the cut.
                     let edge = p[3].min(r[3]) == 0.0 && p[3].max(r[3]) < 0.01;

@@ -21,13 +21,12 @@
 //!
 //! Perspective views keep the exact path (the conic changes per voxel).
 
+use super::buffer::{BandBuf, LANES};
 use super::composite::Composite;
 use super::footprint::Footprint;
 use super::raster::floor_i;
 use crate::render::cell::fastmath::exp_neg;
 
-/// Pixels per run of alphas (two SSE vectors, one AVX vector).
-pub const LANES: usize = 8;
 
 /// One table row of one phase: its non-zero columns `[c0, c1)` and where
 /// their weights start in the phase's packed block.
@@ -144,13 +143,14 @@ impl FootprintTable {
 
     /// Alpha scratch for [`FootprintTable::draw`]: one per band.
     pub fn scratch(&self) -> Vec<f32> {
-        vec![0.0; self.max_len]
+        // A run starts anywhere in the block and reads whole vectors.
+        vec![0.0; self.max_len + LANES]
     }
 
     /// Composites a splat centred at `(x, y)` with centre optical depth
-    /// `depth0` and colour `rgb` into rows `[j0, j1)` held by `band`
-    /// (`w` pixels per row), in front of what is there (premultiplied).
-    /// `alpha` is scratch from [`FootprintTable::scratch`].
+    /// `depth0` and colour `rgb` into `band`, whose first row is image row
+    /// `j0` (premultiplied, through `comp`). `alpha` is scratch from
+    /// [`FootprintTable::scratch`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn draw<C: Composite>(
@@ -159,14 +159,13 @@ impl FootprintTable {
         y: f32,
         depth0: f32,
         rgb: [f32; 3],
-        band: &mut [[f32; 4]],
-        w: u32,
+        band: &mut BandBuf,
         j0: i64,
-        j1: i64,
         alpha: &mut [f32],
         comp: &mut C,
     ) {
         let (bx, by, phase) = self.split(x, y);
+        let (w, j1) = (band.width(), j0 + band.rows() as i64);
         let b = self.blocks[phase];
         // Table rows [row0, row1) are pixel rows by - k + row; clipped to
         // the band.
@@ -211,13 +210,7 @@ impl FootprintTable {
             let i0 = (i_first + ca) as usize;
             let i1 = (i_first + cb) as usize;
             let a0 = s.off as usize + (ca - s.c0 as i64) as usize;
-            comp.run(
-                &mut band[r * w as usize + i0..r * w as usize + i1],
-                r,
-                i0,
-                &alpha[a0..a0 + (i1 - i0)],
-                rgb,
-            );
+            comp.run(band, r, i0, &alpha[a0..], i1 - i0, rgb);
         }
     }
 
@@ -307,7 +300,7 @@ mod tests {
                 (0.4, 1.2),
                 (-0.3, 0.2),
             ] {
-                let mut img = vec![[0.0f32; 4]; (w * h) as usize];
+                let mut band = BandBuf::new(w as usize, h as usize);
                 let mut scratch = t.scratch();
                 let depth0 = 0.7f32;
                 t.draw(
@@ -315,10 +308,8 @@ mod tests {
                     y,
                     depth0,
                     [1.0, 0.5, 0.25],
-                    &mut img,
-                    w,
+                    &mut band,
                     0,
-                    h as i64,
                     &mut scratch,
                     &mut Over,
                 );
@@ -335,7 +326,7 @@ mod tests {
                         } else {
                             0.0
                         };
-                        let got = img[(j * w + i) as usize];
+                        let got = band.pixel(j as usize, i as usize);
                         assert!(
                             (got[3] as f64 - want).abs() < 1e-5,
                             "({i},{j}) centre ({x},{y}): {} vs {want}",
