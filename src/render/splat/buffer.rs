@@ -68,12 +68,7 @@ impl BandBuf {
         let (rp, rest) = self.data.split_at_mut(plane);
         let (gp, rest) = rest.split_at_mut(plane);
         let (bp, ap) = rest.split_at_mut(plane);
-        [
-            lane(rp, at),
-            lane(gp, at),
-            lane(bp, at),
-            lane(ap, at),
-        ]
+        [lane(rp, at), lane(gp, at), lane(bp, at), lane(ap, at)]
     }
 
     /// `A` of row `r`, the `w` pixels.

@@ -35,7 +35,15 @@ pub trait Composite {
     /// must hold `n` rounded up to [`LANES`] values (those past `n` are
     /// read and ignored), so that every run is whole vectors.
     #[inline(always)]
-    fn run(&mut self, buf: &mut BandBuf, r: usize, i0: usize, alpha: &[f32], n: usize, rgb: [f32; 3]) {
+    fn run(
+        &mut self,
+        buf: &mut BandBuf,
+        r: usize,
+        i0: usize,
+        alpha: &[f32],
+        n: usize,
+        rgb: [f32; 3],
+    ) {
         let c = [rgb[0], rgb[1], rgb[2], 1.0];
         let mut k = 0;
         while k < n {

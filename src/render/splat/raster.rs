@@ -86,7 +86,13 @@ pub fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
 /// Composites `s` into `band`, whose first row is image row `j0`: the
 /// conic and an exponential at every pixel of the bounding box.
 #[inline]
-pub fn draw_exact<C: Composite>(s: &SplatShape, band: &mut BandBuf, j0: i64, cut: f32, comp: &mut C) {
+pub fn draw_exact<C: Composite>(
+    s: &SplatShape,
+    band: &mut BandBuf,
+    j0: i64,
+    cut: f32,
+    comp: &mut C,
+) {
     let w = band.width();
     let (ja, jb) = rows(s, j0, j0 + band.rows() as i64);
     if ja > jb {

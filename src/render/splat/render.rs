@@ -366,11 +366,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         voxels_drawn: drawn,
         fill_rate: drawn as f64 / total as f64,
         mask_passes,
-        table_phases: if table_used {
-            opts.table_phases
-        } else {
-            0
-        },
+        table_phases: if table_used { opts.table_phases } else { 0 },
         order_ms,
         splat_ms,
         prepass_ms,

@@ -27,7 +27,6 @@ use super::footprint::Footprint;
 use super::raster::floor_i;
 use crate::render::cell::fastmath::exp_neg;
 
-
 /// One table row of one phase: its non-zero columns `[c0, c1)` and where
 /// their weights start in the phase's packed block.
 #[derive(Debug, Clone, Copy, Default)]
