@@ -25,7 +25,6 @@ use super::buffer::{BandBuf, LANES};
 use super::composite::Composite;
 use super::footprint::Footprint;
 use super::raster::floor_i;
-use crate::render::cell::fastmath::exp_neg;
 
 /// One table row of one phase: its non-zero columns `[c0, c1)` and where
 /// their weights start in the phase's packed block.
@@ -184,6 +183,8 @@ impl FootprintTable {
         let hi = (spans[rb - 1].off as usize + (spans[rb - 1].c1 - spans[rb - 1].c0) as usize)
             .next_multiple_of(LANES);
         let wts = &self.weights[b.start as usize..][..b.len as usize];
+        // exp(-depth0 g) = 2^(-depth0 log2(e) g).
+        let d2 = depth0 * std::f32::consts::LOG2_E;
         for (a8, g8) in alpha[lo..hi]
             .chunks_exact_mut(LANES)
             .zip(wts[lo..hi].chunks_exact(LANES))
@@ -192,7 +193,7 @@ impl FootprintTable {
             let g8: &[f32; LANES] = g8.try_into().expect("LANES");
             let mut a = [0.0f32; LANES];
             for (a, &g) in a.iter_mut().zip(g8) {
-                *a = 1.0 - exp_neg(-depth0 * g);
+                *a = one_minus_exp2(-d2 * g);
             }
             a8.copy_from_slice(&a);
         }
@@ -269,10 +270,48 @@ impl FootprintTable {
     }
 }
 
+/// `1 - 2^x` for `x <= 0` (inputs below -126 give 1), the table path's
+/// per-pixel alpha `1 - exp(-tau l0 g)` with `x = -tau l0 log2(e) g`.
+///
+/// `x = k + f`, `k` the nearest integer (by the 1.5 * 2^23 trick, no
+/// libm call), `|f| <= 1/2`; `2^f = e^(f ln 2)` by its Taylor polynomial
+/// to degree 5 (relative error below `(ln 2 / 2)^6 / 720 < 2.5e-6`, i.e.
+/// under 1e-3/255 on an alpha), `2^k` put into the exponent bits. Fewer
+/// operations than `exp_neg` (no two-part `ln 2` reduction, degree 5
+/// instead of 7), on a vector of lanes at a time.
+#[inline(always)]
+pub fn one_minus_exp2(x: f32) -> f32 {
+    let x = x.max(-126.0);
+    const MAGIC: f32 = 12_582_912.0;
+    let k = (x + MAGIC) - MAGIC;
+    let f = (x - k) * std::f32::consts::LN_2;
+    let p = 1.0 + f * (1.0 + f * (0.5 + f * (1.0 / 6.0 + f * (1.0 / 24.0 + f * (1.0 / 120.0)))));
+    // 2^k: the biased exponent k + 127 (in [1, 127]) read off the mantissa
+    // bits of (k + 127 + 2^23).
+    let biased = (k + (127.0 + 8_388_608.0)).to_bits() & 0x007f_ffff;
+    1.0 - p * f32::from_bits(biased << 23)
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::composite::Over;
     use super::*;
+
+    /// `one_minus_exp2` is `1 - 2^x` to 3e-6 (absolute) over `[-130, 0]`,
+    /// exactly 0 at 0, and monotone on a fine grid (to its error).
+    #[test]
+    fn one_minus_exp2_is_accurate() {
+        assert_eq!(one_minus_exp2(0.0), 0.0);
+        let mut last = 0.0f32;
+        for i in 0..=1_300_000 {
+            let x = -(i as f32) * 1e-4;
+            let got = one_minus_exp2(x) as f64;
+            let want = 1.0 - (x as f64).exp2();
+            assert!((got - want).abs() < 3e-6, "x {x}: {got} vs {want}");
+            assert!(got as f32 >= last - 5e-6, "not monotone at {x}");
+            last = got as f32;
+        }
+    }
 
     /// Drawing one splat through the table equals the exact kernel at the
     /// rounded centre: `alpha = 1 - exp(-depth0 exp(-e))` per pixel, zero
