@@ -1,7 +1,8 @@
 //! Transparent huge pages for the frame's large buffers.
 //!
 //! A splatting frame writes a few hundred MB of fresh memory (the splat
-//! list, 44 bytes per drawn voxel: 166 MB at 23 % fill of 256^3, and the
+//! list, 24 bytes per drawn voxel in orthographic views, 44 in perspective
+//! ones: 91 or 166 MB at 23 % fill of 256^3; the mask payloads and the
 //! band bins). With 4 KiB pages every first touch is a page fault (tens of
 //! thousands per frame; 16 % of the samples of `perf record` at 23 % fill,
 //! session 7). Where the kernel's transparent huge pages are in `madvise`

@@ -16,8 +16,9 @@
 //! weight changes by at most `|∇g| / (2P) * √2`; measured against the exact
 //! path in `pvrsim bench --splat` (max-abs and RMSE in 1/255). Per pixel the
 //! renderer is left with one lookup, one exponential
-//! (`alpha = 1 - exp(-tau l0 g)`, which depends on the voxel) and the
-//! premultiplied blend, instead of the conic and two exponentials.
+//! (`alpha = 1 - exp(-tau l0 g)`, which depends on the voxel; by
+//! [`one_minus_exp2`]) and the premultiplied blend, instead of the conic and
+//! two exponentials.
 //!
 //! Perspective views keep the exact path (the conic changes per voxel).
 
@@ -215,8 +216,9 @@ impl FootprintTable {
     }
 
     /// Asks the CPU to fetch the table rows of a splat centred at `(x, y)`
-    /// into the cache (the phase blocks are hit at random, and the table
-    /// is larger than the L2 cache at 32 phases): issued one splat ahead
+    /// into the cache (the phase blocks are hit at random, and at 32 phases
+    /// the table, ~330 KB at 512^2 of 256^3, shares the L2 cache with the
+    /// band): issued one splat ahead
     /// of drawing. A hint only; no effect on the image.
     #[inline(always)]
     pub fn prefetch(&self, x: f32, y: f32) {
