@@ -330,21 +330,9 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
             frame::<Conic>(input, opts, &class, &model, &order_view, t0)
         }
     };
-    let Frame {
-        acc,
-        counts,
-        visible,
-        offscreen,
-        mask_passes,
-        prepass_ms,
-        order_ms,
-        bin_ms,
-        splat_ms,
-        c1,
-        c2,
-    } = frame;
+    let f = &frame;
     let project_ms = if opts.sparse {
-        order_ms - prepass_ms
+        f.order_ms - f.prepass_ms
     } else {
         0.0
     };
@@ -352,34 +340,34 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
 
     let bg = scene.image.background.map(|c| c as f32);
     let mut img = Image::new(w, h);
-    for (px, a) in img.pixels.iter_mut().zip(&acc) {
+    for (px, a) in img.pixels.iter_mut().zip(&f.acc) {
         let t = 1.0 - a[3];
         *px = [a[0] + t * bg[0], a[1] + t * bg[1], a[2] + t * bg[2], a[3]];
     }
     let total: u64 = dims.iter().product();
-    let drawn = visible - offscreen;
+    let drawn = f.visible - f.offscreen;
     let stats = SplatStats {
         order: opts.order.name().into(),
         voxels_total: total,
-        voxels_culled_transparent: total - visible,
-        voxels_offscreen: offscreen,
+        voxels_culled_transparent: total - f.visible,
+        voxels_offscreen: f.offscreen,
         voxels_drawn: drawn,
         fill_rate: drawn as f64 / total as f64,
-        mask_passes,
+        mask_passes: f.mask_passes,
         table_phases: if table_used { opts.table_phases } else { 0 },
-        order_ms,
-        splat_ms,
-        prepass_ms,
+        order_ms: f.order_ms,
+        splat_ms: f.splat_ms,
+        prepass_ms: f.prepass_ms,
         project_ms,
-        bin_ms,
-        raster_ms: splat_ms - bin_ms,
+        bin_ms: f.bin_ms,
+        raster_ms: f.splat_ms - f.bin_ms,
         ert_threshold: opts.ert.min(1.0) as f64,
         ert_error_bound: ert_bound(opts.ert, &scene.transfer, scene.image.background),
-        pieces: counts.pieces,
-        pieces_skipped_ert: counts.pieces_skipped,
-        bands: counts.bands,
-        order_cpu_ms: (c1 - c0) * 1e3,
-        splat_cpu_ms: (c2 - c1) * 1e3,
+        pieces: f.counts.pieces,
+        pieces_skipped_ert: f.counts.pieces_skipped,
+        bands: f.counts.bands,
+        order_cpu_ms: (f.c1 - c0) * 1e3,
+        splat_cpu_ms: (f.c2 - f.c1) * 1e3,
     };
     Ok((img, stats))
 }
