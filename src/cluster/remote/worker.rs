@@ -18,7 +18,7 @@ use tokio::runtime::Runtime;
 use super::guard::SessionGuard;
 use super::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
-use crate::net::tcp::{self, Link, Role, TcpOptions, Token};
+use crate::net::tcp::{self, Role, TcpOptions, Token};
 use crate::net::{
     run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, RemoteTransport, TrafficStats,
     WallClock, WallOptions,
@@ -195,7 +195,7 @@ impl Worker {
                         &mut self.cache,
                         CACHE_ENTRIES,
                         &mut self.grid,
-                        super::grid::Mesh {
+                        super::mesh::Mesh {
                             rt: &self.rt,
                             listener: &self.listener,
                             token: &self.token,
@@ -253,7 +253,7 @@ impl Worker {
             }
         };
         // The mesh: dial lower ranks, accept higher ones.
-        let t = super::grid::Mesh {
+        let t = super::mesh::Mesh {
             rt: &self.rt,
             listener: &self.listener,
             token: &self.token,
@@ -546,78 +546,4 @@ fn worker_lists(
     } else {
         crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
     }
-}
-
-/// Dials every lower rank and accepts every higher one, concurrently
-/// (rank `me` of `nodes` workers at `peers`).
-pub(super) async fn mesh(
-    listener: &TcpListener,
-    token: &Token,
-    opts: &TcpOptions,
-    me: u32,
-    nodes: u32,
-    peers: &[String],
-) -> anyhow::Result<Vec<Link>> {
-    let dial = async {
-        let mut links = Vec::new();
-        for j in 0..me {
-            let addr = &peers[j as usize];
-            let (s, hello) = tcp::connect(addr, token, Role::Worker, me, opts)
-                .await
-                .with_context(|| format!("node {me} connecting to node {j} at {addr}"))?;
-            anyhow::ensure!(
-                hello.role == Role::Worker,
-                "{addr} (node {j}) answered as {:?}, not as a worker",
-                hello.role
-            );
-            links.push(Link {
-                rank: NodeId(j),
-                name: format!("worker {j} ({addr})"),
-                stream: s,
-            });
-        }
-        Ok::<_, anyhow::Error>(links)
-    };
-    let accept = async {
-        let mut links: Vec<Link> = Vec::new();
-        let want = (nodes - me - 1) as usize;
-        let limit = opts.handshake_timeout * 2 + Duration::from_secs(5);
-        let all = async {
-            while links.len() < want {
-                match tcp::accept(listener, token, Role::Worker, me, opts).await {
-                    Ok((s, h, from)) => {
-                        let ok = h.role == Role::Worker
-                            && h.rank > me
-                            && h.rank < nodes
-                            && !links.iter().any(|l| l.rank.0 == h.rank);
-                        if ok {
-                            links.push(Link {
-                                rank: NodeId(h.rank),
-                                name: format!("worker {} ({})", h.rank, peers[h.rank as usize]),
-                                stream: s,
-                            });
-                        } else {
-                            eprintln!(
-                                "pvrsim worker: node {me}: unexpected {:?} rank {} from {from} while joining the mesh; closed",
-                                h.role, h.rank
-                            );
-                        }
-                    }
-                    Err(e) => eprintln!("pvrsim worker: node {me}: refused a connection: {e}"),
-                }
-            }
-        };
-        tokio::time::timeout(limit, all).await.map_err(|_| {
-            anyhow::anyhow!(
-                "node {me}: only {} of the {want} higher-ranked workers connected within {:.0} s",
-                links.len(),
-                limit.as_secs_f64()
-            )
-        })?;
-        Ok::<_, anyhow::Error>(links)
-    };
-    let (a, b) = tokio::join!(dial, accept);
-    let mut links = a?;
-    links.extend(b?);
-    Ok(links)
 }
