@@ -1,5 +1,5 @@
-//! How a worker joins the mesh of its peers: [`mesh`] dials every lower
-//! rank and accepts every higher one, [`Mesh::transport`] adds the
+//! How a worker joins the mesh of its peers: `mesh` dials every lower
+//! rank and accepts every higher one, `Mesh::transport` adds the
 //! coordinator's link and builds the rank's transport. Used by the mesh
 //! workers ([`super::worker`]) and the grid workers ([`super::grid`]).
 use std::sync::Arc;

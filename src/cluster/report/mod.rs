@@ -26,9 +26,9 @@
 //!   skipped by the sequential run (1: the cluster skips as much as one
 //!   machine that sees every cell).
 //!
-//! Files: [`types`] holds the report's records ([`ClusterReport`],
-//! [`NodeReport`], the raw per-node numbers, replication cost), [`build`]
-//! computes a report from a run's pieces, [`summary`](mod@summary) prints it.
+//! Files: `types.rs` holds the report's records ([`ClusterReport`],
+//! [`NodeReport`], the raw per-node numbers, replication cost), `build.rs`
+//! computes a report from a run's pieces, `summary.rs` prints it.
 
 mod build;
 mod summary;

@@ -1,7 +1,7 @@
 //! The sweep config file (TOML, see docs/sweeps.md): [`RawConfig`] as
 //! written, validated into a [`Plan`]. Every error names the file and the key.
 //!
-//! Files: [`raw`] the file's tables as written (serde), [`plan`] their
+//! Files: `raw.rs` the file's tables as written (serde), `plan.rs` their
 //! validation into a [`Plan`] and the plan's queries.
 
 mod plan;

@@ -24,8 +24,8 @@
 //! (which ends phase 1 for everyone) and the node stops: no panic.
 //!
 //! Files: this one holds the actor's state and its event handler;
-//! [`config`] its configuration and counters; [`work`] scanning, sharing
-//! and the release share; [`messages`] what it does with each message.
+//! `config.rs` its configuration and counters; `work.rs` scanning, sharing
+//! and the release share; `messages.rs` what it does with each message.
 
 mod config;
 mod messages;

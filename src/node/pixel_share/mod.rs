@@ -13,7 +13,7 @@
 //!
 //! ## What a node sends
 //!
-//! For each of `L` levels `a_l = 1 - (1 - thr)^(l / L)` ([`level_alphas`])
+//! For each of `L` levels `a_l = 1 - (1 - thr)^(l / L)` ([`level_alphas`](super::levels::level_alphas))
 //! and each pixel, the depth `d_{k,l}(p)` at which node `k`'s *own* segments
 //! (front to back, gaps allowed) first reach `a_l`: the `z_back` of the
 //! segment where the running alpha crosses it (`+inf` if not yet). It is a
@@ -61,9 +61,9 @@
 //!
 //! ## Files
 //!
-//! [`quant`]: the depth codes; [`wire`]: the share and reply messages and
-//! their byte forms; [`store`]: the manager's store and the `L`-th smallest
-//! combination; [`node`]: a node's side.
+//! `quant.rs`: the depth codes; `wire.rs`: the share and reply messages and
+//! their byte forms; `store.rs`: the manager's store and the `L`-th smallest
+//! combination; `node.rs`: a node's side.
 
 mod node;
 mod quant;

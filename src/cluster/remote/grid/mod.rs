@@ -21,8 +21,8 @@
 //! paper); binary swap and direct send between grid workers are refused.
 //!
 //! Files: this one holds the messages and the coordinator's options,
-//! [`coordinator`] runs a frame from the coordinator's side (set-ups,
-//! results, the master's or the workers' compositing), [`serve`] is the
+//! `coordinator.rs` runs a frame from the coordinator's side (set-ups,
+//! results, the master's or the workers' compositing), `serve.rs` is the
 //! worker's side of a grid session. Joining the mesh of peers is
 //! [`super::mesh`].
 
@@ -41,7 +41,7 @@ use crate::cluster::remote::phase2::RankLog;
 use crate::net::tcp::{TcpOptions, Token};
 use crate::node::grid::GridNodeStats;
 
-/// The grid messages inside [`Session::Grid`].
+/// The grid messages inside [`Session::Grid`](super::session::Session::Grid).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub enum GridMsg {
     /// The worker's frame.
@@ -58,7 +58,7 @@ pub struct GridResult {
     /// Its numbers (`host_s` is its measured render time).
     pub stats: GridNodeStats,
     /// Its layers cropped to the screen, empty ones dropped, as one
-    /// [`layer_exec::encode`] message under the setup's codec (empty when
+    /// [`encode`](crate::compositor::layer::exec::encode) message under the setup's codec (empty when
     /// the workers composite among themselves).
     pub layers: Vec<u8>,
 }

@@ -1,13 +1,13 @@
 //! The worker process (`pvrsim worker`): listens, authenticates the
 //! coordinator, builds its node from the set-up, joins the mesh of peers,
-//! runs the [`NodeActor`] with the same thread driver loop as `--clock wall`
-//! ([`run_actor`]) and sends its results; then, when the coordinator says
+//! runs the [`NodeActor`](crate::node::NodeActor) with the same thread driver loop as `--clock wall`
+//! ([`run_actor`](crate::net::run_actor)) and sends its results; then, when the coordinator says
 //! every node is done, runs its part of phase 2 worker to worker
 //! ([`super::phase2`]). Then it serves the next session, or exits
 //! (`--once`). Cells are cached by SHA-256 across sessions.
 //!
 //! Files: this one is the process (listen, authenticate, sessions, the
-//! cells' cache); [`node`] runs one node's frame over any transport (TCP
+//! cells' cache); `node.rs` runs one node's frame over any transport (TCP
 //! and MPI workers both end there).
 
 mod node;
