@@ -13,7 +13,7 @@ pub struct ClusterErtArgs {
     /// What nodes test cells against. `pyramid` (default): a per-pixel
     /// max-pyramid (the sequential renderer's best test) and, with
     /// `--share`, per-pixel opacity levels combined by the manager so that
-    /// opacity adds up across nodes (src/node/pixel_share.rs). `flat`: the
+    /// opacity adds up across nodes (src/node/pixel_share/). `flat`: the
     /// paper's D x D table and its per-entry sharing.
     #[arg(long, value_enum)]
     pub ert_structure: Option<ErtStructure>,

@@ -14,7 +14,8 @@
 //! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
-//! | [`worker`] | `pvrsim worker`: sessions, the mesh, one node |
+//! | [`mesh`] | a worker joins the mesh of its peers; its transport with the coordinator's link |
+//! | [`worker`] | `pvrsim worker`: sessions, one node |
 //! | `mpi` | (feature `mpi`) `--transport mpi`: the coordinator on MPI rank 0, the workers' set-up over MPI |
 //! | [`reassign`] | `--on-failure reassign`: lost workers' cells to the survivors, the frame again |
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
@@ -26,6 +27,7 @@ pub mod drive;
 pub mod grid;
 pub mod grid_wire;
 pub mod guard;
+pub mod mesh;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod phase2;

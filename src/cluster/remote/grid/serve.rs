@@ -1,0 +1,320 @@
+//! The worker's side of a grid session: the bricks' samples from the cache
+//! or the coordinator, the bricks rendered into layers, then the layers
+//! sent to the master, or composited worker to worker.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::net::TcpStream;
+use tokio::runtime::Runtime;
+
+use super::{GridMsg, GridResult};
+use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
+use crate::cluster::remote::mesh::Mesh;
+use crate::cluster::remote::phase2::run_partial;
+use crate::cluster::remote::session::{sha256, Session};
+use crate::compositor::codec::layers::from_name as layer_codec;
+use crate::compositor::layer::exec as layer_exec;
+use crate::compositor::layer::rank::LayerRank;
+use crate::compositor::layer::Layer;
+use crate::compositor::region::{area, screen};
+use crate::data::{Volume, Voxels};
+use crate::net::tcp::{self, TcpTransport};
+use crate::net::{Action, Actor, Codec, Event, MessageKind, NodeId, RemoteTransport, Transport};
+use crate::node::grid::cache::BrickTextures;
+use crate::node::grid::GridNodeActor;
+use crate::node::grid::GridNodeStats;
+use crate::render::VolumeInput;
+use crate::scene::Scene;
+
+/// A voxel-free volume with the whole's geometry: what a worker's bricks
+/// need of the whole (planes, screen rectangles, grid coordinates); no
+/// renderer reads the whole's samples (a brick renders from its own).
+fn whole_shape(setup: &GridSetup) -> Volume {
+    Volume {
+        dims: setup.whole_dims,
+        spacing: setup.whole_spacing,
+        origin: setup.whole_origin,
+        field: setup.field.clone(),
+        voxels: Voxels::U8(Vec::new()),
+    }
+}
+
+/// What a grid worker keeps from one session to the next: its last
+/// bricks' samples (decoded) and their textures ([`crate::node::grid::cache`]),
+/// valid while the set-up names the same brick bytes (SHA-256).
+#[derive(Default)]
+pub struct GridWorkerCache {
+    bricks: Option<([u8; 32], Vec<Arc<Volume>>)>,
+    textures: Option<BrickTextures>,
+}
+
+/// Serves a grid session on a worker (`setup` came first on `stream`):
+/// samples from the cache or the coordinator, the bricks rendered, the
+/// layers sent back. `cache` is the worker's content cache.
+#[allow(clippy::too_many_arguments)]
+pub(in crate::cluster::remote) fn serve(
+    rt: &Runtime,
+    mut stream: TcpStream,
+    cache: &mut VecDeque<([u8; 32], Vec<u8>)>,
+    cache_entries: usize,
+    kept: &mut GridWorkerCache,
+    mesh: Mesh,
+    setup: GridSetup,
+    coord: NodeId,
+    name: &str,
+) -> anyhow::Result<()> {
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    let me = NodeId(setup.rank);
+    let d = Duration::from_secs(60);
+    let fail = |rt: &Runtime, stream: &mut TcpStream, why: String| -> anyhow::Error {
+        let _ = rt.block_on(tcp::raw::write_msg(
+            stream,
+            &codec,
+            me,
+            coord,
+            &Session::Failed(why.clone()),
+            name,
+        ));
+        anyhow::anyhow!(why)
+    };
+    if let Err(e) = setup.validate() {
+        return Err(fail(
+            rt,
+            &mut stream,
+            format!("bad grid set-up from {name}: {e}"),
+        ));
+    }
+    let cached = cache.iter().position(|(h, _)| *h == setup.bricks_sha256);
+    rt.block_on(tcp::raw::write_msg(
+        &mut stream,
+        &codec,
+        me,
+        coord,
+        &Session::Need(cached.is_none()),
+        name,
+    ))?;
+    let bytes = match cached {
+        Some(i) => cache[i].1.clone(),
+        None => {
+            let m: Session = rt.block_on(tcp::raw::read_msg(&mut stream, &codec, d, name))?;
+            let Session::Cells(bytes) = m else {
+                anyhow::bail!("{name} sent {m:?} instead of the bricks");
+            };
+            anyhow::ensure!(
+                sha256(&bytes) == setup.bricks_sha256,
+                "the bricks from {name} do not match their SHA-256"
+            );
+            if cache.len() >= cache_entries {
+                cache.pop_front();
+            }
+            cache.push_back((setup.bricks_sha256, bytes.clone()));
+            bytes
+        }
+    };
+    if !setup.peers.is_empty() {
+        return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name);
+    }
+    let result = render(&setup, &bytes, kept)
+        .and_then(|(stats, layers)| {
+            let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+            let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
+            Ok(GridResult { stats, layers })
+        })
+        .map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
+    let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
+    rt.block_on(tcp::raw::write_msg(
+        &mut stream,
+        &codec,
+        me,
+        coord,
+        &msg,
+        name,
+    ))?;
+    // Wait for the coordinator to close, so that nothing is cut short.
+    let _ = rt.block_on(tcp::raw::read_msg::<_, Session>(
+        &mut stream,
+        &codec,
+        d,
+        name,
+    ));
+    Ok(())
+}
+
+/// A grid worker's frame composited worker to worker: join the mesh of
+/// peers (dial lower ranks, accept higher ones), render, send the stats to
+/// the coordinator, run this rank's part of the schedule over the mesh
+/// ([`crate::cluster::remote::phase2::run_partial`] with a [`LayerRank`]), send the log. Any
+/// error is reported to the coordinator (`Failed`) before the links close.
+fn serve_p2p(
+    stream: TcpStream,
+    kept: &mut GridWorkerCache,
+    mesh: Mesh,
+    setup: &GridSetup,
+    bytes: &[u8],
+    coord: NodeId,
+    name: &str,
+) -> anyhow::Result<()> {
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    let t = mesh.transport(
+        setup.rank,
+        setup.nodes,
+        &setup.peers,
+        coord,
+        name.to_string(),
+        stream,
+        codec,
+    )?;
+    t.set_essential(coord, true);
+    let r = frame_p2p(&t, kept, setup, bytes, coord);
+    match r {
+        Ok(()) => {
+            t.close(Duration::from_secs(10));
+            Ok(())
+        }
+        Err(e) => {
+            let why = format!("grid node {}: {e:#}", setup.rank);
+            let _ = codec
+                .encode(&Session::Failed(why.clone()))
+                .map(|b| t.send(coord, MessageKind::Session, b));
+            t.close(Duration::from_secs(2));
+            anyhow::bail!(why)
+        }
+    }
+}
+
+/// Render, stats to the coordinator, phase 2 over `t`, the log.
+fn frame_p2p(
+    t: &TcpTransport,
+    kept: &mut GridWorkerCache,
+    setup: &GridSetup,
+    bytes: &[u8],
+    coord: NodeId,
+) -> anyhow::Result<()> {
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    let (stats, layers) = render(setup, bytes, kept)?;
+    let result = GridResult {
+        stats,
+        layers: Vec::new(),
+    };
+    let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
+    t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
+    let scene = Scene::parse(
+        &setup.scene_toml,
+        std::path::Path::new("(scene from the coordinator)"),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    let sched = strategy.schedule(
+        setup.nodes as usize,
+        screen(scene.image.width, scene.image.height),
+    );
+    sched.validate().map_err(|e| anyhow::anyhow!(e))?;
+    let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let mut state = LayerRank::new(
+        lc.as_ref(),
+        sched.image,
+        layers,
+        setup.bricks_total,
+        strategy.merges_early(),
+    );
+    let log = run_partial(
+        t,
+        setup.rank as usize,
+        coord,
+        &sched,
+        &mut state,
+        Vec::new(),
+        Duration::from_secs_f64(setup.recv_timeout_s),
+    )?;
+    let msg = Session::Grid(Box::new(GridMsg::Done(Box::new(log))));
+    t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
+    Ok(())
+}
+
+/// Renders the set-up's bricks with the same actor as the other clocks.
+fn render(
+    setup: &GridSetup,
+    bytes: &[u8],
+    kept: &mut GridWorkerCache,
+) -> anyhow::Result<(GridNodeStats, Vec<Layer>)> {
+    let vols: Vec<Arc<Volume>> = match &kept.bricks {
+        Some((h, v)) if *h == setup.bricks_sha256 => v.clone(),
+        _ => {
+            kept.textures = None;
+            let v: Vec<Arc<Volume>> = decode_bricks(bytes, &setup.field)
+                .map_err(|e| anyhow::anyhow!(e))?
+                .into_iter()
+                .map(Arc::new)
+                .collect();
+            kept.bricks = Some((setup.bricks_sha256, v.clone()));
+            v
+        }
+    };
+    anyhow::ensure!(
+        vols.len() == setup.bricks.len(),
+        "{} bricks' samples for {} bricks",
+        vols.len(),
+        setup.bricks.len()
+    );
+    for (v, b) in vols.iter().zip(&setup.bricks) {
+        anyhow::ensure!(
+            v.dims == b.dims,
+            "brick {}: samples {:?} for a brick of {:?}",
+            b.id,
+            v.dims,
+            b.dims
+        );
+    }
+    let scene = Scene::parse(
+        &setup.scene_toml,
+        std::path::Path::new("(scene from the coordinator)"),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (w, h) = (scene.image.width, scene.image.height);
+    let whole = Arc::new(VolumeInput {
+        scene,
+        volume: Arc::new(whole_shape(setup)),
+        range: setup.range,
+    });
+    let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let opts = setup.slice.options().map_err(|e| anyhow::anyhow!(e))?;
+    setup.renderer.check(&opts)?;
+    let held = setup
+        .bricks
+        .iter()
+        .zip(vols)
+        .map(|(b, v)| (b.brick(), v, b.rank))
+        .collect();
+    let mut actor = GridNodeActor::new(
+        setup.rank as usize,
+        whole,
+        setup.planes(),
+        held,
+        opts,
+        lc.depth(),
+        setup.profile,
+        setup.renderer,
+    )
+    .with_textures(if setup.texture_cache {
+        Some(kept.textures.take().unwrap_or_default())
+    } else {
+        None
+    });
+    let actions = actor.handle(0.0, Event::Start);
+    kept.textures = actor.take_textures();
+    debug_assert!(actions.iter().any(|a| matches!(a, Action::Stop)));
+    if let Some(e) = &actor.stats().error {
+        anyhow::bail!("grid node {}: {e}", setup.rank);
+    }
+    let full = screen(w, h);
+    let layers: Vec<Layer> = actor
+        .take_layers()
+        .iter()
+        .map(|l| l.crop(&full))
+        .filter(|l| area(&l.rect) > 0)
+        .collect();
+    Ok((actor.stats().clone(), layers))
+}

@@ -1,0 +1,247 @@
+//! The worker process (`pvrsim worker`): listens, authenticates the
+//! coordinator, builds its node from the set-up, joins the mesh of peers,
+//! runs the [`NodeActor`](crate::node::NodeActor) with the same thread driver loop as `--clock wall`
+//! ([`run_actor`](crate::net::run_actor)) and sends its results; then, when the coordinator says
+//! every node is done, runs its part of phase 2 worker to worker
+//! ([`super::phase2`]). Then it serves the next session, or exits
+//! (`--once`). Cells are cached by SHA-256 across sessions.
+//!
+//! Files: this one is the process (listen, authenticate, sessions, the
+//! cells' cache); `node.rs` runs one node's frame over any transport (TCP
+//! and MPI workers both end there).
+
+mod node;
+
+pub use node::{build_node, run_node, Hooks};
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use tokio::net::TcpListener;
+use tokio::runtime::Runtime;
+
+use crate::cluster::remote::session::Session;
+use crate::net::tcp::{self, Role, TcpOptions, Token};
+use crate::net::{Codec, NodeId};
+
+/// How many datasets' cells a worker keeps.
+const CACHE_ENTRIES: usize = 4;
+
+/// A bound worker, ready to serve.
+pub struct Worker {
+    rt: Arc<Runtime>,
+    listener: TcpListener,
+    token: Token,
+    opts: TcpOptions,
+    cache: VecDeque<([u8; 32], Vec<u8>)>,
+    grid: crate::cluster::remote::grid::GridWorkerCache,
+    /// Give up if no session starts within this (`None`: wait forever).
+    pub accept_timeout: Option<Duration>,
+    /// Test hook (hidden `--test-kill-after-chunks K`): the process kills
+    /// itself with SIGKILL when its node starts chunk `K + 1` of phase 1,
+    /// a deterministic `kill -9` mid-frame.
+    pub kill_after_chunks: Option<u64>,
+    /// Test hook (hidden `--test-kill-in-phase2`): SIGKILL when phase 2
+    /// starts, a deterministic death in phase 2.
+    pub kill_in_phase2: bool,
+}
+
+impl Worker {
+    /// Binds `addr` (port 0: any free port). Refuses a non-loopback address
+    /// without a token.
+    pub fn bind(addr: &str, token: Token, opts: TcpOptions) -> anyhow::Result<Worker> {
+        // Checked before binding: a refused address is never opened.
+        let addrs: Vec<std::net::SocketAddr> = std::net::ToSocketAddrs::to_socket_addrs(addr)
+            .with_context(|| format!("--listen {addr}: not an address (host:port)"))?
+            .collect();
+        for a in &addrs {
+            tcp::check_exposure(a, &token, "listening on")?;
+        }
+        let rt = tcp::runtime()?;
+        let listener = rt
+            .block_on(TcpListener::bind(addr))
+            .with_context(|| format!("cannot listen on {addr}"))?;
+        let local = listener.local_addr()?;
+        tcp::check_exposure(&local, &token, "listening on")?;
+        Ok(Worker {
+            rt,
+            listener,
+            token,
+            opts,
+            cache: VecDeque::new(),
+            grid: Default::default(),
+            accept_timeout: None,
+            kill_after_chunks: None,
+            kill_in_phase2: false,
+        })
+    }
+
+    /// The address it listens on.
+    pub fn local_addr(&self) -> anyhow::Result<std::net::SocketAddr> {
+        Ok(self.listener.local_addr()?)
+    }
+
+    /// Serves sessions; with `once`, returns after the first one (its
+    /// outcome). Connections that fail the handshake are reported on stderr
+    /// and do not count.
+    pub fn serve(&mut self, once: bool) -> anyhow::Result<()> {
+        loop {
+            let accept = tcp::accept(
+                &self.listener,
+                &self.token,
+                Role::Worker,
+                u32::MAX,
+                &self.opts,
+            );
+            let acc = match self.accept_timeout {
+                None => self.rt.block_on(accept),
+                Some(t) => match self
+                    .rt
+                    .block_on(async { tokio::time::timeout(t, accept).await })
+                {
+                    Ok(r) => r,
+                    Err(_) => anyhow::bail!(
+                        "no coordinator started a session within {:.0} s (--accept-timeout)",
+                        t.as_secs_f64()
+                    ),
+                },
+            };
+            let (stream, hello, from) = match acc {
+                Ok(x) => x,
+                Err(e) => {
+                    eprintln!("pvrsim worker: refused a connection: {e}");
+                    continue;
+                }
+            };
+            let r = match hello.role {
+                Role::Coordinator => self.session(stream, hello.rank, from.to_string()),
+                Role::Probe => crate::cluster::remote::probe::echo(&self.rt, stream, &self.opts)
+                    .map_err(anyhow::Error::from),
+                Role::Worker => {
+                    eprintln!(
+                        "pvrsim worker: a worker connected from {from} outside a session; closed"
+                    );
+                    continue;
+                }
+            };
+            match &r {
+                Ok(()) => eprintln!("pvrsim worker: session with {from} done"),
+                Err(e) => eprintln!("pvrsim worker: session with {from} failed: {e:#}"),
+            }
+            if once {
+                return r;
+            }
+        }
+    }
+
+    fn session(
+        &mut self,
+        mut stream: tokio::net::TcpStream,
+        coord_rank: u32,
+        coord_name: String,
+    ) -> anyhow::Result<()> {
+        let codec = Codec::default();
+        let d = self.opts.deadline.max(Duration::from_secs(10));
+        let coord = NodeId(coord_rank);
+        let name = format!("the coordinator ({coord_name})");
+        // Set-up on the bare stream.
+        let setup: Session = self
+            .rt
+            .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+        let setup = match setup {
+            Session::Setup(s) => s,
+            Session::Grid(g) => match *g {
+                crate::cluster::remote::grid::GridMsg::Setup(s) => {
+                    return crate::cluster::remote::grid::serve(
+                        &self.rt,
+                        stream,
+                        &mut self.cache,
+                        CACHE_ENTRIES,
+                        &mut self.grid,
+                        crate::cluster::remote::mesh::Mesh {
+                            rt: &self.rt,
+                            listener: &self.listener,
+                            token: &self.token,
+                            opts: &self.opts,
+                        },
+                        *s,
+                        coord,
+                        &name,
+                    )
+                }
+                other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
+            },
+            other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
+        };
+        setup
+            .validate()
+            .map_err(|e| anyhow::anyhow!("bad set-up from {name}: {e}"))?;
+        anyhow::ensure!(
+            coord_rank == setup.nodes,
+            "{name} says it is rank {coord_rank}, but the set-up has {} nodes",
+            setup.nodes
+        );
+        let me = NodeId(setup.rank);
+        let codec = Codec::with_limit(setup.max_message_bytes);
+        let cached = self
+            .cache
+            .iter()
+            .position(|(h, _)| *h == setup.cells_sha256);
+        self.rt.block_on(tcp::raw::write_msg(
+            &mut stream,
+            &codec,
+            me,
+            coord,
+            &Session::Need(cached.is_none()),
+            &name,
+        ))?;
+        let cells = match cached {
+            Some(i) => self.cache[i].1.clone(),
+            None => {
+                let m: Session =
+                    self.rt
+                        .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+                let Session::Cells(bytes) = m else {
+                    anyhow::bail!("{name} sent {m:?} instead of the cells");
+                };
+                anyhow::ensure!(
+                    crate::cluster::remote::session::sha256(&bytes) == setup.cells_sha256,
+                    "the cells from {name} do not match their SHA-256"
+                );
+                if self.cache.len() >= CACHE_ENTRIES {
+                    self.cache.pop_front();
+                }
+                self.cache.push_back((setup.cells_sha256, bytes.clone()));
+                bytes
+            }
+        };
+        // The mesh: dial lower ranks, accept higher ones.
+        let t = crate::cluster::remote::mesh::Mesh {
+            rt: &self.rt,
+            listener: &self.listener,
+            token: &self.token,
+            opts: &self.opts,
+        }
+        .transport(
+            setup.rank,
+            setup.nodes,
+            &setup.peers,
+            coord,
+            name,
+            stream,
+            codec,
+        )?;
+        run_node(
+            &t,
+            &setup,
+            &cells,
+            d,
+            Hooks {
+                kill_after_chunks: self.kill_after_chunks,
+                kill_in_phase2: self.kill_in_phase2,
+            },
+        )
+    }
+}

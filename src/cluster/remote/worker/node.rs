@@ -1,0 +1,321 @@
+//! One node's frame on a worker, transport independent ([`run_node`]):
+//! build the node from the set-up, phase 1 with the thread driver loop,
+//! the result, phase 2 worker to worker; and the test hooks that kill the
+//! process mid-frame ([`Hooks`]).
+
+use std::path::Path;
+use std::time::Duration;
+
+use crate::cluster::remote::guard::SessionGuard;
+use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
+use crate::cluster::report::NodeRaw;
+use crate::net::{
+    run_actor, Codec, ComputeMode, Counter, MessageKind, NodeId, RemoteTransport, TrafficStats,
+    WallClock, WallOptions,
+};
+use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
+use crate::render::cell::PreparedTf;
+use crate::scene::Scene;
+
+/// The test hooks' way to die: SIGKILL, as `kill -9` would.
+fn kill_self(why: &str) {
+    eprintln!("pvrsim worker: killing itself {why}");
+    // SAFETY: getpid and kill have no preconditions; this is a test hook
+    // that ends the process on purpose.
+    unsafe {
+        libc::kill(libc::getpid(), libc::SIGKILL);
+    }
+}
+
+/// The node actor, counting its chunks (`Start` and every `Wake`) for
+/// [`super::Worker::kill_after_chunks`].
+struct Chunks<'a> {
+    node: &'a mut NodeActor,
+    kill_after: Option<u64>,
+    seen: u64,
+}
+
+impl crate::net::Actor for Chunks<'_> {
+    fn handle(&mut self, now: f64, event: crate::net::Event) -> Vec<crate::net::Action> {
+        if matches!(event, crate::net::Event::Start | crate::net::Event::Wake(_)) {
+            if self.kill_after == Some(self.seen) {
+                kill_self(&format!(
+                    "after {} chunks (--test-kill-after-chunks)",
+                    self.seen
+                ));
+            }
+            self.seen += 1;
+        }
+        self.node.handle(now, event)
+    }
+}
+
+/// The worker's test hooks (see [`super::Worker`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hooks {
+    /// SIGKILL when the node starts chunk `K + 1` of phase 1.
+    pub kill_after_chunks: Option<u64>,
+    /// SIGKILL when phase 2 starts.
+    pub kill_in_phase2: bool,
+}
+
+/// One node's frame over `t` (rank `setup.rank`; the coordinator is rank
+/// `setup.nodes`), once the set-up and the cells are in and the links to
+/// the peers are up: build the node, `Ready`, wait (at most `go_wait`) for
+/// `Go`, phase 1, the result, phase 2, the log. On any error the
+/// coordinator is told why (`Failed`) before the links close. Transport
+/// independent: TCP and MPI workers both end here.
+pub fn run_node<T: RemoteTransport>(
+    t: &T,
+    setup: &WorkerSetup,
+    cells: &[u8],
+    go_wait: Duration,
+    hooks: Hooks,
+) -> anyhow::Result<()> {
+    let coord = NodeId(setup.nodes);
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    let d = go_wait;
+    t.set_essential(coord, true);
+    // Built after the mesh (peers wait on our accept meanwhile) and
+    // with the links up (heartbeats flow while the cells are sorted).
+    let mut actor = match build_node(setup, cells) {
+        Ok(a) => a,
+        Err(e) => {
+            let why = format!("node {}: {e:#}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why))?,
+            );
+            t.close(Duration::from_secs(2));
+            return Err(e);
+        }
+    };
+    let ready = Session::Ready {
+        remaining: actor.renderer().remaining() as u64,
+    };
+    t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
+    // Wait for Go; messages from peers that started earlier are kept.
+    let early = SessionGuard::wait_go(t, coord, codec, d)?;
+    eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
+    let clock = WallClock::start();
+    let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
+    let wire0 = t.stats();
+    let run = run_actor(
+        &early,
+        Chunks {
+            node: &mut actor,
+            kill_after: hooks.kill_after_chunks,
+            seen: 0,
+        },
+        clock,
+        WallOptions {
+            compute: ComputeMode::Skip,
+            recv_timeout: timeout,
+        },
+    );
+    let (stop, trace, traffic) = match run {
+        Ok(x) => x,
+        Err(e) => {
+            // Tell the coordinator why (a lost peer, most likely).
+            let why = format!("node {} in phase 1: {e}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why.clone()))?,
+            );
+            t.close(Duration::from_secs(2));
+            anyhow::bail!(why);
+        }
+    };
+    if let Some(e) = &actor.stats().error {
+        eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
+    }
+    let mut wire = t.stats();
+    wire.payload = traffic.clone();
+    wire.wire_bytes_sent -= wire0.wire_bytes_sent;
+    wire.wire_bytes_recv -= wire0.wire_bytes_recv;
+    let scene = parse_scene(setup)?;
+    let lists = worker_lists(&actor, setup, (scene.image.width, scene.image.height));
+    let result = NodeResult {
+        raw: NodeRaw::from_actor(&actor),
+        stopped_at: stop,
+        trace,
+        traffic,
+        wire,
+    };
+    t.send(
+        coord,
+        MessageKind::Session,
+        codec.encode(&Session::Result(Box::new(result)))?,
+    )?;
+    // Phase 2, once every node is done with phase 1.
+    let wire0 = t.stats();
+    let r = wait_composite(t, coord, codec, timeout).and_then(|early| {
+        if hooks.kill_in_phase2 {
+            kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+        }
+        let log = phase2(t, setup, &scene, lists, early, timeout)?;
+        let mut wire = t.stats();
+        wire.wire_bytes_sent -= wire0.wire_bytes_sent;
+        wire.wire_bytes_recv -= wire0.wire_bytes_recv;
+        wire.payload = diff_traffic(&wire.payload, &wire0.payload);
+        Ok((log, wire))
+    });
+    match r {
+        Ok(done) => {
+            t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Phase2Done(Box::new(done)))?,
+            )?;
+            t.close(Duration::from_secs(10));
+            Ok(())
+        }
+        Err(e) => {
+            let why = format!("node {} in phase 2: {e:#}", setup.rank);
+            let _ = t.send(
+                coord,
+                MessageKind::Session,
+                codec.encode(&Session::Failed(why.clone()))?,
+            );
+            t.close(Duration::from_secs(2));
+            anyhow::bail!(why)
+        }
+    }
+}
+
+/// Waits for the coordinator's `Composite`; returns the phase-2 messages of
+/// peers that started first (late phase-1 messages are dropped).
+fn wait_composite<T: RemoteTransport>(
+    t: &T,
+    coord: NodeId,
+    codec: Codec,
+    wait: Duration,
+) -> anyhow::Result<Vec<crate::net::Envelope>> {
+    let mut early = Vec::new();
+    loop {
+        let e = t
+            .recv_timeout(wait)?
+            .ok_or_else(|| anyhow::anyhow!("no word from the coordinator within {wait:?}"))?;
+        if e.kind == MessageKind::Segments {
+            early.push(e);
+        } else if e.kind == MessageKind::Session {
+            match codec.decode::<Session>(&e.payload) {
+                Ok(Session::Composite) if e.from == coord => return Ok(early),
+                Ok(Session::Failed(why)) => {
+                    anyhow::bail!("{} failed: {why}", t.peer_name(e.from))
+                }
+                _ => anyhow::bail!("{} sent a session message out of turn", t.peer_name(e.from)),
+            }
+        }
+    }
+}
+
+/// This rank's part of phase 2 (see [`crate::cluster::remote::phase2`]).
+fn phase2<T: RemoteTransport>(
+    t: &T,
+    setup: &WorkerSetup,
+    scene: &Scene,
+    lists: crate::compositor::RegionLists,
+    early: Vec<crate::net::Envelope>,
+    timeout: Duration,
+) -> anyhow::Result<crate::cluster::remote::phase2::RankLog> {
+    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    let codec =
+        crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
+    let schedule = strategy.schedule(
+        setup.nodes as usize,
+        crate::compositor::region::screen(scene.image.width, scene.image.height),
+    );
+    schedule.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::cluster::remote::phase2::run_rank(
+        t,
+        setup.rank as usize,
+        NodeId(setup.nodes),
+        &schedule,
+        codec.as_ref(),
+        &crate::cluster::remote::phase2::exec_options(
+            setup.node_options().partial_composition,
+            scene,
+        ),
+        lists,
+        early,
+        timeout,
+    )
+}
+
+/// `a - b`, per kind (counters only grow).
+fn diff_traffic(a: &TrafficStats, b: &TrafficStats) -> TrafficStats {
+    let mut out = TrafficStats::default();
+    for (k, c) in &a.sent_by_kind {
+        let b0 = b.sent_by_kind.get(k).copied().unwrap_or_default();
+        out.sent_by_kind.insert(*k, minus(c, &b0));
+    }
+    for (k, c) in &a.recv_by_kind {
+        let b0 = b.recv_by_kind.get(k).copied().unwrap_or_default();
+        out.recv_by_kind.insert(*k, minus(c, &b0));
+    }
+    out
+}
+
+fn minus(a: &Counter, b: &Counter) -> Counter {
+    Counter {
+        messages: a.messages - b.messages,
+        bytes: a.bytes - b.bytes,
+    }
+}
+
+fn parse_scene(setup: &WorkerSetup) -> anyhow::Result<Scene> {
+    Scene::parse(&setup.scene_toml, Path::new("(scene from the coordinator)"))
+        .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// The node a set-up describes, with its cells.
+pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor> {
+    let scene = parse_scene(setup)?;
+    let opts = setup.node_options();
+    let mut r = NodeRenderer::new(scene.view(), PreparedTf::new(&scene.transfer), opts);
+    if setup.share {
+        r.enable_level_sharing();
+        let [z0, z1] = setup.depth_range;
+        r.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
+    }
+    let unit = WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+    r.add_work(&unit)?;
+    let nc = NodeConfig {
+        rank: setup.rank as usize,
+        manager: setup.nodes as usize,
+        share: setup.share && opts.ert.enabled(),
+        dlb: setup.dlb,
+        policy: setup.policy.into(),
+    };
+    let mut a = NodeActor::new(nc, r, setup.profile, Codec::default(), setup.cells_initial);
+    if !setup.overlap_peers.is_empty() {
+        a.set_peers(setup.overlap_peers.iter().map(|&p| p as usize).collect());
+    }
+    Ok(a)
+}
+
+/// The node's canonical lists over the whole screen (as
+/// [`crate::cluster`] takes them from its nodes).
+fn worker_lists(
+    actor: &NodeActor,
+    setup: &WorkerSetup,
+    (w, h): (u32, u32),
+) -> crate::compositor::RegionLists {
+    let full = crate::render::cell::scan::Rect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
+    let opts = setup.node_options();
+    let r = actor.renderer();
+    if opts.canonical {
+        crate::compositor::RegionLists::from_canonical_fn(full, |x, y| r.list(x, y))
+    } else {
+        crate::compositor::RegionLists::canonical(full, r.lists().lists(), opts.partial_composition)
+    }
+}
