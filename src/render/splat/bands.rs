@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use super::buffer::BandBuf;
 use super::composite::{Composite, OcclusionMap, Over, Under, TILE};
 use super::order::scatter::{scatter, Enumerate};
-use super::raster::{ceil_i, draw_exact, draw_incremental, floor_i};
+use super::raster::{centres_within, draw_exact, draw_incremental};
 use super::record::{Conic, ShapeOf, Splat};
 use super::table::FootprintTable;
 
@@ -54,7 +54,7 @@ fn row_span<S>(s: &Splat<S>, c: &Conic, h: i64, pad: i64) -> (i64, i64) {
     if s.is_hole() {
         return (0, -1);
     }
-    let (ja, jb) = (ceil_i(s.y - c.ry - 0.5), floor_i(s.y + c.ry - 0.5));
+    let (ja, jb) = centres_within(s.y, c.ry);
     ((ja - pad).max(0), (jb + pad).min(h - 1))
 }
 
@@ -292,8 +292,9 @@ fn band_splats<S: ShapeOf>(job: &BandJob<S>, band: &mut BandBuf) -> BandCounts {
         let (ja, jb) = row_span(s, sc, h, pad);
         let ra = (ja.max(j0) - j0) as usize;
         let rb = (jb.min(j1 - 1) - j0) as usize;
-        let ia = (ceil_i(s.x - sc.rx - 0.5) - pad).max(0) as usize;
-        let ib = (floor_i(s.x + sc.rx - 0.5) + pad).min(w as i64 - 1);
+        let (ia, ib) = centres_within(s.x, sc.rx);
+        let ia = (ia - pad).max(0) as usize;
+        let ib = (ib + pad).min(w as i64 - 1);
         if ib < ia as i64 {
             continue;
         }

@@ -73,14 +73,20 @@ fn exp_any(x: f32) -> f32 {
     }
 }
 
+/// The pixels `p` whose centres `p + 1/2` lie within `r` of `c` (one
+/// axis): `[ceil(c - r - 1/2), floor(c + r - 1/2)]`, empty when the first
+/// exceeds the second.
+#[inline(always)]
+pub fn centres_within(c: f32, r: f32) -> (i64, i64) {
+    (ceil_i(c - r - 0.5), floor_i(c + r - 0.5))
+}
+
 /// Rows of the bounding box inside `[j0, j1)`: pixel centres `j + 1/2`
 /// within `ry` of the centre.
 #[inline(always)]
 pub fn rows(s: &SplatShape, j0: i64, j1: i64) -> (i64, i64) {
-    (
-        ceil_i(s.y - s.ry - 0.5).max(j0),
-        floor_i(s.y + s.ry - 0.5).min(j1 - 1),
-    )
+    let (ja, jb) = centres_within(s.y, s.ry);
+    (ja.max(j0), jb.min(j1 - 1))
 }
 
 /// Composites `s` into `band`, whose first row is image row `j0`: the
@@ -98,8 +104,8 @@ pub fn draw_exact<C: Composite>(
     if ja > jb {
         return;
     }
-    let ia = ceil_i(s.x - s.rx - 0.5).max(0);
-    let ib = floor_i(s.x + s.rx - 0.5).min(w as i64 - 1);
+    let (ia, ib) = centres_within(s.x, s.rx);
+    let (ia, ib) = (ia.max(0), ib.min(w as i64 - 1));
     for j in ja..=jb {
         let dy = j as f32 + 0.5 - s.y;
         for i in ia..=ib {

@@ -39,7 +39,7 @@ use super::table::FootprintTable;
 use crate::error::Result;
 use crate::image::Image;
 use crate::render::VolumeInput;
-use crate::scene::camera::Projection;
+use crate::scene::camera::{Projection, View};
 use crate::scene::TransferFunction;
 
 /// Options of the splatting renderer.
@@ -182,6 +182,7 @@ struct Frame {
 /// also whether the footprint table was used.
 fn frame<S: ShapeOf>(
     input: &VolumeInput,
+    view: &View,
     opts: &SplatOptions,
     class: &Classifier,
     model: &FootprintModel,
@@ -189,14 +190,13 @@ fn frame<S: ShapeOf>(
     t0: Instant,
 ) -> (Frame, bool) {
     let vol = &*input.volume;
-    let view = input.scene.view();
     let (w, h) = (view.width, view.height);
     let dims = vol.dims;
     let (wf, hf) = (w as f32, h as f32);
     let split = IndexSplit::new(dims);
     // Orthographic: every footprint has one shape, and its centre is
     // affine in the index.
-    let ortho = OrthoCentres::new(&view, vol).zip(model.orthographic_shape());
+    let ortho = OrthoCentres::new(view, vol).zip(model.orthographic_shape());
     let shared = ortho.map(|(_, f)| Conic::of(&f)).unwrap_or_default();
     // The splat of kept voxel `idx` of class `c`, or None when off screen.
     let splat_of = |idx: u64, c: Class| -> Option<Splat<S>> {
@@ -324,10 +324,10 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
     };
     let (frame, table_used) = match view.projection {
         Projection::Orthographic { .. } => {
-            frame::<()>(input, opts, &class, &model, &order_view, t0)
+            frame::<()>(input, &view, opts, &class, &model, &order_view, t0)
         }
         Projection::Perspective { .. } => {
-            frame::<Conic>(input, opts, &class, &model, &order_view, t0)
+            frame::<Conic>(input, &view, opts, &class, &model, &order_view, t0)
         }
     };
     let f = &frame;

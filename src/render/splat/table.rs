@@ -61,8 +61,8 @@ pub struct FootprintTable {
     k: i64,
     /// `2k + 1`.
     side: usize,
-    /// Packed weights of every phase (each block 32-byte aligned in the
-    /// allocation's offsets and padded to [`LANES`]).
+    /// Packed weights of every phase, block after block (each starting at
+    /// a multiple of [`LANES`] floats and zero-padded to one).
     weights: Vec<f32>,
     /// Blocks by phase index `phase_y P + phase_x`.
     blocks: Vec<PhaseBlock>,
