@@ -138,24 +138,10 @@ impl Coordinator {
         }
         let mut links = Vec::with_capacity(n);
         let mut measured = Measured::default();
-        let mut first_err = None;
-        for t in tasks {
-            match rt.block_on(t) {
-                Ok(Ok((l, sent))) => {
-                    measured.cells_bytes_sent += sent;
-                    measured.cells_cached += usize::from(sent == 0);
-                    links.push(l);
-                }
-                Ok(Err(e)) => {
-                    first_err.get_or_insert(e);
-                }
-                Err(e) => {
-                    first_err.get_or_insert(anyhow::anyhow!("a set-up task failed: {e}"));
-                }
-            }
-        }
-        if let Some(e) = first_err {
-            return Err(e);
+        for (l, sent) in join_all(&rt, tasks, "a set-up task")? {
+            measured.cells_bytes_sent += sent;
+            measured.cells_cached += usize::from(sent == 0);
+            links.push(l);
         }
         let t = TcpTransport::new(Arc::clone(&rt), me, n + 1, links, self.tcp)?;
         let d = DriveOptions {
@@ -165,5 +151,33 @@ impl Coordinator {
         drive(&t, d, input, &cfg, t_setup, measured, |t, e| {
             self.lost_in_phase1(t, n, e)
         })
+    }
+}
+
+/// Waits for every one of the coordinator's set-up `tasks` (all of them,
+/// so that none is left running) and gives their values in task order, or
+/// the first error in task order (`what` names a task that panicked or was
+/// cancelled).
+pub(super) fn join_all<T>(
+    rt: &tokio::runtime::Runtime,
+    tasks: Vec<tokio::task::JoinHandle<anyhow::Result<T>>>,
+    what: &str,
+) -> anyhow::Result<Vec<T>> {
+    let mut out = Vec::with_capacity(tasks.len());
+    let mut first_err = None;
+    for t in tasks {
+        match rt.block_on(t) {
+            Ok(Ok(v)) => out.push(v),
+            Ok(Err(e)) => {
+                first_err.get_or_insert(e);
+            }
+            Err(e) => {
+                first_err.get_or_insert(anyhow::anyhow!("{what} failed: {e}"));
+            }
+        }
+    }
+    match first_err {
+        Some(e) => Err(e),
+        None => Ok(out),
     }
 }

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use super::{GridMeasured, GridMsg, GridRemote, GridResult};
 use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out};
+use crate::cluster::remote::coordinator::join_all;
 use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
@@ -155,10 +156,9 @@ impl GridRemote {
         let mut results = Vec::with_capacity(cfg.nodes);
         let mut links = Vec::new();
         let (mut last_sent, mut last_in) = (t_setup, t_setup);
-        let mut first_err = None;
-        for t in tasks {
-            match rt.block_on(t) {
-                Ok(Ok(Reply::Result(sent, t_sent, t_in, payload, r))) => {
+        for reply in join_all(&rt, tasks, "a grid worker task")? {
+            match reply {
+                Reply::Result(sent, t_sent, t_in, payload, r) => {
                     m.bricks_bytes_sent += sent;
                     m.bricks_cached += usize::from(sent == 0);
                     m.result_payload_bytes += payload;
@@ -167,22 +167,13 @@ impl GridRemote {
                     last_in = last_in.max(t_in);
                     results.push(*r);
                 }
-                Ok(Ok(Reply::Stream(link, sent, t_sent))) => {
+                Reply::Stream(link, sent, t_sent) => {
                     m.bricks_bytes_sent += sent;
                     m.bricks_cached += usize::from(sent == 0);
                     last_sent = last_sent.max(t_sent);
                     links.push(*link);
                 }
-                Ok(Err(e)) => {
-                    first_err.get_or_insert(e);
-                }
-                Err(e) => {
-                    first_err.get_or_insert(anyhow::anyhow!("a grid worker task failed: {e}"));
-                }
             }
-        }
-        if let Some(e) = first_err {
-            return Err(e);
         }
         if p2p {
             m.setup_s = last_sent.duration_since(t_setup).as_secs_f64();
