@@ -7,6 +7,17 @@ use crate::net::{Action, Activity, Envelope, MessageKind};
 use crate::node::{OpCounts, SharedTable};
 
 impl NodeActor {
+    /// Charges one applied ERT reply (`ops` of applying it) as share time.
+    fn charge_reply(&mut self, ops: &OpCounts, out: &mut Vec<Action>) {
+        let s = self.secs(ops);
+        self.stats.share_s += s;
+        self.stats.replies_applied += 1;
+        out.push(Action::Compute {
+            seconds: s,
+            activity: Activity::Share,
+        });
+    }
+
     pub(super) fn on_message(
         &mut self,
         now: f64,
@@ -42,13 +53,7 @@ impl NodeActor {
                         .renderer
                         .apply_pixel_depths(&m.table)
                         .map_err(|e| err(&e))?;
-                    let s = self.secs(&ops);
-                    self.stats.share_s += s;
-                    self.stats.replies_applied += 1;
-                    out.push(Action::Compute {
-                        seconds: s,
-                        activity: Activity::Share,
-                    });
+                    self.charge_reply(&ops, out);
                     return Ok(());
                 }
                 let t = SharedTable::decode(&m.table).map_err(|e| err(&e))?;
@@ -68,13 +73,7 @@ impl NodeActor {
                     return Ok(());
                 }
                 let ops = self.renderer.apply_shared(&t).map_err(|e| err(&e))?;
-                let s = self.secs(&ops);
-                self.stats.share_s += s;
-                self.stats.replies_applied += 1;
-                out.push(Action::Compute {
-                    seconds: s,
-                    activity: Activity::Share,
-                });
+                self.charge_reply(&ops, out);
             }
             MessageKind::WorkRequest => {
                 let m: WorkForward = env.decode(&self.codec).map_err(|e| err(&e))?;
