@@ -7,6 +7,7 @@
 //! `compositor -> {render::cell segments, image}`.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod cli;
 pub mod cluster;
 pub mod compositor;
@@ -14,10 +15,12 @@ pub mod data;
 pub mod error;
 pub mod experiment;
 pub mod image;
+pub mod job;
 pub mod manager;
 pub mod net;
 pub mod node;
 pub mod render;
 pub mod scene;
+pub mod text;
 
 pub use error::{Error, Result};

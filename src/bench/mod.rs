@@ -7,6 +7,15 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
+pub mod adaptive;
+pub mod calibrate;
+pub mod calibrate_network;
+pub mod grid;
+pub mod orderings;
+pub mod splat;
+pub mod splat_experiments;
+
+use crate::job::{output, with_threads};
 use crate::render::cell::{self, CellOptions, Integrator};
 use crate::render::{reference, RenderInput};
 
@@ -71,7 +80,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub grids: bool,
     /// Grid scenes for `--grids` (file names in the data folder).
-    #[arg(long, value_delimiter = ',', default_value = super::bench_grid::GRID_SCENES)]
+    #[arg(long, value_delimiter = ',', default_value = grid::GRID_SCENES)]
     pub grid_scenes: Vec<String>,
     /// Print Table 2 of the LOD paper (slice memory with and without
     /// per-slice LOD for a 1024^3 volume; arithmetic only) and exit.
@@ -85,7 +94,7 @@ pub struct BenchArgs {
     pub adaptive: bool,
     /// Scenes for `--adaptive` (file names in the data folder; `ml64` =
     /// a generated 64^3 Marschner-Lobb grid).
-    #[arg(long, value_delimiter = ',', default_value = super::bench_adaptive::ADAPTIVE_SCENES)]
+    #[arg(long, value_delimiter = ',', default_value = adaptive::ADAPTIVE_SCENES)]
     pub adaptive_scenes: Vec<String>,
     /// Blocks per axis for `--adaptive`.
     #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
@@ -126,10 +135,10 @@ fn median(v: &mut [f64]) -> f64 {
 /// Runs `pvrsim bench`.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if a.orderings {
-        return super::bench_orderings::run(a.json.as_deref());
+        return orderings::run(a.json.as_deref());
     }
     if a.splat {
-        let b = super::bench_splat::SplatBench {
+        let b = splat::SplatBench {
             repeats: a.repeats,
             paths: a.splat_paths.clone(),
             fills: a.splat_fills.clone(),
@@ -137,17 +146,17 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             reference: a.splat_reference,
             grids: a.splat_grids.clone(),
         };
-        return super::bench_splat::run(&a.data_dir, &b, a.json.as_deref());
+        return splat::run(&a.data_dir, &b, a.json.as_deref());
     }
     if a.lod_table {
-        let rows = super::bench_grid::lod_table();
+        let rows = grid::lod_table();
         if let Some(path) = &a.json {
             std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
         }
         return Ok(());
     }
     if a.adaptive {
-        let rows = super::bench_adaptive::run(
+        let rows = adaptive::run(
             &a.data_dir,
             &a.adaptive_scenes,
             &a.adaptive_blocks,
@@ -160,7 +169,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     if a.grids {
-        let rows = super::bench_grid::run(&a.data_dir, &a.grid_scenes, a.repeats)?;
+        let rows = grid::run(&a.data_dir, &a.grid_scenes, a.repeats)?;
         if let Some(path) = &a.json {
             std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
             println!("wrote {}", path.display());
@@ -200,7 +209,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 let mut scan = Vec::new();
                 let mut last = None;
                 for _ in 0..a.repeats.max(1) {
-                    let (_, s) = super::with_threads(threads, || cell::render(&input, &opts))?;
+                    let (_, s) = with_threads(threads, || cell::render(&input, &opts))?;
                     total.push(s.time_total_s * 1e3);
                     scan.push(s.time_scan_s * 1e3);
                     last = Some(s);
@@ -225,7 +234,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         }
         if a.reference {
             let adjacency = input.mesh.adjacency();
-            let (_, rs) = super::with_threads(cores, || {
+            let (_, rs) = with_threads(cores, || {
                 reference::render(&input, &adjacency, &Default::default())
             })?;
             let row = BenchRow {

@@ -126,7 +126,7 @@ pub fn parse_path(name: &str) -> anyhow::Result<SplatOptions> {
                 t.parse()
                     .map_err(|_| anyhow::anyhow!("--splat-paths {name}: `{m}` is not ertT"))?
             };
-            crate::cli::validate::ert_mode(o.ert)?;
+            crate::job::validate::ert_mode(o.ert)?;
         } else if let Some(k) = m.strip_prefix('k') {
             o.k_cut = k
                 .parse()

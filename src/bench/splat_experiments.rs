@@ -11,7 +11,7 @@ use std::sync::Arc;
 use clap::Args;
 use plotters::prelude::*;
 
-use super::bench_orderings::thread_cpu_s;
+use super::orderings::thread_cpu_s;
 use crate::data::volume::generate::hydrogen;
 use crate::data::{Volume, Voxels};
 use crate::image::Image;
@@ -287,7 +287,7 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(out)?;
     let png = out.join("splatting-45deg.png");
-    crate::experiment::plot::register_fonts();
+    crate::job::compare::register_fonts();
     let ymax = series
         .iter()
         .flat_map(|s| s.1.iter().cloned())

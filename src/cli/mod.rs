@@ -1,46 +1,28 @@
 //! The command line: one subcommand per task, each in its own file. Every
 //! option documents its default; `pvrsim help COMMAND` shows it all.
 //!
-//! Shared by every command (new ones plug in the same way):
-//! - [`validate`]: the one validation layer. Each command's args implement
-//!   [`validate::Validate`]; ranges and the meaning of option combinations
-//!   are decided there (errors say what to do, warnings what will happen);
-//!   `sweep` runs the same checks on every run before the first.
-//! - [`output`]: output paths checked before work (extension, writability,
-//!   at most one new directory level), warnings, the broken-pipe stop.
-//! - [`memory`]: a frame's memory, estimated and checked before allocating.
-//! - [`compare`]: `render --compare`'s verdict and labelled strip.
+//! A thin frontend: clap definitions, arguments to jobs, printing. The work
+//! is done by the job layer ([`crate::job`]: validation, output checks,
+//! memory checks, render and cluster jobs), the benchmarks by
+//! [`crate::bench`] and sweeps by [`crate::experiment`].
 
-pub mod bench;
-pub mod bench_adaptive;
-pub mod bench_grid;
-pub mod bench_orderings;
-pub mod bench_splat;
-pub mod calibrate;
-pub mod calibrate_network;
-pub mod cluster;
-pub mod cluster_ert;
-pub mod cluster_grid;
-pub mod compare;
 pub mod demo;
 mod demo_cluster;
 pub mod generate;
 pub mod generate_mesh;
 pub mod info;
-pub mod memory;
-pub mod output;
-pub mod render;
-pub mod render_grid;
-pub mod render_splat;
 pub mod scene;
 pub mod splat;
-pub mod splat_experiments;
 pub mod sweep;
-pub mod transport_args;
-pub mod validate;
 pub mod worker;
 
 use clap::{Parser, Subcommand};
+
+use crate::bench::{self, calibrate, splat_experiments};
+use crate::job::{cluster, render};
+pub use crate::job::error_text;
+pub(crate) use crate::job::{plural, with_threads};
+pub(crate) use crate::job::{output, validate};
 
 /// pvrsim: volume rendering of tetrahedral meshes (cell projection with early
 /// ray termination) and regular grids (texture slicing, adaptive blocks,
@@ -108,49 +90,3 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// The text `main` prints for an error: `error: MSG` and one `caused by:`
-/// line per cause, leaving out a cause whose text the line above already
-/// ends with (a file error wrapped once would otherwise print twice).
-pub fn error_text(e: &anyhow::Error) -> String {
-    let mut s = format!("error: {e}\n");
-    let mut last = e.to_string();
-    for cause in e.chain().skip(1) {
-        let c = cause.to_string();
-        if !last.ends_with(&c) {
-            s.push_str(&format!("  caused by: {c}\n"));
-        }
-        last = c;
-    }
-    s
-}
-
-/// Warns when the scene's field is a vector field: it is rendered as its
-/// magnitude (an extension of the scene contract, which names a scalar).
-pub fn warn_field(input: &crate::render::RenderInput) {
-    let name = &input.scene.data.field;
-    if let Some(f) = input.mesh.fields.iter().find(|f| &f.name == name) {
-        if f.components > 1 {
-            output::warn(format!(
-                "field \"{name}\" has {} components: rendering its magnitude |v| (range {:.4} .. {:.4})",
-                f.components, input.range[0], input.range[1]
-            ));
-        }
-    }
-}
-
-/// `n` and the noun, plural unless `n == 1` ("1 thread", "4 threads").
-pub fn plural(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
-}
-
-/// Runs `f` in a rayon pool of `threads` threads (0: all cores).
-pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
-    Ok(pool.install(f))
-}

@@ -34,7 +34,7 @@ fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
 #[test]
 fn kept_textures_give_the_same_frames_bit_for_bit() {
     let inp = seam_input(OBLIQUE, 40);
-    let cams = crate::cli::cluster_grid::orbit(&inp.scene.camera, 3, 25.0);
+    let cams = orbit(&inp.scene.camera, 3, 25.0);
     for classify in [
         crate::render::slicing::Classify::Post,
         crate::render::slicing::Classify::Pre,

@@ -7,7 +7,6 @@
 //! (e.g. `integrator`) is drawn as categories in sweep order.
 
 use std::path::Path;
-use std::sync::Once;
 
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::prelude::*;
@@ -31,19 +30,7 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-/// Registers DejaVu Sans as plotters' `sans-serif` (once).
-pub fn register_fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // The bytes are a valid TTF shipped by the crate; a failure would only lose text.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
-    });
-}
+pub use crate::job::compare::register_fonts;
 
 /// Whether a CSV value matches a `where` value: equal text, or equal numbers
 /// (`1` matches `1.0`).

@@ -9,7 +9,7 @@ use std::time::Instant;
 use clap::Parser;
 
 use super::grid::{ParamValue, Point};
-use crate::cli::render::{execute, RenderArgs};
+use crate::job::render::{execute, RenderArgs};
 
 /// A subcommand that sweeps can run.
 pub struct Executor {
@@ -43,8 +43,8 @@ struct RenderCommand {
 
 /// The validation layer's verdict on parsed args, as a clap error (so a
 /// sweep reports it like any other refused command line).
-fn validated<T: crate::cli::validate::Validate>(args: &T) -> Result<(), clap::Error> {
-    crate::cli::validate::check(args)
+fn validated<T: crate::job::validate::Validate>(args: &T) -> Result<(), clap::Error> {
+    crate::job::validate::check(args)
         .map(|_| ())
         .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")))
 }
@@ -63,7 +63,7 @@ fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
 #[command(name = "pvrsim cluster", no_binary_name = true)]
 struct ClusterCommand {
     #[command(flatten)]
-    args: crate::cli::cluster::ClusterArgs,
+    args: crate::job::cluster::ClusterArgs,
 }
 
 fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
@@ -75,16 +75,16 @@ fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
 fn cluster_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
     let cmd = ClusterCommand::try_parse_from(argv)?;
     let scene = crate::scene::Scene::load(&cmd.args.scene)?;
-    let mut v = if crate::cli::render_grid::is_grid_scene(&scene) {
+    let mut v = if crate::job::render_grid::is_grid_scene(&scene) {
         // Grid scenes: the grid report (sort-last bricks).
-        let out = crate::cli::cluster_grid::execute(&cmd.args, scene)?;
+        let out = crate::job::cluster_grid::execute(&cmd.args, scene)?;
         let mut v = serde_json::to_value(&out.report)?;
         if let Some(o) = v.as_object_mut() {
             o.remove("rounds");
         }
         v
     } else {
-        let out = crate::cli::cluster::execute(&cmd.args)?;
+        let out = crate::job::cluster::execute(&cmd.args)?;
         serde_json::to_value(&out.report)?
     };
     if let Some(o) = v.as_object_mut() {

@@ -65,25 +65,6 @@ pub struct GridArgs {
     pub no_texture_cache: bool,
 }
 
-/// The cameras of `--frames N --turn DEG`: the scene's camera, then the
-/// eye turned `k DEG` degrees about the target around the camera's up
-/// vector (`eye' = target + R_up(k DEG) (eye - target)`).
-pub fn orbit(cam: &crate::scene::Camera, frames: u32, turn_deg: f64) -> Vec<crate::scene::Camera> {
-    use glam::{DQuat, DVec3};
-    let target = DVec3::from(cam.target);
-    let axis = DVec3::from(cam.up).normalize_or_zero();
-    (0..frames.max(1))
-        .map(|k| {
-            let q = DQuat::from_axis_angle(axis, (k as f64 * turn_deg).to_radians());
-            let mut c = *cam;
-            if k > 0 && axis != DVec3::ZERO {
-                c.eye = (target + q * (DVec3::from(cam.eye) - target)).to_array();
-            }
-            c
-        })
-        .collect()
-}
-
 /// The compositor name `--compositor` and `--radix-k` describe (`radix-k:K`
 /// when k is given), checked: `--radix-k` without `--compositor radix-k`
 /// is refused rather than ignored.
@@ -263,7 +244,7 @@ fn cameras(g: &GridArgs, cam: &crate::scene::Camera) -> anyhow::Result<Vec<crate
         g.turn.is_none() || g.frames.is_some(),
         "--turn turns the camera between frames; give --frames N with it"
     );
-    Ok(orbit(cam, frames, turn))
+    Ok(grid::orbit(cam, frames, turn))
 }
 
 /// Loads the volume and runs every frame of `--frames` on the same nodes.

@@ -15,7 +15,7 @@ pub fn summary(r: &ClusterReport) -> String {
     let _ = writeln!(
         s,
         "cluster: {} + manager, {}, ERT {}{}{}, {} / {}",
-        crate::cli::plural(r.n_nodes, "node"),
+        crate::text::plural(r.n_nodes, "node"),
         if wall {
             "wall clock (times measured on this host; no network or cost model)".to_string()
         } else {

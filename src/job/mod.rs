@@ -1,0 +1,72 @@
+//! The job layer: everything pvrsim does, as typed, validated jobs that
+//! the frontends (`cli`, `experiment`'s sweeps, `bench`) call. A job is a
+//! set of options with the command line's defaults; running it returns
+//! typed values (image, statistics, cluster report), never printed text.
+//!
+//! - [`render`]: render a scene (cell projection for meshes; slicing,
+//!   adaptive, splatting and the references for grids: [`render_grid`],
+//!   [`render_splat`]); [`compare`] is `--compare`'s verdict and strip.
+//! - [`cluster`]: a cluster frame (or series of frames, [`cluster_grid`]) on
+//!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]).
+//! - [`validate`]: the one validation layer. Each job implements
+//!   [`validate::Validate`]; ranges and the meaning of option combinations
+//!   are decided there (errors say what to do, warnings what will happen);
+//!   sweeps run the same checks on every run before the first.
+//! - [`output`]: output paths checked before work (extension, writability,
+//!   at most one new directory level), warnings, the broken-pipe stop.
+//! - [`memory`]: a frame's memory, estimated and checked before allocating.
+//!
+//! The typed entry points are [`RenderJob`] and [`ClusterJob`]; see the
+//! crate documentation for examples.
+
+pub mod cluster;
+pub mod cluster_ert;
+pub mod cluster_grid;
+pub mod compare;
+pub mod memory;
+pub mod output;
+pub mod render;
+pub mod render_grid;
+pub mod render_splat;
+pub mod transport_args;
+pub mod validate;
+
+pub use crate::text::plural;
+
+/// The text `main` prints for an error: `error: MSG` and one `caused by:`
+/// line per cause, leaving out a cause whose text the line above already
+/// ends with (a file error wrapped once would otherwise print twice).
+pub fn error_text(e: &anyhow::Error) -> String {
+    let mut s = format!("error: {e}\n");
+    let mut last = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !last.ends_with(&c) {
+            s.push_str(&format!("  caused by: {c}\n"));
+        }
+        last = c;
+    }
+    s
+}
+
+/// Warns when the scene's field is a vector field: it is rendered as its
+/// magnitude (an extension of the scene contract, which names a scalar).
+pub fn warn_field(input: &crate::render::RenderInput) {
+    let name = &input.scene.data.field;
+    if let Some(f) = input.mesh.fields.iter().find(|f| &f.name == name) {
+        if f.components > 1 {
+            output::warn(format!(
+                "field \"{name}\" has {} components: rendering its magnitude |v| (range {:.4} .. {:.4})",
+                f.components, input.range[0], input.range[1]
+            ));
+        }
+    }
+}
+
+/// Runs `f` in a rayon pool of `threads` threads (0: all cores).
+pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    Ok(pool.install(f))
+}
