@@ -2,57 +2,7 @@
 //! range), zip groups (parameters that vary together), and their Cartesian
 //! product in a deterministic order.
 
-use std::fmt;
-
-/// One value of a run parameter, as written in the config.
-#[derive(Debug, Clone, PartialEq)]
-pub enum ParamValue {
-    /// `true` becomes a bare flag, `false` omits it.
-    Bool(bool),
-    /// An integer.
-    Int(i64),
-    /// A floating-point number.
-    Float(f64),
-    /// A string (an enum value, a path, ...).
-    Str(String),
-}
-
-impl ParamValue {
-    /// Converts a TOML scalar; lists, tables and dates are refused with a
-    /// message naming `key`.
-    pub fn from_toml(v: &toml::Value, key: &str) -> Result<Self, String> {
-        match v {
-            toml::Value::Boolean(b) => Ok(Self::Bool(*b)),
-            toml::Value::Integer(i) => Ok(Self::Int(*i)),
-            toml::Value::Float(f) if f.is_finite() => Ok(Self::Float(*f)),
-            toml::Value::Float(_) => Err(format!("{key}: NaN and infinite values are not allowed")),
-            toml::Value::String(s) => Ok(Self::Str(s.clone())),
-            toml::Value::Datetime(_) => Err(format!("{key}: a date is not a parameter value")),
-            toml::Value::Array(_) => Err(format!("{key}: expected a single value, found a list")),
-            toml::Value::Table(_) => Err(format!("{key}: expected a single value, found a table")),
-        }
-    }
-
-    /// The value as a number, if it is one.
-    pub fn as_f64(&self) -> Option<f64> {
-        match self {
-            Self::Int(i) => Some(*i as f64),
-            Self::Float(f) => Some(*f),
-            _ => None,
-        }
-    }
-}
-
-impl fmt::Display for ParamValue {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Bool(b) => write!(f, "{b}"),
-            Self::Int(i) => write!(f, "{i}"),
-            Self::Float(x) => write!(f, "{x}"),
-            Self::Str(s) => f.write_str(s),
-        }
-    }
-}
+pub use crate::job::options::ParamValue;
 
 /// A range of numbers, `{ from, to, step }` or `{ from, to, count, log }`.
 #[derive(Debug, Clone, serde::Deserialize)]

@@ -1,15 +1,14 @@
-//! Running the points of a sweep: each point's parameters become a command
-//! line of a pvrsim subcommand, parsed by that subcommand's own clap
-//! definition, so the sweep never needs to know the options: whatever
+//! Running the points of a sweep: each point's parameters become a job
+//! (options by flag name, [`crate::job::options`]), parsed by the job's own
+//! clap definition, so the sweep never needs to know the options: whatever
 //! `render` accepts, a sweep can vary, under the same name.
 
 use std::path::Path;
 use std::time::Instant;
 
-use clap::Parser;
-
 use super::grid::{ParamValue, Point};
-use crate::job::render::{execute, RenderArgs};
+use crate::job::options::{self, clap_message, flag};
+use crate::job::{ClusterJob, ClusterResult, JobError, RenderJob};
 
 /// A subcommand that sweeps can run.
 pub struct Executor {
@@ -33,60 +32,37 @@ impl std::fmt::Debug for Executor {
     }
 }
 
-/// `pvrsim render`'s options as a stand-alone parser.
-#[derive(Debug, Parser)]
-#[command(name = "pvrsim render", no_binary_name = true)]
-struct RenderCommand {
-    #[command(flatten)]
-    args: RenderArgs,
-}
-
-/// The validation layer's verdict on parsed args, as a clap error (so a
+/// The validation layer's verdict on parsed options, as a clap error (so a
 /// sweep reports it like any other refused command line).
-fn validated<T: crate::job::validate::Validate>(args: &T) -> Result<(), clap::Error> {
-    crate::job::validate::check(args)
+fn validated(checked: Result<Vec<String>, JobError>) -> Result<(), clap::Error> {
+    checked
         .map(|_| ())
         .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")))
 }
 
 fn render_check(argv: &[String]) -> Result<(), clap::Error> {
-    validated(&RenderCommand::try_parse_from(argv)?.args)
+    validated(options::parse::<RenderJob>("pvrsim render", argv)?.check())
 }
 
 fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
-    let cmd = RenderCommand::try_parse_from(argv)?;
-    Ok(execute(&cmd.args, true)?.stats)
-}
-
-/// `pvrsim cluster`'s options as a stand-alone parser.
-#[derive(Debug, Parser)]
-#[command(name = "pvrsim cluster", no_binary_name = true)]
-struct ClusterCommand {
-    #[command(flatten)]
-    args: crate::job::cluster::ClusterArgs,
+    let job: RenderJob = options::parse("pvrsim render", argv)?;
+    Ok(job.run()?.stats)
 }
 
 fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
-    validated(&ClusterCommand::try_parse_from(argv)?.args)
+    validated(options::parse::<ClusterJob>("pvrsim cluster", argv)?.check())
 }
 
 /// Runs a cluster point; the row's statistics are the report (without the
-/// per-node array and the per-exchange list, to keep rows flat and short).
+/// per-node array and the per-exchange list, to keep rows flat and short;
+/// grid reports also without their rounds).
 fn cluster_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
-    let cmd = ClusterCommand::try_parse_from(argv)?;
-    let scene = crate::scene::Scene::load(&cmd.args.scene)?;
-    let mut v = if crate::job::render_grid::is_grid_scene(&scene) {
-        // Grid scenes: the grid report (sort-last bricks).
-        let out = crate::job::cluster_grid::execute(&cmd.args, scene)?;
-        let mut v = serde_json::to_value(&out.report)?;
-        if let Some(o) = v.as_object_mut() {
-            o.remove("rounds");
-        }
-        v
-    } else {
-        let out = crate::job::cluster::execute(&cmd.args)?;
-        serde_json::to_value(&out.report)?
-    };
+    let job: ClusterJob = options::parse("pvrsim cluster", argv)?;
+    let out = job.run()?;
+    let mut v = out.report_json();
+    if let (ClusterResult::Grid(_), Some(o)) = (&out, v.as_object_mut()) {
+        o.remove("rounds");
+    }
     if let Some(o) = v.as_object_mut() {
         o.remove("nodes");
         if let Some(t) = o.get_mut("t_share").and_then(|t| t.as_object_mut()) {
@@ -124,37 +100,15 @@ pub fn executor(command: &str) -> Option<&'static Executor> {
     EXECUTORS.iter().find(|e| e.command == command)
 }
 
-/// The option a parameter becomes: `ert_table` -> `--ert-table`.
-pub fn flag(name: &str) -> String {
-    format!("--{}", name.replace('_', "-"))
-}
-
 /// The command line (without the program and subcommand names) of one
 /// point: positional parameters first, then `--name=value` per parameter,
 /// a bare `--name` for `true`, nothing for `false`. Path parameters are
 /// resolved against `base_dir`.
 pub fn command_line(exec: &Executor, base_dir: &Path, point: &Point) -> Vec<String> {
-    let text = |k: &str, v: &ParamValue| match v {
+    options::argv(exec.positional, point, |k, v| match v {
         ParamValue::Str(s) if exec.path_keys.contains(&k) => base_dir.join(s).display().to_string(),
         other => other.to_string(),
-    };
-    let mut argv = Vec::new();
-    for p in exec.positional {
-        if let Some((k, v)) = point.iter().find(|(k, _)| k == p) {
-            argv.push(text(k, v));
-        }
-    }
-    for (k, v) in point {
-        if exec.positional.contains(&k.as_str()) {
-            continue;
-        }
-        match v {
-            ParamValue::Bool(true) => argv.push(flag(k)),
-            ParamValue::Bool(false) => {}
-            _ => argv.push(format!("{}={}", flag(k), text(k, v))),
-        }
-    }
-    argv
+    })
 }
 
 /// Checks a point's command line with clap; the error names the parameter
@@ -193,24 +147,6 @@ pub fn check_point(
             )
         }
     })
-}
-
-/// Clap's message without the usage block, on one line.
-pub fn clap_message(e: &clap::Error) -> String {
-    let text = e.render().to_string();
-    let text = text.split("\nUsage:").next().unwrap_or(&text);
-    let text = text.trim().trim_start_matches("error:").trim();
-    let mut out = String::new();
-    let lines = text.lines().map(str::trim).filter(|l| {
-        !l.is_empty() && !l.starts_with("For more information") && !l.starts_with("tip: to pass")
-    });
-    for l in lines {
-        if !out.is_empty() {
-            out.push_str(if out.ends_with(':') { " " } else { "; " });
-        }
-        out.push_str(l);
-    }
-    out
 }
 
 /// What one run produced.

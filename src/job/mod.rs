@@ -19,11 +19,13 @@
 //! The typed entry points are [`RenderJob`] and [`ClusterJob`]; see the
 //! crate documentation for examples.
 
+pub mod api;
 pub mod cluster;
 pub mod cluster_ert;
 pub mod cluster_grid;
 pub mod compare;
 pub mod memory;
+pub mod options;
 pub mod output;
 pub mod render;
 pub mod render_grid;
@@ -32,6 +34,8 @@ pub mod transport_args;
 pub mod validate;
 
 pub use crate::text::plural;
+pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
+pub use render::RenderOutcome;
 
 /// The text `main` prints for an error: `error: MSG` and one `caused by:`
 /// line per cause, leaving out a cause whose text the line above already

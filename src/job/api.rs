@@ -1,0 +1,175 @@
+//! The typed entry points: a job is a command's options with the command
+//! line's defaults ([`RenderJob::new`], [`ClusterJob::new`]), built from a
+//! table of options by flag name (a job file, a sweep point:
+//! [`super::options`]), checked by the validation layer and run into typed
+//! values. Errors say which stage refused the job ([`JobError`]).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use serde::de::{Deserialize, Deserializer};
+
+use super::cluster::ClusterArgs;
+use super::options::{self, ParamValue};
+use super::render::{RenderArgs, RenderOutcome};
+use super::validate;
+use crate::cluster::grid::GridOutcome;
+use crate::cluster::ClusterOutcome;
+use crate::image::Image;
+
+/// A render job: a scene, a renderer and its options, exactly
+/// `pvrsim render`'s (same names, defaults and checks).
+pub type RenderJob = RenderArgs;
+
+/// A cluster job: a scene on N nodes (a frame, or `grid.frames` frames of a
+/// grid), on a transport (`net.transport`: simulated by default, threads,
+/// processes, TCP, MPI), exactly `pvrsim cluster`'s options.
+pub type ClusterJob = ClusterArgs;
+
+/// Why a job did not run or did not finish.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The options do not parse: an unknown name or a malformed value
+    /// (clap's message, one line).
+    #[error("{}", options::clap_message(.0))]
+    Options(Box<clap::Error>),
+    /// The options parse but the validation layer refuses them (a range, a
+    /// combination); the message says what to do.
+    #[error("{0}")]
+    Invalid(anyhow::Error),
+    /// The job ran and failed: a missing or malformed file, too little
+    /// memory, a transport failure.
+    #[error("{0:#}")]
+    Failed(anyhow::Error),
+}
+
+impl From<clap::Error> for JobError {
+    fn from(e: clap::Error) -> Self {
+        JobError::Options(Box::new(e))
+    }
+}
+
+/// The options of a command with its defaults and `scene` as the scene.
+fn defaults<T: clap::Args + clap::FromArgMatches>(name: &'static str) -> T {
+    options::parse(name, &["scene".to_string()]).expect("the defaults parse")
+}
+
+impl RenderArgs {
+    /// A render of `scene` with `pvrsim render`'s defaults.
+    pub fn new(scene: impl Into<PathBuf>) -> Self {
+        let mut job: Self = defaults("pvrsim render");
+        job.scene = scene.into();
+        job
+    }
+
+    /// A render from options by flag name (`scene` is the positional one).
+    pub fn from_options(options: &[(String, ParamValue)]) -> Result<Self, JobError> {
+        Ok(options::from_options("pvrsim render", &["scene"], options)?)
+    }
+
+    /// The validation layer's verdict: the warnings, or why it is refused.
+    pub fn check(&self) -> Result<Vec<String>, JobError> {
+        validate::check(self).map_err(JobError::Invalid)
+    }
+
+    /// Renders, writing no file and printing nothing: the image and every
+    /// statistic (as `--stats` writes them).
+    pub fn run(&self) -> Result<RenderOutcome, JobError> {
+        self.check()?;
+        super::render::execute(self, true).map_err(JobError::Failed)
+    }
+}
+
+/// What a cluster job produced.
+pub enum ClusterResult {
+    /// A mesh frame: image, report, timeline.
+    Mesh(ClusterOutcome),
+    /// The frames of a grid scene (one unless `grid.frames`), in order.
+    Grid(Vec<GridOutcome>),
+}
+
+impl ClusterResult {
+    /// The (last) frame's image.
+    pub fn image(&self) -> &Image {
+        match self {
+            ClusterResult::Mesh(o) => &o.image,
+            ClusterResult::Grid(f) => &f.last().expect("at least one frame").image,
+        }
+    }
+
+    /// The (last) frame's report as `--report` writes it.
+    pub fn report_json(&self) -> serde_json::Value {
+        match self {
+            ClusterResult::Mesh(o) => serde_json::to_value(&o.report),
+            ClusterResult::Grid(f) => serde_json::to_value(&f.last().expect("a frame").report),
+        }
+        .expect("reports serialize")
+    }
+
+    /// The (last) frame's report as text, as `pvrsim cluster` prints it.
+    pub fn summary(&self) -> String {
+        match self {
+            ClusterResult::Mesh(o) => crate::cluster::report::summary(&o.report),
+            ClusterResult::Grid(f) => {
+                crate::cluster::grid::summary(&f.last().expect("a frame").report)
+            }
+        }
+    }
+}
+
+impl ClusterArgs {
+    /// A cluster run of `scene` with `pvrsim cluster`'s defaults.
+    pub fn new(scene: impl Into<PathBuf>) -> Self {
+        let mut job: Self = defaults("pvrsim cluster");
+        job.scene = scene.into();
+        job
+    }
+
+    /// A cluster run from options by flag name (`scene` is positional).
+    pub fn from_options(options: &[(String, ParamValue)]) -> Result<Self, JobError> {
+        Ok(options::from_options("pvrsim cluster", &["scene"], options)?)
+    }
+
+    /// The validation layer's verdict: the warnings, or why it is refused.
+    pub fn check(&self) -> Result<Vec<String>, JobError> {
+        validate::check(self).map_err(JobError::Invalid)
+    }
+
+    /// Runs the frame(s), writing no file: images, reports, timelines.
+    pub fn run(&self) -> Result<ClusterResult, JobError> {
+        self.check()?;
+        let run = || -> anyhow::Result<ClusterResult> {
+            let scene = crate::scene::Scene::load(&self.scene)
+                .with_context(|| format!("cannot load scene {}", self.scene.display()))?;
+            if super::render_grid::is_grid_scene(&scene) {
+                return Ok(ClusterResult::Grid(super::cluster_grid::execute_frames(
+                    self, scene,
+                )?));
+            }
+            super::cluster_grid::refuse_on_mesh(&self.grid)?;
+            Ok(ClusterResult::Mesh(super::cluster::execute(self)?))
+        };
+        run().map_err(JobError::Failed)
+    }
+}
+
+/// A job file is a table of options by flag name, the same table a sweep's
+/// `fixed` section holds: `scene = "s.toml"`, `ert = 0.9`, `compare = true`.
+fn table<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, ParamValue)>, D::Error> {
+    let m = std::collections::BTreeMap::<String, ParamValue>::deserialize(d)?;
+    Ok(m.into_iter().collect())
+}
+
+impl<'de> Deserialize<'de> for RenderArgs {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let t = table(d)?;
+        Self::from_options(&t).map_err(serde::de::Error::custom)
+    }
+}
+
+impl<'de> Deserialize<'de> for ClusterArgs {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let t = table(d)?;
+        Self::from_options(&t).map_err(serde::de::Error::custom)
+    }
+}
