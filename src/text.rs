@@ -1,5 +1,5 @@
 //! Small text helpers shared by every room (reports, the job layer, the
-//! frontends).
+//! frontends): plurals and the plot font.
 
 /// `n` and the noun, plural unless `n == 1` ("1 thread", "4 threads").
 pub fn plural(n: usize, noun: &str) -> String {
@@ -8,4 +8,18 @@ pub fn plural(n: usize, noun: &str) -> String {
     } else {
         format!("{n} {noun}s")
     }
+}
+
+/// Registers DejaVu Sans as plotters' `sans-serif` (once).
+pub fn register_fonts() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TTF shipped by the crate; a failure would only lose text.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            plotters::style::FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Bold, dejavu::sans::bold());
+    });
 }

@@ -287,7 +287,7 @@ fn sweep(out: &Path) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(out)?;
     let png = out.join("splatting-45deg.png");
-    crate::job::compare::register_fonts();
+    crate::text::register_fonts();
     let ymax = series
         .iter()
         .flat_map(|s| s.1.iter().cloned())

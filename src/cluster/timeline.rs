@@ -42,7 +42,7 @@ pub fn kinds_shown(trace: &SimTrace) -> Vec<TraceKind> {
 /// Draws the chart of `trace` (`nodes` nodes; rank `nodes` is the manager)
 /// into a PNG at `path`. The legend names only the kinds that occur.
 pub fn draw(trace: &SimTrace, nodes: usize, path: &Path) -> anyhow::Result<()> {
-    crate::experiment::plot::register_fonts();
+    crate::text::register_fonts();
     let ranks = trace
         .events
         .iter()

@@ -30,7 +30,7 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-pub use crate::job::compare::register_fonts;
+pub use crate::text::register_fonts;
 
 /// Whether a CSV value matches a `where` value: equal text, or equal numbers
 /// (`1` matches `1.0`).

@@ -85,7 +85,7 @@ pub fn write_strip(
     gain: f32,
     path: &Path,
 ) -> anyhow::Result<()> {
-    register_fonts();
+    crate::text::register_fonts();
     let diff = Image::difference(this, reference, gain);
     let gap = 6u32;
     let cell_w = this.width.max(120);
@@ -124,20 +124,6 @@ pub fn write_strip(
     image::save_buffer(path, &buf, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
     Ok(())
-}
-
-/// Registers DejaVu Sans as plotters' `sans-serif` (once).
-pub fn register_fonts() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        // The bytes are a valid TTF shipped by the crate; a failure would only lose text.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            plotters::style::FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Bold, dejavu::sans::bold());
-    });
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The manager of the cluster (paper §3.2, §3.3) and the phase-1 protocol
 //! between it and the nodes.
 //!
-//! - [`protocol`]: the typed messages of phase 1 (ERT sharing, dynamic load
+//! - [`protocol`] (in `node`): the typed messages of phase 1 (ERT sharing, dynamic load
 //!   balancing, progress reports, the end of phase 1).
 //! - [`actor`]: the [`ManagerActor`], an [`crate::net::Actor`] that merges
 //!   ERT tables (weak sharing), routes work requests to the node with the
@@ -13,7 +13,9 @@
 //! reasons for each choice, is described in `src/manager/README.md`.
 
 pub mod actor;
-pub mod protocol;
+/// The phase-1 messages live beside the node ([`crate::node::protocol`]), so
+/// that `node` needs nothing from `manager`; re-exported under the old path.
+pub use crate::node::protocol;
 pub mod shard;
 
 pub use actor::{ManagerActor, ManagerConfig, ManagerStats};

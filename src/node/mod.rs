@@ -37,6 +37,7 @@ pub mod manager_table;
 pub mod ops;
 pub mod pixel_share;
 pub mod placement;
+pub mod protocol;
 pub mod release;
 pub mod renderer;
 pub mod replica;

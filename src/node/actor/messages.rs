@@ -2,7 +2,7 @@
 //! forwarded to it, grants, control.
 
 use super::NodeActor;
-use crate::manager::protocol::{Control, ErtReply, WorkForward, WorkGrant};
+use crate::node::protocol::{Control, ErtReply, WorkForward, WorkGrant};
 use crate::net::{Action, Activity, Envelope, MessageKind};
 use crate::node::{OpCounts, SharedTable};
 

@@ -20,7 +20,7 @@
 //! a reply that arrives mid-chunk is applied before the next chunk. Every
 //! compute is charged by the [`CostProfile`] from the operation counts of the
 //! work really done. A message that fails to decode is recorded as an error
-//! ([`NodeStats::error`]), reported to the manager with [`Control::Abort`](crate::manager::protocol::Control::Abort)
+//! ([`NodeStats::error`]), reported to the manager with [`Control::Abort`](crate::node::protocol::Control::Abort)
 //! (which ends phase 1 for everyone) and the node stops: no panic.
 //!
 //! Files: this one holds the actor's state and its event handler;
@@ -108,7 +108,7 @@ impl NodeActor {
     }
 
     /// Overlap sharing (no manager for ERT): at every update point, send the
-    /// local table straight to `peers` as an [`ErtReply`](crate::manager::protocol::ErtReply); they merge it with
+    /// local table straight to `peers` as an [`ErtReply`](crate::node::protocol::ErtReply); they merge it with
     /// the same per-entry rule as the manager's. Empty (the default): off.
     pub fn set_peers(&mut self, peers: Vec<usize>) {
         self.peers = peers;
