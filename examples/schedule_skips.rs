@@ -13,7 +13,7 @@
 //! an example and not a test; docs/experiments/cluster.md gives its output.)
 
 use clap::Parser;
-use pvrsim::cli::cluster::{execute, ClusterArgs};
+use pvrsim::job::cluster::{execute, ClusterArgs};
 
 #[derive(Parser)]
 struct Line {

@@ -1,10 +1,79 @@
 //! # pvrsim
 //!
 //! Cell-projection parallel volume rendering of tetrahedral meshes with early
-//! ray termination, and a simulator of the PC cluster that runs it.
+//! ray termination, regular-grid renderers, and a simulator of the PC
+//! cluster that runs them.
 //!
-//! Module dependencies flow one way: `cli -> render -> {scene, data, image}`,
-//! `compositor -> {render::cell segments, image}`.
+//! ## Layers
+//!
+//! Every room (top-level module) imports only rooms below it; no two rooms
+//! import each other (docs/architecture.md draws it):
+//!
+//! ```text
+//! frontends   cli (clap, printing)   experiment (sweeps)   bench (benchmarks, calibration)
+//!                         \               |               /
+//! job layer                job: typed jobs, validation, output and memory checks
+//!                                          |
+//! engine      cluster -> {manager -> node, compositor, net}
+//!             node -> {render, compositor, net}   compositor -> render
+//!             render -> {scene, data, image}      data -> scene
+//! base        scene, image, error, text, net
+//! ```
+//!
+//! `cli` calls `job`, `bench` and `experiment`; `experiment` and `bench`
+//! call `job`; `job` calls the engine; nothing below `job` knows a frontend.
+//!
+//! ## Examples
+//!
+//! A render of a generated scene (the demo's hydrogen grid):
+//!
+//! ```
+//! # fn main() -> anyhow::Result<()> {
+//! let dir = std::env::temp_dir().join("pvrsim-doc-render");
+//! std::fs::create_dir_all(&dir)?;
+//! let (volume, scene) = pvrsim::data::demo_volume::demo_volume_and_scene("h.nrrd");
+//! pvrsim::data::io::volume::write_nrrd(&volume, &dir.join("h.nrrd"), false, "doc")?;
+//! std::fs::write(dir.join("h.toml"), scene)?;
+//! let mut job = pvrsim::job::RenderJob::new(dir.join("h.toml"));
+//! (job.width, job.height) = (Some(64), Some(64));
+//! let out = job.run()?;
+//! assert_eq!((out.image.width, out.image.height), (64, 64));
+//! # Ok(()) }
+//! ```
+//!
+//! A 4-node cluster frame on threads, with its report:
+//!
+//! ```
+//! # fn main() -> anyhow::Result<()> {
+//! use pvrsim::job::{transport_args::TransportKind, ClusterJob};
+//! let mut job = ClusterJob::new("tests/data/aorta-small-view-b.toml");
+//! job.nodes = 4;
+//! job.net.transport = Some(TransportKind::Threads);
+//! let out = job.run()?;
+//! assert_eq!(out.report_json()["n_nodes"], 4);
+//! println!("{}", out.summary());
+//! # Ok(()) }
+//! ```
+//!
+//! A two-point sweep (the integrator varies; options by flag name):
+//!
+//! ```
+//! # fn main() -> anyhow::Result<()> {
+//! let dir = std::env::temp_dir().join("pvrsim-doc-sweep");
+//! std::fs::create_dir_all(&dir)?;
+//! let scene = std::fs::canonicalize("tests/data/aorta-small-view-b.toml")?;
+//! let config = format!(
+//!     "name = \"doc\"\ncommand = \"render\"\nscene = {scene:?}\n\
+//!      [fixed]\nwidth = 64\nheight = 64\n[vary]\nintegrator = [\"exact\", \"midpoint\"]\n"
+//! );
+//! std::fs::write(dir.join("sweep.toml"), config)?;
+//! let opts = pvrsim::experiment::SweepOptions {
+//!     config: dir.join("sweep.toml"), out: dir.clone(), force: true, ..Default::default()
+//! };
+//! let report = pvrsim::experiment::run_sweep(&opts)?;
+//! assert_eq!((report.runs_executed, report.runs_failed), (2, 0));
+//! # Ok(()) }
+//! ```
 #![warn(missing_docs)]
 
 pub mod bench;

@@ -20,6 +20,10 @@ pub fn register_fonts() {
             plotters::style::FontStyle::Normal,
             dejavu::sans::regular(),
         );
-        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Bold, dejavu::sans::bold());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            plotters::style::FontStyle::Bold,
+            dejavu::sans::bold(),
+        );
     });
 }

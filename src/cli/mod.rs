@@ -19,10 +19,12 @@ pub mod worker;
 use clap::{Parser, Subcommand};
 
 use crate::bench::{self, calibrate, splat_experiments};
-use crate::job::{cluster, render};
 pub use crate::job::error_text;
-pub(crate) use crate::job::{plural, with_threads};
+/// The options of `render` and `cluster` are the job layer's jobs; re-exported
+/// under the command names.
+pub use crate::job::{cluster, cluster_grid, render};
 pub(crate) use crate::job::{output, validate};
+pub(crate) use crate::job::{plural, with_threads};
 
 /// pvrsim: volume rendering of tetrahedral meshes (cell projection with early
 /// ray termination) and regular grids (texture slicing, adaptive blocks,
@@ -89,4 +91,3 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Worker(a) => worker::run(a),
     }
 }
-

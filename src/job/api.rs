@@ -127,7 +127,11 @@ impl ClusterArgs {
 
     /// A cluster run from options by flag name (`scene` is positional).
     pub fn from_options(options: &[(String, ParamValue)]) -> Result<Self, JobError> {
-        Ok(options::from_options("pvrsim cluster", &["scene"], options)?)
+        Ok(options::from_options(
+            "pvrsim cluster",
+            &["scene"],
+            options,
+        )?)
     }
 
     /// The validation layer's verdict: the warnings, or why it is refused.

@@ -16,7 +16,10 @@ pub fn flag(name: &str) -> String {
 /// Parses a command line (without program and subcommand names) into the
 /// options `T` of the command `name` (e.g. `"pvrsim render"`, as clap's
 /// messages name it).
-pub fn parse<T: Args + FromArgMatches>(name: &'static str, argv: &[String]) -> Result<T, clap::Error> {
+pub fn parse<T: Args + FromArgMatches>(
+    name: &'static str,
+    argv: &[String],
+) -> Result<T, clap::Error> {
     let cmd = T::augment_args(clap::Command::new(name).no_binary_name(true));
     let m = cmd.try_get_matches_from(argv)?;
     T::from_arg_matches(&m)
@@ -72,7 +75,6 @@ impl std::fmt::Display for ParamValue {
         }
     }
 }
-
 
 /// The command line of `options`: the `positional` ones first (in that
 /// order), then `--name=value` per option, a bare `--name` for `true`,

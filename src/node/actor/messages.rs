@@ -2,8 +2,8 @@
 //! forwarded to it, grants, control.
 
 use super::NodeActor;
-use crate::node::protocol::{Control, ErtReply, WorkForward, WorkGrant};
 use crate::net::{Action, Activity, Envelope, MessageKind};
+use crate::node::protocol::{Control, ErtReply, WorkForward, WorkGrant};
 use crate::node::{OpCounts, SharedTable};
 
 impl NodeActor {

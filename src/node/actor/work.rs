@@ -3,8 +3,8 @@
 //! and the sends and failures they make.
 
 use super::{NodeActor, SCAN};
-use crate::node::protocol::{Control, ErtReply, ErtShare, WorkRequest};
 use crate::net::{Action, Activity, Message, NodeId};
+use crate::node::protocol::{Control, ErtReply, ErtShare, WorkRequest};
 use crate::node::{compute_time, OpCounts};
 
 impl NodeActor {
