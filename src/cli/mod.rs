@@ -6,11 +6,13 @@
 //! memory checks, render and cluster jobs), the benchmarks by
 //! [`crate::bench`] and sweeps by [`crate::experiment`].
 
+pub mod cluster;
 pub mod demo;
 mod demo_cluster;
 pub mod generate;
 pub mod generate_mesh;
 pub mod info;
+pub mod render;
 pub mod scene;
 pub mod splat;
 pub mod sweep;
@@ -19,10 +21,9 @@ pub mod worker;
 use clap::{Parser, Subcommand};
 
 use crate::bench::{self, calibrate, splat_experiments};
+/// The grid options of `cluster`, re-exported under the command's name.
+pub use crate::job::cluster_grid;
 pub use crate::job::error_text;
-/// The options of `render` and `cluster` are the job layer's jobs; re-exported
-/// under the command names.
-pub use crate::job::{cluster, cluster_grid, render};
 pub(crate) use crate::job::{output, validate};
 pub(crate) use crate::job::{plural, with_threads};
 

@@ -83,7 +83,7 @@ impl RenderArgs {
 /// What a cluster job produced.
 pub enum ClusterResult {
     /// A mesh frame: image, report, timeline.
-    Mesh(ClusterOutcome),
+    Mesh(Box<ClusterOutcome>),
     /// The frames of a grid scene (one unless `grid.frames`), in order.
     Grid(Vec<GridOutcome>),
 }
@@ -151,7 +151,9 @@ impl ClusterArgs {
                 )?));
             }
             super::cluster_grid::refuse_on_mesh(&self.grid)?;
-            Ok(ClusterResult::Mesh(super::cluster::execute(self)?))
+            Ok(ClusterResult::Mesh(Box::new(super::cluster::execute(
+                self,
+            )?)))
         };
         run().map_err(JobError::Failed)
     }

@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 
 use super::memory::{self, FrameKind};
-use super::output::{prepare_output, OutputKind};
+
 use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::{self, ClockKind, ClusterConfig, ClusterOutcome, Phase1Config};
 use crate::net::NetworkModel;
@@ -465,57 +465,4 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
             Ok(out)
         }
     }
-}
-
-/// Runs `pvrsim cluster`: checks the options and every output path first.
-pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
-    // Under mpirun, ranks other than 0 serve a node and write nothing.
-    if a.net.serve_mpi_worker(a.nodes)? {
-        return Ok(());
-    }
-    validate::apply(&a)?;
-    prepare_output("-o", &a.output, OutputKind::Png)?;
-    for (flag, path, kind) in [
-        ("--report", &a.report, OutputKind::Json),
-        ("--trace", &a.trace, OutputKind::Json),
-        ("--timeline", &a.timeline, OutputKind::Png),
-    ] {
-        if let Some(p) = path {
-            prepare_output(flag, p, kind)?;
-        }
-    }
-    let scene = crate::scene::Scene::load(&a.scene)
-        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
-    if super::render_grid::is_grid_scene(&scene) {
-        return super::cluster_grid::run(&a, scene);
-    }
-    super::cluster_grid::refuse_on_mesh(&a.grid)?;
-    let out = execute(&a)?;
-    super::output::warn_if_empty(
-        &out.image,
-        &format!(
-            "{} of {} cells culled on arrival",
-            out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
-            out.report.cells_total
-        ),
-    );
-    out.image.save_png(&a.output)?;
-    println!("wrote {}", a.output.display());
-    if let Some(p) = &a.report {
-        std::fs::write(p, serde_json::to_string_pretty(&out.report)?)
-            .with_context(|| format!("cannot write {}", p.display()))?;
-        println!("wrote {}", p.display());
-    }
-    if let Some(p) = &a.trace {
-        let f =
-            std::fs::File::create(p).with_context(|| format!("cannot write {}", p.display()))?;
-        out.trace.write_chrome_json(std::io::BufWriter::new(f))?;
-        println!("wrote {}", p.display());
-    }
-    if let Some(p) = &a.timeline {
-        cluster::timeline::draw(&out.trace, out.report.n_nodes, p)?;
-        println!("wrote {}", p.display());
-    }
-    print!("{}", cluster::report::summary(&out.report));
-    Ok(())
 }

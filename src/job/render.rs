@@ -6,7 +6,7 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 
 use super::memory::{self, FrameKind};
-use super::output::{prepare_output, OutputKind};
+
 use super::validate::{self, at_least, Checks, Validate};
 use crate::render::cell::ert::EntrySize;
 use crate::render::cell::{
@@ -379,36 +379,6 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
          grids only; scene {} renders a tetrahedral mesh",
         a.scene.display()
     );
-    Ok(())
-}
-
-/// Runs `pvrsim render`: checks the options and every output path, renders,
-/// warns when the image is empty, writes.
-pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    validate::apply(&a)?;
-    prepare_output("-o", &a.output, OutputKind::Png)?;
-    if let Some(p) = &a.stats {
-        prepare_output("--stats", p, OutputKind::Json)?;
-    }
-    if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
-        prepare_output("--compare", &compare_path(&a.output), OutputKind::Png)?;
-    }
-    let out = execute(&a, false)?;
-    let projected = out.stats["cells_projected"].as_u64();
-    super::output::warn_if_empty(
-        &out.image,
-        &match projected {
-            Some(n) => format!("{n} cells projected on screen"),
-            None => "no ray met a visible cell".into(),
-        },
-    );
-    out.image.save_png(&a.output)?;
-    println!("wrote {}", a.output.display());
-    if let Some(path) = &a.stats {
-        std::fs::write(path, serde_json::to_string_pretty(&out.stats)?)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
     Ok(())
 }
 

@@ -1,0 +1,108 @@
+//! `pvrsim cluster`: a scene on a simulated (or real) PC cluster. The options
+//! and the work are the job layer's ([`crate::job::cluster`], re-exported
+//! here); this file checks the outputs, runs the job and writes its files.
+
+use anyhow::Context;
+
+use crate::image::Image;
+pub use crate::job::cluster::*;
+use crate::job::output::{self, prepare_output, OutputKind};
+use crate::job::{cluster_grid, validate};
+use crate::net::SimTrace;
+use crate::scene::Scene;
+
+/// Runs `pvrsim cluster`: checks the options and every output path first.
+pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
+    // Under mpirun, ranks other than 0 serve a node and write nothing.
+    if a.net.serve_mpi_worker(a.nodes)? {
+        return Ok(());
+    }
+    validate::apply(&a)?;
+    prepare_output("-o", &a.output, OutputKind::Png)?;
+    for (flag, path, kind) in [
+        ("--report", &a.report, OutputKind::Json),
+        ("--trace", &a.trace, OutputKind::Json),
+        ("--timeline", &a.timeline, OutputKind::Png),
+    ] {
+        if let Some(p) = path {
+            prepare_output(flag, p, kind)?;
+        }
+    }
+    let scene = crate::scene::Scene::load(&a.scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if crate::job::render_grid::is_grid_scene(&scene) {
+        return run_grid(&a, scene);
+    }
+    cluster_grid::refuse_on_mesh(&a.grid)?;
+    let out = execute(&a)?;
+    output::warn_if_empty(
+        &out.image,
+        &format!(
+            "{} of {} cells culled on arrival",
+            out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+            out.report.cells_total
+        ),
+    );
+    write_outputs(&a, &out.image, &out.report, &out.trace, out.report.n_nodes)?;
+    print!("{}", crate::cluster::report::summary(&out.report));
+    Ok(())
+}
+
+/// Runs a grid scene and writes the outputs `pvrsim cluster` names.
+fn run_grid(a: &ClusterArgs, scene: Scene) -> anyhow::Result<()> {
+    let mut outs = cluster_grid::execute_frames(a, scene)?;
+    if outs.len() > 1 {
+        let walls: Vec<f64> = outs.iter().map(|o| o.report.wall_s).collect();
+        let cached: Vec<u64> = outs.iter().map(|o| o.report.textures_cached).collect();
+        println!(
+            "{} frames, wall seconds each: {}; total {:.4} s; bricks from kept textures each: {:?}",
+            outs.len(),
+            walls
+                .iter()
+                .map(|w| format!("{w:.4}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            walls.iter().sum::<f64>(),
+            cached
+        );
+    }
+    let out = outs.pop().expect("at least one frame");
+    write_outputs(
+        a,
+        &out.image,
+        &out.report,
+        &out.trace,
+        out.report.nodes.len(),
+    )?;
+    print!("{}", crate::cluster::grid::summary(&out.report));
+    Ok(())
+}
+
+/// Writes the image (-o), the report (--report), the trace (--trace) and the
+/// timeline (--timeline) of a frame with `ranks` ranks, saying each.
+fn write_outputs<R: serde::Serialize>(
+    a: &ClusterArgs,
+    image: &Image,
+    report: &R,
+    trace: &SimTrace,
+    ranks: usize,
+) -> anyhow::Result<()> {
+    image.save_png(&a.output)?;
+    println!("wrote {}", a.output.display());
+    if let Some(p) = &a.report {
+        std::fs::write(p, serde_json::to_string_pretty(report)?)
+            .with_context(|| format!("cannot write {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.trace {
+        let f =
+            std::fs::File::create(p).with_context(|| format!("cannot write {}", p.display()))?;
+        trace.write_chrome_json(std::io::BufWriter::new(f))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.timeline {
+        crate::cluster::timeline::draw(trace, ranks, p)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
