@@ -108,8 +108,8 @@ pub fn parse_size(s: &str) -> anyhow::Result<[u64; 3]> {
     }
 }
 
-/// Runs `pvrsim generate`.
-pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
+/// `--output` must name an attached NRRD file.
+pub fn check_output(a: &GenerateArgs) -> anyhow::Result<()> {
     let ext = a.output.extension().and_then(|e| e.to_str()).unwrap_or("");
     if !ext.eq_ignore_ascii_case("nrrd") {
         bail!(
@@ -117,15 +117,22 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
             a.output.display()
         );
     }
+    Ok(())
+}
+
+/// Runs `pvrsim generate` (but `mesh-field`: [`super::generate_mesh::run`]).
+pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
+    check_output(&a)?;
     if let Some(size) = a.kind.paper_size() {
         return paper(&a, size);
     }
     if a.field.is_some() && a.kind != Kind::MeshField {
         bail!("--field is only used by `generate mesh-field`");
     }
-    if a.kind == Kind::MeshField {
-        return super::generate_mesh::run(&a, &file_name(&a.output)?);
-    }
+    anyhow::ensure!(
+        a.kind != Kind::MeshField,
+        "internal error: `generate mesh-field` runs in generate_mesh"
+    );
     let size = parse_size(&a.size)?;
     if a.input.is_some() && a.kind != Kind::Resample {
         bail!("--input is only used by `generate resample`, `mesh-field` and `paper-*`");
@@ -213,7 +220,8 @@ pub(super) fn write_outputs(
     Ok(scene_path)
 }
 
-fn file_name(p: &Path) -> anyhow::Result<String> {
+/// The file name of `p`, as a scene names its data file.
+pub fn file_name(p: &Path) -> anyhow::Result<String> {
     p.file_name()
         .and_then(|n| n.to_str())
         .map(str::to_string)

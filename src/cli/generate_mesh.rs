@@ -14,7 +14,10 @@ use crate::data::volume::from_mesh::{dims_along_longest, sample_mesh_field};
 use crate::scene::Scene;
 
 /// Runs `generate mesh-field` (`a.kind` is `MeshField`).
-pub fn run(a: &GenerateArgs, name: &str) -> anyhow::Result<()> {
+pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
+    super::generate::check_output(&a)?;
+    let name = &super::generate::file_name(&a.output)?;
+    let a = &a;
     let input = a.input.as_ref().context(
         "`generate mesh-field` needs --input SCENE.toml (a mesh scene) or --input MESH \
          (.vtk, .vtu, .inp) with --field",
