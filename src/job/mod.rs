@@ -1,7 +1,9 @@
 //! The job layer: everything pvrsim does, as typed, validated jobs that
 //! the frontends (`cli`, `experiment`'s sweeps, `bench`) call. A job is a
 //! set of options with the command line's defaults; running it returns
-//! typed values (image, statistics, cluster report), never printed text.
+//! typed values (image, statistics, cluster report). (The command line's
+//! own path, `execute(.., quiet = false)`, still prints its summaries from
+//! here; the typed entry points run quiet.)
 //!
 //! - [`render`]: render a scene (cell projection for meshes; slicing,
 //!   adaptive, splatting and the references for grids: [`render_grid`],
@@ -15,9 +17,13 @@
 //! - [`output`]: output paths checked before work (extension, writability,
 //!   at most one new directory level), warnings, the broken-pipe stop.
 //! - [`memory`]: a frame's memory, estimated and checked before allocating.
+//! - [`api`]: the typed entry points [`RenderJob`] and [`ClusterJob`]
+//!   (`new` with the command line's defaults, `from_options` by flag name,
+//!   serde from a job file, `check`, `run`) and [`JobError`];
+//! - [`options`]: options by flag name, the one mapping that job files,
+//!   and sweeps share.
 //!
-//! The typed entry points are [`RenderJob`] and [`ClusterJob`]; see the
-//! crate documentation for examples.
+//! The crate documentation has examples.
 
 pub mod api;
 pub mod cluster;
