@@ -4,7 +4,7 @@
 //! and a manager; phase 2 runs the same compositing schedules over their
 //! visibility-ranked RGBA layers ([`crate::compositor::layer::exec`]) and
 //! replays every message on the simulated network
-//! ([`super::phase2::replay`]).
+//! (`super::phase2::replay`).
 //!
 //! With a master (`--master`, the paper's setting) rank 0 renders nothing
 //! and composites; ranks `1..=P` hold the bricks.

@@ -1,5 +1,5 @@
 //! A node's contribution to a screen region: per pixel a list of ray
-//! segments in canonical form ([`canonical`](super::canonical)), stored
+//! segments in canonical form (`canonical`), stored
 //! compactly (one flat segment array plus per-pixel offsets); and the RGBA
 //! pixels a region composites to.
 

@@ -54,7 +54,7 @@ pub struct ManagerConfig {
     /// count; shares are then [`LevelDelta`]s. `None`: the paper's tables.
     pub levels: Option<(BlockGrid, usize)>,
     /// Per-pixel level sharing ([`crate::node::pixel_share`]): image width,
-    /// height and level count; shares are then [`PixelLevels`] and replies
+    /// height and level count; shares are then `PixelLevels` and replies
     /// the certified depths that changed. Takes precedence over `levels`.
     pub pixels: Option<(u32, u32, usize)>,
     /// Front-first help: a node asking for help (in its share) is sent the

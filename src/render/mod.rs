@@ -3,7 +3,7 @@
 //!
 //! - [`cell`]: cell projection with ray-segment lists and partial composition
 //!   (the paper's renderer; the fast path).
-//! - [`reference`]: f64 ray walking through the mesh with adaptive quadrature
+//! - [`reference`](mod@reference): f64 ray walking through the mesh with adaptive quadrature
 //!   (the oracle; shares nothing with `cell` but the scene and TF types).
 //! - [`grid_reference`]: the f64 oracle for regular grids (DDA through the
 //!   voxel cells, the cubic along the ray, adaptive quadrature).

@@ -10,7 +10,7 @@
 //!
 //! With `merge_early` (radix-k, [`Strategy::merges_early`]), after every
 //! lists round each rank composites the layers it holds whose ranks chain
-//! ([`merge_adjacent`]): the next round then sends one layer per chain.
+//! (`merge_adjacent`): the next round then sends one layer per chain.
 //!
 //! [`Strategy::merges_early`]: crate::compositor::Strategy::merges_early
 

@@ -30,7 +30,7 @@ pub struct RawConfig {
     /// Parameters to vary independently (Cartesian product), in order: the first varies slowest.
     #[serde(default)]
     pub vary: toml::Table,
-    /// Groups of parameters that vary together, each an axis after the [vary] ones.
+    /// Groups of parameters that vary together, each an axis after the `[vary]` ones.
     #[serde(default)]
     pub zip: Vec<toml::Table>,
     /// Plots to draw.

@@ -8,7 +8,7 @@
 //! | [`auth`] | the shared token, HMAC-SHA256, OS randomness |
 //! | [`handshake`] | preamble and two-way challenge-response |
 //! | [`frame`] | link frames (data, heartbeat, goodbye), size-checked decoding |
-//! | [`connect`] | dial and accept with timeouts; the loopback rule |
+//! | [`connect`](mod@connect) | dial and accept with timeouts; the loopback rule |
 //! | [`raw`] | typed messages on a bare stream during session set-up |
 //! | [`transport`] | [`TcpTransport`]: reader and writer tasks per peer, heartbeats, counting |
 

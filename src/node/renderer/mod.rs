@@ -3,9 +3,9 @@
 //!
 //! ## Model
 //!
-//! The node owns its cells as [`CellRecord`]s (built when a [`WorkUnit`]
+//! The node owns its cells as [`CellRecord`]s (built when a `WorkUnit`
 //! arrives: vertices projected, empty and off-screen cells culled, exactly as
-//! the single-machine binning does — the same function, [`cell_record`]),
+//! the single-machine binning does — the same function, `cell_record`),
 //! kept in processing order: front to back by `(nearest depth, cell id)` by
 //! default, the order every tile of the single-machine renderer uses, or by
 //! cell id ("stored"). Cells `[0, next)` are processed, `[next, len)` are not.

@@ -13,7 +13,7 @@ use crate::render::cell::segment::Segment;
 
 impl NodeRenderer {
     /// Turns on per-pixel level sharing ([`crate::node::pixel_share`]; with weak
-    /// sharing and [`NodeErt::pixel_sharing`]): table updates also keep the
+    /// sharing and `NodeErt::pixel_sharing`): table updates also keep the
     /// per-pixel level depths, [`NodeRenderer::take_pixel_levels`] gives the
     /// pixels that changed, with depths coded by `quant`.
     pub fn enable_pixel_sharing(&mut self, quant: DepthQuant) {
@@ -114,7 +114,7 @@ impl NodeRenderer {
     }
 
     /// Turns on level sharing (with weak sharing and
-    /// [`NodeErt::level_sharing`]): from now on table updates also keep
+    /// `NodeErt::level_sharing`): from now on table updates also keep
     /// per-pixel and per-block opacity-level depths, and
     /// [`NodeRenderer::take_level_delta`] gives the blocks that changed.
     /// Call before the first step.
