@@ -179,3 +179,34 @@ impl<'de> Deserialize<'de> for ClusterArgs {
         Self::from_options(&t).map_err(serde::de::Error::custom)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_job_file_is_options_by_flag_name() {
+        let job: RenderJob =
+            toml::from_str("scene = \"s.toml\"\nert = 0.9\ncompare = true\nert_table = 20\n")
+                .unwrap();
+        assert_eq!(job.scene, PathBuf::from("s.toml"));
+        assert_eq!((job.ert, job.compare, job.ert_table), (0.9, true, Some(20)));
+        let defaults = RenderJob::new("s.toml");
+        assert_eq!(defaults.output, PathBuf::from("out.png"));
+        assert!(!defaults.compare);
+        let e = toml::from_str::<RenderJob>("scene = \"s.toml\"\nert_tabel = 3\n").unwrap_err();
+        assert!(e.to_string().contains("--ert-tabel"), "{e}");
+    }
+
+    #[test]
+    fn validation_and_parsing_errors_are_told_apart() {
+        let mut job = ClusterJob::new("s.toml");
+        job.nodes = 0;
+        assert!(matches!(job.check(), Err(JobError::Invalid(_))));
+        let opts = [("nodes".to_string(), ParamValue::Str("four".into()))];
+        assert!(matches!(
+            ClusterJob::from_options(&opts),
+            Err(JobError::Options(_))
+        ));
+    }
+}
