@@ -94,6 +94,11 @@ pub struct SliceStats {
     pub time_prepare_s: f64,
     /// Seconds of the frame itself (classification tables, slicing, compositing).
     pub time_render_s: f64,
+    /// Of [`SliceStats::time_render_s`], seconds to classify the min–max
+    /// blocks against the transfer function and build the leap distances:
+    /// all a transfer-function change costs besides the frame's lookup
+    /// table (the blocks' ranges are not rebuilt).
+    pub time_classify_s: f64,
     /// Rayon threads.
     pub threads: usize,
 }
