@@ -4,7 +4,8 @@
 # one thread each, per frame, view-independent preparation excluded on both
 # sides (our min-max blocks and tiled texture, VolPack's classification),
 # the two binaries alternating ROUNDS times in this one run; prints each
-# side's median of the per-round medians and the ratio.
+# side's median of the per-round medians (wall time on both sides: the
+# alternation spreads the load of a shared machine over both) and the ratio.
 #   sh bench/volpack/peer.sh [DATA_DIR (default ../shared/data)] [ROUNDS (default 3)] [FRAMES (default 9)]
 # Needs the release build of the example (cargo build --release --example
 # slice3d_frames). Without libvolpack1-dev it times ours only and says how
@@ -38,13 +39,13 @@ import re, sys, statistics
 vp = {"197x233x189": [], "301x370x316": []}
 ours = {"mni152-view": [], "colin27-brain-view": []}
 for line in open(sys.argv[1]):
-    m = re.search(r"volpack (\d+x\d+x\d+) .*frame median cpu ([\d.]+) ms", line)
+    m = re.search(r"volpack (\d+x\d+x\d+) .*frame median cpu [\d.]+ ms, wall ([\d.]+) ms", line)
     if m:
         vp[m.group(1)].append(float(m.group(2)))
     m = re.search(r"ours (\S+) Tiled: median ([\d.]+) ms", line)
     if m:
         ours[m.group(1)].append(float(m.group(2)))
-print("| scene | ours slice3d ms (1 thread) | VolPack ms (CPU, 1 thread) | ours / VolPack |")
+print("| scene | ours slice3d ms (1 thread) | VolPack ms (1 thread) | ours / VolPack |")
 print("|---|---|---|---|")
 for s, v in [("mni152-view", "197x233x189"), ("colin27-brain-view", "301x370x316")]:
     o = statistics.median(ours[s])
