@@ -82,6 +82,9 @@ pub struct SliceStats {
     pub blocks_empty: u64,
     /// Pixels whose ray met the volume box.
     pub pixels_covered: u64,
+    /// Samples taken per covered pixel: with empty-space skipping and ERT
+    /// the frame's cost follows what is visible, not the box.
+    pub samples_per_pixel: f64,
     /// Classification mode.
     pub classify: Option<Classify>,
     /// Compositing order.
@@ -121,6 +124,7 @@ impl SliceStats {
         self.samples_skipped_empty += o.skipped_empty;
         self.samples_skipped_ert += o.skipped_ert;
         self.pixels_covered += o.covered;
+        self.samples_per_pixel = self.samples_taken as f64 / self.pixels_covered.max(1) as f64;
     }
 }
 
