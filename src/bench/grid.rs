@@ -41,6 +41,12 @@ pub struct GridBenchRow {
     pub msamples_per_s_per_core: f64,
     /// Share of the in-volume samples skipped as empty space.
     pub skipped_empty: f64,
+    /// Samples taken per pixel whose ray met the volume (the frame cost
+    /// that follows what is visible).
+    pub samples_per_pixel: f64,
+    /// Classifying the min–max blocks for the TF (slice3d: with the leap
+    /// distances), ms: what a TF change costs besides the frame.
+    pub classify_ms: f64,
     /// Share skipped by ERT.
     pub skipped_ert: f64,
     /// Max-abs error against the grid reference, 1/255.
@@ -78,7 +84,7 @@ pub fn run(
         .unwrap_or(1);
     let mut rows = Vec::new();
     println!(
-        "{:<24} {:<8} {:>5} {:>3} {:>9} {:>8} {:>8} {:>8} {:>10} {:>7} {:>7} {:>8} {:>7}",
+        "{:<24} {:<8} {:>5} {:>3} {:>9} {:>8} {:>8} {:>8} {:>10} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7}",
         "scene",
         "renderer",
         "size",
@@ -90,6 +96,8 @@ pub fn run(
         "Msmp/s/cpu",
         "empty%",
         "ERT%",
+        "smp/px",
+        "cls ms",
         "max/255",
         "RMSE"
     );
@@ -183,11 +191,14 @@ pub fn run(
                         },
                         skipped_empty: st.samples_skipped_empty as f64 / all,
                         skipped_ert: st.samples_skipped_ert as f64 / all,
+                        samples_per_pixel: st.samples_taken as f64
+                            / st.pixels_covered.max(1) as f64,
+                        classify_ms: st.time_classify_s * 1e3,
                         max_abs: e.max_abs,
                         rmse: e.rmse,
                     };
                     println!(
-                        "{:<24} {:<8} {:>5} {:>3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>10.1} {:>7.1} {:>7.1} {:>8.2} {:>7.3}",
+                        "{:<24} {:<8} {:>5} {:>3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>10.1} {:>7.1} {:>7.1} {:>7.1} {:>7.2} {:>8.2} {:>7.3}",
                         row.scene,
                         row.renderer,
                         row.size,
@@ -199,6 +210,8 @@ pub fn run(
                         row.msamples_per_s_per_core,
                         100.0 * row.skipped_empty,
                         100.0 * row.skipped_ert,
+                        row.samples_per_pixel,
+                        row.classify_ms,
                         row.max_abs,
                         row.rmse
                     );

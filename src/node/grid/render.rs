@@ -9,6 +9,7 @@ use crate::compositor::layer::{Depth, Layer};
 use crate::data::Volume;
 use crate::error::Result;
 use crate::image::Image;
+use crate::render::cell::scan::Rect;
 use crate::render::slice3d::brick::BrickFrame;
 use crate::render::slice3d::planes::Planes;
 use crate::render::slice3d::{self, Slice3dOptions};
@@ -157,6 +158,18 @@ pub fn render_brick(
             ..*opts
         },
     )?;
+    // A brick whose min–max blocks are all transparent under the TF drew
+    // nothing (every sample was skipped, every pixel is exactly zero): it
+    // sends an empty rectangle, no pixels, and the composite is the same.
+    let rect = if opts.empty_skip && stats.blocks > 0 && stats.blocks_empty == stats.blocks {
+        Rect {
+            x1: rect.x0,
+            y1: rect.y0,
+            ..rect
+        }
+    } else {
+        rect
+    };
     let w = img.width as usize;
     let mut px = Vec::with_capacity(rect.width() as usize * rect.height() as usize);
     for y in rect.y0..rect.y1 {

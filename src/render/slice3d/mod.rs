@@ -194,6 +194,7 @@ pub fn render_prepared(
     let table = (opts.classify == Classify::Preint).then(|| {
         preint::PreintTable::new(&lut, input.range, (planes.delta / tf.unit_distance) as f32)
     });
+    let t_classify = Instant::now();
     let opaque = if opts.empty_skip {
         match &table {
             Some(t) => prep
@@ -219,6 +220,7 @@ pub fn render_prepared(
             2.0
         },
     );
+    st.time_classify_s = t_classify.elapsed().as_secs_f64();
     let nx = vol.dims[0] as usize;
     let nxy = nx * vol.dims[1] as usize;
     let ud = tf.unit_distance;

@@ -91,6 +91,67 @@ fn depth_range(view: &View, vol: &Volume) -> (f64, f64) {
     (zmin.max(0.0), zmax)
 }
 
+/// Cell faces a ray crosses per unit of depth along `f`, the most over
+/// the rays that can meet the volume. Orthographic: `Σ_a |f_a| / h_a`.
+/// Perspective: a ray `d = f + a r + b u` (depth component 1) crosses
+/// `Σ_a |d_a| / h_a` faces per unit depth, a convex function of `(a, b)`,
+/// so its maximum over a rectangle of the image plane is at a corner; the
+/// rectangle is the image's, cut to the volume box's projection (the whole
+/// image when the eye is inside the box or the box reaches behind it).
+fn faces_per_depth(view: &View, vol: &Volume) -> f64 {
+    let cross = |d: [f64; 3]| -> f64 { (0..3).map(|a| d[a].abs() / vol.spacing[a]).sum() };
+    let f = view.forward;
+    if !matches!(
+        view.projection,
+        crate::scene::Projection::Perspective { .. }
+    ) {
+        return cross(f);
+    }
+    // The image plane at depth 1: pixel centres span ±half extents.
+    let half = [
+        0.5 * view.width as f64 * view.pixel_size,
+        0.5 * view.height as f64 * view.pixel_size,
+    ];
+    let (mut lo, mut hi) = ([-half[0], -half[1]], half);
+    let (blo, bhi) = vol.bounds();
+    let mut box_lo = [f64::INFINITY; 2];
+    let mut box_hi = [f64::NEG_INFINITY; 2];
+    let mut in_front = true;
+    for c in 0..8 {
+        let p = [
+            if c & 1 == 0 { blo[0] } else { bhi[0] },
+            if c & 2 == 0 { blo[1] } else { bhi[1] },
+            if c & 4 == 0 { blo[2] } else { bhi[2] },
+        ];
+        let q = view.to_camera(p);
+        if q[2] <= 0.0 {
+            in_front = false;
+            break;
+        }
+        for a in 0..2 {
+            box_lo[a] = box_lo[a].min(q[a] / q[2]);
+            box_hi[a] = box_hi[a].max(q[a] / q[2]);
+        }
+    }
+    if in_front {
+        for a in 0..2 {
+            lo[a] = lo[a].max(box_lo[a]);
+            hi[a] = hi[a].min(box_hi[a]).max(lo[a]);
+        }
+    }
+    let mut m = cross(f);
+    for (x, y) in [
+        (lo[0], lo[1]),
+        (lo[0], hi[1]),
+        (hi[0], lo[1]),
+        (hi[0], hi[1]),
+    ] {
+        let d: [f64; 3] = std::array::from_fn(|a| f[a] + x * view.right[a] + y * view.up[a]);
+        m = m.max(cross(d));
+    }
+    m
+}
+
 impl Planes {
     /// The slices for `view` over `vol`; `None` when the box is behind the eye.
     pub fn new(view: &View, vol: &Volume, count: SliceCount) -> Option<Planes> {
@@ -101,10 +162,7 @@ impl Planes {
         }
         let (n, delta) = match count {
             SliceCount::Default => {
-                // Cell faces crossed per unit length along f.
-                let f = view.forward;
-                let cross: f64 = (0..3).map(|a| f[a].abs() / vol.spacing[a]).sum();
-                let n = (extent * cross).ceil().clamp(1.0, 1e9) as u64;
+                let n = (extent * faces_per_depth(view, vol)).ceil().clamp(1.0, 1e9) as u64;
                 (n, extent / n as f64)
             }
             SliceCount::Count(n) => (n.max(1), extent / n.max(1) as f64),

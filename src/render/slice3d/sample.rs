@@ -44,7 +44,7 @@ pub fn scalar<T: Texel>(d: &[T], nx: usize, nxy: usize, c: [usize; 3], f: [f32; 
 /// Interpolated scalar of cell `c` of texture `x` (any layout).
 #[inline(always)]
 pub fn fetch<X: Corners>(x: &X, c: [usize; 3], f: [f32; 3]) -> f32 {
-    tri(x.corners(c).map(Texel::f), f)
+    x.fetch(c, f)
 }
 
 /// Post-classification with a table baked for one sample distance.

@@ -52,6 +52,11 @@ pub trait Corners: Sync {
     /// The corner values of cell `c` (`c_a <= dims_a - 2`), in the order
     /// `v000, v100, v010, v110, v001, v101, v011, v111`.
     fn corners(&self, c: [usize; 3]) -> [Self::T; 8];
+    /// The trilinear interpolant in cell `c` at fractions `f`.
+    #[inline(always)]
+    fn fetch(&self, c: [usize; 3], f: [f32; 3]) -> f32 {
+        crate::render::slicing::texel::trilinear(self.corners(c).map(Texel::f), f)
+    }
 }
 
 /// The volume as read: x fastest, then y, then z.
@@ -91,6 +96,11 @@ impl<T: Texel> Corners for Linear<'_, T> {
     fn corners(&self, c: [usize; 3]) -> [T; 8] {
         self.at(c)
     }
+    #[inline(always)]
+    fn fetch(&self, c: [usize; 3], f: [f32; 3]) -> f32 {
+        let base = c[0] + self.nx * c[1] + self.nxy * c[2];
+        T::trilinear(&self.data[base..], self.nx, self.nxy, f)
+    }
 }
 
 /// The volume in overlapping 16^3 tiles (see the module docs).
@@ -102,8 +112,23 @@ pub struct Tiled<'a, T> {
     pub nt: [usize; 3],
 }
 
+impl<T: Texel> Tiled<'_, T> {
+    /// Index of the first corner of cell `c`.
+    #[inline(always)]
+    fn base(&self, c: [usize; 3]) -> usize {
+        let t = c.map(|x| x / TILE_CELLS);
+        let l = c.map(|x| x % TILE_CELLS);
+        let tile = (t[2] * self.nt[1] + t[1]) * self.nt[0] + t[0];
+        tile * TILE_STRIDE + l[0] + TILE * l[1] + TILE * TILE * l[2]
+    }
+}
+
 impl<T: Texel> Corners for Tiled<'_, T> {
     type T = T;
+    #[inline(always)]
+    fn fetch(&self, c: [usize; 3], f: [f32; 3]) -> f32 {
+        T::trilinear(&self.data[self.base(c)..], TILE, TILE * TILE, f)
+    }
     #[inline(always)]
     fn corners(&self, c: [usize; 3]) -> [T; 8] {
         let t = c.map(|x| x / TILE_CELLS);

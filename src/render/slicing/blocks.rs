@@ -82,6 +82,87 @@ impl MinMaxBlocks {
     }
 }
 
+/// Chessboard (L-infinity) distance, in blocks, from every block to the
+/// nearest block that is not transparent, capped at 255: 0 for an opaque
+/// block, `d >= 1` when every block `b'` with `max_a |b'_a - b_a| < d` is
+/// transparent (blocks outside the grid count as transparent: no sample is
+/// taken there). Two raster passes over the 26-neighbourhood with unit
+/// weights (Rosenfeld and Pfaltz 1966), exact for this metric: each pass
+/// propagates along every monotone path, and a chessboard-shortest path
+/// can always be split into one forward and one backward monotone part.
+/// Linear in the number of blocks (colin27: 71 000 blocks, well under a
+/// millisecond), so it is redone with the classification on every
+/// transfer-function change.
+pub fn leap_distances(opaque: &[bool], nb: [usize; 3]) -> Vec<u8> {
+    let [nx, ny, nz] = nb;
+    debug_assert_eq!(opaque.len(), nx * ny * nz);
+    let mut d: Vec<u8> = opaque.iter().map(|&o| if o { 0 } else { 255 }).collect();
+    let idx = |x: usize, y: usize, z: usize| (z * ny + y) * nx + x;
+    // Forward: neighbours earlier in raster order (z, then y, then x).
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let i = idx(x, y, z);
+                if d[i] == 0 {
+                    continue;
+                }
+                let mut m = d[i];
+                for dz in -1i64..=0 {
+                    for dy in -1i64..=1 {
+                        for dx in -1i64..=1 {
+                            // The 13 causal neighbours.
+                            if dz == 0 && (dy > 0 || (dy == 0 && dx >= 0)) {
+                                continue;
+                            }
+                            let (xx, yy, zz) = (x as i64 + dx, y as i64 + dy, z as i64 + dz);
+                            if xx < 0 || yy < 0 || zz < 0 || xx >= nx as i64 || yy >= ny as i64 {
+                                continue;
+                            }
+                            let v = d[idx(xx as usize, yy as usize, zz as usize)];
+                            m = m.min(v.saturating_add(1));
+                        }
+                    }
+                }
+                d[i] = m;
+            }
+        }
+    }
+    // Backward: the mirrored 13.
+    for z in (0..nz).rev() {
+        for y in (0..ny).rev() {
+            for x in (0..nx).rev() {
+                let i = idx(x, y, z);
+                if d[i] == 0 {
+                    continue;
+                }
+                let mut m = d[i];
+                for dz in 0i64..=1 {
+                    for dy in -1i64..=1 {
+                        for dx in -1i64..=1 {
+                            if dz == 0 && (dy < 0 || (dy == 0 && dx <= 0)) {
+                                continue;
+                            }
+                            let (xx, yy, zz) = (x as i64 + dx, y as i64 + dy, z as i64 + dz);
+                            if xx < 0
+                                || yy < 0
+                                || xx >= nx as i64
+                                || yy >= ny as i64
+                                || zz >= nz as i64
+                            {
+                                continue;
+                            }
+                            let v = d[idx(xx as usize, yy as usize, zz as usize)];
+                            m = m.min(v.saturating_add(1));
+                        }
+                    }
+                }
+                d[i] = m;
+            }
+        }
+    }
+    d
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,6 +187,27 @@ mod tests {
                 }
                 let r = mm.range[((bz * mm.nb[1] + by) * mm.nb[0] + bx) as usize];
                 prop_assert_eq!(r, [lo, hi]);
+            }}}
+        }
+    }
+
+    proptest! {
+        /// The leap distance is the brute-force chessboard distance to the
+        /// nearest opaque block (capped at 255).
+        #[test]
+        fn leap_distances_are_exact(nb in proptest::array::uniform3(1usize..9), seed in 0u64..1000, fill in 0u64..40) {
+            let n = nb[0] * nb[1] * nb[2];
+            let opaque: Vec<bool> = (0..n).map(|i| (i as u64 * 2654435761 + seed * 97) % 100 < fill).collect();
+            let d = leap_distances(&opaque, nb);
+            for z in 0..nb[2] { for y in 0..nb[1] { for x in 0..nb[0] {
+                let mut best = 255usize;
+                for zz in 0..nb[2] { for yy in 0..nb[1] { for xx in 0..nb[0] {
+                    if opaque[(zz * nb[1] + yy) * nb[0] + xx] {
+                        let c = x.abs_diff(xx).max(y.abs_diff(yy)).max(z.abs_diff(zz));
+                        best = best.min(c);
+                    }
+                }}}
+                prop_assert_eq!(d[(z * nb[1] + y) * nb[0] + x] as usize, best);
             }}}
         }
     }

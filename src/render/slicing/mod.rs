@@ -82,6 +82,9 @@ pub struct SliceStats {
     pub blocks_empty: u64,
     /// Pixels whose ray met the volume box.
     pub pixels_covered: u64,
+    /// Samples taken per covered pixel: with empty-space skipping and ERT
+    /// the frame's cost follows what is visible, not the box.
+    pub samples_per_pixel: f64,
     /// Classification mode.
     pub classify: Option<Classify>,
     /// Compositing order.
@@ -94,6 +97,11 @@ pub struct SliceStats {
     pub time_prepare_s: f64,
     /// Seconds of the frame itself (classification tables, slicing, compositing).
     pub time_render_s: f64,
+    /// Of [`SliceStats::time_render_s`], seconds to classify the min–max
+    /// blocks against the transfer function and build the leap distances:
+    /// all a transfer-function change costs besides the frame's lookup
+    /// table (the blocks' ranges are not rebuilt).
+    pub time_classify_s: f64,
     /// Rayon threads.
     pub threads: usize,
 }
@@ -116,6 +124,7 @@ impl SliceStats {
         self.samples_skipped_empty += o.skipped_empty;
         self.samples_skipped_ert += o.skipped_ert;
         self.pixels_covered += o.covered;
+        self.samples_per_pixel = self.samples_taken as f64 / self.pixels_covered.max(1) as f64;
     }
 }
 

@@ -1,0 +1,71 @@
+#!/bin/sh
+# Ours (slice3d, the default grid renderer) beside VolPack (Lacroute's
+# shear-warp, classified volume) on mni152-view and colin27-brain-view:
+# one thread each, per frame, view-independent preparation excluded on both
+# sides (our min-max blocks and tiled texture, VolPack's classification),
+# the two binaries alternating ROUNDS times in this one run; prints each
+# side's median of the per-round medians (wall time on both sides: the
+# alternation spreads the load of a shared machine over both) and the ratio.
+#   sh bench/volpack/peer.sh [DATA_DIR (default ../shared/data)] [ROUNDS (default 3)] [FRAMES (default 9)]
+# Needs the release build of the example (cargo build --release --example
+# slice3d_frames). Without libvolpack1-dev it times ours only and says how
+# to install VolPack.
+set -e
+D=${1:-../shared/data}
+ROUNDS=${2:-3}
+FRAMES=${3:-9}
+HERE=$(dirname "$0")
+ROOT=$HERE/../..
+OURS=$ROOT/target/release/examples/slice3d_frames
+T=${TMPDIR:-/tmp}/pvrsim-volpack-peer
+mkdir -p "$T"
+[ -x "$OURS" ] || { echo "build ours first: nice -n 5 cargo build --release --example slice3d_frames"; exit 2; }
+HAVE_VP=1
+if [ ! -f /usr/include/volpack.h ]; then
+    HAVE_VP=0
+    echo "VolPack not installed: apt-get update && apt-get install -y libvolpack1-dev (Debian/Ubuntu); timing ours only"
+fi
+: > "$T/log"
+for r in $(seq "$ROUNDS"); do
+    if [ $HAVE_VP = 1 ]; then
+        sh "$HERE/run.sh" "$D" "$FRAMES" | sed "s/^/round $r /" >> "$T/log"
+    fi
+    for s in mni152-view colin27-brain-view; do
+        RAYON_NUM_THREADS=1 LAYOUT=tiled "$OURS" "$D/$s.toml" "$FRAMES" | grep median | sed "s/^/round $r ours $s /" >> "$T/log"
+    done
+done
+# Our error against the f64 grid reference (pvrsim render --compare).
+PVRSIM=$ROOT/target/release/pvrsim
+for s in mni152-view colin27-brain-view; do
+    if [ -x "$PVRSIM" ]; then
+        "$PVRSIM" render "$D/$s.toml" -o "$T/$s.png" --compare 2>&1 | grep "against the grid reference" | sed "s/^/error ours $s /" >> "$T/log"
+    fi
+done
+python3 - "$T/log" <<'PY'
+import re, sys, statistics
+vp = {"197x233x189": [], "301x370x316": []}
+ours = {"mni152-view": [], "colin27-brain-view": []}
+err = {}
+for line in open(sys.argv[1]):
+    m = re.search(r"volpack (\d+x\d+x\d+) .*frame median cpu [\d.]+ ms, wall ([\d.]+) ms", line)
+    if m:
+        vp[m.group(1)].append(float(m.group(2)))
+    m = re.search(r"error ours (\S+) .*max-abs ([\d.]+)/255.*RMSE ([\d.]+)/255", line)
+    if m:
+        err[m.group(1)] = f"{float(m.group(2)):.2f} / {float(m.group(3)):.3f}"
+        continue
+    m = re.search(r"ours (\S+) Tiled: median ([\d.]+) ms", line)
+    if m:
+        ours[m.group(1)].append(float(m.group(2)))
+print("| scene | ours slice3d ms (1 thread) | VolPack ms (1 thread) | ours / VolPack | ours max / RMSE vs f64 reference (1/255) |")
+print("|---|---|---|---|---|")
+for s, v in [("mni152-view", "197x233x189"), ("colin27-brain-view", "301x370x316")]:
+    o = statistics.median(ours[s])
+    if vp[v]:
+        w = statistics.median(vp[v])
+        print(f"| {s} | {o:.1f} | {w:.1f} | {o / w:.2f} | {err.get(s, '-')} |")
+    else:
+        print(f"| {s} | {o:.1f} | (not installed) | | {err.get(s, '-')} |")
+print("VolPack's error against the reference is not measured here: its driver renders luminance")
+print("(opacity only) in its own framing, not pixel-aligned with the scene's camera.")
+PY
