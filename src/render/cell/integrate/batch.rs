@@ -87,35 +87,51 @@ impl PreparedTf {
     /// sub-steps are redone one by one by the scalar code.
     pub fn integrate_batch(&self, integrator: Integrator, b: &mut Batch) {
         let lanes = ((b.n + 7) & !7).min(BATCH);
-        // Pass 1 (scalar): each lane's piece; a lane whose ends lie in
-        // different pieces crosses a control point and is split later.
-        for l in 0..b.n {
-            let hint = b.piece_hint[l];
-            let (i, split) = match integrator {
-                _ if hint != NO_PIECE => (hint as usize, false),
-                Integrator::Exact => {
-                    let i = self.piece_index(b.s_in[l]);
-                    (i, i != self.piece_index(b.s_out[l]))
-                }
-                Integrator::Midpoint => (self.piece_index(0.5 * (b.s_in[l] + b.s_out[l])), false),
-            };
-            b.lanes.split[l] = split;
-            b.lanes.piece[l] = i.min(self.pieces.len() - 1) as u32;
+        let (inv_ud, exact) = (self.inv_unit_distance, integrator == Integrator::Exact);
+        // Pass 1: each lane's piece; a lane whose ends lie in different
+        // pieces crosses a control point and is split later. With few
+        // control points, a vectorised count of the points at or below each
+        // end (the same index as `piece_index`); else the look-up table.
+        let counted = self.breaks.len() <= COUNTED_BREAKS;
+        if !counted {
+            for l in 0..b.n {
+                let hint = b.piece_hint[l];
+                let (i, split) = match integrator {
+                    _ if hint != NO_PIECE => (hint as usize, false),
+                    Integrator::Exact => {
+                        let i = self.piece_index(b.s_in[l]);
+                        (i, i != self.piece_index(b.s_out[l]))
+                    }
+                    Integrator::Midpoint => {
+                        (self.piece_index(0.5 * (b.s_in[l] + b.s_out[l])), false)
+                    }
+                };
+                b.lanes.split[l] = split;
+                b.lanes.piece[l] = i.min(self.pieces.len() - 1) as u32;
+            }
         }
         // Pass 2 (vectorised): the math, on whole vectors of lanes (lanes past
         // `n` hold stale inputs; their results are ignored).
-        let (inv_ud, exact) = (self.inv_unit_distance, integrator == Integrator::Exact);
+        let breaks: &[f32] = if counted { &self.breaks } else { &[] };
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { math_avx2(b, &self.table, lanes, inv_ud, exact) };
+                unsafe { math_avx2(b, &self.table, breaks, counted, lanes, inv_ud, exact) };
             } else {
+                if counted {
+                    pieces_by_count(b, breaks, lanes, exact);
+                }
                 math_lanes(b, &self.table, lanes, inv_ud, exact);
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        math_lanes(b, &self.table, lanes, inv_ud, exact);
+        {
+            if counted {
+                pieces_by_count(b, breaks, lanes, exact);
+            }
+            math_lanes(b, &self.table, lanes, inv_ud, exact);
+        }
         if exact {
             // Pass 3 (scalar, rare): lanes that cross a control point or need sub-steps.
             for l in 0..b.n {
@@ -133,8 +149,64 @@ impl PreparedTf {
 /// the machine.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn math_avx2(b: &mut Batch, t: &PieceTable, lanes: usize, inv_ud: f32, exact: bool) {
+unsafe fn math_avx2(
+    b: &mut Batch,
+    t: &PieceTable,
+    breaks: &[f32],
+    counted: bool,
+    lanes: usize,
+    inv_ud: f32,
+    exact: bool,
+) {
+    // Two calls, not one loop nest: inlined together, the math loop no
+    // longer vectorised (5x the instructions).
+    if counted {
+        pieces_avx2(b, breaks, lanes, exact);
+    }
     math_lanes(b, t, lanes, inv_ud, exact)
+}
+
+/// [`pieces_by_count`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+unsafe fn pieces_avx2(b: &mut Batch, breaks: &[f32], lanes: usize, exact: bool) {
+    pieces_by_count(b, breaks, lanes, exact)
+}
+
+/// Control points up to which pass 1 counts (vectorised) instead of using
+/// the look-up table.
+const COUNTED_BREAKS: usize = 16;
+
+/// Pass 1 by counting: a lane's piece is the number of control points at or
+/// below its scalar (`breaks` ascending), which is what
+/// [`PreparedTf::piece_index`] returns; lanes with a hint keep it. Every
+/// lane up to `lanes` gets a valid piece (at most `breaks.len()`).
+#[inline(always)]
+fn pieces_by_count(b: &mut Batch, breaks: &[f32], lanes: usize, exact: bool) {
+    let mut ia = [0u32; BATCH];
+    let mut ib = [0u32; BATCH];
+    if exact {
+        for &br in breaks {
+            for l in 0..lanes {
+                ia[l] += (br <= b.s_in[l]) as u32;
+                ib[l] += (br <= b.s_out[l]) as u32;
+            }
+        }
+    } else {
+        for &br in breaks {
+            for l in 0..lanes {
+                ia[l] += (br <= 0.5 * (b.s_in[l] + b.s_out[l])) as u32;
+            }
+        }
+        ib = ia;
+    }
+    for l in 0..lanes {
+        let hint = b.piece_hint[l];
+        let free = hint == NO_PIECE;
+        b.lanes.split[l] = free && ia[l] != ib[l];
+        b.lanes.piece[l] = if free { ia[l] } else { hint as u32 };
+    }
 }
 
 /// Pass 2 of [`PreparedTf::integrate_batch`]: per lane, the exact sub-step
