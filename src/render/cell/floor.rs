@@ -34,9 +34,7 @@ pub fn ns_per_segment() -> f64 {
             [f * 0.01, f * 0.01 + 0.5, 0.1 + f * 1e-4, 0.2 + f * 1e-4]
         })
         .collect();
-    let verts: Vec<[f32; 4]> = (0..VERTICES)
-        .map(|i| [i as f32, 1.0, 2.0, 0.5])
-        .collect();
+    let verts: Vec<[f32; 4]> = (0..VERTICES).map(|i| [i as f32, 1.0, 2.0, 0.5]).collect();
     let mut acc = vec![[0.0f32; 4]; PIXELS];
     let mut best = f64::INFINITY;
     let mut sink = 0.0f32;

@@ -264,6 +264,8 @@ const W: usize = 8;
 /// sub-step its Simpson step, more the sub-step loop), so the results are
 /// bit for bit the scalar ones. A group runs the loop to its largest step
 /// count; a lane past its own count keeps its result (a select).
+// Lane loops index several arrays in step: written for the vectoriser.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn tasks_lanes(tasks: &mut Tasks, t: &PieceTable, omax: f32) {
     let m = tasks.piece.len();
@@ -432,6 +434,8 @@ const COUNTED_BREAKS: usize = 16;
 /// below its scalar (`breaks` ascending), which is what
 /// [`PreparedTf::piece_index`] returns; lanes with a hint keep it. Every
 /// lane up to `lanes` gets a valid piece (at most `breaks.len()`).
+// Lane loops index several arrays in step: written for the vectoriser.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn pieces_by_count(b: &mut Batch, breaks: &[f32], lanes: usize, exact: bool) {
     let mut ia = [0u32; BATCH];
