@@ -125,6 +125,9 @@ pub struct BenchRow {
     pub segments_per_s: f64,
     /// Segments generated.
     pub segments: u64,
+    /// Floor estimate: segments x the ns per segment of the memory-bound
+    /// kernel of `render::cell::floor` on this machine, one thread, ms.
+    pub floor_ms: f64,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -186,9 +189,23 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         .map(|n| n.get())
         .unwrap_or(1);
     let mut rows = Vec::new();
+    let floor_ns = cell::floor::ns_per_segment();
     println!(
-        "{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13}",
-        "scene", "renderer", "threads", "median ms", "min ms", "scan ms", "Mcells/s", "Msegments/s"
+        "floor kernel (render::cell::floor, 1 thread): {floor_ns:.2} ns/segment; \
+         floor ms = segments x that / threads"
+    );
+    println!(
+        "{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13} {:>9} {:>8}",
+        "scene",
+        "renderer",
+        "threads",
+        "median ms",
+        "min ms",
+        "scan ms",
+        "Mcells/s",
+        "Msegments/s",
+        "floor ms",
+        "x floor"
     );
     for name in &a.scenes {
         let path = a.data_dir.join(name);
@@ -227,6 +244,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                     cells_per_s: s.cells_projected as f64 / (med / 1e3),
                     segments_per_s: s.segments_generated as f64 / (med / 1e3),
                     segments: s.segments_generated,
+                    floor_ms: s.segments_generated as f64 * floor_ns * 1e-6 / threads as f64,
                 };
                 print_row(&row);
                 rows.push(row);
@@ -247,6 +265,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 cells_per_s: 0.0,
                 segments_per_s: 0.0,
                 segments: 0,
+                floor_ms: 0.0,
             };
             print_row(&row);
             rows.push(row);
@@ -261,7 +280,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 
 fn print_row(r: &BenchRow) {
     println!(
-        "{:<20} {:<16} {:>7} {:>11.1} {:>9.1} {:>9.1} {:>11.2} {:>13.2}",
+        "{:<20} {:<16} {:>7} {:>11.1} {:>9.1} {:>9.1} {:>11.2} {:>13.2} {:>9.1} {:>8.2}",
         r.scene,
         r.renderer,
         r.threads,
@@ -269,6 +288,12 @@ fn print_row(r: &BenchRow) {
         r.min_ms,
         r.scan_ms,
         r.cells_per_s / 1e6,
-        r.segments_per_s / 1e6
+        r.segments_per_s / 1e6,
+        r.floor_ms,
+        if r.floor_ms > 0.0 {
+            r.median_ms / r.floor_ms
+        } else {
+            0.0
+        }
     );
 }

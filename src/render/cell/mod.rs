@@ -25,6 +25,7 @@ pub mod bin;
 pub mod canonical;
 pub mod ert;
 pub mod fastmath;
+pub mod floor;
 pub mod integrate;
 pub mod list;
 pub mod order;
