@@ -85,9 +85,12 @@ pub fn session(data: &[u8]) {
     let _ = WorkUnit::decode(data);
 }
 
+/// A target's body.
+pub type Body = fn(&[u8]);
+
 /// Every target: its name (also its corpus folder, `fuzz/corpus/<name>/`)
 /// and its body.
-pub const TARGETS: [(&str, fn(&[u8])); 4] = [
+pub const TARGETS: [(&str, Body); 4] = [
     ("link_frames", link_frames),
     ("phase2_message", phase2_message),
     ("readers", readers),

@@ -6,8 +6,9 @@
 //! bytes. A body must not panic, and no single allocation may exceed
 //! [`ALLOC_CAP`] (the stable stand-in for libFuzzer's `-malloc_limit_mb`).
 //!
-//! CI: `cargo test --release --test fuzz_decoders`. More cases:
-//! `PROPTEST_CASES=20000 cargo test --release --test fuzz_decoders`.
+//! CI: `cargo test --release --test fuzz_decoders` (fixed RNG seed). More:
+//! `PROPTEST_RNG_SEED=$RANDOM PROPTEST_CASES=200000 cargo test --release
+//! --test fuzz_decoders`.
 //! Regenerate the encoded seeds: `cargo test --release --test fuzz_decoders
 //! -- --ignored write_seeds` (see `fuzz/README.md`).
 
@@ -95,7 +96,7 @@ fn quiet_hook() {
 
 /// Runs `body` on `data`: a panic or an allocation past [`ALLOC_CAP`] is a
 /// failure that shows the input.
-fn run(name: &str, body: fn(&[u8]), data: &[u8]) -> Result<(), String> {
+fn run(name: &str, body: bodies::Body, data: &[u8]) -> Result<(), String> {
     quiet_hook();
     LARGEST.with(|m| m.set(0));
     QUIET.with(|q| q.set(true));
@@ -154,7 +155,7 @@ fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
     v
 }
 
-fn body(target: &str) -> fn(&[u8]) {
+fn body(target: &str) -> bodies::Body {
     bodies::TARGETS
         .iter()
         .find(|(n, _)| *n == target)
@@ -840,4 +841,25 @@ fn valid_seeds_decode() {
             .unwrap_or_else(|e| panic!("session/{n}: {e}"));
     }
     WorkUnit::decode(&get("session", "work-unit")).expect("session/work-unit");
+}
+
+/// The harness itself: a panic and an allocation past the cap are failures
+/// that name the input.
+#[test]
+fn harness_catches_panics_and_large_allocations() {
+    fn panics(d: &[u8]) {
+        assert!(d.is_empty(), "not empty");
+    }
+    fn allocates(d: &[u8]) {
+        let v: Vec<u8> = Vec::with_capacity(ALLOC_CAP + d.len() + 1);
+        std::hint::black_box(&v);
+    }
+    assert!(run("p", panics, &[]).is_ok());
+    let e = run("p", panics, &[0xab]).unwrap_err();
+    assert!(
+        e.contains("not empty") && e.contains("on 1 bytes: ab"),
+        "{e}"
+    );
+    let e = run("a", allocates, &[]).unwrap_err();
+    assert!(e.contains("an allocation of"), "{e}");
 }
