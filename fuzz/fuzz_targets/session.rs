@@ -4,17 +4,13 @@
 //! Any bytes give a value or an error: never a panic, never an allocation
 //! past the codec's limit.
 //! Run: `cargo +nightly fuzz run session` (from the repository root).
+//! The body is `bodies::session` (`fuzz/bodies.rs`), which the stable test
+//! `tests/fuzz_decoders.rs` runs too.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use pvrsim::cluster::remote::session::Session;
-use pvrsim::net::Codec;
-use pvrsim::node::WorkUnit;
 
-fuzz_target!(|data: &[u8]| {
-    let codec = Codec::with_limit(1 << 16);
-    if let Ok(Session::Setup(s)) = codec.decode::<Session>(data) {
-        let _ = s.validate();
-    }
-    let _ = WorkUnit::decode(data);
-});
+#[path = "../bodies.rs"]
+mod bodies;
+
+fuzz_target!(|data: &[u8]| bodies::session(data));
