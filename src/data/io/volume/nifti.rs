@@ -194,7 +194,15 @@ pub fn parse(file: &[u8], path: &Path, field: &str) -> Result<Volume> {
         ));
     }
     let off = (vox_offset as u64).max(HEADER_BYTES as u64);
-    let total = off + nbytes;
+    // vox_offset is a float: a huge one saturates to u64::MAX in the cast,
+    // so the sum is checked rather than left to wrap.
+    let total = off.checked_add(nbytes).ok_or_else(|| {
+        Error::data(
+            path,
+            "vox_offset (byte 108)",
+            format!("{vox_offset} is past any file: offset + {nbytes} data bytes overflow"),
+        )
+    })?;
 
     let data = if gz {
         let max = (file.len() as u64).saturating_mul(MAX_DEFLATE_RATIO);
