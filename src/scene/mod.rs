@@ -3,7 +3,7 @@
 //! through [`Scene::load`] and means the same thing by it.
 //!
 //! Parsing is two steps, as in ripgrep's flags: serde reads the TOML into
-//! `Raw*` structs that reject unknown keys, then [`Scene::from_raw`] checks
+//! `Raw*` structs that reject unknown keys, then `Scene::from_raw` checks
 //! every value and names the key of the first one that is impossible.
 
 pub mod camera;

@@ -12,7 +12,7 @@
 //!
 //! Every reader returns tetrahedra (other 3D linear cells are decomposed, see
 //! [`decompose`]) and point-data fields; cell data is skipped. Every error is
-//! an [`Error`](crate::Error) naming the file and the line, byte offset, XML
+//! an [`Error`] naming the file and the line, byte offset, XML
 //! element or cell at fault.
 
 pub mod avs_ucd;

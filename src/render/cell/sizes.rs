@@ -1,6 +1,6 @@
 //! Distribution of projected cell sizes (the paper's Fig. 11(3)).
 //!
-//! Computed from each [`CellRecord`]'s pixel range — the bounding box of the
+//! Computed from each [`CellRecord`](super::bin::CellRecord)'s pixel range — the bounding box of the
 //! pixel centres its projection may cover, clipped to the image — not from
 //! exact covered-pixel counts: it is one pass over the binned records after
 //! the frame (outside every timed phase), independent of which cells ERT

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! - post-classification: `s` is interpolated, then looked up
-//!   ([`Lut`](crate::render::slicing::Lut)): `baked` entries (fixed sample
+//!   ([`Lut`]): `baked` entries (fixed sample
 //!   distance: orthographic) or `σ` entries with `α = 1 - exp(-σ δ/ud)`
 //!   (per-ray distance: perspective).
 //! - pre-classification: the RGBA8 texture `(c o, o)` is interpolated

@@ -11,7 +11,7 @@
 //!
 //! Every reader returns a [`Volume`] in its compact voxel type with an
 //! axis-aligned placement (negative directions are flipped, see
-//! [`placement`]); every error is an [`Error`](crate::Error) naming the file
+//! [`placement`]); every error is an [`Error`] naming the file
 //! and the header line, field or byte offset at fault, and no reader
 //! allocates what a header claims before checking it against the file.
 

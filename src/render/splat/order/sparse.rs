@@ -7,7 +7,7 @@
 //! - **axis**: slices, rows and voxels far to near as in [`super::axis`]; a
 //!   row is a line of the mask along the innermost axis, so its kept voxels
 //!   come out of the row's words in order (ascending or descending bits).
-//! - **DDA**: by [`super::dda::plane_starts`], the walk draws voxel
+//! - **DDA**: by `dda::plane_starts`, the walk draws voxel
 //!   `(p, s, r)` (plane, column, row counted from the far side) in outer
 //!   iteration `T = J_P(p) + A_S(s) + r`, and within an iteration in
 //!   `(p, s)` order. `J_P` and `A_S` are the `d_P` and `d_S` accumulators'

@@ -27,7 +27,7 @@
 //! Every size is checked against the file before anything is allocated.
 
 //!
-//! `header.rs` parses the header into a [`header::Header`]; this file reads
+//! `header.rs` parses the header into a `header::Header`; this file reads
 //! and decodes the data it describes.
 
 use std::path::{Path, PathBuf};
