@@ -7,6 +7,7 @@
 //! `compositor -> {render::cell segments, image}`.
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod cli;
 pub mod cluster;
 pub mod compositor;

@@ -95,6 +95,9 @@ pub struct GenerateArgs {
     /// Compress the samples with gzip (NRRD `encoding: gzip`).
     #[arg(long)]
     pub gzip: bool,
+    /// Overwrite OUTPUT and its .toml if they exist.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Parses `N` or `NxNxN` (each >= 2).
@@ -117,6 +120,14 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
             a.output.display()
         );
     }
+    for p in [a.output.clone(), a.output.with_extension("toml")] {
+        anyhow::ensure!(
+            a.force || !p.exists(),
+            "-o {}: {} exists (--force overwrites it and its .toml)",
+            a.output.display(),
+            p.display()
+        );
+    }
     if let Some(size) = a.kind.paper_size() {
         return paper(&a, size);
     }
@@ -127,6 +138,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         return super::generate_mesh::run(&a, &file_name(&a.output)?);
     }
     let size = parse_size(&a.size)?;
+    crate::budget::volume("--size", size, 4)?;
     if a.input.is_some() && a.kind != Kind::Resample {
         bail!("--input is only used by `generate resample`, `mesh-field` and `paper-*`");
     }
