@@ -357,3 +357,18 @@ fn sweep_plot_naming_a_missing_column_is_an_error() {
         &["sweep.toml", "time_scna_s"],
     );
 }
+
+#[test]
+fn vti_cut_inside_its_data_array_says_truncated() {
+    let d = tempfile::tempdir().unwrap();
+    let full = std::fs::read(data("volume/mni-crop.vti")).unwrap();
+    let at = full.windows(10).position(|w| w == b"<DataArray").unwrap();
+    std::fs::write(d.path().join("cut.vti"), &full[..at + 400]).unwrap();
+    let e = refused_within(
+        d.path(),
+        &["info", "cut.vti"],
+        FEW,
+        &["cut.vti", "truncated"],
+    );
+    assert!(!e.contains("the file has none"), "{e}");
+}

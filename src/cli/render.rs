@@ -185,11 +185,6 @@ impl Validate for RenderArgs {
         validate::image_size(self.width, self.height)?;
         crate::budget::threads("--threads", self.threads)?;
         crate::budget::slices("--slices", self.slices.unwrap_or(0))?;
-        crate::budget::image(
-            "--width/--height",
-            self.width.unwrap_or(0).into(),
-            self.height.unwrap_or(0).into(),
-        )?;
         let cell_only = [
             ("--ert-table", self.ert_table.is_some()),
             ("--ert-entry-px", self.ert_entry_px.is_some()),
