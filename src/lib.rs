@@ -17,7 +17,7 @@
 //! engine      cluster -> {manager -> node, compositor, net}
 //!             node -> {render, compositor, net}   compositor -> render
 //!             render -> {scene, data, image}      data -> scene
-//! base        scene, image, error, text, net
+//! base        scene, image, error, text, budget, net
 //! ```
 //!
 //! `cli` calls `job`, `bench` and `experiment`; `experiment` and `bench`
@@ -77,6 +77,7 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod budget;
 pub mod cli;
 pub mod cluster;
 pub mod compositor;

@@ -165,6 +165,7 @@ fn mesh_field_grid_renders_like_the_mesh_and_scene_fits_grids() {
         data.join("lobster.fld").as_os_str(),
         "-o".as_ref(),
         out.as_os_str(),
+        "--force".as_ref(), // `out` exists: the input must be what fails
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("lobster.fld"));
@@ -175,6 +176,7 @@ fn mesh_field_grid_renders_like_the_mesh_and_scene_fits_grids() {
         "x".as_ref(),
         "-o".as_ref(),
         out.as_os_str(),
+        "--force".as_ref(),
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--field"));

@@ -95,6 +95,9 @@ pub struct GenerateArgs {
     /// Compress the samples with gzip (NRRD `encoding: gzip`).
     #[arg(long)]
     pub gzip: bool,
+    /// Overwrite OUTPUT and its .toml if they exist.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Parses `N` or `NxNxN` (each >= 2).
@@ -117,6 +120,14 @@ pub fn check_output(a: &GenerateArgs) -> anyhow::Result<()> {
             a.output.display()
         );
     }
+    for p in [a.output.clone(), a.output.with_extension("toml")] {
+        anyhow::ensure!(
+            a.force || !p.exists(),
+            "-o {}: {} exists (--force overwrites it and its .toml)",
+            a.output.display(),
+            p.display()
+        );
+    }
     Ok(())
 }
 
@@ -134,6 +145,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         "internal error: `generate mesh-field` runs in generate_mesh"
     );
     let size = parse_size(&a.size)?;
+    crate::budget::volume("--size", size, 4)?;
     if a.input.is_some() && a.kind != Kind::Resample {
         bail!("--input is only used by `generate resample`, `mesh-field` and `paper-*`");
     }

@@ -86,6 +86,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         .and_then(|s| s.data.range)
         .unwrap_or([lo, hi]);
     let dims = grid_dims(&a.size, &mesh.bounds())?;
+    crate::budget::volume("--size", dims, 4)?;
     let vol = sample_mesh_field(&mesh, &field, &values, dims, range[0], mesh_path)?;
     let gen_s = t.elapsed().as_secs_f64();
     let comment = format!(

@@ -92,7 +92,12 @@ pub struct SplatArgs {
     /// front to back and skipped where the 8x8 tiles under them have reached
     /// this alpha (per-channel error bound (1 - THRESHOLD) x max(radiance,
     /// background), in the stats). 1 turns it off (back to front, exact).
-    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    #[arg(
+        long = "ert",
+        value_name = "THRESHOLD",
+        default_value_t = 0.99,
+        allow_negative_numbers = true
+    )]
     pub ert: f32,
 }
 
@@ -111,11 +116,18 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         "--sigma must be > 0, got {}",
         a.sigma
     );
+    crate::budget::threads("--threads", a.threads)?;
+    crate::budget::footprint("--sigma", a.sigma, 1.0, 1)?;
     let mut input = load_input(&a.scene)?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");
         input = input.with_size(w, h);
     }
+    crate::budget::image(
+        "--width/--height or image.width/height",
+        input.scene.image.width.into(),
+        input.scene.image.height.into(),
+    )?;
     super::validate::ert_mode(a.ert)?;
     anyhow::ensure!(
         !(a.exact_footprints && a.table_phases.is_some_and(|p| p > 0)),

@@ -282,6 +282,11 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     report.summary = Some(summary);
     report.summary_text = text;
     for spec in &plan.plots {
+        if let Some(e) = plot::unknown_column(&plan, spec, &results) {
+            anyhow::bail!("{e} (results.csv and summary.md are written)");
+        }
+    }
+    for spec in &plan.plots {
         match plot::draw(&plan, spec, &results, &report.out_dir) {
             Ok(w) => {
                 report.warnings.extend(w);

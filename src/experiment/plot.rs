@@ -57,6 +57,25 @@ struct Series {
     points: Vec<(f64, f64)>,
 }
 
+/// The error for a plot whose `x` or `y` names a column that no run has
+/// (and no parameter): the config is wrong, so `pvrsim sweep` fails.
+pub fn unknown_column(plan: &Plan, spec: &PlotSpec, results: &Results) -> Option<String> {
+    let file = plan.path.display();
+    let known: Vec<String> = results.known_columns();
+    let params = plan.param_names();
+    for c in std::iter::once(&spec.x).chain(&spec.y) {
+        if !known.contains(c) && !params.contains(c) {
+            let key = if *c == spec.x { "x" } else { "y" };
+            return Some(format!(
+                "{file}: {}.{key}: no run has a column `{c}`{}",
+                spec.key,
+                suggest(c, &known)
+            ));
+        }
+    }
+    None
+}
+
 /// Draws one plot into `out_dir`; returns warnings (skipped points,
 /// unknown columns). An error means the plot could not be drawn at all.
 pub fn draw(
@@ -67,17 +86,8 @@ pub fn draw(
 ) -> Result<Vec<String>, String> {
     let mut warnings = Vec::new();
     let file = plan.path.display();
-    let known: Vec<String> = results.known_columns();
-    let params = plan.param_names();
-    for c in std::iter::once(&spec.x).chain(&spec.y) {
-        if !known.contains(c) && !params.contains(c) {
-            let key = if *c == spec.x { "x" } else { "y" };
-            return Err(format!(
-                "{file}: {}.{key}: no run has a column `{c}`{}",
-                spec.key,
-                suggest(c, &known)
-            ));
-        }
+    if let Some(e) = unknown_column(plan, spec, results) {
+        return Err(e);
     }
     // Successful rows of the plan's points, in sweep order.
     let points = plan.points();

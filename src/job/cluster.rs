@@ -41,7 +41,12 @@ pub struct ClusterArgs {
     /// scene contract and `pvrsim render`; the paper's experiments use 0.9
     /// (`--ert 0.9`); 1.0 turns ERT off (the `Base` and `DLB` rows of the
     /// paper's Table 2). Sharing (`--share`, `--sharing`) needs ERT on.
-    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    #[arg(
+        long = "ert",
+        value_name = "THRESHOLD",
+        default_value_t = 0.99,
+        allow_negative_numbers = true
+    )]
     pub ert: f32,
     /// ERT table of D x D entries over the whole image (the paper's best: 20).
     #[arg(long, value_name = "D", default_value_t = 20)]

@@ -109,7 +109,12 @@ pub struct RenderArgs {
     /// (no test, no update). Default 0.99 as in the scene contract (and
     /// `pvrsim cluster`); the paper's experiments use 0.9. The per-pixel
     /// error bound (1 - THRESHOLD) x max emitted radiance is in the stats.
-    #[arg(long = "ert", value_name = "THRESHOLD", default_value_t = 0.99)]
+    #[arg(
+        long = "ert",
+        value_name = "THRESHOLD",
+        default_value_t = 0.99,
+        allow_negative_numbers = true
+    )]
     pub ert: f32,
     /// ERT table of D x D entries (flat structure; entries of ceil(W/D) x
     /// ceil(H/D) pixels; for the pyramid: its level-0 blocks). Default: 20 for
@@ -178,6 +183,8 @@ impl Validate for RenderArgs {
             at_least("--ert-entry-px", n, 1)?;
         }
         validate::image_size(self.width, self.height)?;
+        crate::budget::threads("--threads", self.threads)?;
+        crate::budget::slices("--slices", self.slices.unwrap_or(0))?;
         let cell_only = [
             ("--ert-table", self.ert_table.is_some()),
             ("--ert-entry-px", self.ert_entry_px.is_some()),

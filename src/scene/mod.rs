@@ -67,15 +67,15 @@ struct RawScene {
 struct RawData {
     path: String,
     field: String,
-    range: Option<[f64; 2]>,
+    range: Option<Vec<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
-    eye: [f64; 3],
-    target: [f64; 3],
-    up: [f64; 3],
+    eye: Vec<f64>,
+    target: Vec<f64>,
+    up: Vec<f64>,
     projection: String,
     height: Option<f64>,
     fov_y_deg: Option<f64>,
@@ -86,8 +86,24 @@ struct RawCamera {
 struct RawImage {
     width: i64,
     height: i64,
-    #[serde(default)]
-    background: [f64; 3],
+    #[serde(default = "black")]
+    background: Vec<f64>,
+}
+
+fn black() -> Vec<f64> {
+    vec![0.0; 3]
+}
+
+/// A fixed-size array of the scene: exactly `N` numbers, more or fewer is
+/// an error naming `key`.
+fn fixed<const N: usize>(path: &Path, key: &str, v: &[f64]) -> Result<[f64; N]> {
+    <[f64; N]>::try_from(v).map_err(|_| {
+        Error::scene(
+            path,
+            key,
+            format!("must have exactly {N} numbers, got {}: {v:?}", v.len()),
+        )
+    })
 }
 
 #[derive(Debug, Deserialize)]
@@ -132,7 +148,11 @@ impl Scene {
         if raw.data.field.is_empty() {
             return Err(err("data.field", "must name a point-data array".into()));
         }
-        if let Some([a, b]) = raw.data.range {
+        let range = match &raw.data.range {
+            Some(r) => Some(fixed::<2>(path, "data.range", r)?),
+            None => None,
+        };
+        if let Some([a, b]) = range {
             if !(a.is_finite() && b.is_finite() && a < b) {
                 return Err(err(
                     "data.range",
@@ -167,9 +187,9 @@ impl Scene {
             }
         };
         let camera = Camera {
-            eye: raw.camera.eye,
-            target: raw.camera.target,
-            up: raw.camera.up,
+            eye: fixed::<3>(path, "camera.eye", &raw.camera.eye)?,
+            target: fixed::<3>(path, "camera.target", &raw.camera.target)?,
+            up: fixed::<3>(path, "camera.up", &raw.camera.up)?,
             projection,
         };
         camera.check().map_err(|(k, m)| err(k, m))?;
@@ -187,12 +207,8 @@ impl Scene {
         };
         let width = dim("image.width", raw.image.width)?;
         let height = dim("image.height", raw.image.height)?;
-        if raw
-            .image
-            .background
-            .iter()
-            .any(|c| !(0.0..=1.0).contains(c))
-        {
+        let background = fixed::<3>(path, "image.background", &raw.image.background)?;
+        if background.iter().any(|c| !(0.0..=1.0).contains(c)) {
             return Err(err(
                 "image.background",
                 format!(
@@ -257,13 +273,13 @@ impl Scene {
             data: DataSpec {
                 path: data_path,
                 field: raw.data.field,
-                range: raw.data.range,
+                range,
             },
             camera,
             image: ImageSpec {
                 width,
                 height,
-                background: raw.image.background,
+                background,
             },
             transfer: TransferFunction {
                 points,

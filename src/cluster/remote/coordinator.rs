@@ -124,6 +124,7 @@ impl Coordinator {
                         len
                     }
                     Session::Need(false) => 0,
+                    Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
                     other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
                 };
                 Ok((

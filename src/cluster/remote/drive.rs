@@ -95,6 +95,26 @@ pub(super) struct DriveOptions {
     pub recv_timeout: Duration,
 }
 
+/// A set-up error `e` that names a worker which gave up (a `Goodbye`) when
+/// another one died (its link closed without `Goodbye`): names the dead one
+/// first, since the others' errors follow from it. Waits at most 2 s for
+/// the links' endings.
+fn blame_the_dead<T: RemoteTransport>(t: &T, n: usize, e: anyhow::Error) -> anyhow::Error {
+    let endings = t.link_endings(Duration::from_secs(2));
+    let dead: Vec<String> = (0..n)
+        .filter(|&k| endings.get(k) == Some(&Some(false)))
+        .map(|k| t.peer_name(NodeId::from(k)))
+        .collect();
+    let text = format!("{e:#}");
+    if dead.is_empty() || dead.iter().all(|d| text.contains(d.as_str())) {
+        return e;
+    }
+    e.context(format!(
+        "{} closed the connection without Goodbye (died or was killed); what follows is a consequence",
+        dead.join(", ")
+    ))
+}
+
 /// The coordinator's frame over `t` (rank `n`, workers `0..n`), once every
 /// worker has its set-up and cells: `Ready` from all, `Go`, the manager in
 /// phase 1, the results, phase 2 worker to worker, the report.
@@ -122,6 +142,7 @@ pub(super) fn drive<T: RemoteTransport>(
     while ready.iter().any(|r| !r) {
         let e = t
             .recv_timeout(wait)
+            .map_err(|e| blame_the_dead(t, n, anyhow::Error::from(e)))
             .context("set-up (joining the mesh)")?
             .ok_or_else(|| {
                 let missing: Vec<usize> = (0..n).filter(|&k| !ready[k]).collect();

@@ -6,7 +6,6 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use tokio::net::TcpListener;
 use tokio::net::TcpStream;
 use tokio::runtime::Runtime;
 
@@ -17,8 +16,9 @@ use crate::net::{Codec, NodeId};
 pub struct Mesh<'a> {
     /// The process's runtime.
     pub rt: &'a Arc<Runtime>,
-    /// Its listener (peers of higher rank dial it).
-    pub listener: &'a tokio::net::TcpListener,
+    /// Its door (peers of higher rank dial it; the door authenticates
+    /// them and hands them over).
+    pub door: &'a super::worker::Door,
     /// The shared token.
     pub token: &'a Token,
     /// Link timing.
@@ -41,14 +41,9 @@ impl Mesh<'_> {
         stream: TcpStream,
         codec: Codec,
     ) -> anyhow::Result<TcpTransport> {
-        let mut links = self.rt.block_on(mesh(
-            self.listener,
-            self.token,
-            self.opts,
-            rank,
-            nodes,
-            peers,
-        ))?;
+        let mut links = self
+            .rt
+            .block_on(mesh(self.door, self.token, self.opts, rank, nodes, peers))?;
         links.push(Link {
             rank: coord,
             name,
@@ -71,7 +66,7 @@ impl Mesh<'_> {
 /// Dials every lower rank and accepts every higher one, concurrently
 /// (rank `me` of `nodes` workers at `peers`).
 pub(super) async fn mesh(
-    listener: &TcpListener,
+    door: &super::worker::Door,
     token: &Token,
     opts: &TcpOptions,
     me: u32,
@@ -104,8 +99,12 @@ pub(super) async fn mesh(
         let limit = opts.handshake_timeout * 2 + Duration::from_secs(5);
         let all = async {
             while links.len() < want {
-                match tcp::accept(listener, token, Role::Worker, me, opts).await {
-                    Ok((s, h, from)) => {
+                match door.next_peer().await {
+                    Some(super::worker::Accepted {
+                        stream: s,
+                        hello: h,
+                        from,
+                    }) => {
                         let ok = h.role == Role::Worker
                             && h.rank > me
                             && h.rank < nodes
@@ -123,7 +122,7 @@ pub(super) async fn mesh(
                             );
                         }
                     }
-                    Err(e) => eprintln!("pvrsim worker: node {me}: refused a connection: {e}"),
+                    None => std::future::pending::<()>().await,
                 }
             }
         };

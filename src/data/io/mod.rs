@@ -16,6 +16,7 @@
 //! element or cell at fault.
 
 pub mod avs_ucd;
+pub mod bounded;
 pub mod decompose;
 pub mod numeric;
 pub mod volume;
@@ -63,9 +64,10 @@ pub fn read_mesh(path: &Path) -> Result<TetMesh> {
     Ok(mesh)
 }
 
-/// Reads a whole file, mapping the failure to [`Error::Io`].
+/// Reads a whole regular file (a device, FIFO or directory is refused),
+/// mapping the failure to [`Error::Io`].
 pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| Error::io(path, e))
+    bounded::read_regular(path)
 }
 
 /// 1-based line number of byte `offset` in `data`.

@@ -66,6 +66,9 @@ impl Token {
             .rposition(|b| !b.is_ascii_whitespace())
             .map_or(start, |e| e + 1);
         let t = &bytes[start..end];
+        if let Some(w) = exposure_warning(path) {
+            eprintln!("pvrsim: warning: {w}");
+        }
         if t.len() < MIN_TOKEN_BYTES {
             return Err(NetError::Io {
                 what: format!("token file {}", path.display()),
@@ -125,6 +128,27 @@ impl Token {
     }
 }
 
+/// A warning if the token file at `path` may be read by users other than
+/// its owner (group or other read bits), as ssh warns for a key file.
+pub fn exposure_warning(path: &Path) -> Option<String> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path).ok()?.permissions().mode() & 0o777;
+        if mode & 0o044 != 0 {
+            return Some(format!(
+                "token file {} is readable by others (mode {mode:03o}); anyone who can read it \
+                 can join or drive this cluster: chmod 600 {}",
+                path.display(),
+                path.display()
+            ));
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    None
+}
+
 /// `N` bytes from the operating system's random source.
 pub fn random_bytes<const N: usize>() -> NetResult<[u8; N]> {
     let mut b = [0u8; N];
@@ -146,6 +170,20 @@ mod tests {
         std::fs::write(&p, "abc\n").unwrap();
         let e = Token::load(&p).unwrap_err().to_string();
         assert!(e.contains("tok") && e.contains("at least 32"), "{e}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn world_readable_token_file_is_warned_about() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("tok");
+        std::fs::write(&p, [b'a'; 40]).unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let w = exposure_warning(&p).unwrap();
+        assert!(w.contains("tok") && w.contains("644"), "{w}");
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).unwrap();
+        assert!(exposure_warning(&p).is_none());
     }
 
     #[test]

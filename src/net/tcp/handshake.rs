@@ -34,6 +34,10 @@ pub const PROTOCOL_VERSION: u16 = 2;
 /// Bytes of a preamble.
 pub const PREAMBLE_BYTES: usize = 15;
 
+/// The one refusal text a listener sends (the same for every reason, so an
+/// unauthenticated peer learns nothing; the listener logs the reason).
+pub const REFUSED: &str = "handshake refused (the listener's log says why)";
+
 const LABEL_LISTENER: &[u8] = b"pvrsim-v1 listener";
 const LABEL_DIALER: &[u8] = b"pvrsim-v1 dialer";
 
@@ -219,7 +223,9 @@ pub async fn listen<S: AsyncRead + AsyncWrite + Unpin>(
     let info = match parse_preamble(&pre_d, peer) {
         Ok(i) => i,
         Err(e) => {
-            refuse(s, &e.to_string()).await;
+            // No detail to an unauthenticated peer: the reason is the
+            // caller's (logged on this side).
+            refuse(s, REFUSED).await;
             return Err(e);
         }
     };
@@ -244,7 +250,7 @@ pub async fn listen<S: AsyncRead + AsyncWrite + Unpin>(
         .await
         .map_err(|e| io(peer, "reading the proof", e))?;
     if !token.verify(LABEL_DIALER, &[&hello, &pre_l, &nonce_l, &mac_l], &mac_d) {
-        refuse(s, "authentication failed (wrong token)").await;
+        refuse(s, REFUSED).await;
         return Err(NetError::Handshake {
             peer: peer.to_string(),
             msg: "authentication failed: wrong token, or a replayed handshake".into(),
@@ -369,7 +375,9 @@ mod tests {
             );
             let e = l.unwrap_err().to_string();
             assert!(e.contains("replayed"), "{e}");
-            assert!(String::from_utf8_lossy(&answer).contains("authentication failed"));
+            let answer = String::from_utf8_lossy(&answer);
+            assert!(answer.contains(REFUSED), "{answer}");
+            assert!(!answer.contains("token"), "{answer}");
         });
     }
 
@@ -385,6 +393,32 @@ mod tests {
                 .unwrap_err()
                 .to_string();
             assert!(e.contains("not a pvrsim peer"), "{e}");
+        });
+    }
+
+    /// A wrong protocol version is refused without saying so to the peer
+    /// (the listener's own error says it).
+    #[test]
+    fn refusal_carries_no_detail() {
+        rt().block_on(async {
+            let (mut a, mut b) = duplex(4096);
+            let mut p = preamble(Role::Coordinator, 1).to_vec();
+            p[8] = 99;
+            p.extend_from_slice(&[0u8; NONCE_BYTES]);
+            a.write_all(&p).await.unwrap();
+            let e = listen(&mut b, &tok(0), Role::Worker, 0, "x")
+                .await
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("protocol version 99"), "{e}");
+            drop(b);
+            let mut back = Vec::new();
+            let _ = a.read_to_end(&mut back).await;
+            let back = String::from_utf8_lossy(&back);
+            assert!(
+                back.contains(REFUSED) && !back.contains("version"),
+                "{back}"
+            );
         });
     }
 }

@@ -10,8 +10,10 @@
 //! cells' cache); `node.rs` runs one node's frame over any transport (TCP
 //! and MPI workers both end there).
 
+mod accept;
 mod node;
 
+pub use accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};
 pub use node::{build_node, run_node, Hooks};
 
 use std::collections::VecDeque;
@@ -26,13 +28,17 @@ use crate::cluster::remote::session::Session;
 use crate::net::tcp::{self, Role, TcpOptions, Token};
 use crate::net::{Codec, NodeId};
 
+/// Longest an authenticated coordinator may wait before it sends its
+/// set-up (it sends it right after the handshake).
+const SETUP_IDLE: Duration = Duration::from_secs(5);
+
 /// How many datasets' cells a worker keeps.
 const CACHE_ENTRIES: usize = 4;
 
 /// A bound worker, ready to serve.
 pub struct Worker {
     rt: Arc<Runtime>,
-    listener: TcpListener,
+    door: accept::Door,
     token: Token,
     opts: TcpOptions,
     cache: VecDeque<([u8; 32], Vec<u8>)>,
@@ -65,9 +71,10 @@ impl Worker {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let local = listener.local_addr()?;
         tcp::check_exposure(&local, &token, "listening on")?;
+        let door = accept::Door::open(&rt, listener, token.clone(), opts);
         Ok(Worker {
             rt,
-            listener,
+            door,
             token,
             opts,
             cache: VecDeque::new(),
@@ -80,7 +87,7 @@ impl Worker {
 
     /// The address it listens on.
     pub fn local_addr(&self) -> anyhow::Result<std::net::SocketAddr> {
-        Ok(self.listener.local_addr()?)
+        Ok(self.door.local_addr())
     }
 
     /// Serves sessions; with `once`, returns after the first one (its
@@ -88,18 +95,12 @@ impl Worker {
     /// and do not count.
     pub fn serve(&mut self, once: bool) -> anyhow::Result<()> {
         loop {
-            let accept = tcp::accept(
-                &self.listener,
-                &self.token,
-                Role::Worker,
-                u32::MAX,
-                &self.opts,
-            );
+            let next = self.door.next_session();
             let acc = match self.accept_timeout {
-                None => self.rt.block_on(accept),
+                None => self.rt.block_on(next),
                 Some(t) => match self
                     .rt
-                    .block_on(async { tokio::time::timeout(t, accept).await })
+                    .block_on(async { tokio::time::timeout(t, next).await })
                 {
                     Ok(r) => r,
                     Err(_) => anyhow::bail!(
@@ -108,24 +109,20 @@ impl Worker {
                     ),
                 },
             };
-            let (stream, hello, from) = match acc {
-                Ok(x) => x,
-                Err(e) => {
-                    eprintln!("pvrsim worker: refused a connection: {e}");
-                    continue;
-                }
+            let Some(accept::Accepted {
+                stream,
+                hello,
+                from,
+            }) = acc
+            else {
+                anyhow::bail!("the worker stopped accepting connections");
             };
             let r = match hello.role {
-                Role::Coordinator => self.session(stream, hello.rank, from.to_string()),
                 Role::Probe => crate::cluster::remote::probe::echo(&self.rt, stream, &self.opts)
                     .map_err(anyhow::Error::from),
-                Role::Worker => {
-                    eprintln!(
-                        "pvrsim worker: a worker connected from {from} outside a session; closed"
-                    );
-                    continue;
-                }
+                _ => self.session(stream, hello.rank, from.to_string()),
             };
+            self.door.session_done();
             match &r {
                 Ok(()) => eprintln!("pvrsim worker: session with {from} done"),
                 Err(e) => eprintln!("pvrsim worker: session with {from} failed: {e:#}"),
@@ -146,14 +143,19 @@ impl Worker {
         let d = self.opts.deadline.max(Duration::from_secs(10));
         let coord = NodeId(coord_rank);
         let name = format!("the coordinator ({coord_name})");
-        // Set-up on the bare stream.
-        let setup: Session = self
-            .rt
-            .block_on(tcp::raw::read_msg(&mut stream, &codec, d, &name))?;
+        // Set-up on the bare stream; a coordinator sends it right after the
+        // handshake, so an idle one is dropped after SETUP_IDLE.
+        let setup: Session = self.rt.block_on(tcp::raw::read_msg(
+            &mut stream,
+            &codec,
+            SETUP_IDLE.min(d),
+            &name,
+        ))?;
         let setup = match setup {
             Session::Setup(s) => s,
             Session::Grid(g) => match *g {
                 crate::cluster::remote::grid::GridMsg::Setup(s) => {
+                    self.door.set_rank(s.rank);
                     return crate::cluster::remote::grid::serve(
                         &self.rt,
                         stream,
@@ -162,14 +164,14 @@ impl Worker {
                         &mut self.grid,
                         crate::cluster::remote::mesh::Mesh {
                             rt: &self.rt,
-                            listener: &self.listener,
+                            door: &self.door,
                             token: &self.token,
                             opts: &self.opts,
                         },
                         *s,
                         coord,
                         &name,
-                    )
+                    );
                 }
                 other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
             },
@@ -184,6 +186,7 @@ impl Worker {
             setup.nodes
         );
         let me = NodeId(setup.rank);
+        self.door.set_rank(setup.rank);
         let codec = Codec::with_limit(setup.max_message_bytes);
         let cached = self
             .cache
@@ -220,7 +223,7 @@ impl Worker {
         // The mesh: dial lower ranks, accept higher ones.
         let t = crate::cluster::remote::mesh::Mesh {
             rt: &self.rt,
-            listener: &self.listener,
+            door: &self.door,
             token: &self.token,
             opts: &self.opts,
         }

@@ -208,14 +208,11 @@ pub fn parse(d: &[u8], path: &Path, field: &str) -> Result<Volume> {
         Some((spec, line)) => {
             let (file, skip) = parse_variable(spec)
                 .map_err(|m| Error::data(path, format!("line {line} (`variable`)"), m))?;
-            let p = path.parent().unwrap_or(Path::new("")).join(file);
-            ext_data = std::fs::read(&p).map_err(|e| {
-                Error::data(
-                    path,
-                    format!("line {line} (`variable`)"),
-                    format!("cannot read {}: {e}", p.display()),
-                )
-            })?;
+            use crate::data::io::bounded::{bound, read_limited, resolve_under, Stored};
+            let l = format!("line {line} (`variable`)");
+            let p = resolve_under(path, &file, &l)?;
+            let limit = bound(nbytes, skip, Stored::Raw, 1);
+            ext_data = read_limited(&p, limit, path, &l)?;
             let s = (skip as usize).min(ext_data.len());
             (&ext_data[s..], p, format!("data (after skip={skip})"))
         }

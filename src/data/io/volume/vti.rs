@@ -126,6 +126,29 @@ pub fn parse(d: &[u8], path: &Path, field: &str) -> Result<Volume> {
     };
     let a = a.ok_or_else(|| {
         let names: Vec<String> = arrays.iter().map(|a| format!("\"{}\"", a.name)).collect();
+        // A file cut inside its <DataArray> lists no array: say it is cut.
+        let closing: &[u8] = b"</VTKFile>";
+        if !d.windows(closing.len()).any(|w| w == closing) {
+            let open_at = d
+                .windows(b"<DataArray".len())
+                .rposition(|w| w == b"<DataArray");
+            return Error::data(
+                path,
+                match open_at {
+                    Some(b) => format!("<DataArray> at byte {b}"),
+                    None => format!("byte {}", d.len()),
+                },
+                format!(
+                    "the file is truncated: it ends at byte {} before </VTKFile>{}",
+                    d.len(),
+                    if open_at.is_some() {
+                        ", inside its last <DataArray>"
+                    } else {
+                        ""
+                    }
+                ),
+            );
+        }
         Error::data(
             path,
             "<PointData>",

@@ -110,15 +110,22 @@ pub fn parse(file: &[u8], path: &Path, field: &str) -> Result<Volume> {
     let (data_path, data_owned);
     let data: &[u8] = match &h.data_file {
         Some((name, line)) => {
-            let base = path.parent().unwrap_or(Path::new(""));
-            data_path = resolve_data_file(path, base, name, *line)?;
-            data_owned = std::fs::read(&data_path).map_err(|e| {
-                Error::data(
-                    path,
-                    loc(*line, "data file"),
-                    format!("cannot read {}: {e}", data_path.display()),
-                )
-            })?;
+            data_path = resolve_data_file(path, name, *line)?;
+            // At most what the header describes, from a regular file.
+            use crate::data::io::bounded::{bound, read_limited, Stored, SLACK};
+            let stored = match encoding {
+                Encoding::Raw => Stored::Raw,
+                Encoding::Gzip => Stored::Compressed,
+                Encoding::Hex => Stored::Hex,
+                Encoding::Ascii => Stored::Ascii,
+            };
+            let skip = if h.byte_skip >= 0 {
+                h.byte_skip as u64
+            } else {
+                16 * SLACK
+            };
+            let limit = bound(nbytes, skip, stored, ty.size() as u64);
+            data_owned = read_limited(&data_path, limit, path, &loc(*line, "data file"))?;
             &data_owned
         }
         None => {
@@ -262,7 +269,7 @@ fn truncated(p: &Path, l: &str, have: u64, need: u64, sizes: &[u64], ty: NumType
     )
 }
 
-fn resolve_data_file(path: &Path, base: &Path, name: &str, line: usize) -> Result<PathBuf> {
+fn resolve_data_file(path: &Path, name: &str, line: usize) -> Result<PathBuf> {
     let name = name.trim();
     let first = name.split_ascii_whitespace().next().unwrap_or("");
     if first == "LIST" || name.split_ascii_whitespace().count() > 1 {
@@ -275,7 +282,7 @@ fn resolve_data_file(path: &Path, base: &Path, name: &str, line: usize) -> Resul
     if name.is_empty() {
         return Err(Error::data(path, loc(line, "data file"), "empty file name"));
     }
-    Ok(base.join(name))
+    crate::data::io::bounded::resolve_under(path, name, &loc(line, "data file"))
 }
 
 fn skip_lines(d: &[u8], n: usize) -> Option<&[u8]> {
