@@ -7,7 +7,7 @@
 //! |---|---|
 //! | [`threads`] | the machine's cores x [`THREAD_FACTOR`] (0 = all cores is fine) |
 //! | [`slices`] | [`MAX_SLICES`] |
-//! | [`image`] | [`MAX_IMAGE_SIDE`] a side; `W·H·`[`IMAGE_BYTES_PER_PIXEL`] against `MemAvailable` |
+//! | [`image()`] | [`MAX_IMAGE_SIDE`] a side; `W·H·`[`IMAGE_BYTES_PER_PIXEL`] against `MemAvailable` |
 //! | [`volume`] | [`MAX_VOLUME_SIDE`] a side; voxels x bytes a voxel against `MemAvailable` |
 //! | [`footprint`] | `sigma` at most [`MAX_SIGMA`] voxels; the footprint table against `MemAvailable` |
 //!
