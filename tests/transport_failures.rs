@@ -77,6 +77,48 @@ fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
     assert!(ws[2].wait_line("at the start of phase 2", Duration::from_secs(5)));
 }
 
+/// A worker killed (SIGKILL) at set-up, before the links between the
+/// workers are up: the error names that worker, not a survivor that said
+/// Goodbye when the mesh could not form (issue 26).
+#[test]
+fn kill_9_at_set_up_names_the_worker_that_died() {
+    let (input, cfg) = config(
+        &data("aorta-small-view-b.toml"),
+        &["--nodes", "3", "--canonical", "--ert", "1"],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let tok = token_file(dir.path(), "token");
+    let ws: Vec<WorkerProc> = (0..3)
+        .map(|k| {
+            let hook: &[&str] = if k == 1 {
+                &["--test-kill-at-setup"]
+            } else {
+                &[]
+            };
+            WorkerProc::start(Some(&tok), hook)
+        })
+        .collect();
+    let t = Instant::now();
+    let e = Coordinator {
+        workers: ws.iter().map(|w| w.addr.clone()).collect(),
+        token: Token::load(&tok).unwrap(),
+        tcp: TcpOptions::default(),
+        recv_timeout: Duration::from_secs(60),
+        reassign: false,
+    }
+    .run(&input, &cfg)
+    .unwrap_err();
+    let e = format!("{e:#}");
+    println!("error: {e}");
+    assert!(ws[1].wait_line("at set-up", Duration::from_secs(5)), "{e}");
+    assert!(e.contains("worker 1"), "{e}");
+    assert!(
+        !e.contains("worker 0") && !e.contains("worker 2"),
+        "names a survivor: {e}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(30), "{:?}", t.elapsed());
+}
+
 fn failure_run(sig: &str, hb: &str) -> (bool, String, f64) {
     let dir = tempfile::tempdir().unwrap();
     let tok = token_file(dir.path(), "token");

@@ -39,6 +39,10 @@ pub struct WorkerArgs {
     /// Test hook: SIGKILL this process when phase 2 starts. Hidden.
     #[arg(long, hide = true)]
     pub test_kill_in_phase2: bool,
+    /// Test hook: SIGKILL this process once a set-up has arrived, before
+    /// the links to the peers are up. Hidden.
+    #[arg(long, hide = true)]
+    pub test_kill_at_setup: bool,
 }
 
 /// Runs `pvrsim worker`.
@@ -66,6 +70,7 @@ pub fn run(a: WorkerArgs) -> anyhow::Result<()> {
     w.accept_timeout = accept;
     w.kill_after_chunks = a.test_kill_after_chunks;
     w.kill_in_phase2 = a.test_kill_in_phase2;
+    w.kill_at_setup = a.test_kill_at_setup;
     let mut out = std::io::stdout().lock();
     writeln!(out, "{}", w.local_addr()?)?;
     out.flush()?;

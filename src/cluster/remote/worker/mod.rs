@@ -52,6 +52,10 @@ pub struct Worker {
     /// Test hook (hidden `--test-kill-in-phase2`): SIGKILL when phase 2
     /// starts, a deterministic death in phase 2.
     pub kill_in_phase2: bool,
+    /// Test hook (hidden `--test-kill-at-setup`): SIGKILL once a mesh
+    /// set-up has arrived and been validated, before the peer links are
+    /// dialled: a deterministic death at set-up.
+    pub kill_at_setup: bool,
 }
 
 impl Worker {
@@ -82,6 +86,7 @@ impl Worker {
             accept_timeout: None,
             kill_after_chunks: None,
             kill_in_phase2: false,
+            kill_at_setup: false,
         })
     }
 
@@ -185,6 +190,9 @@ impl Worker {
             "{name} says it is rank {coord_rank}, but the set-up has {} nodes",
             setup.nodes
         );
+        if self.kill_at_setup {
+            node::kill_self("at set-up (--test-kill-at-setup)");
+        }
         let me = NodeId(setup.rank);
         self.door.set_rank(setup.rank);
         let codec = Codec::with_limit(setup.max_message_bytes);

@@ -18,7 +18,7 @@ use crate::render::cell::PreparedTf;
 use crate::scene::Scene;
 
 /// The test hooks' way to die: SIGKILL, as `kill -9` would.
-fn kill_self(why: &str) {
+pub(super) fn kill_self(why: &str) {
     eprintln!("pvrsim worker: killing itself {why}");
     // SAFETY: getpid and kill have no preconditions; this is a test hook
     // that ends the process on purpose.
