@@ -40,11 +40,10 @@ fn clock_virtual_with_a_transport_is_an_error() {
     }
 }
 
-/// A worker killed (SIGKILL) when phase 2 starts: the frame fails with an
-/// error naming it and phase 2, within the deadline, even with
-/// `reassign` (which only covers phase 1).
-#[test]
-fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
+/// One frame of aorta-small view B (3 nodes, canonical, ERT off) over 3 TCP
+/// workers, worker `victim` started with the test hook `hook`; the frame
+/// must fail. Returns the error, the workers and how long the frame took.
+fn hooked_frame(victim: usize, hook: &str, reassign: bool) -> (String, Vec<WorkerProc>, Duration) {
     let (input, cfg) = config(
         &data("aorta-small-view-b.toml"),
         &["--nodes", "3", "--canonical", "--ert", "1"],
@@ -53,12 +52,8 @@ fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
     let tok = token_file(dir.path(), "token");
     let ws: Vec<WorkerProc> = (0..3)
         .map(|k| {
-            let hook: &[&str] = if k == 2 {
-                &["--test-kill-in-phase2"]
-            } else {
-                &[]
-            };
-            WorkerProc::start(Some(&tok), hook)
+            let hooks: &[&str] = if k == victim { &[hook] } else { &[] };
+            WorkerProc::start(Some(&tok), hooks)
         })
         .collect();
     let t = Instant::now();
@@ -67,13 +62,21 @@ fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
         token: Token::load(&tok).unwrap(),
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
-        reassign: true,
+        reassign,
     }
     .run(&input, &cfg)
     .unwrap_err();
-    let e = format!("{e:#}");
+    (format!("{e:#}"), ws, t.elapsed())
+}
+
+/// A worker killed (SIGKILL) when phase 2 starts: the frame fails with an
+/// error naming it and phase 2, within the deadline, even with
+/// `reassign` (which only covers phase 1).
+#[test]
+fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
+    let (e, ws, took) = hooked_frame(2, "--test-kill-in-phase2", true);
     assert!(e.contains("phase 2") && e.contains("worker 2"), "{e}");
-    assert!(t.elapsed() < Duration::from_secs(30), "{:?}", t.elapsed());
+    assert!(took < Duration::from_secs(30), "{took:?}");
     assert!(ws[2].wait_line("at the start of phase 2", Duration::from_secs(5)));
 }
 
@@ -82,41 +85,14 @@ fn kill_9_in_phase_2_is_an_error_naming_the_worker_and_phase_2() {
 /// Goodbye when the mesh could not form (issue 26).
 #[test]
 fn kill_9_at_set_up_names_the_worker_that_died() {
-    let (input, cfg) = config(
-        &data("aorta-small-view-b.toml"),
-        &["--nodes", "3", "--canonical", "--ert", "1"],
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let tok = token_file(dir.path(), "token");
-    let ws: Vec<WorkerProc> = (0..3)
-        .map(|k| {
-            let hook: &[&str] = if k == 1 {
-                &["--test-kill-at-setup"]
-            } else {
-                &[]
-            };
-            WorkerProc::start(Some(&tok), hook)
-        })
-        .collect();
-    let t = Instant::now();
-    let e = Coordinator {
-        workers: ws.iter().map(|w| w.addr.clone()).collect(),
-        token: Token::load(&tok).unwrap(),
-        tcp: TcpOptions::default(),
-        recv_timeout: Duration::from_secs(60),
-        reassign: false,
-    }
-    .run(&input, &cfg)
-    .unwrap_err();
-    let e = format!("{e:#}");
-    println!("error: {e}");
+    let (e, ws, took) = hooked_frame(1, "--test-kill-at-setup", false);
     assert!(ws[1].wait_line("at set-up", Duration::from_secs(5)), "{e}");
     assert!(e.contains("worker 1"), "{e}");
     assert!(
         !e.contains("worker 0") && !e.contains("worker 2"),
         "names a survivor: {e}"
     );
-    assert!(t.elapsed() < Duration::from_secs(30), "{:?}", t.elapsed());
+    assert!(took < Duration::from_secs(30), "{took:?}");
 }
 
 fn failure_run(sig: &str, hb: &str) -> (bool, String, f64) {
