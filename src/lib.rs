@@ -55,25 +55,26 @@
 //! # Ok(()) }
 //! ```
 //!
-//! A two-point sweep (the integrator varies; options by flag name):
+//! A two-point sweep (the integrator varies; options by flag name, each
+//! point validated before the first runs):
 //!
 //! ```
 //! # fn main() -> anyhow::Result<()> {
-//! let dir = std::env::temp_dir().join("pvrsim-doc-sweep");
-//! std::fs::create_dir_all(&dir)?;
-//! let scene = std::fs::canonicalize("tests/data/aorta-small-view-b.toml")?;
-//! let config = format!(
-//!     "name = \"doc\"\ncommand = \"render\"\nscene = {scene:?}\n\
-//!      [fixed]\nwidth = 64\nheight = 64\n[vary]\nintegrator = [\"exact\", \"midpoint\"]\n"
-//! );
-//! std::fs::write(dir.join("sweep.toml"), config)?;
-//! let opts = pvrsim::experiment::SweepOptions {
-//!     config: dir.join("sweep.toml"), out: dir.clone(), force: true, ..Default::default()
-//! };
-//! let report = pvrsim::experiment::run_sweep(&opts)?;
-//! assert_eq!((report.runs_executed, report.runs_failed), (2, 0));
+//! use pvrsim::job::{SweepCommand, SweepJob};
+//! let rows = SweepJob::new(SweepCommand::Render, "tests/data/aorta-small-view-b.toml")
+//!     .fixed("width", 64)
+//!     .fixed("height", 64)
+//!     .vary("integrator", ["exact", "midpoint"])
+//!     .run()?;
+//! assert_eq!(rows.len(), 2);
+//! for r in &rows {
+//!     println!("{:?}: {:.3} s", r.point.last(), r.outcome.as_ref().unwrap()["time_total_s"]);
+//! }
 //! # Ok(()) }
 //! ```
+//!
+//! The same sweep from a config file, with its CSV, plots and summary, is
+//! [`experiment::run_sweep`] (`pvrsim sweep CONFIG`).
 #![warn(missing_docs)]
 
 pub mod bench;

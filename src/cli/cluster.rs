@@ -7,7 +7,7 @@ use anyhow::Context;
 use crate::image::Image;
 pub use crate::job::cluster::*;
 use crate::job::output::{self, prepare_output, OutputKind};
-use crate::job::{cluster_grid, validate};
+use crate::job::{cluster_grid, grid_args, validate};
 use crate::net::SimTrace;
 use crate::scene::Scene;
 
@@ -33,7 +33,7 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
     if crate::job::render_grid::is_grid_scene(&scene) {
         return run_grid(&a, scene);
     }
-    cluster_grid::refuse_on_mesh(&a.grid)?;
+    grid_args::refuse_on_mesh(&a.grid)?;
     let out = execute(&a)?;
     output::warn_if_empty(
         &out.image,

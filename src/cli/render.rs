@@ -6,6 +6,7 @@ use anyhow::Context;
 
 use crate::job::output::{self, prepare_output, OutputKind};
 pub use crate::job::render::*;
+pub use crate::job::run::render as execute;
 use crate::job::validate;
 
 /// Runs `pvrsim render`: checks the options and every output path, renders,

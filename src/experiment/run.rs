@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use super::grid::{ParamValue, Point};
 use crate::job::options::{self, clap_message, flag};
-use crate::job::{ClusterJob, ClusterResult, JobError, RenderJob};
+use crate::job::{sweep, ClusterJob, JobError, RenderJob};
 
 /// A subcommand that sweeps can run.
 pub struct Executor {
@@ -32,16 +32,20 @@ impl std::fmt::Debug for Executor {
     }
 }
 
-/// The validation layer's verdict on parsed options, as a clap error (so a
-/// sweep reports it like any other refused command line).
+/// The validation layer's verdict on a point, as a clap error (so a sweep
+/// reports it like any other refused command line).
 fn validated(checked: Result<Vec<String>, JobError>) -> Result<(), clap::Error> {
-    checked
-        .map(|_| ())
-        .map_err(|e| clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")))
+    checked.map(|_| ()).map_err(|e| match e {
+        JobError::Options(c) => *c,
+        e => clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("{e}\n")),
+    })
 }
 
+/// A point's options by flag name from its command line (`scene`, then
+/// `--name=value` / `--flag`), through the job's own clap definition.
 fn render_check(argv: &[String]) -> Result<(), clap::Error> {
-    validated(options::parse::<RenderJob>("pvrsim render", argv)?.check())
+    let job: RenderJob = options::parse("pvrsim render", argv)?;
+    validated(job.check())
 }
 
 fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
@@ -50,26 +54,15 @@ fn render_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
 }
 
 fn cluster_check(argv: &[String]) -> Result<(), clap::Error> {
-    validated(options::parse::<ClusterJob>("pvrsim cluster", argv)?.check())
+    let job: ClusterJob = options::parse("pvrsim cluster", argv)?;
+    validated(job.check())
 }
 
-/// Runs a cluster point; the row's statistics are the report (without the
-/// per-node array and the per-exchange list, to keep rows flat and short;
-/// grid reports also without their rounds).
+/// Runs a cluster point; the row's statistics are the flat report of
+/// [`crate::job::sweep::flat_report`].
 fn cluster_run(argv: &[String]) -> anyhow::Result<serde_json::Value> {
     let job: ClusterJob = options::parse("pvrsim cluster", argv)?;
-    let out = job.run()?;
-    let mut v = out.report_json();
-    if let (ClusterResult::Grid(_), Some(o)) = (&out, v.as_object_mut()) {
-        o.remove("rounds");
-    }
-    if let Some(o) = v.as_object_mut() {
-        o.remove("nodes");
-        if let Some(t) = o.get_mut("t_share").and_then(|t| t.as_object_mut()) {
-            t.remove("per_exchange_s");
-        }
-    }
-    Ok(v)
+    Ok(sweep::flat_report(&job.run()?))
 }
 
 /// The sweepable subcommands. A new one is one more entry.

@@ -76,7 +76,7 @@ impl RenderArgs {
     /// statistic (as `--stats` writes them).
     pub fn run(&self) -> Result<RenderOutcome, JobError> {
         self.check()?;
-        super::render::execute(self, true).map_err(JobError::Failed)
+        super::run::render(self, true).map_err(JobError::Failed)
     }
 }
 
@@ -150,7 +150,7 @@ impl ClusterArgs {
                     self, scene,
                 )?));
             }
-            super::cluster_grid::refuse_on_mesh(&self.grid)?;
+            super::grid_args::refuse_on_mesh(&self.grid)?;
             Ok(ClusterResult::Mesh(Box::new(super::cluster::execute(
                 self,
             )?)))

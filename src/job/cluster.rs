@@ -188,7 +188,7 @@ pub struct ClusterArgs {
     pub trace: Option<PathBuf>,
     /// Grid scenes (sort-last bricks).
     #[command(flatten)]
-    pub grid: super::cluster_grid::GridArgs,
+    pub grid: super::grid_args::GridArgs,
     /// Where the nodes run (`--transport`, `--workers`, ...).
     #[command(flatten)]
     pub net: super::transport_args::TransportArgs,
@@ -405,7 +405,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             record_trace: true,
         },
         placement: a.placement,
-        compositor: super::cluster_grid::compositor_name(
+        compositor: super::grid_args::compositor_name(
             a.compositor.as_deref().unwrap_or("binary-swap"),
             a.grid.radix_k,
         )?,

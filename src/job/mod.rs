@@ -5,10 +5,13 @@
 //! own path, `execute(.., quiet = false)`, still prints its summaries from
 //! here; the typed entry points run quiet.)
 //!
-//! - [`render`]: render a scene (cell projection for meshes; slicing,
-//!   adaptive, splatting and the references for grids: [`render_grid`],
-//!   [`render_splat`]); [`compare`] is `--compare`'s verdict and strip.
-//! - [`cluster`]: a cluster frame (or series of frames, [`cluster_grid`]) on
+//! - [`render`]: a render's options and outcome; [`run`] loads the scene
+//!   and hands it to [`render_mesh`] (cell projection, the f64 reference)
+//!   or [`render_grid`] (slicing, adaptive, [`render_splat`], the grid
+//!   reference); [`grid_order`] is `--order`; [`compare`] is `--compare`'s
+//!   verdict and strip.
+//! - [`cluster`]: a cluster frame (or series of frames, [`cluster_grid`], whose
+//!   options are [`grid_args`]) on
 //!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]).
 //! - [`validate`]: the one validation layer. Each job implements
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
@@ -20,6 +23,9 @@
 //! - [`api`]: the typed entry points [`RenderJob`] and [`ClusterJob`]
 //!   (`new` with the command line's defaults, `from_options` by flag name,
 //!   serde from a job file, `check`, `run`) and [`JobError`];
+//! - [`sweep`]: [`SweepJob`], a sweep as a typed job (fixed and varying
+//!   options by flag name, every point validated before the first runs,
+//!   typed rows); the config-file sweep frontend runs its points here.
 //! - [`options`]: options by flag name, the one mapping that job files,
 //!   and sweeps share.
 //!
@@ -30,18 +36,24 @@ pub mod cluster;
 pub mod cluster_ert;
 pub mod cluster_grid;
 pub mod compare;
+pub mod grid_args;
+pub mod grid_order;
 pub mod memory;
 pub mod options;
 pub mod output;
 pub mod render;
 pub mod render_grid;
+pub mod render_mesh;
 pub mod render_splat;
+pub mod run;
+pub mod sweep;
 pub mod transport_args;
 pub mod validate;
 
 pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
 pub use render::RenderOutcome;
+pub use sweep::{SweepCommand, SweepJob, SweepRow};
 
 /// The text `main` prints for an error: `error: MSG` and one `caused by:`
 /// line per cause, leaving out a cause whose text the line above already

@@ -6,7 +6,7 @@
 //! the command line's defaults, ranges and messages.
 
 use clap::{Args, FromArgMatches};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// The option a parameter becomes: `ert_table` -> `--ert-table`.
 pub fn flag(name: &str) -> String {
@@ -26,7 +26,7 @@ pub fn parse<T: Args + FromArgMatches>(
 }
 
 /// One value of a run parameter, as written in the config.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum ParamValue {
     /// `true` becomes a bare flag, `false` omits it.
@@ -62,6 +62,48 @@ impl ParamValue {
             Self::Float(f) => Some(*f),
             _ => None,
         }
+    }
+}
+
+impl From<bool> for ParamValue {
+    fn from(b: bool) -> Self {
+        Self::Bool(b)
+    }
+}
+
+impl From<i64> for ParamValue {
+    fn from(i: i64) -> Self {
+        Self::Int(i)
+    }
+}
+
+impl From<i32> for ParamValue {
+    fn from(i: i32) -> Self {
+        Self::Int(i.into())
+    }
+}
+
+impl From<u32> for ParamValue {
+    fn from(i: u32) -> Self {
+        Self::Int(i.into())
+    }
+}
+
+impl From<f64> for ParamValue {
+    fn from(x: f64) -> Self {
+        Self::Float(x)
+    }
+}
+
+impl From<&str> for ParamValue {
+    fn from(s: &str) -> Self {
+        Self::Str(s.to_string())
+    }
+}
+
+impl From<String> for ParamValue {
+    fn from(s: String) -> Self {
+        Self::Str(s)
     }
 }
 

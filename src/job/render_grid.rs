@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use anyhow::Context;
 
+use super::grid_order::GridOrder;
 use super::render::{RenderArgs, RenderOutcome, RendererKind};
-use super::render_splat::GridOrder;
 use crate::image::Image;
 use crate::render::adaptive::{self, AdaptiveOptions};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};

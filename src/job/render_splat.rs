@@ -2,71 +2,14 @@
 //! EWA splatting of a grid scene through the common `render` command (same
 //! output, `--stats`, `--compare`, `--threads`, `--width/--height`, `--ert`
 //! as the slicers: `--ert` is the early splat elimination threshold, and
-//! its bound `ert_error_bound` is in the stats). `--order` is shared with the slicers, whose values are the
-//! compositing orders; [`GridOrder`] holds both kinds and each renderer
-//! refuses the other's.
+//! its bound `ert_error_bound` is in the stats). `--order` is shared with the slicers
+//! ([`GridOrder`]).
 
-use clap::ValueEnum;
-
+use super::grid_order::GridOrder;
 use super::render::RenderArgs;
 use crate::image::Image;
-use crate::render::slicing;
-use crate::render::splat::order::Order as SplatOrder;
 use crate::render::splat::{render_splat, SplatOptions};
 use crate::render::VolumeInput;
-
-/// `--order`: a slicer's compositing order or a splatting visit order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum GridOrder {
-    /// Slicers: front to back, `C += (1 - A) C_s`, `A += (1 - A) A_s`, with
-    /// early ray termination once `A` reaches the threshold.
-    FrontToBack,
-    /// Slicers: back to front with blend factors `(1, 1 - A_s)` (the
-    /// paper's OpenGL blending); no early termination possible.
-    BackToFront,
-    /// Splat: Westover's axis-aligned slices, far to near.
-    Axis,
-    /// Splat: the DDA view-aligned order (splatting-dda-order.txt; default).
-    Dda,
-    /// Splat: a full depth sort (comparison sort, the paper's quicksort).
-    Sort,
-    /// Splat: a full depth sort by radix (counting) sort of quantised depths.
-    Radix,
-}
-
-impl GridOrder {
-    /// The slicers' compositing order (default front to back); an error for
-    /// a splatting order.
-    pub fn compositing(o: Option<GridOrder>) -> anyhow::Result<slicing::Order> {
-        match o {
-            None | Some(GridOrder::FrontToBack) => Ok(slicing::Order::FrontToBack),
-            Some(GridOrder::BackToFront) => Ok(slicing::Order::BackToFront),
-            Some(x) => anyhow::bail!(
-                "--order {} is a splatting order (--renderer splat); the slicers take \
-                 front-to-back or back-to-front",
-                x.to_possible_value()
-                    .map_or(String::new(), |v| v.get_name().into())
-            ),
-        }
-    }
-
-    /// The splatting visit order (default DDA); an error for a compositing
-    /// order.
-    pub fn splat(o: Option<GridOrder>) -> anyhow::Result<SplatOrder> {
-        match o {
-            None | Some(GridOrder::Dda) => Ok(SplatOrder::Dda),
-            Some(GridOrder::Axis) => Ok(SplatOrder::Axis),
-            Some(GridOrder::Sort) => Ok(SplatOrder::Quicksort),
-            Some(GridOrder::Radix) => Ok(SplatOrder::Radix),
-            Some(x) => anyhow::bail!(
-                "--order {} is a slicer's compositing order; --renderer splat takes \
-                 axis, dda, sort or radix (splats go front to back with --ert < 1, back to front with --ert 1)",
-                x.to_possible_value()
-                    .map_or(String::new(), |v| v.get_name().into())
-            ),
-        }
-    }
-}
 
 /// Refuses slicer options for the splat renderer (never silently ignored).
 pub fn refuse_slicer_options(a: &RenderArgs) -> anyhow::Result<()> {

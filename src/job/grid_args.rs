@@ -1,0 +1,105 @@
+//! The options of `pvrsim cluster` that only grid scenes take
+//! ([`GridArgs`]), the `--compositor`/`--radix-k` name check, and their
+//! refusal on mesh scenes.
+
+use clap::Args;
+
+use crate::node::grid::BrickPlacement;
+
+/// Options of `pvrsim cluster` that only grid scenes take.
+#[derive(Debug, Clone, Args)]
+pub struct GridArgs {
+    /// Grid scenes: cut the volume into d^3 bricks (one-voxel overlap) spread
+    /// over the nodes. Default 2 for grid scenes; refused for mesh scenes.
+    #[arg(long, value_name = "D")]
+    pub subvolumes: Option<u32>,
+    /// Grid scenes: add a master rank (renders nothing, composites every
+    /// subimage: the paper's 4 slaves + master). Implies `--compositor master`.
+    #[arg(long)]
+    pub master: bool,
+    /// Grid scenes: brick placement (`round-robin` as in the paper, or
+    /// `balanced` by visible voxels).
+    #[arg(long, value_enum)]
+    pub brick_placement: Option<BrickPlacement>,
+    /// Grid scenes: render each brick by adaptive block sampling with B
+    /// blocks per axis of the brick (`render --renderer adaptive`).
+    #[arg(long, value_name = "B")]
+    pub blocks: Option<u64>,
+    /// Grid scenes with --blocks: the adaptive tolerance τ (RMS error per
+    /// block at most τ times the transfer function's scalar range; default 0.05).
+    #[arg(long, value_name = "T")]
+    pub tolerance: Option<f64>,
+    /// With `--compositor radix-k`: the target group size k of each round
+    /// (default 8, IceT's; rounds' sizes multiply to the rank count, a
+    /// prime factor above k gets a round of its own).
+    #[arg(long, value_name = "K")]
+    pub radix_k: Option<usize>,
+    /// Grid scenes: render N frames on the same nodes, the camera turning
+    /// `--turn` degrees about the scene's up axis between frames (the
+    /// nodes keep their bricks' textures); the outputs are the last
+    /// frame's, and every frame's wall time is printed.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Grid scenes with --frames: degrees the eye turns about the target
+    /// (around the camera's up vector) from one frame to the next (default 0).
+    #[arg(long, value_name = "DEG")]
+    pub turn: Option<f64>,
+    /// Grid scenes: prepare every brick's texture every frame (no cache
+    /// across frames; for measuring what the cache saves).
+    #[arg(long)]
+    pub no_texture_cache: bool,
+}
+
+/// The compositor name `--compositor` and `--radix-k` describe (`radix-k:K`
+/// when k is given), checked: `--radix-k` without `--compositor radix-k`
+/// is refused rather than ignored.
+pub fn compositor_name(compositor: &str, radix_k: Option<usize>) -> anyhow::Result<String> {
+    let name = match radix_k {
+        None => compositor.to_string(),
+        Some(k) => {
+            anyhow::ensure!(
+                matches!(compositor, "radix-k" | "radixk"),
+                "--radix-k {k} sets radix-k's group size; it needs --compositor radix-k \
+                 (got --compositor {compositor})"
+            );
+            format!("radix-k:{k}")
+        }
+    };
+    crate::compositor::strategy::from_name(&name).map_err(|e| anyhow::anyhow!(e))?;
+    Ok(name)
+}
+
+/// Refuses grid-only options on a mesh scene.
+pub fn refuse_on_mesh(g: &GridArgs) -> anyhow::Result<()> {
+    let mut bad = Vec::new();
+    if g.subvolumes.is_some() {
+        bad.push("--subvolumes");
+    }
+    if g.master {
+        bad.push("--master");
+    }
+    if g.brick_placement.is_some() {
+        bad.push("--brick-placement");
+    }
+    if g.blocks.is_some() {
+        bad.push("--blocks");
+    }
+    if g.tolerance.is_some() {
+        bad.push("--tolerance");
+    }
+    if g.frames.is_some() {
+        bad.push("--frames");
+    }
+    if g.turn.is_some() {
+        bad.push("--turn");
+    }
+    if g.no_texture_cache {
+        bad.push("--no-texture-cache");
+    }
+    anyhow::ensure!(
+        bad.is_empty(),
+        "{} only apply to grid scenes (a volume); this scene's data is a mesh",
+        bad.join(", ")
+    );
+    Ok(())
+}

@@ -1,0 +1,228 @@
+//! `pvrsim render` on a tetrahedral mesh: cell projection with ray-segment
+//! lists (`--renderer cell`, default) or the f64 reference walk, with
+//! `--compare`'s verdict and strip.
+
+use anyhow::Context;
+
+use super::memory::{self, FrameKind};
+use super::render::{compare_path, RenderArgs, RenderOutcome, RendererKind};
+use crate::render::cell::ert::EntrySize;
+use crate::render::cell::{self, CellOptions, ErtOptions};
+use crate::render::{reference, RenderInput};
+
+/// Renders a mesh scene (cell projection or the f64 reference), without
+/// writing files or printing (when `quiet`); [`super::run::render`] hands
+/// mesh scenes here.
+pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
+    refuse_grid_options(a)?;
+    let (mut input, load_s) = RenderInput::load(&a.scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if let (Some(w), Some(h)) = (a.width, a.height) {
+        input = input.with_size(w, h);
+    }
+    let threads = if a.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        a.threads
+    };
+    let kind = FrameKind::Render {
+        tile: a.tile,
+        threads,
+        compare: a.compare,
+    };
+    memory::check_fits(
+        input.scene.image.width,
+        input.scene.image.height,
+        kind,
+        memory::available_bytes(),
+    )?;
+    if !quiet {
+        super::warn_field(&input);
+    }
+    let opts = CellOptions {
+        integrator: a.integrator,
+        partial_composition: !a.no_partial_composition,
+        tile_size: a.tile,
+        cell_order: a.cell_order,
+        ert: ErtOptions {
+            threshold: a.ert,
+            entry: a
+                .ert_entry_px
+                .map(EntrySize::Pixels)
+                .or(a.ert_table.map(EntrySize::Divisions)),
+            update_c: a.ert_update,
+            span: a.ert_span,
+            structure: a.ert_structure,
+        },
+        oracle: a.oracle,
+        canonical: a.canonical,
+    };
+    let (image, mut stats) = match a.renderer.unwrap_or(RendererKind::Cell) {
+        RendererKind::Slice3d
+        | RendererKind::Slice2d
+        | RendererKind::Adaptive
+        | RendererKind::Splat => {
+            unreachable!("refused above")
+        }
+        RendererKind::Cell => {
+            let (image, mut stats) =
+                super::with_threads(a.threads, || cell::render(&input, &opts))?;
+            stats.time_load_s = load_s;
+            stats.time_total_s += load_s;
+            if !quiet {
+                print_cell_summary(a, &input, &stats);
+            }
+            (image, serde_json::to_value(&stats)?)
+        }
+        RendererKind::Reference => {
+            let adjacency = input.mesh.adjacency();
+            let (image, stats) = super::with_threads(a.threads, || {
+                reference::render(&input, &adjacency, &Default::default())
+            })?;
+            if !quiet {
+                println!(
+                    "reference render of {}: {}x{} in {:.3} s (load {:.3} s)",
+                    a.scene.display(),
+                    image.width,
+                    image.height,
+                    stats.time_s,
+                    load_s
+                );
+            }
+            (image, serde_json::to_value(&stats)?)
+        }
+    };
+    anyhow::ensure!(
+        !image.has_non_finite(),
+        "internal error: the image has NaN or infinite pixels"
+    );
+    if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
+        let adjacency = input.mesh.adjacency();
+        let (reference, rs) = super::with_threads(a.threads, || {
+            reference::render(&input, &adjacency, &Default::default())
+        })?;
+        let err = image.error_against(&reference);
+        let ert_bound = stats["ert_error_bound"].as_f64().unwrap_or(0.0);
+        let v = super::compare::verdict(&err, a.integrator, ert_bound);
+        stats["error_vs_reference"] = serde_json::to_value(err)?;
+        stats["compare_verdict"] = serde_json::to_value(&v)?;
+        stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
+        if !quiet {
+            println!("against the reference ({:.2} s): {err}", rs.time_s);
+            println!("{}", v.text);
+            let path = compare_path(&a.output);
+            let label = format!("this: cell ({})", a.integrator_name());
+            super::compare::write_strip(&image, &reference, &label, 10.0, &path)?;
+            println!(
+                "wrote {} (labelled: this | reference | 10x difference)",
+                path.display()
+            );
+        }
+    }
+    Ok(RenderOutcome { image, stats })
+}
+
+/// Grid-only options given for a mesh: refused, never silently ignored.
+fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !matches!(
+            a.renderer,
+            Some(
+                RendererKind::Slice3d
+                    | RendererKind::Slice2d
+                    | RendererKind::Adaptive
+                    | RendererKind::Splat
+            )
+        ) && a.blocks.is_none()
+            && a.tolerance.is_none(),
+        "--renderer slice3d/slice2d/adaptive/splat (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
+         (use cell or reference)",
+        a.scene.display()
+    );
+    anyhow::ensure!(
+        a.classify.is_none()
+            && a.order.is_none()
+            && a.slices.is_none()
+            && a.spacing.is_none()
+            && a.lod.is_none()
+            && !a.no_empty_skip,
+        "--classify, --order, --slices, --spacing, --lod and --no-empty-skip apply to regular \
+         grids only; scene {} renders a tetrahedral mesh",
+        a.scene.display()
+    );
+    Ok(())
+}
+
+fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) {
+    let sc = &input.scene.image;
+    println!(
+        "cell projection of {} ({}x{}, {} integrator, {} order, partial composition {}, {})",
+        a.scene.display(),
+        sc.width,
+        sc.height,
+        s.integrator,
+        s.cell_order,
+        if s.partial_composition { "on" } else { "off" },
+        super::plural(s.threads, "thread")
+    );
+    println!(
+        "  cells: {} total, {} culled empty, {} culled off-screen, {} projected",
+        s.cells_total, s.cells_culled_empty, s.cells_culled_offscreen, s.cells_projected
+    );
+    println!(
+        "  segments: {} generated, {} merged by partial composition; lists: mean {:.2}, max {}",
+        s.segments_generated, s.segments_merged, s.list_len_mean, s.list_len_max
+    );
+    let rate = |n: u64| {
+        if s.time_scan_s > 0.0 {
+            n as f64 / s.time_scan_s / 1e6
+        } else {
+            0.0
+        }
+    };
+    println!(
+        "  time: load {:.3} s, project {:.3} s, scan {:.3} s ({:.2} M segments/s, {:.2} M cells/s), composite {:.3} s, total {:.3} s",
+        s.time_load_s,
+        s.time_project_s,
+        s.time_scan_s,
+        rate(s.segments_generated),
+        rate(s.cells_projected),
+        s.time_composite_s,
+        s.time_total_s
+    );
+    if s.ert_threshold < 1.0 {
+        println!(
+            "  ERT: threshold {}, {} {}{}x{} px entries, C {}: {} cells skipped ({} cell-tile pairs), {} updates {:.3} s, {} tests {:.3} s, overhead {:.1} % of scan (phase {:.3} s), error bound {:.4}",
+            s.ert_threshold,
+            s.ert_structure,
+            if s.ert_span.is_empty() { String::new() } else { format!("{} ", s.ert_span) },
+            s.ert_entry_px[0],
+            s.ert_entry_px[1],
+            s.ert_update_c,
+            s.cells_skipped_ert,
+            s.cell_tile_pairs_skipped_ert,
+            s.ert_updates,
+            s.ert_update_s,
+            s.ert_tests,
+            s.ert_tests_s,
+            100.0 * s.ert_overhead_share,
+            s.time_scan_phase_s,
+            s.ert_error_bound
+        );
+    }
+    if let (Some(sk), Some(n), Some(sb)) = (
+        s.oracle_cells_skippable,
+        s.oracle_cells_considered,
+        s.oracle_segments_behind_share,
+    ) {
+        println!(
+            "  oracle: {} of {} cells skippable ({:.1} %), {:.1} % of segments behind termination; ERT skipped {:.1} % of the oracle's cells ({:.2} s)",
+            sk,
+            n,
+            100.0 * sk as f64 / n.max(1) as f64,
+            100.0 * sb,
+            100.0 * s.ert_share_of_oracle.unwrap_or(0.0),
+            s.oracle_time_s.unwrap_or(0.0)
+        );
+    }
+}
