@@ -153,6 +153,46 @@ fn no_room_below_the_frontends_names_one() {
     }
 }
 
+/// The files of one folder (modules beside `mod.rs`) -> the siblings each
+/// names through `super::NAME` (the folder's own `mod.rs` helpers left out).
+fn sibling_graph(dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let names: BTreeSet<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.unwrap().path();
+            let n = p.file_stem()?.to_str()?.to_string();
+            (p.extension().is_some_and(|x| x == "rs") && n != "mod").then_some(n)
+        })
+        .collect();
+    let mut g = BTreeMap::new();
+    for n in &names {
+        let text = std::fs::read_to_string(dir.join(format!("{n}.rs"))).unwrap();
+        let code = code(&text);
+        let named = code
+            .match_indices("super::")
+            .map(|(i, _)| {
+                code[i + "super::".len()..]
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect::<String>()
+            })
+            .filter(|t| t != n && names.contains(t))
+            .collect();
+        g.insert(n.clone(), named);
+    }
+    g
+}
+
+#[test]
+fn no_two_files_of_the_job_layer_import_each_other() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/job");
+    let g = sibling_graph(&dir);
+    assert!(g.len() > 10, "found only {} files in src/job", g.len());
+    if let Some(c) = find_circle(&g) {
+        panic!("src/job files import each other in a circle: {}", c.join(" -> "));
+    }
+}
+
 #[test]
 fn the_checker_sees_a_circle_and_a_name() {
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
