@@ -74,7 +74,9 @@
 //! ```
 //!
 //! The same sweep from a config file, with its CSV, plots and summary, is
-//! [`experiment::run_sweep`] (`pvrsim sweep CONFIG`).
+//! [`experiment::run_sweep`] (`pvrsim sweep CONFIG`). Benchmarks are typed
+//! jobs too: [`bench::BenchJob`] (`pvrsim bench`'s options and defaults;
+//! [`bench::BenchJob::cell_rows`] returns the measured rows).
 #![warn(missing_docs)]
 
 pub mod bench;

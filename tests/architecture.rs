@@ -189,7 +189,10 @@ fn no_two_files_of_the_job_layer_import_each_other() {
     let g = sibling_graph(&dir);
     assert!(g.len() > 10, "found only {} files in src/job", g.len());
     if let Some(c) = find_circle(&g) {
-        panic!("src/job files import each other in a circle: {}", c.join(" -> "));
+        panic!(
+            "src/job files import each other in a circle: {}",
+            c.join(" -> ")
+        );
     }
 }
 

@@ -179,21 +179,136 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    anyhow::ensure!(
-        a.data_dir.join("aorta.vtk").exists(),
-        "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data folder \
-         (../shared/data next to this checkout) or --data-dir pointing at it.",
-        a.data_dir.display()
-    );
-    let cores = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1);
-    let mut rows = Vec::new();
-    let floor_ns = cell::floor::ns_per_segment();
-    println!(
-        "floor kernel (render::cell::floor, 1 thread): {floor_ns:.2} ns/segment; \
-         floor ms = segments x that / threads"
-    );
+    let rows = a.cell_rows(|e| match e {
+        BenchEvent::Floor(ns) => {
+            println!(
+                "floor kernel (render::cell::floor, 1 thread): {ns:.2} ns/segment; \
+                 floor ms = segments x that / threads"
+            );
+            print_header();
+        }
+        BenchEvent::Row(r) => print_row(r),
+    })?;
+    if let Some(path) = &a.json {
+        std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// A benchmark as a typed job: `pvrsim bench`'s options with its defaults.
+pub type BenchJob = BenchArgs;
+
+/// What [`BenchArgs::cell_rows`] reports while it measures.
+pub enum BenchEvent<'a> {
+    /// The floor kernel's ns per segment on this machine, measured first.
+    Floor(f64),
+    /// A configuration measured.
+    Row(&'a BenchRow),
+}
+
+impl BenchArgs {
+    /// `pvrsim bench`'s defaults, timing the scenes in `data_dir`.
+    pub fn new(data_dir: impl Into<PathBuf>) -> Self {
+        let cmd = <BenchArgs as Args>::augment_args(clap::Command::new("pvrsim bench"));
+        let m = cmd
+            .try_get_matches_from(["pvrsim bench"])
+            .expect("the defaults parse");
+        let mut job =
+            <BenchArgs as clap::FromArgMatches>::from_arg_matches(&m).expect("the defaults parse");
+        job.data_dir = data_dir.into();
+        job
+    }
+
+    /// The cell-projection benchmark (the default mode): per scene, exact
+    /// and midpoint integrators on one thread and on all cores, ERT off,
+    /// median of `repeats` renders (load excluded), with the floor
+    /// estimate; the reference once per scene with `reference`. `on_event`
+    /// sees the floor and each row as they are measured (the command line
+    /// prints them).
+    pub fn cell_rows(&self, mut on_event: impl FnMut(BenchEvent)) -> anyhow::Result<Vec<BenchRow>> {
+        let a = self;
+        anyhow::ensure!(
+            a.data_dir.join("aorta.vtk").exists(),
+            "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data folder \
+             (../shared/data next to this checkout) or --data-dir pointing at it.",
+            a.data_dir.display()
+        );
+        let cores = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1);
+        let mut rows = Vec::new();
+        let floor_ns = cell::floor::ns_per_segment();
+        on_event(BenchEvent::Floor(floor_ns));
+        for name in &a.scenes {
+            let path = a.data_dir.join(name);
+            let (input, _) = RenderInput::load(&path)
+                .with_context(|| format!("cannot load {}", path.display()))?;
+            for integrator in [Integrator::Exact, Integrator::Midpoint] {
+                let mut thread_counts = vec![1];
+                if cores > 1 {
+                    thread_counts.push(cores);
+                }
+                for &threads in &thread_counts {
+                    let opts = CellOptions {
+                        integrator,
+                        ert: cell::ErtOptions::OFF,
+                        ..Default::default()
+                    };
+                    let mut total = Vec::new();
+                    let mut scan = Vec::new();
+                    let mut last = None;
+                    for _ in 0..a.repeats.max(1) {
+                        let (_, s) = with_threads(threads, || cell::render(&input, &opts))?;
+                        total.push(s.time_total_s * 1e3);
+                        scan.push(s.time_scan_s * 1e3);
+                        last = Some(s);
+                    }
+                    let s = last.expect("at least one repeat");
+                    let min_ms = total.iter().cloned().fold(f64::INFINITY, f64::min);
+                    let med = median(&mut total);
+                    let row = BenchRow {
+                        scene: name.clone(),
+                        renderer: format!("cell {integrator}"),
+                        threads,
+                        median_ms: med,
+                        min_ms,
+                        scan_ms: median(&mut scan),
+                        cells_per_s: s.cells_projected as f64 / (med / 1e3),
+                        segments_per_s: s.segments_generated as f64 / (med / 1e3),
+                        segments: s.segments_generated,
+                        floor_ms: s.segments_generated as f64 * floor_ns * 1e-6 / threads as f64,
+                    };
+                    on_event(BenchEvent::Row(&row));
+                    rows.push(row);
+                }
+            }
+            if a.reference {
+                let adjacency = input.mesh.adjacency();
+                let (_, rs) = with_threads(cores, || {
+                    reference::render(&input, &adjacency, &Default::default())
+                })?;
+                let row = BenchRow {
+                    scene: name.clone(),
+                    renderer: "reference".into(),
+                    threads: cores,
+                    median_ms: rs.time_s * 1e3,
+                    min_ms: rs.time_s * 1e3,
+                    scan_ms: rs.time_s * 1e3,
+                    cells_per_s: 0.0,
+                    segments_per_s: 0.0,
+                    segments: 0,
+                    floor_ms: 0.0,
+                };
+                on_event(BenchEvent::Row(&row));
+                rows.push(row);
+            }
+        }
+        Ok(rows)
+    }
+}
+
+fn print_header() {
     println!(
         "{:<20} {:<16} {:>7} {:>11} {:>9} {:>9} {:>11} {:>13} {:>9} {:>8}",
         "scene",
@@ -207,75 +322,6 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         "floor ms",
         "x floor"
     );
-    for name in &a.scenes {
-        let path = a.data_dir.join(name);
-        let (input, _) =
-            RenderInput::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
-        for integrator in [Integrator::Exact, Integrator::Midpoint] {
-            let mut thread_counts = vec![1];
-            if cores > 1 {
-                thread_counts.push(cores);
-            }
-            for &threads in &thread_counts {
-                let opts = CellOptions {
-                    integrator,
-                    ert: cell::ErtOptions::OFF,
-                    ..Default::default()
-                };
-                let mut total = Vec::new();
-                let mut scan = Vec::new();
-                let mut last = None;
-                for _ in 0..a.repeats.max(1) {
-                    let (_, s) = with_threads(threads, || cell::render(&input, &opts))?;
-                    total.push(s.time_total_s * 1e3);
-                    scan.push(s.time_scan_s * 1e3);
-                    last = Some(s);
-                }
-                let s = last.expect("at least one repeat");
-                let min_ms = total.iter().cloned().fold(f64::INFINITY, f64::min);
-                let med = median(&mut total);
-                let row = BenchRow {
-                    scene: name.clone(),
-                    renderer: format!("cell {integrator}"),
-                    threads,
-                    median_ms: med,
-                    min_ms,
-                    scan_ms: median(&mut scan),
-                    cells_per_s: s.cells_projected as f64 / (med / 1e3),
-                    segments_per_s: s.segments_generated as f64 / (med / 1e3),
-                    segments: s.segments_generated,
-                    floor_ms: s.segments_generated as f64 * floor_ns * 1e-6 / threads as f64,
-                };
-                print_row(&row);
-                rows.push(row);
-            }
-        }
-        if a.reference {
-            let adjacency = input.mesh.adjacency();
-            let (_, rs) = with_threads(cores, || {
-                reference::render(&input, &adjacency, &Default::default())
-            })?;
-            let row = BenchRow {
-                scene: name.clone(),
-                renderer: "reference".into(),
-                threads: cores,
-                median_ms: rs.time_s * 1e3,
-                min_ms: rs.time_s * 1e3,
-                scan_ms: rs.time_s * 1e3,
-                cells_per_s: 0.0,
-                segments_per_s: 0.0,
-                segments: 0,
-                floor_ms: 0.0,
-            };
-            print_row(&row);
-            rows.push(row);
-        }
-    }
-    if let Some(path) = &a.json {
-        std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
-        println!("wrote {}", path.display());
-    }
-    Ok(())
 }
 
 fn print_row(r: &BenchRow) {
@@ -296,4 +342,25 @@ fn print_row(r: &BenchRow) {
             0.0
         }
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bench_job_has_the_command_lines_defaults_and_names_missing_data() {
+        let job = BenchJob::new("/nonexistent-pvrsim-data");
+        assert_eq!(job.repeats, 5);
+        assert_eq!(job.scenes, ["aorta-view-a.toml", "aorta-view-b.toml"]);
+        assert!(!job.grids && !job.reference);
+        let mut events = 0;
+        let e = job.cell_rows(|_| events += 1).expect_err("no data there");
+        assert!(
+            e.to_string()
+                .contains("/nonexistent-pvrsim-data has no aorta.vtk"),
+            "{e}"
+        );
+        assert_eq!(events, 0, "nothing is measured before the data is found");
+    }
 }
