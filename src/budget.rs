@@ -6,6 +6,7 @@
 //! | check | limit |
 //! |---|---|
 //! | [`threads`] | the machine's cores x [`THREAD_FACTOR`] (0 = all cores is fine) |
+//! | [`local_nodes`] | nodes run as threads or processes of this host: the cores x [`NODE_FACTOR`], at least [`MIN_LOCAL_NODES`] |
 //! | [`slices`] | [`MAX_SLICES`] |
 //! | [`image()`] | [`MAX_IMAGE_SIDE`] a side; `W·H·`[`IMAGE_BYTES_PER_PIXEL`] against `MemAvailable` |
 //! | [`volume`] | [`MAX_VOLUME_SIDE`] a side; voxels x bytes a voxel against `MemAvailable` |
@@ -20,6 +21,14 @@ use anyhow::{bail, Result};
 
 /// Most threads per core an option may ask for.
 pub const THREAD_FACTOR: usize = 4;
+/// Most cluster nodes per core when every node is a thread or a process of
+/// this host (`--clock wall`, `--transport threads|processes`): the nodes
+/// mostly wait on each other, so more than cores fit, but thousands only
+/// thrash (the simulated clock, one thread for all nodes, has no such limit).
+pub const NODE_FACTOR: usize = 16;
+/// The node limit on a host with few cores: an 8-node cluster (plus its
+/// manager) on a 2-core laptop is the common case, 64 nodes still run.
+pub const MIN_LOCAL_NODES: usize = 64;
 /// Most slices of a slice renderer (a 4096³ volume's diagonal at a quarter
 /// voxel is about 28 000).
 pub const MAX_SLICES: u64 = 65_536;
@@ -92,7 +101,28 @@ fn threads_on(option: &str, n: usize, cores: usize) -> Result<()> {
     if n > limit {
         bail!(
             "{option} {n}: more than {limit} threads ({cores} cores x {THREAD_FACTOR}) would only \
+ \
              thrash; use at most {limit}, or 0 for one per core"
+        );
+    }
+    Ok(())
+}
+
+/// Refuses a cluster of more than cores x [`NODE_FACTOR`] (at least
+/// [`MIN_LOCAL_NODES`]) nodes when each node is a thread or a process of
+/// this host; `how` names them (`--transport processes`).
+pub fn local_nodes(option: &str, n: usize, how: &str) -> Result<()> {
+    local_nodes_on(option, n, how, cores())
+}
+
+fn local_nodes_on(option: &str, n: usize, how: &str, cores: usize) -> Result<()> {
+    let limit = (cores.max(1) * NODE_FACTOR).max(MIN_LOCAL_NODES);
+    if n > limit {
+        bail!(
+            "{option} {n} with {how}: every node is a thread or a process of this host, and more \
+             than {limit} ({cores} cores x {NODE_FACTOR}, at least {MIN_LOCAL_NODES}) would only \
+             thrash; use at most {limit} here, drop {how} for the simulated clock (any node \
+             count), or spread the nodes over machines with --transport tcp"
         );
     }
     Ok(())
@@ -204,6 +234,15 @@ mod tests {
         );
         assert!(threads_on("--threads", 0, 2).is_ok());
         assert!(threads_on("--threads", 8, 2).is_ok());
+        let e = local_nodes_on("--nodes", 5000, "--clock wall", 2)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("--nodes 5000 with --clock wall") && e.contains("at most 64"),
+            "{e}"
+        );
+        assert!(local_nodes_on("--nodes", 64, "--clock wall", 2).is_ok());
+        assert!(local_nodes_on("--nodes", 128, "--clock wall", 8).is_ok());
         let e = slices("--slices", 100_000_000).unwrap_err().to_string();
         assert!(e.contains("--slices") && e.contains("65536"), "{e}");
         let e = image_within("--width/--height", 65_536, 65_536, None)

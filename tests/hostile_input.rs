@@ -224,6 +224,68 @@ fn huge_render_options_are_refused_up_front() {
 }
 
 #[test]
+fn huge_cluster_options_are_refused_up_front() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let b = small_b();
+    for how in [
+        &["--clock", "wall"][..],
+        &["--transport", "threads"],
+        &["--transport", "processes"],
+    ] {
+        let mut args = vec!["cluster", &b, "--nodes", "5000"];
+        args.extend_from_slice(how);
+        let e = refused_within(p, &args, FEW, &["--nodes 5000", "at most", how[1]]);
+        assert!(e.contains("simulated clock"), "{e}");
+    }
+    refused_within(
+        p,
+        &["cluster", &b, "--width", "65536", "--height", "65536"],
+        FEW,
+        &["65536"],
+    );
+    // The simulated clock runs every node on one thread: its budget is memory.
+    refused_within(
+        p,
+        &["cluster", &b, "--nodes", "100000000"],
+        FEW,
+        &["100000000 nodes"],
+    );
+}
+
+#[test]
+fn a_sweep_with_one_huge_point_is_refused_before_its_first_run() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let cfg = p.join("sweep.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "name = \"huge\"\ncommand = \"cluster\"\nscene = {:?}\n[fixed]\nclock = \"wall\"\n\
+             width = 20\nheight = 20\n[vary]\nnodes = [2, 5000]\n",
+            small_b()
+        ),
+    )
+    .unwrap();
+    let out = p.join("out");
+    refused_within(
+        p,
+        &[
+            "sweep",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        FEW,
+        &["--nodes 5000", "at most"],
+    );
+    assert!(
+        !out.join("huge").join("results.csv").exists(),
+        "no point ran: the refusal came before the first"
+    );
+}
+
+#[test]
 fn negative_ert_gets_the_range_message() {
     let d = tempfile::tempdir().unwrap();
     for cmd in ["render", "cluster"] {

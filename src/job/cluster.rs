@@ -316,7 +316,17 @@ impl Validate for ClusterArgs {
                 t.name()
             );
         }
-        let threads = self.net.transport == Some(super::transport_args::TransportKind::Threads);
+        use super::transport_args::TransportKind;
+        let threads = self.net.transport == Some(TransportKind::Threads);
+        let local = match self.net.transport {
+            Some(TransportKind::Threads) => Some("--transport threads"),
+            Some(TransportKind::Processes) => Some("--transport processes"),
+            None if self.clock == Some(ClockKind::Wall) => Some("--clock wall"),
+            _ => None,
+        };
+        if let Some(how) = local {
+            crate::budget::local_nodes("--nodes", self.nodes, how)?;
+        }
         if self.clock == Some(ClockKind::Wall) || threads {
             let why = "--clock wall measures times on this host; the network and cost models only set times on the virtual clock";
             if let Some(n) = &self.network {
