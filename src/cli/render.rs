@@ -21,6 +21,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         prepare_output("--compare", &compare_path(&a.output), OutputKind::Png)?;
     }
     let out = execute(&a, false)?;
+    for line in &out.summary {
+        println!("{line}");
+    }
     let projected = out.stats["cells_projected"].as_u64();
     output::warn_if_empty(
         &out.image,

@@ -1,9 +1,10 @@
 //! The job layer: everything pvrsim does, as typed, validated jobs that
 //! the frontends (`cli`, `experiment`'s sweeps, `bench`) call. A job is a
 //! set of options with the command line's defaults; running it returns
-//! typed values (image, statistics, cluster report). (The command line's
-//! own path, `execute(.., quiet = false)`, still prints its summaries from
-//! here; the typed entry points run quiet.)
+//! typed values (image, statistics, the summary lines the command line
+//! prints, cluster report). Jobs print nothing on stdout; warnings go to
+//! stderr, and the command line's own path (`run::render(.., quiet =
+//! false)`) also writes `--compare`'s strip.
 //!
 //! - [`render`]: a render's options and outcome; [`run`] loads the scene
 //!   and hands it to [`render_mesh`] (cell projection, the f64 reference)

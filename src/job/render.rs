@@ -164,6 +164,9 @@ pub struct RenderOutcome {
     pub image: crate::image::Image,
     /// Every statistic, as the `--stats` JSON holds them.
     pub stats: serde_json::Value,
+    /// What `pvrsim render` prints about the frame, a line each (the
+    /// renderer, its times and counts, `--compare`'s verdict).
+    pub summary: Vec<String>,
 }
 
 impl Validate for RenderArgs {

@@ -144,7 +144,8 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         "--classify, --order and --no-empty-skip apply to the slicers, not the reference"
     );
     let (input, load_s) = load(a, scene)?;
-    let (image, mut stats) = render_with(a, kind, &input, quiet)?;
+    let mut say = Vec::new();
+    let (image, mut stats) = render_with(a, kind, &input, &mut say)?;
     stats["time_load_s"] = serde_json::json!(load_s);
     stats["mesh_keys"] = serde_json::json!(
         "absent: a regular grid has no cells, segments or lists (cells_*, segments_*, list_len_*)"
@@ -160,34 +161,42 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         let err = image.error_against(&reference);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
+        say.push(format!(
+            "against the grid reference ({:.2} s): {err}",
+            rs.time_s
+        ));
         if !quiet {
-            println!("against the grid reference ({:.2} s): {err}", rs.time_s);
-            write_compare(a, &image, &reference)?;
+            say.push(write_compare(a, &image, &reference)?);
         }
     }
-    Ok(RenderOutcome { image, stats })
+    Ok(RenderOutcome {
+        image,
+        stats,
+        summary: say,
+    })
 }
 
-fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Result<()> {
+/// Writes the `--compare` strip; the line that says so.
+fn write_compare(a: &RenderArgs, image: &Image, reference: &Image) -> anyhow::Result<String> {
     let path = super::render::compare_path(&a.output);
     let label = a
         .renderer
         .and_then(|r| clap::ValueEnum::to_possible_value(&r))
         .map_or("slice3d".to_string(), |v| v.get_name().to_string());
     super::compare::write_strip(image, reference, &label, 10.0, &path)?;
-    println!(
+    Ok(format!(
         "wrote {} ({label} | reference | 10x difference, labelled)",
         path.display()
-    );
-    Ok(())
+    ))
 }
 
-/// Renders with one grid renderer; returns the image and the stats JSON.
+/// Renders with one grid renderer; returns the image and the stats JSON,
+/// and adds the lines `pvrsim render` prints to `say`.
 pub fn render_with(
     a: &RenderArgs,
     kind: RendererKind,
     input: &VolumeInput,
-    quiet: bool,
+    say: &mut Vec<String>,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     let vol = &input.volume;
     let name = a.scene.display();
@@ -196,11 +205,11 @@ pub fn render_with(
             let (img, st) = super::with_threads(a.threads, || {
                 grid_reference::render(input, &Default::default())
             })?;
-            if !quiet {
-                println!(
+            {
+                say.push(format!(
                     "grid reference of {name}: {}x{} in {:.3} s ({} cells walked, {} skipped empty)",
                     img.width, img.height, st.time_s, st.cells_visited, st.cells_skipped_empty
-                );
+                ));
             }
             let mut v = serde_json::to_value(&st)?;
             v["renderer"] = serde_json::json!("reference");
@@ -216,10 +225,10 @@ pub fn render_with(
                 let o = slice2d_options(a)?;
                 super::with_threads(a.threads, || slice2d::render(input, &o))??
             };
-            if !quiet {
+            {
                 let taken = st.samples_taken as f64;
                 let all = taken + (st.samples_skipped_empty + st.samples_skipped_ert) as f64;
-                println!(
+                say.push(format!(
                     "{} of {name} ({}x{}, {} classification, {} slices, spacing {:.4}, {} threads): \
                      prepare {:.3} s, frame {:.3} s",
                     st.renderer,
@@ -235,8 +244,8 @@ pub fn render_with(
                     st.threads,
                     st.time_prepare_s,
                     st.time_render_s
-                );
-                println!(
+                ));
+                say.push(format!(
                     "  samples: {} taken ({:.1} M/s), {:.1} % skipped as empty space, {:.1} % by ERT; \
                      texture {:.1} MiB",
                     st.samples_taken,
@@ -244,14 +253,14 @@ pub fn render_with(
                     100.0 * st.samples_skipped_empty as f64 / all.max(1.0),
                     100.0 * st.samples_skipped_ert as f64 / all.max(1.0),
                     st.texture_bytes as f64 / (1 << 20) as f64
-                );
+                ));
             }
             let mut v = serde_json::to_value(&st)?;
             v["time_total_s"] = serde_json::json!(st.time_prepare_s + st.time_render_s);
             Ok((img, v))
         }
-        RendererKind::Adaptive => render_adaptive(a, input, quiet),
-        RendererKind::Splat => super::render_splat::render(a, input, quiet),
+        RendererKind::Adaptive => render_adaptive(a, input, say),
+        RendererKind::Splat => super::render_splat::render(a, input, say),
         RendererKind::Cell => unreachable!("refused by execute"),
     }
 }
@@ -262,7 +271,7 @@ pub fn render_with(
 fn render_adaptive(
     a: &RenderArgs,
     input: &VolumeInput,
-    quiet: bool,
+    say: &mut Vec<String>,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     let o = slice3d_options(a)?;
     let ad = adaptive_options(a);
@@ -270,8 +279,8 @@ fn render_adaptive(
     let (full, fst) = super::with_threads(a.threads, || slice3d::render(input, &o))??;
     let err = img.error_against(&full);
     let s = &st.adaptive;
-    if !quiet {
-        println!(
+    {
+        say.push(format!(
             "adaptive of {} ({}x{}, {} blocks = {}x{}x{}, tolerance {} x R = {:.4}): \
              build {:.3} s, frame {:.3} s (slice3d full: {:.3} s)",
             a.scene.display(),
@@ -286,8 +295,8 @@ fn render_adaptive(
             s.build_s,
             st.slice.time_render_s,
             fst.time_render_s
-        );
-        println!(
+        ));
+        say.push(format!(
             "  size ratio {:.1} % ({:.2} of {:.2} MiB), blocks per level {:?}, \
              scalar RMS error {:.3} % of R (worst block {:.3} %)",
             100.0 * s.size_ratio,
@@ -296,8 +305,8 @@ fn render_adaptive(
             s.levels,
             100.0 * s.rms_error_rel,
             100.0 * s.max_block_rms_rel
-        );
-        println!("  against full-resolution slice3d: {err}");
+        ));
+        say.push(format!("  against full-resolution slice3d: {err}"));
     }
     let mut v = serde_json::to_value(&st)?;
     v["time_total_s"] = serde_json::json!(st.slice.time_prepare_s + st.slice.time_render_s);

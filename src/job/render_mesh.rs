@@ -11,7 +11,7 @@ use crate::render::cell::{self, CellOptions, ErtOptions};
 use crate::render::{reference, RenderInput};
 
 /// Renders a mesh scene (cell projection or the f64 reference), without
-/// writing files or printing (when `quiet`); [`super::run::render`] hands
+/// writing files or warning (when `quiet`); [`super::run::render`] hands
 /// mesh scenes here.
 pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     refuse_grid_options(a)?;
@@ -39,6 +39,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
     if !quiet {
         super::warn_field(&input);
     }
+    let mut say = Vec::new();
     let opts = CellOptions {
         integrator: a.integrator,
         partial_composition: !a.no_partial_composition,
@@ -69,9 +70,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
                 super::with_threads(a.threads, || cell::render(&input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
-            if !quiet {
-                print_cell_summary(a, &input, &stats);
-            }
+            cell_summary(a, &input, &stats, &mut say);
             (image, serde_json::to_value(&stats)?)
         }
         RendererKind::Reference => {
@@ -79,16 +78,14 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
             let (image, stats) = super::with_threads(a.threads, || {
                 reference::render(&input, &adjacency, &Default::default())
             })?;
-            if !quiet {
-                println!(
-                    "reference render of {}: {}x{} in {:.3} s (load {:.3} s)",
-                    a.scene.display(),
-                    image.width,
-                    image.height,
-                    stats.time_s,
-                    load_s
-                );
-            }
+            say.push(format!(
+                "reference render of {}: {}x{} in {:.3} s (load {:.3} s)",
+                a.scene.display(),
+                image.width,
+                image.height,
+                stats.time_s,
+                load_s
+            ));
             (image, serde_json::to_value(&stats)?)
         }
     };
@@ -107,19 +104,23 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["compare_verdict"] = serde_json::to_value(&v)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
+        say.push(format!("against the reference ({:.2} s): {err}", rs.time_s));
+        say.push(v.text.clone());
         if !quiet {
-            println!("against the reference ({:.2} s): {err}", rs.time_s);
-            println!("{}", v.text);
             let path = compare_path(&a.output);
             let label = format!("this: cell ({})", a.integrator_name());
             super::compare::write_strip(&image, &reference, &label, 10.0, &path)?;
-            println!(
+            say.push(format!(
                 "wrote {} (labelled: this | reference | 10x difference)",
                 path.display()
-            );
+            ));
         }
     }
-    Ok(RenderOutcome { image, stats })
+    Ok(RenderOutcome {
+        image,
+        stats,
+        summary: say,
+    })
 }
 
 /// Grid-only options given for a mesh: refused, never silently ignored.
@@ -153,9 +154,10 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) {
+/// The lines `pvrsim render` prints about a cell-projection frame.
+fn cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats, say: &mut Vec<String>) {
     let sc = &input.scene.image;
-    println!(
+    say.push(format!(
         "cell projection of {} ({}x{}, {} integrator, {} order, partial composition {}, {})",
         a.scene.display(),
         sc.width,
@@ -164,15 +166,15 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
         s.cell_order,
         if s.partial_composition { "on" } else { "off" },
         super::plural(s.threads, "thread")
-    );
-    println!(
+    ));
+    say.push(format!(
         "  cells: {} total, {} culled empty, {} culled off-screen, {} projected",
         s.cells_total, s.cells_culled_empty, s.cells_culled_offscreen, s.cells_projected
-    );
-    println!(
+    ));
+    say.push(format!(
         "  segments: {} generated, {} merged by partial composition; lists: mean {:.2}, max {}",
         s.segments_generated, s.segments_merged, s.list_len_mean, s.list_len_max
-    );
+    ));
     let rate = |n: u64| {
         if s.time_scan_s > 0.0 {
             n as f64 / s.time_scan_s / 1e6
@@ -180,7 +182,7 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
             0.0
         }
     };
-    println!(
+    say.push(format!(
         "  time: load {:.3} s, project {:.3} s, scan {:.3} s ({:.2} M segments/s, {:.2} M cells/s), composite {:.3} s, total {:.3} s",
         s.time_load_s,
         s.time_project_s,
@@ -189,9 +191,9 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
         rate(s.cells_projected),
         s.time_composite_s,
         s.time_total_s
-    );
+    ));
     if s.ert_threshold < 1.0 {
-        println!(
+        say.push(format!(
             "  ERT: threshold {}, {} {}{}x{} px entries, C {}: {} cells skipped ({} cell-tile pairs), {} updates {:.3} s, {} tests {:.3} s, overhead {:.1} % of scan (phase {:.3} s), error bound {:.4}",
             s.ert_threshold,
             s.ert_structure,
@@ -208,14 +210,14 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
             100.0 * s.ert_overhead_share,
             s.time_scan_phase_s,
             s.ert_error_bound
-        );
+        ));
     }
     if let (Some(sk), Some(n), Some(sb)) = (
         s.oracle_cells_skippable,
         s.oracle_cells_considered,
         s.oracle_segments_behind_share,
     ) {
-        println!(
+        say.push(format!(
             "  oracle: {} of {} cells skippable ({:.1} %), {:.1} % of segments behind termination; ERT skipped {:.1} % of the oracle's cells ({:.2} s)",
             sk,
             n,
@@ -223,6 +225,6 @@ fn print_cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats) 
             100.0 * sb,
             100.0 * s.ert_share_of_oracle.unwrap_or(0.0),
             s.oracle_time_s.unwrap_or(0.0)
-        );
+        ));
     }
 }

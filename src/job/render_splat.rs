@@ -34,11 +34,12 @@ pub fn refuse_slicer_options(a: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Renders `input` by splatting; returns the image and the stats JSON.
+/// Renders `input` by splatting; returns the image and the stats JSON, and
+/// adds the lines `pvrsim render` prints to `say`.
 pub fn render(
     a: &RenderArgs,
     input: &VolumeInput,
-    quiet: bool,
+    say: &mut Vec<String>,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     refuse_slicer_options(a)?;
     super::validate::ert_mode(a.ert)?;
@@ -49,21 +50,20 @@ pub fn render(
         ..Default::default()
     };
     let (img, st) = super::with_threads(a.threads, || render_splat(input, &opts))??;
-    if !quiet {
-        println!(
-            "splat of {} ({}x{}, order {}): {} of {} voxels drawn (fill rate {:.4}), \
-             order {:.1} ms, splat {:.1} ms",
-            a.scene.display(),
-            img.width,
-            img.height,
-            st.order,
-            st.voxels_drawn,
-            st.voxels_total,
-            st.fill_rate,
-            st.order_ms,
-            st.splat_ms
-        );
-    }
+    say.push(format!(
+        "splat of {} ({}x{}, order {}): {} of {} voxels drawn (fill rate {:.4}), \
+         order {:.1} ms, splat {:.1} ms",
+        a.scene.display(),
+        img.width,
+        img.height,
+        st.order,
+        st.voxels_drawn,
+        st.voxels_total,
+        st.fill_rate,
+        st.order_ms,
+        st.splat_ms
+    ));
+
     let mut v = serde_json::to_value(&st)?;
     v["renderer"] = serde_json::json!("splat");
     v["time_render_s"] = serde_json::json!((st.order_ms + st.splat_ms) * 1e-3);

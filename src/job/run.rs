@@ -7,8 +7,9 @@ use anyhow::Context;
 use super::render::{RenderArgs, RenderOutcome};
 use super::validate;
 
-/// Renders as `pvrsim render` would, without writing files or printing
-/// (when `quiet`). Used by `render`, by [`super::RenderJob::run`] and by
+/// Renders as `pvrsim render` would: the image, the statistics and the
+/// lines the command prints; with `quiet` no `--compare` strip is written
+/// and no warning printed. Used by `render`, by [`super::RenderJob::run`] and by
 /// sweeps, so that a sweep can vary any option `render` has, under the
 /// same name.
 pub fn render(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
