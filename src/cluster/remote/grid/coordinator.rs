@@ -323,6 +323,7 @@ impl GridRemote {
         let stats: Vec<GridNodeStats> = stats.into_iter().map(Option::unwrap_or_default).collect();
         let logs: Vec<RankLog> = logs.into_iter().map(Option::unwrap_or_default).collect();
         let rounds = layer_rounds(&sched, &logs);
+        m.phase2_ranks = logs.iter().map(|l| (l.seconds, l.cpu_s)).collect();
         m.layer_bytes = rounds
             .iter()
             .flat_map(|r| &r.messages)
