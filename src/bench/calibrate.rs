@@ -339,7 +339,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
     );
     let mut base = None;
     if !a.no_measure {
-        let built_in = super::calibrate_data::BuiltIn::write()?;
+        let built_in = crate::data::builtin::BuiltIn::write()?;
         let scene_paths: Vec<PathBuf> = match &a.scenes {
             Some(s) => s.clone(),
             None => built_in.scenes.clone(),

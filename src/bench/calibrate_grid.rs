@@ -14,7 +14,7 @@ use std::path::Path;
 use anyhow::Context;
 
 use super::calibrate::Timer;
-use super::calibrate_data::BuiltIn;
+use crate::data::builtin::BuiltIn;
 use crate::job::api::ClusterJob;
 use crate::job::options::ParamValue;
 use crate::node::lsq::nnls;

@@ -9,7 +9,6 @@ use clap::Args;
 
 pub mod adaptive;
 pub mod calibrate;
-pub mod calibrate_data;
 pub mod calibrate_grid;
 pub mod calibrate_network;
 pub mod grid;

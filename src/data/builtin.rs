@@ -1,4 +1,4 @@
-//! The built-in calibration data of `pvrsim calibrate`: the small aorta
+//! Built-in data for `pvrsim calibrate` and `pvrsim fidelity`: the small aorta
 //! mesh (`tests/data/aorta-small.vtk`, 20,169 tetrahedra) and its two
 //! scenes, compiled into the binary so that calibration works from any
 //! directory and from an installed binary. They are written to a private
