@@ -112,8 +112,16 @@ impl Watch {
     }
 }
 
-fn ert_modes() -> [(&'static str, NodeErt); 3] {
+fn ert_modes() -> [(&'static str, NodeErt); 4] {
     [
+        (
+            "pyramid",
+            NodeErt {
+                structure: crate::render::cell::ert::ErtStructure::Pyramid,
+                share_levels: 4,
+                ..NodeErt::PAPER
+            },
+        ),
         ("off", NodeErt::OFF),
         ("paper", NodeErt::PAPER),
         (
@@ -391,10 +399,12 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             profile.per_sample = f.per_sample;
             profile.per_texture_draw = f.per_texture_draw;
             profile.upload_bytes_per_s = f.upload_bytes_per_s;
+            profile.readback_bytes_per_s = f.readback_bytes_per_s;
             format!(
-                "# Grid (software slicer, built-in hydrogen 48^3 and 64^3, 1-3 bricks per axis, 96 and 160 px,\n\
-                 # one node, process CPU with --timer cpu): per_sample, per_texture_draw (per brick) and\n\
-                 # upload_bytes_per_s (texture build) by NNLS: {} samples, R2 {:.4} (weighted), relative\n\
+                "# Grid (software slicer, built-in hydrogen 48^3 and 64^3, 1-3 bricks per axis on 1 node, 2 on 2\n\
+                 # and 4 nodes, 96 and 160 px, per node process CPU with --timer cpu, median of the repeats):\n\
+                 # per_sample, per_texture_draw (per brick), upload_bytes_per_s (texture build) and\n\
+                 # readback_bytes_per_s (subimage) by NNLS: {} samples, R2 {:.4} (weighted), relative\n\
                  # residual rms {:.1} %, total {:.3} s measured vs {:.3} s model\n",
                 f.samples,
                 f.r2,
@@ -410,7 +420,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
         let header = format!(
             "# Calibrated on this machine by `pvrsim calibrate` (one thread, {:?} clock).\n\
              # Scenes {}, image scales {:?}, partial composition on/off, ERT off / paper (D 20, C 100,\n\
-             # single) / multi; steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
+             # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
              # (relative errors) on the operation counts of each timed call:\n{}\
              # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n{}",
             a.timer,

@@ -1,10 +1,12 @@
 //! `pvrsim calibrate`, grid part: the software slicer's unit costs on this
-//! host. One node renders the built-in hydrogen grid (48³ and 64³) cut into
-//! 1, 2 and 3 bricks per axis, at two image sizes, on the virtual clock
+//! host. The built-in hydrogen grid (48³ and 64³) cut into 1, 2 and 3
+//! bricks per axis on one node, and into 2 per axis on 2 and 4 nodes, at
+//! two image sizes, on the virtual clock
 //! (which renders for real and records the node's process CPU seconds,
 //! the slicer's worker threads included; [`crate::node::GridNodeStats`]).
-//! Each render is a sample `t = samples · per_sample + textures ·
-//! per_texture_draw + texture bytes / upload_bytes_per_s`, fitted by
+//! Each node's render is a sample `t = samples · per_sample + textures ·
+//! per_texture_draw + texture bytes / upload_bytes_per_s + 4 · pixels /
+//! readback_bytes_per_s`, fitted by
 //! non-negative least squares on relative errors ([`crate::node::lsq`]):
 //! the per-sample cost of slicing, the per-brick set-up and the texture
 //! build (the software "upload") that `node::grid::device` charges.
@@ -28,6 +30,8 @@ pub struct GridSample {
     pub textures: u64,
     /// Texture bytes built.
     pub texture_bytes: u64,
+    /// Subimage pixels produced.
+    pub pixels: u64,
     /// Seconds (process CPU, or wall with `--timer wall`).
     pub secs: f64,
 }
@@ -41,6 +45,8 @@ pub struct GridFit {
     pub per_texture_draw: f64,
     /// Texture bytes built per second (0: not resolved by the fit).
     pub upload_bytes_per_s: f64,
+    /// Subimage bytes (4 a pixel) produced per second (0: not resolved).
+    pub readback_bytes_per_s: f64,
     /// Samples.
     pub samples: usize,
     /// Weighted R².
@@ -55,7 +61,10 @@ fn opt(k: &str, v: impl ToString) -> (String, ParamValue) {
     (k.to_string(), ParamValue::Str(v.to_string()))
 }
 
-/// Renders the built-in grids (`repeats` times each, fastest kept).
+/// Renders the built-in grids on 1, 2 and 4 nodes (the virtual clock
+/// renders the nodes one after the other, so each node's process CPU is its
+/// own); `repeats` times each, the median kept per node (a frame is not the
+/// fastest of several).
 pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<Vec<GridSample>> {
     let probe = data.dir().join("grid-probe.toml");
     std::fs::write(
@@ -66,16 +75,22 @@ pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<V
     let mut out = Vec::new();
     for n in [48u64, 64] {
         let scene = data.write_grid(n)?;
-        for d in 1..=3u32 {
+        for (d, nodes) in [(1u32, 1usize), (2, 1), (3, 1), (2, 2), (2, 4)] {
             for size in [96u32, 160] {
-                let mut best: Option<GridSample> = None;
+                let mut runs: Vec<Vec<GridSample>> = Vec::new();
                 for _ in 0..repeats.max(1) {
-                    let s = render_once(&scene, &probe, d, size, timer)?;
-                    if best.is_none_or(|b| s.secs < b.secs) {
-                        best = Some(s);
+                    runs.push(render_once(&scene, &probe, d, nodes, size, timer)?);
+                }
+                for k in 0..nodes {
+                    let mut secs: Vec<f64> = runs.iter().filter_map(|r| r.get(k)).map(|s| s.secs).collect();
+                    secs.sort_by(f64::total_cmp);
+                    if let Some(s) = runs[0].get(k) {
+                        out.push(GridSample {
+                            secs: secs[secs.len() / 2],
+                            ..*s
+                        });
                     }
                 }
-                out.extend(best);
             }
         }
     }
@@ -86,12 +101,13 @@ fn render_once(
     scene: &Path,
     profile: &Path,
     d: u32,
+    nodes: usize,
     size: u32,
     timer: Timer,
-) -> anyhow::Result<GridSample> {
+) -> anyhow::Result<Vec<GridSample>> {
     let job = ClusterJob::from_options(&[
         opt("scene", scene.display()),
-        opt("nodes", 1),
+        opt("nodes", nodes),
         opt("subvolumes", d),
         opt("clock", "virtual"),
         opt("profile", profile.display()),
@@ -104,17 +120,25 @@ fn render_once(
         .run()
         .map_err(|e| anyhow::anyhow!("grid calibration run: {e}"))?;
     let rep = r.report_json();
-    let node = &rep["nodes"][0];
-    let num = |k: &str| node[k].as_f64().unwrap_or(0.0);
-    Ok(GridSample {
-        samples: num("samples_taken") as u64,
-        textures: node["device"]["textures"].as_u64().unwrap_or(0).max(d as u64 * d as u64 * d as u64),
-        texture_bytes: num("texture_bytes") as u64,
-        secs: match timer {
-            Timer::Cpu => num("process_cpu_s"),
-            Timer::Wall => num("host_s"),
-        },
-    })
+    let nodes = rep["nodes"]
+        .as_array()
+        .ok_or_else(|| anyhow::anyhow!("grid calibration: a report without nodes"))?;
+    Ok(nodes
+        .iter()
+        .map(|node| {
+            let num = |k: &str| node[k].as_f64().unwrap_or(0.0);
+            GridSample {
+                samples: num("samples_taken") as u64,
+                textures: node["bricks"].as_array().map_or(0, |b| b.len() as u64),
+                texture_bytes: num("texture_bytes") as u64,
+                pixels: num("pixels") as u64,
+                secs: match timer {
+                    Timer::Cpu => num("process_cpu_s"),
+                    Timer::Wall => num("host_s"),
+                },
+            }
+        })
+        .collect())
 }
 
 /// Fits the three costs to `samples`.
@@ -123,7 +147,14 @@ pub fn fit(samples: &[GridSample]) -> anyhow::Result<GridFit> {
     anyhow::ensure!(s.len() >= 3, "grid calibration: fewer than 3 timed renders");
     let x: Vec<Vec<f64>> = s
         .iter()
-        .map(|s| vec![s.samples as f64, s.textures as f64, s.texture_bytes as f64])
+        .map(|s| {
+            vec![
+                s.samples as f64,
+                s.textures as f64,
+                s.texture_bytes as f64,
+                4.0 * s.pixels as f64,
+            ]
+        })
         .collect();
     let y: Vec<f64> = s.iter().map(|s| s.secs).collect();
     let w: Vec<f64> = y.iter().map(|v| 1.0 / (v * v)).collect();
@@ -141,6 +172,7 @@ pub fn fit(samples: &[GridSample]) -> anyhow::Result<GridFit> {
         per_sample: f.coef[0],
         per_texture_draw: f.coef[1],
         upload_bytes_per_s: if f.coef[2] > 0.0 { 1.0 / f.coef[2] } else { 0.0 },
+        readback_bytes_per_s: if f.coef[3] > 0.0 { 1.0 / f.coef[3] } else { 0.0 },
         samples: s.len(),
         r2: f.r2,
         rel_rms: rel,
@@ -157,11 +189,16 @@ mod tests {
         let samples: Vec<GridSample> = (1..10u64)
             .map(|i| {
                 let (samples, textures, bytes) = (100_000 * i, i * i % 7 + 1, 50_000 * (i % 4 + 1));
+                let pixels = 1000 * (i * 3 % 5 + 1);
                 GridSample {
                     samples,
                     textures,
                     texture_bytes: bytes,
-                    secs: samples as f64 * 4e-9 + textures as f64 * 2e-4 + bytes as f64 / 1e9,
+                    pixels,
+                    secs: samples as f64 * 4e-9
+                        + textures as f64 * 2e-4
+                        + bytes as f64 / 1e9
+                        + 4.0 * pixels as f64 / 2e8,
                 }
             })
             .collect();
@@ -169,6 +206,7 @@ mod tests {
         assert!((f.per_sample - 4e-9).abs() < 1e-13, "{f:?}");
         assert!((f.per_texture_draw - 2e-4).abs() < 1e-9, "{f:?}");
         assert!((f.upload_bytes_per_s - 1e9).abs() / 1e9 < 1e-4, "{f:?}");
+        assert!((f.readback_bytes_per_s - 2e8).abs() / 2e8 < 1e-4, "{f:?}");
         assert!(f.rel_rms < 1e-6);
         assert!(fit(&samples[..2]).is_err());
     }

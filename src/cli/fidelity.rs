@@ -67,10 +67,17 @@ pub struct FidelityArgs {
     /// exit 1 when a ratio leaves its band.
     #[arg(long, value_name = "LINK")]
     pub check: Option<String>,
+    /// Run no frame: print, plot and check the rows in OUT/fidelity.json.
+    #[arg(long)]
+    pub report_only: bool,
 }
 
 /// Runs `pvrsim fidelity`.
 pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !(a.report_only && a.calibrate),
+        "--report-only runs nothing; leave out --calibrate"
+    );
     let mut profile = a.profile.clone();
     let mut o = FidelityOptions {
         mesh_scene: a.mesh_scene,
@@ -89,6 +96,7 @@ pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
         out: a.out,
         append: a.append,
         check_link: a.check,
+        report_only: a.report_only,
     };
     o.profile = profile.clone();
     fidelity::check_options(&o)?;

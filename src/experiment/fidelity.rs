@@ -58,6 +58,8 @@ pub struct FidelityOptions {
     pub append: bool,
     /// The link whose bands are checked (`None`: no check).
     pub check_link: Option<String>,
+    /// Run no frame: read `out/fidelity.json`, print, plot and check it.
+    pub report_only: bool,
 }
 
 /// The JSON file: every row and the bands.
@@ -167,7 +169,13 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
         None => data.write_grid(64)?,
     };
     let mut rows = Vec::new();
-    for w in &o.workloads {
+    let workloads: &[String] = if o.report_only { &[] } else { &o.workloads };
+    anyhow::ensure!(
+        !o.report_only || o.out.join("fidelity.json").exists(),
+        "--report-only: no {} to read",
+        o.out.join("fidelity.json").display()
+    );
+    for w in workloads {
         let (scene, variants) = if w == "mesh" {
             (&mesh_scene, &o.mesh_variants)
         } else {
@@ -195,7 +203,7 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
     }
     let mut all = Vec::new();
     let json = o.out.join("fidelity.json");
-    if o.append && json.exists() {
+    if (o.append || o.report_only) && json.exists() {
         let text = std::fs::read_to_string(&json)
             .with_context(|| format!("reading {}", json.display()))?;
         let old: FidelityFile = serde_json::from_str(&text)
@@ -230,6 +238,10 @@ fn one_frame(
         flag("no_baselines"),
     ];
     base.extend(extra.iter().cloned());
+    if f.workload == "mesh" && f.transport != "threads" {
+        // Remote workers hold their part of the mesh only: model the same.
+        base.push(opt("data", "partitioned"));
+    }
     let mut virt = base.clone();
     virt.push(opt("clock", "virtual"));
     let what = format!(
@@ -237,6 +249,15 @@ fn one_frame(
         f.workload, f.variant, f.nodes
     );
     let v = run_job(&virt, &format!("{what}, virtual clock"))?;
+    let stem = format!(
+        "{}-{}-{}-{}-{}",
+        f.workload,
+        f.variant.replace('+', "-"),
+        f.transport,
+        f.link,
+        f.nodes
+    );
+    save_report(&o.out, &format!("{stem}-modelled.json"), &v)?;
     let mut measured = base;
     measured.push(opt("transport", f.transport));
     match f.transport {
@@ -252,6 +273,7 @@ fn one_frame(
     let mut reps = Vec::new();
     for i in 0..o.repeats {
         let m = run_job(&measured, &format!("{what}, {} (run {})", f.transport, i + 1))?;
+        save_report(&o.out, &format!("{stem}-measured-{}.json", i + 1), &m)?;
         let r = if f.workload == "mesh" {
             f.mesh_rows(&m, &v)?
         } else {
@@ -266,6 +288,15 @@ fn one_frame(
         reps.push(r);
     }
     Ok(merge_repeats(&reps))
+}
+
+/// Keeps a run's report under `out/reports/`.
+fn save_report(out: &Path, name: &str, r: &serde_json::Value) -> anyhow::Result<()> {
+    let dir = out.join("reports");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string_pretty(r)?)
+        .with_context(|| format!("cannot write {}", p.display()))
 }
 
 /// The table as text: one line per row, measured beside modelled.

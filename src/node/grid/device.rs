@@ -18,7 +18,8 @@
 //!   adaptive sampling, so that many small blocks cost);
 //! - without: the software slicer, `samples taken · per_sample`, plus its
 //!   per-brick set-up `textures · per_texture_draw` and its texture build
-//!   `texture bytes / upload_bytes_per_s` when those are set (what
+//!   `texture bytes / upload_bytes_per_s` and its subimage `4 · pixels /
+//!   readback_bytes_per_s` when those are set (what
 //!   `pvrsim calibrate` fits on this host; 0 leaves them out).
 //!
 //! Blending a received subimage: per pixel `1 / fill_rate + 4 /
@@ -100,6 +101,10 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
         if p.upload_bytes_per_s > 0.0 {
             let bytes: u64 = bricks.iter().map(|b| b.texture_bytes).sum();
             t.upload_s = bytes as f64 / p.upload_bytes_per_s;
+        }
+        if p.readback_bytes_per_s > 0.0 {
+            let px: u64 = bricks.iter().map(|b| b.pixels).sum();
+            t.readback_s = 4.0 * px as f64 / p.readback_bytes_per_s;
         }
         return t;
     }
