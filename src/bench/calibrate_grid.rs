@@ -1,9 +1,9 @@
 //! `pvrsim calibrate`, grid part: the software slicer's unit costs on this
 //! host. The built-in hydrogen grid (48³ and 64³) cut into 1, 2 and 3
 //! bricks per axis on one node, and into 2 per axis on 2 and 4 nodes, at
-//! two image sizes, on the virtual clock
-//! (which renders for real and records the node's process CPU seconds,
-//! the slicer's worker threads included; [`crate::node::GridNodeStats`]).
+//! two image sizes, every node in its own worker process, which records its
+//! process CPU seconds (the slicer's threads included;
+//! [`crate::node::GridNodeStats`]).
 //! Each node's render is a sample `t = samples · per_sample + textures ·
 //! per_texture_draw + texture bytes / upload_bytes_per_s + 4 · pixels /
 //! readback_bytes_per_s`, fitted by
@@ -61,10 +61,11 @@ fn opt(k: &str, v: impl ToString) -> (String, ParamValue) {
     (k.to_string(), ParamValue::Str(v.to_string()))
 }
 
-/// Renders the built-in grids on 1, 2 and 4 nodes (the virtual clock
-/// renders the nodes one after the other, so each node's process CPU is its
-/// own); `repeats` times each, the median kept per node (a frame is not the
-/// fastest of several).
+/// Renders the built-in grids on 1, 2 and 4 nodes, each node in its own
+/// worker process (`--transport processes`: a node's process CPU is its
+/// own, and nodes sharing the host's cores pay what they pay in a real
+/// frame); `repeats` times each, the median kept per node (a frame is not
+/// the fastest of several).
 pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<Vec<GridSample>> {
     let probe = data.dir().join("grid-probe.toml");
     std::fs::write(
@@ -109,7 +110,7 @@ fn render_once(
         opt("scene", scene.display()),
         opt("nodes", nodes),
         opt("subvolumes", d),
-        opt("clock", "virtual"),
+        opt("transport", "processes"),
         opt("profile", profile.display()),
         opt("width", size),
         opt("height", size),
