@@ -155,7 +155,18 @@ impl Frame<'_> {
             out.push(self.row(Some(k), "render", "cpu", f(&a[key]), modelled));
         }
         out.push(self.row(None, "phase1", "wall", f(&m["render_s"]), f(&v["render_s"])));
-        out.push(self.row(None, "phase2", "wall", f(&m["composite_s"]), f(&v["composite_s"])));
+        // Worker to worker: phase 2 from the last render in (the model's
+        // phase 2 starts when every node has rendered). With a master the
+        // layers travel inside the results, so its measured phase 2 is the
+        // master's compositing only (the transfer is in phase 1's collect).
+        let after = f(&m["transport"]["phase2_after_renders_s"]);
+        let m2 = if after > 0.0 { after } else { f(&m["composite_s"]) };
+        let phase = if after > 0.0 || self.transport == "threads" {
+            "phase2"
+        } else {
+            "phase2-master-only"
+        };
+        out.push(self.row(None, phase, "wall", m2, f(&v["composite_s"])));
         out.push(self.row(None, "frame", "wall", f(&m["frame_s"]), f(&v["frame_s"])));
         Ok(out)
     }
@@ -221,10 +232,17 @@ fn band(what: String, ratio: f64, tolerance: f64) -> BandResult {
     }
 }
 
-/// The must-hold bands over `rows`, on link `link`: at 4 nodes,
-/// processes and TCP, each workload and variant: phase-1 compute per node
-/// (`scan` or `render`, CPU) within 25 % (median of the per-node ratios),
-/// phase 2 (wall) within 30 %; at 2 nodes, the frame (wall) within 30 %.
+/// The must-hold bands over `rows`, on link `link`: at 4 nodes, processes
+/// and TCP, each workload and variant: phase-1 compute per node (`scan` or
+/// `render`, CPU) within 25 % (median of the per-node ratios); for the mesh
+/// frame also phase 2 (wall) within 30 % at 4 nodes and the frame (wall)
+/// within 30 % at 2 nodes. The grid frame's phase-2 and frame rows are
+/// reported, not held: over a real transport the root hands its own pixels
+/// to the coordinator as raw f32 (16 bytes a pixel, for bit-identical
+/// images), a message the model's schedule, which ends at the root, does
+/// not send; and with a master the layers travel inside the results, so
+/// the measured phase 2 is the master's compositing only
+/// (docs/experiments/fidelity.md).
 pub fn must_hold(rows: &[Row], link: &str) -> Vec<BandResult> {
     let mut frames: Vec<(String, String, String, usize)> = Vec::new();
     for r in rows.iter().filter(|r| r.link == link && r.transport != "threads") {
@@ -257,11 +275,11 @@ pub fn must_hold(rows: &[Row], link: &str) -> Vec<BandResult> {
                 median(&ratios),
                 0.25,
             ));
-            if let Some(r) = of("phase2", false).first() {
+            if let Some(r) = of("phase2", false).first().filter(|_| w == "mesh") {
                 out.push(band(format!("{label}: phase 2 (wall)"), r.ratio(), 0.30));
             }
         }
-        if n == 2 {
+        if n == 2 && w == "mesh" {
             if let Some(r) = of("frame", false).first() {
                 out.push(band(format!("{label}: frame (wall)"), r.ratio(), 0.30));
             }
