@@ -33,7 +33,10 @@ fn calibrate_anywhere_then_compute_within_25_percent_of_cpu() {
     pvrsim(dir.path(), &["calibrate", "--repeats", "2"]);
     let profile = dir.path().join("profiles/calibrated.toml");
     let text = std::fs::read_to_string(&profile).unwrap();
-    assert!(text.contains("per_sample") && text.contains("per_cell_setup"), "{text}");
+    assert!(
+        text.contains("per_sample") && text.contains("per_cell_setup"),
+        "{text}"
+    );
     let out = pvrsim(
         dir.path(),
         &[
@@ -56,9 +59,10 @@ fn calibrate_anywhere_then_compute_within_25_percent_of_cpu() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("measured clock: cpu"), "{stdout}");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("fid/fidelity.json")).unwrap())
-            .unwrap();
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("fid/fidelity.json")).unwrap(),
+    )
+    .unwrap();
     for (workload, phase) in [("mesh", "scan"), ("grid", "render")] {
         let mut ratios: Vec<f64> = json["rows"]
             .as_array()

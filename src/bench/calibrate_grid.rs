@@ -83,7 +83,11 @@ pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<V
                     runs.push(render_once(&scene, &probe, d, nodes, size, timer)?);
                 }
                 for k in 0..nodes {
-                    let mut secs: Vec<f64> = runs.iter().filter_map(|r| r.get(k)).map(|s| s.secs).collect();
+                    let mut secs: Vec<f64> = runs
+                        .iter()
+                        .filter_map(|r| r.get(k))
+                        .map(|s| s.secs)
+                        .collect();
                     secs.sort_by(f64::total_cmp);
                     if let Some(s) = runs[0].get(k) {
                         out.push(GridSample {
@@ -172,8 +176,16 @@ pub fn fit(samples: &[GridSample]) -> anyhow::Result<GridFit> {
     Ok(GridFit {
         per_sample: f.coef[0],
         per_texture_draw: f.coef[1],
-        upload_bytes_per_s: if f.coef[2] > 0.0 { 1.0 / f.coef[2] } else { 0.0 },
-        readback_bytes_per_s: if f.coef[3] > 0.0 { 1.0 / f.coef[3] } else { 0.0 },
+        upload_bytes_per_s: if f.coef[2] > 0.0 {
+            1.0 / f.coef[2]
+        } else {
+            0.0
+        },
+        readback_bytes_per_s: if f.coef[3] > 0.0 {
+            1.0 / f.coef[3]
+        } else {
+            0.0
+        },
         samples: s.len(),
         r2: f.r2,
         rel_rms: rel,

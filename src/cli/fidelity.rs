@@ -106,9 +106,11 @@ pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
         })?;
         let path = o.out.join("profile.toml");
         let mut c = <calibrate::CalibrateArgs as clap::FromArgMatches>::from_arg_matches(
-            &<calibrate::CalibrateArgs as clap::Args>::augment_args(clap::Command::new("calibrate"))
-                .no_binary_name(true)
-                .get_matches_from(Vec::<String>::new()),
+            &<calibrate::CalibrateArgs as clap::Args>::augment_args(clap::Command::new(
+                "calibrate",
+            ))
+            .no_binary_name(true)
+            .get_matches_from(Vec::<String>::new()),
         )?;
         c.out = path.clone();
         c.force = true;
@@ -134,7 +136,11 @@ pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
         failed += usize::from(!b.ok);
     }
     if o.check_link.is_some() {
-        anyhow::ensure!(!r.bands.is_empty(), "--check {}: no row of that link to check", o.check_link.as_deref().unwrap_or(""));
+        anyhow::ensure!(
+            !r.bands.is_empty(),
+            "--check {}: no row of that link to check",
+            o.check_link.as_deref().unwrap_or("")
+        );
         anyhow::ensure!(failed == 0, "{failed} of {} bands failed", r.bands.len());
     }
     Ok(())

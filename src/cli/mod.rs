@@ -8,8 +8,8 @@
 
 pub mod cluster;
 pub mod demo;
-pub mod fidelity;
 mod demo_cluster;
+pub mod fidelity;
 pub mod generate;
 pub mod generate_mesh;
 pub mod info;

@@ -92,13 +92,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn built_in_scenes_load_from_their_folder() {
+    fn built_in_data_reads_back_from_its_folder() {
         let b = BuiltIn::write().unwrap();
         let dir = b.dir().to_path_buf();
+        let mesh = crate::data::io::read_mesh(&dir.join("aorta-small.vtk")).unwrap();
+        assert_eq!(mesh.tets.len(), 20_169);
         for s in &b.scenes {
-            let (input, _) = crate::render::RenderInput::load(s).unwrap();
-            assert_eq!(input.mesh.tets.len(), 20_169);
+            let text = std::fs::read_to_string(s).unwrap();
+            assert!(text.contains("path  = \"aorta-small.vtk\""), "{text}");
         }
+        let grid = b.write_grid(16).unwrap();
+        let v = crate::data::io::read_volume(&grid.with_extension("nrrd"), "").unwrap();
+        assert_eq!(v.dims, [16, 16, 16]);
         drop(b);
         assert!(!dir.exists());
     }

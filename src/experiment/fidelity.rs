@@ -120,10 +120,16 @@ fn run_job(options: &[(String, ParamValue)], what: &str) -> anyhow::Result<serde
 /// Checks the options before anything runs.
 pub fn check_options(o: &FidelityOptions) -> anyhow::Result<()> {
     anyhow::ensure!(!o.nodes.is_empty(), "--nodes: give at least one node count");
-    anyhow::ensure!(o.nodes.iter().all(|&n| n >= 1), "--nodes: counts must be at least 1");
+    anyhow::ensure!(
+        o.nodes.iter().all(|&n| n >= 1),
+        "--nodes: counts must be at least 1"
+    );
     anyhow::ensure!(o.repeats >= 1, "--repeats must be at least 1");
     for w in &o.workloads {
-        anyhow::ensure!(w == "mesh" || w == "grid", "--workloads: unknown workload {w:?} (mesh, grid)");
+        anyhow::ensure!(
+            w == "mesh" || w == "grid",
+            "--workloads: unknown workload {w:?} (mesh, grid)"
+        );
     }
     for t in &o.transports {
         anyhow::ensure!(
@@ -209,7 +215,11 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
         let old: FidelityFile = serde_json::from_str(&text)
             .with_context(|| format!("{}: not a fidelity file (--append)", json.display()))?;
         let new_keys: Vec<String> = rows.iter().map(Row::key).collect();
-        all.extend(old.rows.into_iter().filter(|r| !new_keys.contains(&r.key())));
+        all.extend(
+            old.rows
+                .into_iter()
+                .filter(|r| !new_keys.contains(&r.key())),
+        );
     }
     all.extend(rows);
     let bands = match &o.check_link {
@@ -244,10 +254,7 @@ fn one_frame(
     }
     let mut virt = base.clone();
     virt.push(opt("clock", "virtual"));
-    let what = format!(
-        "{} {} on {} nodes",
-        f.workload, f.variant, f.nodes
-    );
+    let what = format!("{} {} on {} nodes", f.workload, f.variant, f.nodes);
     let v = run_job(&virt, &format!("{what}, virtual clock"))?;
     let stem = format!(
         "{}-{}-{}-{}-{}",
@@ -272,7 +279,10 @@ fn one_frame(
     }
     let mut reps = Vec::new();
     for i in 0..o.repeats {
-        let m = run_job(&measured, &format!("{what}, {} (run {})", f.transport, i + 1))?;
+        let m = run_job(
+            &measured,
+            &format!("{what}, {} (run {})", f.transport, i + 1),
+        )?;
         save_report(&o.out, &format!("{stem}-measured-{}.json", i + 1), &m)?;
         let r = if f.workload == "mesh" {
             f.mesh_rows(&m, &v)?
@@ -331,8 +341,17 @@ fn write_files(out: &Path, rows: &[Row], bands: &[BandResult]) -> anyhow::Result
     let mut w = csv::Writer::from_path(&csv_path)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     w.write_record([
-        "workload", "variant", "transport", "link", "nodes", "node", "phase", "clock", "measured_s",
-        "modelled_s", "ratio",
+        "workload",
+        "variant",
+        "transport",
+        "link",
+        "nodes",
+        "node",
+        "phase",
+        "clock",
+        "measured_s",
+        "modelled_s",
+        "ratio",
     ])?;
     for r in rows {
         w.write_record([

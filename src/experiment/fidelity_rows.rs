@@ -83,7 +83,14 @@ fn f(v: &Value) -> f64 {
 }
 
 impl Frame<'_> {
-    fn row(&self, node: Option<usize>, phase: &str, clock: &str, measured: f64, modelled: f64) -> Row {
+    fn row(
+        &self,
+        node: Option<usize>,
+        phase: &str,
+        clock: &str,
+        measured: f64,
+        modelled: f64,
+    ) -> Row {
         Row {
             workload: self.workload.into(),
             variant: self.variant.into(),
@@ -101,7 +108,9 @@ impl Frame<'_> {
     /// Rows of a mesh frame: `m` measured (its `cpu` section), `v` virtual.
     pub fn mesh_rows(&self, m: &Value, v: &Value) -> anyhow::Result<Vec<Row>> {
         let cpu = m["cpu"].as_array().ok_or_else(|| {
-            anyhow::anyhow!("the measured report has no `cpu` section (a real transport records it)")
+            anyhow::anyhow!(
+                "the measured report has no `cpu` section (a real transport records it)"
+            )
         })?;
         let vn = v["nodes"]
             .as_array()
@@ -119,7 +128,13 @@ impl Frame<'_> {
             }
             // Phase-1 wall time not in compute: messages, peers, the
             // wire, and (measured only) waiting for a core.
-            out.push(self.row(Some(k), "wait", "wall", f(&cpu[k]["wait_s"]), f(&vnode["idle_s"])));
+            out.push(self.row(
+                Some(k),
+                "wait",
+                "wall",
+                f(&cpu[k]["wait_s"]),
+                f(&vnode["idle_s"]),
+            ));
         }
         if let Some(ranks) = m["transport"]["phase2_ranks"].as_array() {
             for (k, r) in ranks.iter().enumerate() {
@@ -160,7 +175,11 @@ impl Frame<'_> {
         // layers travel inside the results, so its measured phase 2 is the
         // master's compositing only (the transfer is in phase 1's collect).
         let after = f(&m["transport"]["phase2_after_renders_s"]);
-        let m2 = if after > 0.0 { after } else { f(&m["composite_s"]) };
+        let m2 = if after > 0.0 {
+            after
+        } else {
+            f(&m["composite_s"])
+        };
         let phase = if after > 0.0 || self.transport == "threads" {
             "phase2"
         } else {
@@ -245,8 +264,16 @@ fn band(what: String, ratio: f64, tolerance: f64) -> BandResult {
 /// (docs/experiments/fidelity.md).
 pub fn must_hold(rows: &[Row], link: &str) -> Vec<BandResult> {
     let mut frames: Vec<(String, String, String, usize)> = Vec::new();
-    for r in rows.iter().filter(|r| r.link == link && r.transport != "threads") {
-        let f = (r.workload.clone(), r.variant.clone(), r.transport.clone(), r.nodes);
+    for r in rows
+        .iter()
+        .filter(|r| r.link == link && r.transport != "threads")
+    {
+        let f = (
+            r.workload.clone(),
+            r.variant.clone(),
+            r.transport.clone(),
+            r.nodes,
+        );
         if !frames.contains(&f) {
             frames.push(f);
         }
@@ -321,7 +348,10 @@ mod tests {
             "phase1_s": 0.012, "composite_s": 0.005, "frame_s": 0.017
         });
         let rows = frame(2).mesh_rows(&m, &v).unwrap();
-        let scan0 = rows.iter().find(|r| r.phase == "scan" && r.node == Some(0)).unwrap();
+        let scan0 = rows
+            .iter()
+            .find(|r| r.phase == "scan" && r.node == Some(0))
+            .unwrap();
         assert_eq!(scan0.clock, "cpu");
         assert!((scan0.ratio() - 0.9).abs() < 1e-12);
         assert_eq!(rows.iter().filter(|r| r.phase == "share").count(), 1);
