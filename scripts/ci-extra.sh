@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Extra CI steps for the real transports (call from .ci/run after the README's
 # test command; CI runs as root). Installs iproute2 (ip, tc) and python3 if
-# missing, builds the release binary, and runs the namespace check; then
+# missing, builds the release binary, and runs the namespace and fidelity checks; then
 # installs OpenMPI and libclang (apt-get update first) and runs the MPI
 # check. On a developer's machine that check builds `--features mpi` in
 # target-mpi/ so target/ stays valid; CI's target/ is thrown away after
@@ -14,6 +14,10 @@ if ! command -v ip >/dev/null || ! command -v tc >/dev/null || ! command -v pyth
 fi
 cargo build --release
 scripts/netns-check.sh tests/data/aorta-small-view-b.toml 4
+# The simulator against measured runs: calibrate, then 2 and 4 nodes over TCP
+# workers and worker processes on the 100 Mbit emulated link; exits 1 when a
+# ratio leaves its band (docs/experiments/fidelity.md). About 1.5 min.
+LINKS=100mbit NODES=2,4 REPEATS=3 OUT=target/fidelity-ci scripts/fidelity-check.sh
 
 if ! command -v mpirun >/dev/null || ! command -v mpicc >/dev/null \
     || ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then

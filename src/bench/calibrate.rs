@@ -32,13 +32,22 @@ use crate::render::RenderInput;
 /// Options of `pvrsim calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// Scenes to time.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "tests/data/aorta-small-view-a.toml,tests/data/aorta-small-view-b.toml"
-    )]
-    pub scenes: Vec<PathBuf>,
+    /// Scenes to time. Default: the built-in small aorta (20,169 cells,
+    /// views A and B, compiled into the binary: works from any directory).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Option<Vec<PathBuf>>,
+    /// Which clock times a sample: `cpu` (the thread's CPU clock, default:
+    /// a loaded machine still fits its unit costs) or `wall`.
+    #[arg(long, value_enum, default_value_t = Timer::Cpu)]
+    pub timer: Timer,
+    /// With `--network`: also fit the node's unit costs first (one command
+    /// for both profiles).
+    #[arg(long)]
+    pub node: bool,
+    /// Skip the grid part (the software slicer's per-sample, per-brick and
+    /// texture-build costs on the built-in hydrogen grid).
+    #[arg(long)]
+    pub no_grid: bool,
     /// Image sizes as multiples of each scene's size (varies pixels per cell).
     #[arg(long, value_delimiter = ',', default_value = "0.5,1,2")]
     pub scales: Vec<f64>,
@@ -77,8 +86,42 @@ pub struct CalibrateArgs {
     pub net: super::calibrate_network::NetworkCalibrateArgs,
 }
 
-fn ert_modes() -> [(&'static str, NodeErt); 3] {
+/// The clock of `--timer`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Timer {
+    /// Thread CPU seconds (`CLOCK_THREAD_CPUTIME_ID`).
+    Cpu,
+    /// Wall seconds.
+    Wall,
+}
+
+/// A stopwatch on the `--timer` clock.
+#[derive(Debug, Clone, Copy)]
+struct Watch(Timer, Instant, f64);
+
+impl Watch {
+    fn start(t: Timer) -> Watch {
+        Watch(t, Instant::now(), crate::net::cpu::thread_cpu_s())
+    }
+
+    fn secs(&self) -> f64 {
+        match self.0 {
+            Timer::Cpu => crate::net::cpu::thread_cpu_s() - self.2,
+            Timer::Wall => self.1.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+fn ert_modes() -> [(&'static str, NodeErt); 4] {
     [
+        (
+            "pyramid",
+            NodeErt {
+                structure: crate::render::cell::ert::ErtStructure::Pyramid,
+                share_levels: 4,
+                ..NodeErt::PAPER
+            },
+        ),
         ("off", NodeErt::OFF),
         ("paper", NodeErt::PAPER),
         (
@@ -92,7 +135,13 @@ fn ert_modes() -> [(&'static str, NodeErt); 3] {
 }
 
 /// Times one node rendering all of `input` (in 8 work units) with `opts`.
-fn time_run(input: &RenderInput, opts: NodeOptions, step: usize, out: &mut Vec<Sample>) {
+fn time_run(
+    input: &RenderInput,
+    opts: NodeOptions,
+    step: usize,
+    timer: Timer,
+    out: &mut Vec<Sample>,
+) {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let mut node = NodeRenderer::new(view, tf, opts);
@@ -101,36 +150,36 @@ fn time_run(input: &RenderInput, opts: NodeOptions, step: usize, out: &mut Vec<S
     for range in [0..1, 1..2, 2..4, 4..8] {
         let cells: Vec<u32> = parts[range].concat();
         let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, &cells);
-        let t = Instant::now();
+        let t = Watch::start(timer);
         let ops = node.add_work(&unit).expect("valid unit");
         out.push(Sample {
             kind: SampleKind::Receive,
             ops,
-            secs: t.elapsed().as_secs_f64(),
+            secs: t.secs(),
         });
     }
     while node.remaining() > 0 {
-        let t = Instant::now();
+        let t = Watch::start(timer);
         let r = node.step(step);
         out.push(Sample {
             kind: SampleKind::Step,
             ops: r.ops,
-            secs: t.elapsed().as_secs_f64(),
+            secs: t.secs(),
         });
         if r.update_due {
-            let t = Instant::now();
+            let t = Watch::start(timer);
             let ops = node.update_table();
             out.push(Sample {
                 kind: SampleKind::Update,
                 ops,
-                secs: t.elapsed().as_secs_f64(),
+                secs: t.secs(),
             });
         }
     }
 }
 
 /// Seconds per shared-table entry merged and per work cell moved.
-fn time_direct(input: &RenderInput) -> (f64, f64) {
+fn time_direct(input: &RenderInput, timer: Timer) -> (f64, f64) {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let all: Vec<u32> = (0..input.mesh.tets.len() as u32).collect();
@@ -139,20 +188,20 @@ fn time_direct(input: &RenderInput) -> (f64, f64) {
     node.add_work(&unit).expect("valid unit");
     let table = node.local_table();
     let reps = 20_000;
-    let t = Instant::now();
+    let t = Watch::start(timer);
     for _ in 0..reps {
         node.apply_shared(std::hint::black_box(&table))
             .expect("same shape");
     }
-    let per_entry = t.elapsed().as_secs_f64() / (reps * table.len()) as f64;
+    let per_entry = t.secs() / (reps * table.len()) as f64;
     let mut moved = 0;
-    let t = Instant::now();
+    let t = Watch::start(timer);
     while node.remaining() > 30 {
         let u = node.give_work(1.0 / 3.0);
         let u = WorkUnit::decode(&u.encode()).expect("round trip");
         moved += u.len();
     }
-    let per_cell = t.elapsed().as_secs_f64() / moved.max(1) as f64;
+    let per_cell = t.secs() / moved.max(1) as f64;
     (per_entry, per_cell)
 }
 
@@ -265,9 +314,27 @@ fn ops_line(o: &OpCounts) -> String {
 
 /// Runs `pvrsim calibrate`.
 pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
-    if a.net.network {
+    if a.net.network && !a.node {
         return super::calibrate_network::run(&a.net);
     }
+    anyhow::ensure!(
+        !a.node || a.net.network,
+        "--node only means something with --network (without --network, calibrate fits the node alone)"
+    );
+    anyhow::ensure!(a.repeats >= 1, "--repeats must be at least 1");
+    anyhow::ensure!(a.step_cells >= 1, "--step-cells must be at least 1");
+    anyhow::ensure!(
+        !a.scales.is_empty() && a.scales.iter().all(|s| s.is_finite() && *s > 0.0),
+        "--scales: every scale must be a positive number"
+    );
+    run_node(&a)?;
+    if a.net.network {
+        super::calibrate_network::run(&a.net)?;
+    }
+    Ok(())
+}
+
+fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
     if !a.no_measure {
         check_target("--out", &a.out, a.force)?;
     }
@@ -280,11 +347,16 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
     );
     let mut base = None;
     if !a.no_measure {
+        let built_in = crate::data::builtin::BuiltIn::write()?;
+        let scene_paths: Vec<PathBuf> = match &a.scenes {
+            Some(s) => s.clone(),
+            None => built_in.scenes.clone(),
+        };
         let mut samples = Vec::new();
         let mut first = None;
-        for path in &a.scenes {
+        for path in &scene_paths {
             let (input, _) = RenderInput::load(path)
-                .with_context(|| format!("cannot load {}", path.display()))?;
+                .with_context(|| format!("--scenes: cannot load {}", path.display()))?;
             for &scale in &a.scales {
                 let (w, h) = (input.scene.image.width, input.scene.image.height);
                 let sized = input.clone().with_size(
@@ -301,7 +373,7 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
                         let mut best: Vec<Sample> = Vec::new();
                         for _ in 0..a.repeats.max(1) {
                             let mut run = Vec::new();
-                            time_run(&sized, opts, a.step_cells, &mut run);
+                            time_run(&sized, opts, a.step_cells, a.timer, &mut run);
                             if best.is_empty() {
                                 best = run;
                             } else {
@@ -317,20 +389,47 @@ pub fn run(a: CalibrateArgs) -> anyhow::Result<()> {
             first.get_or_insert(input);
         }
         let input = first.context("no scene given")?;
-        let (per_entry, per_cell) = time_direct(&input);
-        let (profile, q) = fit_profile(&samples, per_entry, per_cell);
-        let scenes: Vec<String> = a.scenes.iter().map(|p| p.display().to_string()).collect();
+        let (per_entry, per_cell) = time_direct(&input, a.timer);
+        let (mut profile, q) = fit_profile(&samples, per_entry, per_cell);
+        let grid_line = if a.no_grid {
+            "# grid costs not fitted (--no-grid)\n".to_string()
+        } else {
+            let g = super::calibrate_grid::measure(&built_in, a.repeats, a.timer)?;
+            let f = super::calibrate_grid::fit(&g)?;
+            profile.per_sample = f.per_sample;
+            profile.per_texture_draw = f.per_texture_draw;
+            profile.upload_bytes_per_s = f.upload_bytes_per_s;
+            profile.readback_bytes_per_s = f.readback_bytes_per_s;
+            format!(
+                "# Grid (software slicer, built-in hydrogen 48^3 and 64^3, 1-3 bricks per axis on 1 node, 2 on 2\n\
+                 # and 4 nodes in worker processes, 96 and 160 px, per node process CPU with --timer cpu, median of the repeats):\n\
+                 # per_sample, per_texture_draw (per brick), upload_bytes_per_s (texture build) and\n\
+                 # readback_bytes_per_s (subimage) by NNLS: {} samples, R2 {:.4} (weighted), relative\n\
+                 # residual rms {:.1} %, total {:.3} s measured vs {:.3} s model\n",
+                f.samples,
+                f.r2,
+                100.0 * f.rel_rms,
+                f.total.0,
+                f.total.1
+            )
+        };
+        let scenes: Vec<String> = match &a.scenes {
+            Some(s) => s.iter().map(|p| p.display().to_string()).collect(),
+            None => vec!["built-in aorta-small views A and B".to_string()],
+        };
         let header = format!(
-            "# Calibrated on this machine by `pvrsim calibrate` (one thread).\n\
+            "# Calibrated on this machine by `pvrsim calibrate` (one thread, {:?} clock).\n\
              # Scenes {}, image scales {:?}, partial composition on/off, ERT off / paper (D 20, C 100,\n\
-             # single) / multi; steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
+             # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
              # (relative errors) on the operation counts of each timed call:\n{}\
-             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n",
+             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n{}",
+            a.timer,
             scenes.join(", "),
             a.scales,
             a.step_cells,
             a.repeats,
-            quality_lines(&q)
+            quality_lines(&q),
+            grid_line
         );
         print!("{header}");
         write_profile(

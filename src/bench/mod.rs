@@ -9,6 +9,7 @@ use clap::Args;
 
 pub mod adaptive;
 pub mod calibrate;
+pub mod calibrate_grid;
 pub mod calibrate_network;
 pub mod grid;
 pub mod orderings;

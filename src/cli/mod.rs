@@ -9,6 +9,7 @@
 pub mod cluster;
 pub mod demo;
 mod demo_cluster;
+pub mod fidelity;
 pub mod generate;
 pub mod generate_mesh;
 pub mod info;
@@ -69,6 +70,8 @@ pub enum Command {
     Sweep(sweep::SweepArgs),
     /// Measure the node's unit costs (cost model) on this machine; --table1 fits the pentium4 profile.
     Calibrate(calibrate::CalibrateArgs),
+    /// Measured beside modelled: the same frames on a real transport and on the virtual clock, per node and per phase (CPU and wall), with bands (--check).
+    Fidelity(fidelity::FidelityArgs),
     /// Write a fitted scene for a mesh or a grid: camera framing the bounds, a transfer function over the field's range.
     Scene(scene::SceneArgs),
     /// Serve cluster frames as one worker process over TCP (see `cluster --transport`).
@@ -89,6 +92,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Fidelity(a) => fidelity::run(a),
         Command::Scene(a) => scene::run(a),
         Command::Worker(a) => worker::run(a),
     }

@@ -1,6 +1,7 @@
 //! Data: the tetrahedral mesh, the regular grid (volume), their readers,
 //! and the built-in demo datasets.
 
+pub mod builtin;
 pub mod dataset;
 pub mod demo;
 pub mod demo_ert;

@@ -13,6 +13,9 @@
 
 pub mod config;
 pub mod estimate;
+pub mod fidelity;
+pub mod fidelity_plot;
+pub mod fidelity_rows;
 pub mod grid;
 pub mod plot;
 pub mod results;

@@ -17,7 +17,7 @@ use super::results::{median, suggest, Results, Row, OK};
 /// Plot size in pixels.
 pub const SIZE: (u32, u32) = (900, 600);
 
-const PALETTE: [RGBColor; 10] = [
+pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),

@@ -8,6 +8,7 @@
 //! | [`channel`] | in-process transport on crossbeam channels |
 //! | [`metered`] | counts messages and bytes per kind and destination at the boundary |
 //! | [`cost`] | the network cost model (alpha-beta + NIC serialisation + bisection) and presets |
+//! | [`cpu`] | thread and process CPU clocks; modelled-vs-measured compute samples |
 //! | [`clock`] | virtual and wall clocks, the (time, seq) event queue |
 //! | [`actor`] | the [`Actor`] state-machine interface shared by both drivers |
 //! | [`sim`] | the discrete-event driver (virtual time, one thread) |
@@ -24,6 +25,7 @@ pub mod actor;
 pub mod channel;
 pub mod clock;
 pub mod cost;
+pub mod cpu;
 pub mod error;
 mod inbox;
 pub mod message;

@@ -97,6 +97,11 @@ pub struct TraceEvent {
 pub struct SimTrace {
     /// The spans.
     pub events: Vec<TraceEvent>,
+    /// Real transports only: per compute action, modelled beside measured
+    /// wall and thread CPU seconds ([`super::cpu`]). Empty on the virtual
+    /// clock.
+    #[serde(default)]
+    pub cpu: Vec<super::cpu::CpuSample>,
 }
 
 impl SimTrace {

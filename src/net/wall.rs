@@ -111,6 +111,7 @@ where
         report.end_time = report.end_time.max(stop);
         report.stopped_at.push(stop);
         report.trace.events.extend(trace.events);
+        report.trace.cpu.extend(trace.cpu);
         report.traffic.merge(&traffic);
     }
     report
@@ -162,8 +163,28 @@ pub fn run_actor<T: Transport, A: Actor>(
             traffic.record_recv(e.kind, e.len());
             trace.message(me, now, now, TraceKind::Recv, e.from, e.kind, e.len());
         }
+        let cpu0 = super::cpu::thread_cpu_s();
         let actions = actor.handle(now, event);
         let handled = clock.now();
+        let cpu = super::cpu::thread_cpu_s() - cpu0;
+        if options.compute == ComputeMode::Skip {
+            let computes: Vec<(TraceKind, f64)> = actions
+                .iter()
+                .filter_map(|a| match a {
+                    Action::Compute { seconds, activity } => Some(((*activity).into(), *seconds)),
+                    _ => None,
+                })
+                .collect();
+            if !computes.is_empty() {
+                trace.cpu.extend(super::cpu::split_call(
+                    me,
+                    now,
+                    &computes,
+                    handled - now,
+                    cpu,
+                ));
+            }
+        }
         for action in actions {
             match action {
                 Action::Send { to, kind, payload } => {

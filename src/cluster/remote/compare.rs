@@ -76,6 +76,38 @@ pub struct TransportSection {
     pub phase2_measured_s: f64,
     /// Modelled phase-2 seconds (the replay on the `--network` model).
     pub phase2_modelled_s: f64,
+    /// Per worker: its phase-2 time measured (wall, thread CPU) beside the
+    /// model's compute for it.
+    pub phase2_ranks: Vec<Phase2Rank>,
+    /// Per node: the virtual-clock run's modelled phase-1 seconds
+    /// (`scan`, `share`, `steal`, and `tsc`, its end of scanning).
+    pub phase1_modelled_nodes: Vec<Phase1Model>,
+}
+
+/// One worker's phase 2, measured and modelled.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Phase2Rank {
+    /// Measured wall seconds (its start of phase 2 to its last send).
+    pub wall_s: f64,
+    /// Measured thread CPU seconds of the same span.
+    pub cpu_s: f64,
+    /// Modelled compute seconds (merges, compositing, pasting).
+    pub modelled_compute_s: f64,
+}
+
+/// One node's modelled phase 1 (virtual clock, same frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Phase1Model {
+    /// Seconds scanning (chunks and ERT updates).
+    pub scan_s: f64,
+    /// Seconds applying shared tables.
+    pub share_s: f64,
+    /// Seconds packing and unpacking moved cells.
+    pub steal_s: f64,
+    /// End of its last scan chunk.
+    pub tsc_s: f64,
+    /// When it stopped (end of its phase 1).
+    pub end_s: f64,
 }
 
 impl PartialEq for Measured {
@@ -187,5 +219,30 @@ pub fn transport_section(
         phase2_wire_bytes: m.phase2.wire_bytes_sent,
         phase2_measured_s: m.phase2_s,
         phase2_modelled_s: model2.sim.end_time,
+        phase2_ranks: m
+            .phase2_ranks
+            .iter()
+            .enumerate()
+            .map(|(k, &(wall_s, cpu_s))| Phase2Rank {
+                wall_s,
+                cpu_s,
+                modelled_compute_s: model2.busy_s.get(k).copied().unwrap_or(0.0),
+            })
+            .collect(),
+        phase1_modelled_nodes: sim
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(k, a)| {
+                let s = a.stats();
+                Phase1Model {
+                    scan_s: s.scan_s,
+                    share_s: s.share_s,
+                    steal_s: s.steal_s,
+                    tsc_s: s.tsc_s,
+                    end_s: sim.stopped_at.get(k).copied().flatten().unwrap_or(s.tsc_s),
+                }
+            })
+            .collect(),
     })
 }

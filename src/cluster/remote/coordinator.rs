@@ -60,6 +60,9 @@ pub struct Measured {
     pub phase2_handoff_messages: u64,
     /// Seconds from the start of phase 2 to the last pixels in.
     pub phase2_s: f64,
+    /// Per worker (rank order): its phase-2 wall and thread CPU seconds
+    /// (from its log).
+    pub phase2_ranks: Vec<(f64, f64)>,
     /// Set when `--on-failure reassign` re-ran the frame on survivors.
     pub reassigned: Option<super::reassign::Reassigned>,
 }

@@ -261,11 +261,13 @@ pub(super) fn drive<T: RemoteTransport>(
         nodes.push(r.raw);
         stopped_at.push(Some(r.stopped_at));
         trace.events.extend(r.trace.events);
+        trace.cpu.extend(r.trace.cpu);
         traffic.merge(&r.traffic);
         wire.merge(&r.wire);
     }
     stopped_at.push(Some(m_stop));
     trace.events.extend(m_trace.events);
+    trace.cpu.extend(m_trace.cpu);
     trace
         .events
         .sort_by(|a, b| a.start.total_cmp(&b.start).then(a.node.cmp(&b.node)));
@@ -277,6 +279,7 @@ pub(super) fn drive<T: RemoteTransport>(
         .flatten()
         .fold(0.0f64, |a, &b| a.max(b));
     measured.phase2_handoff_bytes = logs.iter().map(|l| l.handoff_bytes).sum();
+    measured.phase2_ranks = logs.iter().map(|l| (l.seconds, l.cpu_s)).collect();
     measured.phase2_handoff_messages = logs.iter().map(|l| l.handoff_messages).sum();
     let out = crate::cluster::finish_with(
         input,

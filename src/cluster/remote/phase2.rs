@@ -178,6 +178,10 @@ pub struct RankLog {
     pub handoff_messages: u64,
     /// Wall seconds from its start of phase 2 to its last send.
     pub seconds: f64,
+    /// Thread CPU seconds of the same span (merging, compositing, codecs,
+    /// handing bytes to the transport; [`crate::net::cpu`]).
+    #[serde(default)]
+    pub cpu_s: f64,
 }
 
 /// Runs rank `me`'s part of `schedule` over `t`, starting from `lists`;
@@ -220,6 +224,7 @@ pub fn run_partial<T: Transport, P: RankPartial>(
     timeout: Duration,
 ) -> anyhow::Result<RankLog> {
     let t0 = Instant::now();
+    let cpu0 = crate::net::cpu::thread_cpu_s();
     let mut log = RankLog {
         merged: vec![MergeLog::default(); schedule.rounds.len()],
         ..Default::default()
@@ -329,6 +334,7 @@ pub fn run_partial<T: Transport, P: RankPartial>(
         early.keys().collect::<Vec<_>>()
     );
     log.seconds = t0.elapsed().as_secs_f64();
+    log.cpu_s = crate::net::cpu::thread_cpu_s() - cpu0;
     Ok(log)
 }
 

@@ -314,5 +314,6 @@ pub fn build(i: Inputs) -> ClusterReport {
             host_phase2_s: i.host_phase2_s,
         },
         transport: None,
+        cpu: super::cpu::cpu_section(i.trace1, &i.stopped_at),
     }
 }

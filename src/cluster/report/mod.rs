@@ -31,6 +31,7 @@
 //! computes a report from a run's pieces, `summary.rs` prints it.
 
 mod build;
+pub mod cpu;
 mod summary;
 mod types;
 

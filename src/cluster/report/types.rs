@@ -278,6 +278,10 @@ pub struct ClusterReport {
     /// prediction for the same frame.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transport: Option<crate::cluster::remote::TransportSection>,
+    /// Real transports: per rank and activity, modelled compute beside the
+    /// measured thread CPU and wall seconds ([`super::cpu`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cpu: Option<Vec<super::cpu::CpuRank>>,
 }
 
 /// The one-time cost of replicated data ([`crate::node::replica`]).

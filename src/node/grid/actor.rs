@@ -47,6 +47,15 @@ pub struct GridNodeStats {
     pub prepare_s: f64,
     /// Host seconds spent rendering.
     pub host_s: f64,
+    /// Thread CPU seconds of the same render ([`crate::net::cpu`]).
+    #[serde(default)]
+    pub cpu_s: f64,
+    /// Process CPU seconds of the same render: the slicer's worker threads
+    /// included (the node's CPU time when it has its process to itself,
+    /// as a worker process does; with several nodes in one process it
+    /// includes theirs).
+    #[serde(default)]
+    pub process_cpu_s: f64,
     /// Bricks whose texture came from the node's cache this frame (kept
     /// from an earlier frame; `slice3d` only).
     #[serde(default)]
@@ -165,6 +174,8 @@ impl GridNodeActor {
 
     fn render(&mut self) -> crate::error::Result<f64> {
         let t = Instant::now();
+        let cpu0 = crate::net::cpu::thread_cpu_s();
+        let pcpu0 = crate::net::cpu::process_cpu_s();
         let mut work = Vec::with_capacity(self.bricks.len());
         if let Some(planes) = self.planes {
             for (b, vol, rank) in &self.bricks {
@@ -227,6 +238,8 @@ impl GridNodeActor {
         }
         self.stats.device = frame_time(&work, &self.profile);
         self.stats.host_s = t.elapsed().as_secs_f64();
+        self.stats.cpu_s = crate::net::cpu::thread_cpu_s() - cpu0;
+        self.stats.process_cpu_s = crate::net::cpu::process_cpu_s() - pcpu0;
         Ok(self.stats.device.total())
     }
 }

@@ -16,7 +16,11 @@
 //!   and the host's draw set-up, `textures · per_texture_draw` (a texture
 //!   bind and a draw call per texture: one per brick, or one per block of
 //!   adaptive sampling, so that many small blocks cost);
-//! - without: `samples taken · per_sample` (the software slicer).
+//! - without: the software slicer, `samples taken · per_sample`, plus its
+//!   per-brick set-up `textures · per_texture_draw` and its texture build
+//!   `texture bytes / upload_bytes_per_s` and its subimage `4 · pixels /
+//!   readback_bytes_per_s` when those are set (what
+//!   `pvrsim calibrate` fits on this host; 0 leaves them out).
 //!
 //! Blending a received subimage: per pixel `1 / fill_rate + 4 /
 //! upload_bytes_per_s` (a textured quad, uploaded), or `per_sample`.
@@ -92,6 +96,16 @@ pub fn frame_time(bricks: &[BrickWork], p: &CostProfile) -> DeviceTime {
     let mut t = DeviceTime::default();
     if p.fill_rate <= 0.0 {
         t.fill_s = bricks.iter().map(|b| b.samples_taken as f64).sum::<f64>() * p.per_sample;
+        t.textures = bricks.iter().map(|b| b.textures).sum();
+        t.setup_s = t.textures as f64 * p.per_texture_draw;
+        if p.upload_bytes_per_s > 0.0 {
+            let bytes: u64 = bricks.iter().map(|b| b.texture_bytes).sum();
+            t.upload_s = bytes as f64 / p.upload_bytes_per_s;
+        }
+        if p.readback_bytes_per_s > 0.0 {
+            let px: u64 = bricks.iter().map(|b| b.pixels).sum();
+            t.readback_s = 4.0 * px as f64 / p.readback_bytes_per_s;
+        }
         return t;
     }
     let mut used = 0u64;
@@ -205,6 +219,15 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(frame_time(&[b(60), b(30)], &cpu).total(), 4.0);
+        // ... plus, when fitted, its per-brick set-up and texture build.
+        let fitted = CostProfile {
+            per_texture_draw: 0.5,
+            upload_bytes_per_s: 90.0,
+            ..cpu
+        };
+        let t = frame_time(&[b(60), b(30)], &fitted);
+        assert_eq!(t.textures, 6);
+        assert!((t.total() - (4.0 + 3.0 + 1.0)).abs() < 1e-12, "{t:?}");
         assert!(check(&CostProfile::default(), "x").is_err());
         // Draw set-up: per texture drawn, on top of the rest.
         let draw = CostProfile {

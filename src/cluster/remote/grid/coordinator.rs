@@ -257,6 +257,7 @@ impl GridRemote {
         let mut logs: Vec<Option<RankLog>> = vec![None; n];
         let mut t_in = t_sent;
         let mut t2 = None;
+        let mut t_last: Option<Instant> = None;
         while logs.iter().any(Option::is_none) {
             let e = t.recv_timeout(self.recv_timeout)?.ok_or_else(|| {
                 anyhow::anyhow!(
@@ -295,6 +296,7 @@ impl GridRemote {
                                 r.stats.rank
                             );
                             t2.get_or_insert_with(Instant::now);
+                            t_last = Some(Instant::now());
                             stats[from] = Some(r.stats);
                         }
                         GridMsg::Done(log) if stats[from].is_some() && logs[from].is_none() => {
@@ -323,6 +325,7 @@ impl GridRemote {
         let stats: Vec<GridNodeStats> = stats.into_iter().map(Option::unwrap_or_default).collect();
         let logs: Vec<RankLog> = logs.into_iter().map(Option::unwrap_or_default).collect();
         let rounds = layer_rounds(&sched, &logs);
+        m.phase2_ranks = logs.iter().map(|l| (l.seconds, l.cpu_s)).collect();
         m.layer_bytes = rounds
             .iter()
             .flat_map(|r| &r.messages)
@@ -338,6 +341,7 @@ impl GridRemote {
         let bg = s.image.background.map(|x| x as f32);
         let out = report(input, cfg, prep, p1, gather.image(bg), rounds, t2)?;
         m.composite_s = t2.elapsed().as_secs_f64();
+        m.phase2_after_renders_s = t_last.map_or(0.0, |t| t.elapsed().as_secs_f64());
         Ok(out)
     }
 }

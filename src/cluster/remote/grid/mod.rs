@@ -82,6 +82,13 @@ pub struct GridMeasured {
     pub collect_s: f64,
     /// Seconds of the master's compositing.
     pub composite_s: f64,
+    /// Worker to worker: per rank, its phase-2 wall and thread CPU seconds
+    /// (from its log; empty with a master).
+    pub phase2_ranks: Vec<(f64, f64)>,
+    /// Worker to worker: seconds from the last worker's render result to
+    /// the last pixels in (phase 2 once every node has rendered; 0 with a
+    /// master).
+    pub phase2_after_renders_s: f64,
 }
 
 /// How the coordinator reaches its grid workers.
