@@ -168,9 +168,14 @@ impl TransportArgs {
         }
     }
 
-    fn tcp_options(&self) -> TcpOptions {
+    /// Link timing from these options: the heartbeat deadline, and a
+    /// connect + handshake limit no longer than it (between 1 and 5 s), so
+    /// that a stalled worker at set-up is noticed within the deadline too.
+    pub fn tcp_options(&self) -> TcpOptions {
+        let deadline = Duration::from_secs_f64(self.heartbeat_timeout);
         TcpOptions {
-            deadline: Duration::from_secs_f64(self.heartbeat_timeout),
+            deadline,
+            handshake_timeout: deadline.clamp(Duration::from_secs(1), Duration::from_secs(5)),
             ..Default::default()
         }
     }

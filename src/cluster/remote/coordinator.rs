@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::drive::{drive, worker_setups, DriveOptions};
+use super::reassign::LostWorkers;
 use super::session::Session;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
@@ -104,7 +105,9 @@ impl Coordinator {
                     "{name}, set-up: answered as {:?}, not as a worker",
                     hello.role
                 );
-                let d = opts.deadline.max(Duration::from_secs(10));
+                // A worker answers at once (a cache look-up): silence for
+                // the heartbeat deadline is a stalled worker.
+                let d = opts.deadline;
                 let to = NodeId::from(k);
                 tcp::raw::write_msg(
                     &mut s,
@@ -139,7 +142,7 @@ impl Coordinator {
         }
         let mut links = Vec::with_capacity(n);
         let mut measured = Measured::default();
-        for (l, sent) in join_all(&rt, tasks, "a set-up task")? {
+        for (l, sent) in join_setups(&rt, tasks, "a set-up task", |k| self.workers[k].clone())? {
             measured.cells_bytes_sent += sent;
             measured.cells_cached += usize::from(sent == 0);
             links.push(l);
@@ -149,36 +152,44 @@ impl Coordinator {
             ready_wait: self.tcp.handshake_timeout * 4 + Duration::from_secs(10),
             recv_timeout: self.recv_timeout,
         };
-        drive(&t, d, input, &cfg, t_setup, measured, |t, e| {
-            self.lost_in_phase1(t, n, e)
+        drive(&t, d, input, &cfg, t_setup, measured, |t, e, phase| {
+            self.lost_workers(t, n, e, phase)
         })
     }
 }
 
-/// Waits for every one of the coordinator's set-up `tasks` (all of them,
-/// so that none is left running) and gives their values in task order, or
-/// the first error in task order (`what` names a task that panicked or was
-/// cancelled).
-pub(super) fn join_all<T>(
+/// Waits for every one of the set-up tasks, one per worker by rank, and gives
+/// their values in rank order. When tasks
+/// fail, the error (the first in rank order) carries the ranks of every
+/// failed task as [`LostWorkers`] (phase `set-up`; `name` gives a rank's
+/// address), for `--on-failure reassign`.
+pub(super) fn join_setups<T>(
     rt: &tokio::runtime::Runtime,
     tasks: Vec<tokio::task::JoinHandle<anyhow::Result<T>>>,
     what: &str,
+    name: impl Fn(usize) -> String,
 ) -> anyhow::Result<Vec<T>> {
     let mut out = Vec::with_capacity(tasks.len());
     let mut first_err = None;
-    for t in tasks {
-        match rt.block_on(t) {
-            Ok(Ok(v)) => out.push(v),
-            Ok(Err(e)) => {
-                first_err.get_or_insert(e);
+    let mut lost = LostWorkers {
+        phase: "set-up".into(),
+        ..Default::default()
+    };
+    for (k, t) in tasks.into_iter().enumerate() {
+        let e = match rt.block_on(t) {
+            Ok(Ok(v)) => {
+                out.push(v);
+                continue;
             }
-            Err(e) => {
-                first_err.get_or_insert(anyhow::anyhow!("{what} failed: {e}"));
-            }
-        }
+            Ok(Err(e)) => e,
+            Err(e) => anyhow::anyhow!("{what} failed: {e}"),
+        };
+        lost.ranks.push(k);
+        lost.names.push(format!("worker {k} ({})", name(k)));
+        first_err.get_or_insert(e);
     }
     match first_err {
-        Some(e) => Err(e),
+        Some(e) => Err(e.context(lost)),
         None => Ok(out),
     }
 }

@@ -116,30 +116,62 @@ pub(in crate::cluster::remote) fn serve(
     if !setup.peers.is_empty() {
         return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name);
     }
-    let result = render(&setup, &bytes, kept)
-        .and_then(|(stats, layers)| {
-            let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
-            let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
-            Ok(GridResult { stats, layers })
-        })
-        .map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
-    let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
-    rt.block_on(tcp::raw::write_msg(
-        &mut stream,
-        &codec,
-        me,
-        coord,
-        &msg,
-        name,
-    ))?;
-    // Wait for the coordinator to close, so that nothing is cut short.
-    let _ = rt.block_on(tcp::raw::read_msg::<_, Session>(
-        &mut stream,
-        &codec,
-        d,
-        name,
-    ));
-    Ok(())
+    serve_master(stream, kept, mesh, &setup, &bytes, coord, name)
+}
+
+/// A grid worker's frame with a master: the coordinator's link becomes a
+/// transport (heartbeats both ways while the bricks render, so a stalled
+/// or dead coordinator is noticed within the deadline, and the coordinator
+/// notices a stalled worker), then the layers go to the coordinator, and
+/// the worker waits for the coordinator to close the link.
+fn serve_master(
+    stream: TcpStream,
+    kept: &mut GridWorkerCache,
+    mesh: Mesh,
+    setup: &GridSetup,
+    bytes: &[u8],
+    coord: NodeId,
+    name: &str,
+) -> anyhow::Result<()> {
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    anyhow::ensure!(
+        coord.0 == setup.nodes,
+        "{name} says it is rank {}, but the grid set-up has {} ranks",
+        coord.0,
+        setup.nodes
+    );
+    let link = tcp::Link {
+        rank: coord,
+        name: name.to_string(),
+        stream,
+    };
+    let opts = tcp::TcpOptions {
+        codec,
+        ..*mesh.opts
+    };
+    let t = TcpTransport::new(
+        Arc::clone(mesh.rt),
+        NodeId(setup.rank),
+        setup.nodes as usize + 1,
+        vec![link],
+        opts,
+    )?;
+    t.set_essential(coord, true);
+    let result = render(setup, bytes, kept).and_then(|(stats, layers)| {
+        let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
+        Ok(GridResult { stats, layers })
+    });
+    let msg = match &result {
+        Ok(r) => Session::Grid(Box::new(GridMsg::Result(Box::new(r.clone())))),
+        Err(e) => Session::Failed(format!("grid node {}: {e:#}", setup.rank)),
+    };
+    t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
+    t.set_essential(coord, false);
+    // Until the coordinator closes (or is lost), so that nothing is cut short.
+    let _ = t.link_endings(Duration::from_secs_f64(setup.recv_timeout_s));
+    t.close(Duration::from_secs(2));
+    result.map(|_| ())
 }
 
 /// A grid worker's frame composited worker to worker: join the mesh of
@@ -161,6 +193,7 @@ fn serve_p2p(
         setup.rank,
         setup.nodes,
         &setup.peers,
+        setup.session_id,
         coord,
         name.to_string(),
         stream,

@@ -239,6 +239,7 @@ impl Worker {
             setup.rank,
             setup.nodes,
             &setup.peers,
+            setup.session_id,
             coord,
             name,
             stream,
