@@ -96,40 +96,10 @@ impl Coordinator {
             let opts = self.tcp;
             tasks.push(rt.spawn(async move {
                 let name = format!("worker {k} ({addr})");
-                let (mut s, hello) =
-                    tcp::connect(&addr, &token, Role::Coordinator, n as u32, &opts)
-                        .await
-                        .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
-                anyhow::ensure!(
-                    hello.role == Role::Worker,
-                    "{name}, set-up: answered as {:?}, not as a worker",
-                    hello.role
-                );
-                // A worker answers at once (a cache look-up): silence for
-                // the heartbeat deadline is a stalled worker.
-                let d = opts.deadline;
                 let to = NodeId::from(k);
-                tcp::raw::write_msg(
-                    &mut s,
-                    &codec,
-                    me,
-                    to,
-                    &Session::Setup(Box::new(setup)),
-                    &name,
-                )
-                .await?;
-                let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
-                let sent = match need {
-                    Session::Need(true) => {
-                        let len = cells.len() as u64;
-                        tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(cells), &name)
-                            .await?;
-                        len
-                    }
-                    Session::Need(false) => 0,
-                    Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
-                    other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
-                };
+                let msg = Session::Setup(Box::new(setup));
+                let (s, sent) =
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, cells).await?;
                 Ok((
                     Link {
                         rank: to,
@@ -142,7 +112,9 @@ impl Coordinator {
         }
         let mut links = Vec::with_capacity(n);
         let mut measured = Measured::default();
-        for (l, sent) in join_setups(&rt, tasks, "a set-up task", |k| self.workers[k].clone())? {
+        for (l, sent) in join_setups(&rt, tasks, "a set-up task", |k| {
+            format!("worker {k} ({})", self.workers[k])
+        })? {
             measured.cells_bytes_sent += sent;
             measured.cells_cached += usize::from(sent == 0);
             links.push(l);
@@ -158,11 +130,62 @@ impl Coordinator {
     }
 }
 
+/// Connects to a worker at `addr` (`name` in errors) as the coordinator
+/// (rank `me`; the worker is rank `to`), sends `setup`, reads its cache
+/// answer and sends `payload` (cells or bricks) if it asks. A worker that
+/// answers "busy" is still ending an earlier session (or serves another
+/// coordinator): it is asked again every 100 ms for up to twice the
+/// heartbeat deadline plus 2 s. Returns the stream and the payload bytes
+/// sent (0 on a cache hit).
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn hand_setup(
+    addr: &str,
+    name: &str,
+    token: &tcp::Token,
+    opts: &TcpOptions,
+    me: NodeId,
+    to: NodeId,
+    setup: &Session,
+    payload: Vec<u8>,
+) -> anyhow::Result<(tokio::net::TcpStream, u64)> {
+    let codec = Codec::default();
+    let until = Instant::now() + opts.deadline * 2 + Duration::from_secs(2);
+    loop {
+        let (mut s, hello) = tcp::connect(addr, token, Role::Coordinator, me.0, opts)
+            .await
+            .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
+        anyhow::ensure!(
+            hello.role == Role::Worker,
+            "{name}, set-up: answered as {:?}, not as a worker",
+            hello.role
+        );
+        tcp::raw::write_msg(&mut s, &codec, me, to, setup, name).await?;
+        // A worker answers at once (a cache look-up): silence for the
+        // heartbeat deadline is a stalled worker.
+        let need: Session = tcp::raw::read_msg(&mut s, &codec, opts.deadline, name).await?;
+        return match need {
+            Session::Need(true) => {
+                let len = payload.len() as u64;
+                tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(payload), name).await?;
+                Ok((s, len))
+            }
+            Session::Need(false) => Ok((s, 0)),
+            Session::Failed(why) if why.starts_with("busy") && Instant::now() < until => {
+                drop(s);
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
+            }
+            Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
+            other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
+        };
+    }
+}
+
 /// Waits for every one of the set-up tasks, one per worker by rank, and gives
 /// their values in rank order. When tasks
 /// fail, the error (the first in rank order) carries the ranks of every
-/// failed task as [`LostWorkers`] (phase `set-up`; `name` gives a rank's
-/// address), for `--on-failure reassign`.
+/// failed task as [`LostWorkers`] (phase `set-up`; `name` names a rank's
+/// worker), for `--on-failure reassign`.
 pub(super) fn join_setups<T>(
     rt: &tokio::runtime::Runtime,
     tasks: Vec<tokio::task::JoinHandle<anyhow::Result<T>>>,
@@ -185,7 +208,7 @@ pub(super) fn join_setups<T>(
             Err(e) => anyhow::anyhow!("{what} failed: {e}"),
         };
         lost.ranks.push(k);
-        lost.names.push(format!("worker {k} ({})", name(k)));
+        lost.names.push(name(k));
         first_err.get_or_insert(e);
     }
     match first_err {

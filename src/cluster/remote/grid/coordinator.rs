@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use super::{GridMeasured, GridMsg, GridRemote};
 use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out, Prepared};
-use crate::cluster::remote::coordinator::join_setups;
+use crate::cluster::remote::coordinator::{hand_setup, join_setups};
 use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
@@ -22,7 +22,7 @@ use crate::compositor::layer::rank::LayerGather;
 use crate::compositor::region::screen;
 use crate::compositor::{Payload, RoundKind, Schedule};
 use crate::data::Volume;
-use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport};
+use crate::net::tcp::{self, Link, TcpOptions, TcpTransport};
 use crate::net::{Codec, MessageKind, NodeId, RemoteTransport, SimTrace, Transport};
 use crate::node::grid::GridNodeStats;
 use crate::render::VolumeInput;
@@ -130,32 +130,10 @@ impl GridRemote {
             let opts = self.tcp;
             tasks.push(rt.spawn(async move {
                 let name = format!("grid worker {k} ({addr})");
-                let (mut s, hello) = tcp::connect(&addr, &token, Role::Coordinator, me.0, &opts)
-                    .await
-                    .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
-                anyhow::ensure!(
-                    hello.role == Role::Worker,
-                    "{name}, set-up: answered as {:?}, not as a worker",
-                    hello.role
-                );
-                // The answer is a cache look-up: silence for the heartbeat
-                // deadline is a stalled worker.
-                let d = opts.deadline;
                 let to = NodeId::from(rank);
                 let msg = Session::Grid(Box::new(GridMsg::Setup(Box::new(setup))));
-                tcp::raw::write_msg(&mut s, &codec, me, to, &msg, &name).await?;
-                let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
-                let sent = match need {
-                    Session::Need(true) => {
-                        let len = bytes.len() as u64;
-                        tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(bytes), &name)
-                            .await?;
-                        len
-                    }
-                    Session::Need(false) => 0,
-                    Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
-                    other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
-                };
+                let (s, sent) =
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, bytes).await?;
                 let link = Link {
                     rank: to,
                     name,
@@ -171,7 +149,7 @@ impl GridRemote {
         let mut links = Vec::new();
         let mut last_sent = t_setup;
         for (link, sent, t_sent) in join_setups(&rt, tasks, "a grid worker task", |k| {
-            self.workers[k].clone()
+            format!("grid worker {k} ({})", self.workers[k])
         })? {
             m.bricks_bytes_sent += sent;
             m.bricks_cached += usize::from(sent == 0);

@@ -14,6 +14,7 @@ use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
+use crate::cluster::remote::worker::{kill_self, Hooks};
 use crate::compositor::codec::layers::from_name as layer_codec;
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::LayerRank;
@@ -64,6 +65,7 @@ pub(in crate::cluster::remote) fn serve(
     setup: GridSetup,
     coord: NodeId,
     name: &str,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
     let me = NodeId(setup.rank);
@@ -114,9 +116,9 @@ pub(in crate::cluster::remote) fn serve(
         }
     };
     if !setup.peers.is_empty() {
-        return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name);
+        return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name, hooks);
     }
-    serve_master(stream, kept, mesh, &setup, &bytes, coord, name)
+    serve_master(stream, kept, mesh, &setup, &bytes, coord, name, hooks)
 }
 
 /// A grid worker's frame with a master: the coordinator's link becomes a
@@ -124,6 +126,7 @@ pub(in crate::cluster::remote) fn serve(
 /// or dead coordinator is noticed within the deadline, and the coordinator
 /// notices a stalled worker), then the layers go to the coordinator, and
 /// the worker waits for the coordinator to close the link.
+#[allow(clippy::too_many_arguments)]
 fn serve_master(
     stream: TcpStream,
     kept: &mut GridWorkerCache,
@@ -132,6 +135,7 @@ fn serve_master(
     bytes: &[u8],
     coord: NodeId,
     name: &str,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
     anyhow::ensure!(
@@ -157,6 +161,9 @@ fn serve_master(
         opts,
     )?;
     t.set_essential(coord, true);
+    if hooks.kill_after_chunks.is_some() {
+        kill_self("while rendering its bricks (--test-kill-after-chunks)");
+    }
     let result = render(setup, bytes, kept).and_then(|(stats, layers)| {
         let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
         let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
@@ -179,6 +186,7 @@ fn serve_master(
 /// the coordinator, run this rank's part of the schedule over the mesh
 /// ([`crate::cluster::remote::phase2::run_partial`] with a [`LayerRank`]), send the log. Any
 /// error is reported to the coordinator (`Failed`) before the links close.
+#[allow(clippy::too_many_arguments)]
 fn serve_p2p(
     stream: TcpStream,
     kept: &mut GridWorkerCache,
@@ -187,6 +195,7 @@ fn serve_p2p(
     bytes: &[u8],
     coord: NodeId,
     name: &str,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
     let t = mesh.transport(
@@ -200,7 +209,7 @@ fn serve_p2p(
         codec,
     )?;
     t.set_essential(coord, true);
-    let r = frame_p2p(&t, kept, setup, bytes, coord);
+    let r = frame_p2p(&t, kept, setup, bytes, coord, hooks);
     match r {
         Ok(()) => {
             t.close(Duration::from_secs(10));
@@ -224,8 +233,12 @@ fn frame_p2p(
     setup: &GridSetup,
     bytes: &[u8],
     coord: NodeId,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
+    if hooks.kill_after_chunks.is_some() {
+        kill_self("while rendering its bricks (--test-kill-after-chunks)");
+    }
     let (stats, layers) = render(setup, bytes, kept)?;
     let result = GridResult {
         stats,
@@ -246,6 +259,9 @@ fn frame_p2p(
     );
     sched.validate().map_err(|e| anyhow::anyhow!(e))?;
     let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    if hooks.kill_in_phase2 {
+        kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+    }
     let mut state = LayerRank::new(
         lc.as_ref(),
         sched.image,
