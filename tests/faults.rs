@@ -325,6 +325,7 @@ fn grid_frames_survive_every_fault_at_every_phase() {
                         r.err().unwrap_or_else(|| panic!("{case}: no error"))
                     );
                     assert!(e.contains("grid worker 2"), "{case}: {e}");
+                    assert!(e.contains(phase), "{case}: names no phase {phase}: {e}");
                     assert!(took < abort_bound(), "{case}: failed after {took:?}: {e}");
                 }
                 pool.heal(fault);

@@ -225,10 +225,8 @@ impl Coordinator {
         Ok((out, m))
     }
 
-    /// With [`Coordinator::reassign`], the workers whose links ended
-    /// without `Goodbye` (waiting for the survivors to give up too), as an
-    /// error context for the phase the frame was in; without, `e` as it is
-    /// (the frame fails at once).
+    /// The workers whose links ended without `Goodbye`, as an error
+    /// context for the phase the frame was in (see [`lost_on`]).
     pub(super) fn lost_workers(
         &self,
         t: &impl RemoteTransport,
@@ -236,29 +234,49 @@ impl Coordinator {
         e: anyhow::Error,
         phase: &str,
     ) -> anyhow::Error {
-        if !self.reassign {
-            return e;
-        }
-        lost_on(t, 0, n, self.tcp.deadline, e, phase)
+        lost_on(
+            t,
+            0,
+            n,
+            endings_wait(self.reassign, self.tcp.deadline),
+            e,
+            phase,
+        )
+    }
+}
+
+/// How long a failed frame waits for its links to end before it names the
+/// lost workers: with `reassign`, until the survivors have surely given up
+/// (twice the heartbeat `deadline` plus 2 s, so that every loss is seen
+/// before the retry); without, one deadline plus 0.5 s (the dead worker is
+/// named, and the error stays within the deadline plus 2 s).
+pub(super) fn endings_wait(reassign: bool, deadline: Duration) -> Duration {
+    if reassign {
+        deadline * 2 + Duration::from_secs(2)
+    } else {
+        deadline + Duration::from_millis(500)
     }
 }
 
 /// `e` with the workers of `t` (worker `k` at rank `off + k`, `k < n`)
 /// whose links ended without `Goodbye` attached as [`LostWorkers`] in
-/// `phase`, after waiting for the other links to end (at most twice the
-/// heartbeat `deadline` plus 2 s).
+/// `phase`, after waiting at most `wait` for the other links to end
+/// (unchanged if none was lost: the frame failed for another reason).
 pub(super) fn lost_on(
     t: &impl RemoteTransport,
     off: usize,
     n: usize,
-    deadline: Duration,
+    wait: Duration,
     e: anyhow::Error,
     phase: &str,
 ) -> anyhow::Error {
-    let endings = t.link_endings(deadline * 2 + Duration::from_secs(2));
+    let endings = t.link_endings(wait);
     let ranks: Vec<usize> = (0..n)
         .filter(|&k| endings.get(off + k) == Some(&Some(false)))
         .collect();
+    if ranks.is_empty() {
+        return e;
+    }
     let names = ranks
         .iter()
         .map(|&k| t.peer_name(NodeId::from(off + k)))

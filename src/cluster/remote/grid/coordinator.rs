@@ -13,7 +13,7 @@ use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
 use crate::cluster::remote::phase2::{decode_message, RankLog};
-use crate::cluster::remote::reassign::{lost_on, with_reassign};
+use crate::cluster::remote::reassign::{endings_wait, lost_on, with_reassign};
 use crate::cluster::remote::session::{new_session_id, sha256, Session};
 use crate::cluster::ClockKind;
 use crate::compositor::codec::layers::from_name as layer_codec;
@@ -166,11 +166,8 @@ impl GridRemote {
             self.collect_master(&t, input, cfg, prep, &mut m, last_sent)
         };
         let r = r.map_err(|e| {
-            if self.reassign {
-                lost_on(&t, prep.off, cfg.nodes, self.tcp.deadline, e, phase)
-            } else {
-                e
-            }
+            let wait = endings_wait(self.reassign, self.tcp.deadline);
+            lost_on(&t, prep.off, cfg.nodes, wait, e, phase)
         });
         t.close(Duration::from_secs(2));
         Ok((r?, m))

@@ -260,6 +260,10 @@ fn frame_p2p(
     sched.validate().map_err(|e| anyhow::anyhow!(e))?;
     let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
     if hooks.kill_in_phase2 {
+        // The stats above go out on the link's writer task; give it a
+        // moment (the message is small) so that the coordinator has them
+        // and the loss is one in phase 2, not while rendering.
+        std::thread::sleep(Duration::from_millis(300));
         kill_self("at the start of phase 2 (--test-kill-in-phase2)");
     }
     let mut state = LayerRank::new(
