@@ -67,11 +67,15 @@ pub struct Measured {
 
 impl Coordinator {
     /// One frame on the workers with this placement.
+    /// `busy_wait`: how long to ask a worker that answers "busy" again
+    /// (0 on a first attempt: busy is an error; a retry after a loss waits
+    /// for the survivors to end the failed attempt).
     pub(super) fn run_placed(
         &self,
         input: &RenderInput,
         cfg: &ClusterConfig,
         placement: &Placement,
+        busy_wait: Duration,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
         let n = cfg.phase1.nodes;
         let mut cfg = cfg.clone();
@@ -99,7 +103,7 @@ impl Coordinator {
                 let to = NodeId::from(k);
                 let msg = Session::Setup(Box::new(setup));
                 let (s, sent) =
-                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, cells).await?;
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, cells, busy_wait).await?;
                 Ok((
                     Link {
                         rank: to,
@@ -133,10 +137,10 @@ impl Coordinator {
 /// Connects to a worker at `addr` (`name` in errors) as the coordinator
 /// (rank `me`; the worker is rank `to`), sends `setup`, reads its cache
 /// answer and sends `payload` (cells or bricks) if it asks. A worker that
-/// answers "busy" is still ending an earlier session (or serves another
-/// coordinator): it is asked again every 100 ms for up to twice the
-/// heartbeat deadline plus 2 s. Returns the stream and the payload bytes
-/// sent (0 on a cache hit).
+/// answers "busy" serves another coordinator, or is still ending an
+/// earlier attempt of this frame: it is asked again every 100 ms for up to
+/// `busy_wait` (see [`busy_wait`]), then the answer is an error. Returns
+/// the stream and the payload bytes sent (0 on a cache hit).
 #[allow(clippy::too_many_arguments)]
 pub(super) async fn hand_setup(
     addr: &str,
@@ -147,9 +151,10 @@ pub(super) async fn hand_setup(
     to: NodeId,
     setup: &Session,
     payload: Vec<u8>,
+    busy_wait: Duration,
 ) -> anyhow::Result<(tokio::net::TcpStream, u64)> {
     let codec = Codec::default();
-    let until = Instant::now() + opts.deadline * 2 + Duration::from_secs(2);
+    let until = Instant::now() + busy_wait;
     loop {
         let (mut s, hello) = tcp::connect(addr, token, Role::Coordinator, me.0, opts)
             .await
@@ -159,14 +164,16 @@ pub(super) async fn hand_setup(
             "{name}, set-up: answered as {:?}, not as a worker",
             hello.role
         );
-        tcp::raw::write_msg(&mut s, &codec, me, to, setup, name).await?;
+        tcp::raw::write_msg_within(&mut s, &codec, me, to, setup, name, opts.deadline).await?;
         // A worker answers at once (a cache look-up): silence for the
         // heartbeat deadline is a stalled worker.
         let need: Session = tcp::raw::read_msg(&mut s, &codec, opts.deadline, name).await?;
         return match need {
             Session::Need(true) => {
                 let len = payload.len() as u64;
-                tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(payload), name).await?;
+                let cells = Session::Cells(payload);
+                tcp::raw::write_msg_within(&mut s, &codec, me, to, &cells, name, opts.deadline)
+                    .await?;
                 Ok((s, len))
             }
             Session::Need(false) => Ok((s, 0)),
@@ -178,6 +185,19 @@ pub(super) async fn hand_setup(
             Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
             other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
         };
+    }
+}
+
+/// How long an attempt asks a busy worker again: not at all on the first
+/// attempt of a frame ("busy" is an error naming the worker: it serves
+/// another coordinator), twice the heartbeat `deadline` plus 2 s on a
+/// retry after a loss (the survivors may still be ending the failed
+/// attempt: they notice the closed links within the deadline).
+pub(super) fn busy_wait(retry: bool, deadline: Duration) -> Duration {
+    if retry {
+        deadline * 2 + Duration::from_secs(2)
+    } else {
+        Duration::ZERO
     }
 }
 

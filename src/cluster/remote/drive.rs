@@ -102,12 +102,19 @@ pub(super) struct DriveOptions {
 /// first, since the others' errors follow from it. Waits at most 2 s for
 /// the links' endings.
 fn blame_the_dead<T: RemoteTransport>(t: &T, n: usize, e: anyhow::Error) -> anyhow::Error {
-    let endings = t.link_endings(Duration::from_secs(2));
-    let dead: Vec<String> = (0..n)
-        .filter(|&k| endings.get(k) == Some(&Some(false)))
-        .map(|k| t.peer_name(NodeId::from(k)))
-        .collect();
     let text = format!("{e:#}");
+    let dead = |endings: Vec<Option<bool>>| -> Vec<String> {
+        (0..n)
+            .filter(|&k| endings.get(k) == Some(&Some(false)))
+            .map(|k| t.peer_name(NodeId::from(k)))
+            .collect()
+    };
+    // The error comes from a death it names already: no need to wait.
+    let now = dead(t.link_endings(Duration::ZERO));
+    if !now.is_empty() && now.iter().all(|d| text.contains(d.as_str())) {
+        return e;
+    }
+    let dead = dead(t.link_endings(Duration::from_secs(2)));
     if dead.is_empty() || dead.iter().all(|d| text.contains(d.as_str())) {
         return e;
     }

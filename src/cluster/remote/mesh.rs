@@ -51,7 +51,7 @@ impl Mesh<'_> {
         let formed = self.rt.block_on(async {
             tokio::select! {
                 r = mesh(self.door, self.token, self.opts, rank, nodes, peers, session) => r.map_err(|e| (e, true)),
-                e = watch_coordinator(&mut stream, &name) => Err((e, false)),
+                e = watch_coordinator(&mut stream, &name, self.opts.heartbeat) => Err((e, false)),
             }
         });
         let mut links = match formed {
@@ -106,31 +106,44 @@ impl Mesh<'_> {
 /// Waits on the coordinator's stream while the mesh forms: the
 /// coordinator sends nothing but heartbeats before every worker is ready,
 /// so an end of stream, a goodbye or any other byte ends the wait with
-/// the error to give up on. Cancel safe (a read that has not completed
-/// takes nothing from the stream).
-async fn watch_coordinator(s: &mut TcpStream, name: &str) -> anyhow::Error {
+/// the error to give up on; meanwhile it sends heartbeats every
+/// `heartbeat`. Cancel safe (a read that has not completed takes nothing
+/// from the stream; a heartbeat is one byte).
+async fn watch_coordinator(s: &mut TcpStream, name: &str, heartbeat: Duration) -> anyhow::Error {
     let mut buf = [0u8; 64];
+    let (mut r, mut w) = s.split();
+    let mut tick = tokio::time::interval(heartbeat);
     loop {
-        match s.read(&mut buf).await {
-            Ok(0) => {
-                return anyhow::anyhow!(
-                    "{name} closed the connection while the mesh was forming (it gave the frame up)"
-                )
-            }
-            Ok(n) => match buf[..n].iter().find(|&&b| b != TAG_HEARTBEAT) {
-                None => {}
-                Some(&TAG_GOODBYE) => {
+        tokio::select! {
+            got = r.read(&mut buf) => match got {
+                Ok(0) => {
                     return anyhow::anyhow!(
-                        "{name} ended the session (Goodbye) while the mesh was forming"
+                        "{name} closed the connection while the mesh was forming (it gave the frame up)"
                     )
                 }
-                Some(b) => {
-                    return anyhow::anyhow!(
-                        "{name} sent a frame (tag {b}) while the mesh was forming; expected only heartbeats"
-                    )
-                }
+                Ok(n) => match buf[..n].iter().find(|&&b| b != TAG_HEARTBEAT) {
+                    None => {}
+                    Some(&TAG_GOODBYE) => {
+                        return anyhow::anyhow!(
+                            "{name} ended the session (Goodbye) while the mesh was forming"
+                        )
+                    }
+                    Some(b) => {
+                        return anyhow::anyhow!(
+                            "{name} sent a frame (tag {b}) while the mesh was forming; expected only heartbeats"
+                        )
+                    }
+                },
+                Err(e) => return anyhow::anyhow!("{name}: {e} while the mesh was forming"),
             },
-            Err(e) => return anyhow::anyhow!("{name}: {e} while the mesh was forming"),
+            // Heartbeats to the coordinator, so that a mesh slow to form
+            // (a peer that does not answer) does not look like a stall of
+            // this worker.
+            _ = tick.tick() => {
+                if let Err(e) = w.write_all(&[TAG_HEARTBEAT]).await {
+                    return anyhow::anyhow!("{name}: {e} while the mesh was forming");
+                }
+            }
         }
     }
 }

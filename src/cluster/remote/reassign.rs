@@ -128,6 +128,7 @@ pub fn with_reassign<T>(
     let mut done = Reassigned::default();
     loop {
         let t_attempt = Instant::now();
+        let late0 = crate::net::tcp::frame::late_wakeups().0;
         let e = match attempt(&alive, &parts) {
             Ok(x) => {
                 let r = (!done.events.is_empty()).then(|| Reassigned {
@@ -137,6 +138,16 @@ pub fn with_reassign<T>(
                 return Ok((x, r));
             }
             Err(e) => e,
+        };
+        let (late, late_s) = crate::net::tcp::frame::late_wakeups();
+        let e = if late > late0 {
+            // Not the workers' fault: they heard nothing from us.
+            e.context(format!(
+                "this coordinator was itself not running for about {late_s:.1} s during the frame \
+                 (stopped, e.g. SIGSTOP, or starved of CPU); workers that gave up on it are not at fault"
+            ))
+        } else {
+            e
         };
         let Some(lost) = e.downcast_ref::<LostWorkers>().cloned() else {
             return Err(context(e, &done));
@@ -218,7 +229,8 @@ impl Coordinator {
                 let p = Placement {
                     parts: parts.to_vec(),
                 };
-                c.run_placed(input, &cfg, &p)
+                let wait = super::coordinator::busy_wait(alive.len() < n, self.tcp.deadline);
+                c.run_placed(input, &cfg, &p, wait)
             },
         )?;
         m.reassigned = r;

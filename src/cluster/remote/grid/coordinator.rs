@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use super::{GridMeasured, GridMsg, GridRemote};
 use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out, Prepared};
-use crate::cluster::remote::coordinator::{hand_setup, join_setups};
+use crate::cluster::remote::coordinator::{busy_wait, hand_setup, join_setups};
 use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
@@ -66,7 +66,8 @@ impl GridRemote {
                 c.nodes = alive.len();
                 prep.parts = parts.to_vec();
                 prep.total = c.nodes + prep.off;
-                sub.run_prepared(input, &c, &prep)
+                let wait = busy_wait(alive.len() < cfg.nodes, self.tcp.deadline);
+                sub.run_prepared(input, &c, &prep, wait)
             })?;
         m.reassigned = r;
         out.report.transport = Some(m.clone());
@@ -74,11 +75,13 @@ impl GridRemote {
     }
 
     /// One attempt of a frame on these workers with `prep`'s placement.
+    /// `busy_wait`: see [`hand_setup`].
     fn run_prepared(
         &self,
         input: &VolumeInput,
         cfg: &GridConfig,
         prep: &Prepared,
+        busy_wait: Duration,
     ) -> anyhow::Result<(GridOutcome, GridMeasured)> {
         let p2p = !cfg.master;
         let codec = Codec::default();
@@ -133,7 +136,7 @@ impl GridRemote {
                 let to = NodeId::from(rank);
                 let msg = Session::Grid(Box::new(GridMsg::Setup(Box::new(setup))));
                 let (s, sent) =
-                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, bytes).await?;
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, bytes, busy_wait).await?;
                 let link = Link {
                     rank: to,
                     name,

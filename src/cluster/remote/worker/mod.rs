@@ -164,6 +164,7 @@ impl Worker {
             SETUP_IDLE.min(d),
             &name,
         ))?;
+        eprintln!("pvrsim worker: a set-up from {name}");
         let setup = match setup {
             Session::Setup(s) => s,
             Session::Grid(g) => match *g {
