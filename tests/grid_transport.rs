@@ -70,6 +70,7 @@ fn remote(w: &LocalWorkers) -> GridRemote {
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(60),
         transport: "processes".into(),
+        reassign: false,
     }
 }
 
@@ -203,6 +204,7 @@ fn remote_grid_runs_refuse_what_they_cannot_do() {
         tcp: TcpOptions::default(),
         recv_timeout: Duration::from_secs(5),
         transport: "tcp".into(),
+        reassign: false,
     };
     let e = r.run(&input, &cfg).unwrap_err();
     assert!(e.to_string().contains("grid worker 0"), "{e:#}");

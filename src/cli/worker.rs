@@ -43,6 +43,10 @@ pub struct WorkerArgs {
     /// the links to the peers are up. Hidden.
     #[arg(long, hide = true)]
     pub test_kill_at_setup: bool,
+    /// Test hook: the hooks above stop the process with SIGSTOP instead
+    /// of killing it (once; it runs on when sent SIGCONT). Hidden.
+    #[arg(long, hide = true)]
+    pub test_stop: bool,
 }
 
 /// Runs `pvrsim worker`.
@@ -71,6 +75,9 @@ pub fn run(a: WorkerArgs) -> anyhow::Result<()> {
     w.kill_after_chunks = a.test_kill_after_chunks;
     w.kill_in_phase2 = a.test_kill_in_phase2;
     w.kill_at_setup = a.test_kill_at_setup;
+    if a.test_stop {
+        crate::cluster::remote::worker::hooks_stop_instead();
+    }
     let mut out = std::io::stdout().lock();
     writeln!(out, "{}", w.local_addr()?)?;
     out.flush()?;

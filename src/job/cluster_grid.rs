@@ -14,7 +14,7 @@ use crate::cluster::grid::{self, GridConfig, GridOutcome};
 use crate::cluster::remote::grid::GridRemote;
 use crate::cluster::remote::LocalWorkers;
 use crate::cluster::ClockKind;
-use crate::net::tcp::{TcpOptions, Token};
+use crate::net::tcp::Token;
 use crate::node::grid::render::RendererKind;
 use crate::node::grid::BrickPlacement;
 use crate::render::slice3d::Slice3dOptions;
@@ -54,14 +54,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     let threads = match a.net.transport {
         None => false,
         Some(TransportKind::Threads) => true,
-        Some(_) => {
-            anyhow::ensure!(
-                a.net.on_failure == super::transport_args::OnFailure::Abort,
-                "--on-failure reassign is for cell projection; a grid frame fails with an error \
-                 naming the worker"
-            );
-            true
-        }
+        Some(_) => true,
     };
     let g = &a.grid;
     let compositor = if g.master {
@@ -161,16 +154,15 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
     }
     use super::transport_args::TransportKind;
     let t = &a.net;
-    let tcp = TcpOptions {
-        deadline: Duration::from_secs_f64(t.heartbeat_timeout),
-        ..Default::default()
-    };
+    let tcp = t.tcp_options();
+    let reassign = t.on_failure == super::transport_args::OnFailure::Reassign;
     let remote = |workers: Vec<String>, token: Token, kind: TransportKind| GridRemote {
         workers,
         token,
         tcp,
         recv_timeout: Duration::from_secs_f64(t.recv_timeout),
         transport: kind.name().to_string(),
+        reassign,
     };
     match t.transport {
         None | Some(TransportKind::Threads) => grid::run_frames(&input, &cfg, &cams),
@@ -180,9 +172,20 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
                 "--heartbeat-timeout".to_string(),
                 t.heartbeat_timeout.to_string(),
             ];
-            let mut w = LocalWorkers::spawn(&exe, cfg.nodes, &extra, Duration::from_secs(30))?;
+            // Reassigning needs workers that serve a second session.
+            let mut w = LocalWorkers::spawn_serving(
+                &exe,
+                cfg.nodes,
+                &extra,
+                Duration::from_secs(30),
+                !reassign,
+            )?;
             let r = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes);
             let outs = run_remote_frames(&r, &input, &cfg, &cams);
+            if reassign {
+                // Workers serving more sessions are stopped and reaped on drop.
+                return outs;
+            }
             let bad = w.finish(Duration::from_secs(10));
             let outs = outs?;
             anyhow::ensure!(

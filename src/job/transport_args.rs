@@ -43,9 +43,10 @@ impl TransportKind {
 pub enum OnFailure {
     /// The frame fails with an error naming the worker and the phase.
     Abort,
-    /// Workers that die in phase 1 have their cells split among the
-    /// survivors, and the frame runs again on them (same image with
-    /// `--canonical` and ERT off; within the ERT bound otherwise).
+    /// Workers lost at any phase (set-up, phase 1, collecting results,
+    /// phase 2) have their cells (or bricks) split among the survivors,
+    /// and the frame runs again on them (same image with `--canonical`
+    /// and ERT off; within the ERT bound otherwise).
     Reassign,
 }
 
@@ -73,9 +74,10 @@ pub struct TransportArgs {
     #[arg(long, value_name = "FILE")]
     pub token_file: Option<PathBuf>,
     /// When a worker fails mid-frame: `abort` (an error naming the worker
-    /// and the phase, non-zero exit) or `reassign` (workers lost in phase 1:
-    /// their cells go to the survivors and the frame runs again on them;
-    /// `tcp` workers must then serve more than one frame, i.e. not `--once`).
+    /// and the phase, non-zero exit) or `reassign` (workers lost at any
+    /// phase: their cells or bricks go to the survivors and the frame runs
+    /// again on them; `tcp` workers must then serve more than one frame,
+    /// i.e. not `--once`). See docs/running-across-machines.md, "Failures".
     #[arg(long, value_enum, default_value_t = OnFailure::Abort)]
     pub on_failure: OnFailure,
     /// Seconds without a frame or heartbeat before a worker is declared
@@ -168,9 +170,14 @@ impl TransportArgs {
         }
     }
 
-    fn tcp_options(&self) -> TcpOptions {
+    /// Link timing from these options: the heartbeat deadline, and a
+    /// connect + handshake limit no longer than it (between 1 and 5 s), so
+    /// that a stalled worker at set-up is noticed within the deadline too.
+    pub fn tcp_options(&self) -> TcpOptions {
+        let deadline = Duration::from_secs_f64(self.heartbeat_timeout);
         TcpOptions {
-            deadline: Duration::from_secs_f64(self.heartbeat_timeout),
+            deadline,
+            handshake_timeout: deadline.clamp(Duration::from_secs(1), Duration::from_secs(5)),
             ..Default::default()
         }
     }

@@ -60,6 +60,8 @@ pub struct TransportSection {
     /// Set when `--on-failure reassign` re-ran the frame on the survivors
     /// (the model then runs their placement).
     pub reassigned: Option<super::reassign::Reassigned>,
+    /// With `reassigned`: the recovery's cost, modelled beside measured.
+    pub recovery: Option<RecoveryModel>,
     /// Phase 2 (worker to worker) per message kind, sent by all workers.
     pub phase2_by_kind: BTreeMap<String, KindLine>,
     /// Of the measured phase-2 payload: message headers.
@@ -110,41 +112,37 @@ pub struct Phase1Model {
     pub end_s: f64,
 }
 
-impl PartialEq for Measured {
-    fn eq(&self, o: &Measured) -> bool {
-        self.phase1 == o.phase1 && self.cells_bytes_sent == o.cells_bytes_sent
-    }
+/// What a recovery (`--on-failure reassign`) cost, in the model (virtual
+/// clock, `--network` model and cost profile) and measured. The model does
+/// not include the time to notice a loss (immediate for a closed
+/// connection, the heartbeat deadline for a stall); the measured figure
+/// does.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RecoveryModel {
+    /// Modelled frame (phase 1 + phase 2) on every worker, undisturbed.
+    pub undisturbed_s: f64,
+    /// Modelled frame on the survivors with the reassigned placement.
+    pub survivors_s: f64,
+    /// Modelled work thrown away by the losses: none at set-up, the
+    /// undisturbed phase 1 for a loss in phase 1 or while collecting (an
+    /// upper bound: the loss came part way), the whole frame in phase 2.
+    pub lost_work_s: f64,
+    /// `survivors_s - undisturbed_s + lost_work_s`.
+    pub recovery_s: f64,
+    /// Measured: wall seconds of the failed attempts (detection included).
+    pub measured_s: f64,
 }
 
-/// Runs phase 1 of the same frame on the virtual clock and lays its
-/// traffic beside the measured one.
-pub fn transport_section(
+/// The frame on the virtual clock with `placement`: phase 1, and phase 2
+/// replayed on the network model.
+fn model(
     input: &RenderInput,
     cfg: &ClusterConfig,
-    out: &ClusterOutcome,
-    m: Measured,
-) -> anyhow::Result<TransportSection> {
-    let mut p1 = cfg.phase1;
-    p1.clock = ClockKind::Virtual;
-    p1.record_trace = false;
+    placement: &Placement,
+    p1: crate::cluster::Phase1Config,
+) -> anyhow::Result<(phase1::Phase1, crate::cluster::phase2::Phase2)> {
     let codec = Codec::default();
-    // After `--on-failure reassign`, the model runs the placement that
-    // completed, on the survivors.
-    let placement = match &m.reassigned {
-        Some(r) => {
-            p1.nodes = r.parts.len();
-            Placement {
-                parts: r.parts.clone(),
-            }
-        }
-        None => Placement::new(
-            &input.mesh,
-            p1.nodes,
-            cfg.placement,
-            Some(&input.scene.view()),
-        ),
-    };
-    let nodes = phase1::build_nodes(input, &placement, &p1, &cfg.profile, codec)?;
+    let nodes = phase1::build_nodes(input, placement, &p1, &cfg.profile, codec)?;
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
     let model2 = {
         let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
@@ -165,6 +163,77 @@ pub fn transport_section(
             &cfg.network,
             false,
         )?
+    };
+    Ok((sim, model2))
+}
+
+impl PartialEq for Measured {
+    fn eq(&self, o: &Measured) -> bool {
+        self.phase1 == o.phase1 && self.cells_bytes_sent == o.cells_bytes_sent
+    }
+}
+
+/// Runs phase 1 of the same frame on the virtual clock and lays its
+/// traffic beside the measured one.
+pub fn transport_section(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    out: &ClusterOutcome,
+    m: Measured,
+) -> anyhow::Result<TransportSection> {
+    let mut p1 = cfg.phase1;
+    p1.clock = ClockKind::Virtual;
+    p1.record_trace = false;
+    // After `--on-failure reassign`, the model runs the placement that
+    // completed, on the survivors.
+    let placement = match &m.reassigned {
+        Some(r) => {
+            p1.nodes = r.parts.len();
+            Placement {
+                parts: r.parts.clone(),
+            }
+        }
+        None => Placement::new(
+            &input.mesh,
+            p1.nodes,
+            cfg.placement,
+            Some(&input.scene.view()),
+        ),
+    };
+    let (sim, model2) = model(input, cfg, &placement, p1)?;
+    // The recovery's modelled cost: the survivors' frame beside the
+    // undisturbed one on every worker, plus the work the loss threw away.
+    let recovery = match &m.reassigned {
+        None => None,
+        Some(r) => {
+            let mut q1 = p1;
+            q1.nodes = r.parts.len() + r.lost.len();
+            let all = Placement::new(
+                &input.mesh,
+                q1.nodes,
+                cfg.placement,
+                Some(&input.scene.view()),
+            );
+            let (s0, m0) = model(input, cfg, &all, q1)?;
+            let undisturbed = s0.end_s + m0.sim.end_time;
+            let lost_work: f64 = r
+                .events
+                .iter()
+                .map(|e| match e.phase.as_str() {
+                    "phase 1" | "collecting results" => s0.end_s,
+                    "phase 2" => undisturbed,
+                    _ => 0.0,
+                })
+                .sum();
+            let survivors = sim.end_s + model2.sim.end_time;
+            Some(RecoveryModel {
+                undisturbed_s: undisturbed,
+                survivors_s: survivors,
+                lost_work_s: lost_work,
+                recovery_s: survivors - undisturbed + lost_work,
+                measured_s: r.recovery_s,
+            })
+        }
     };
     let mut by_kind2: BTreeMap<String, KindLine> = BTreeMap::new();
     let mut msgs2 = 0;
@@ -212,6 +281,7 @@ pub fn transport_section(
         setup_s: m.setup_s,
         collect_s: m.collect_s,
         reassigned: m.reassigned.clone(),
+        recovery,
         phase2_by_kind: by_kind2,
         phase2_header_bytes: header,
         phase2_handoff: handoff,

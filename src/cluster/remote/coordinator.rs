@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::drive::{drive, worker_setups, DriveOptions};
+use super::reassign::LostWorkers;
 use super::session::Session;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
@@ -69,11 +70,15 @@ pub struct Measured {
 
 impl Coordinator {
     /// One frame on the workers with this placement.
+    /// `busy_wait`: how long to ask a worker that answers "busy" again
+    /// (0 on a first attempt: busy is an error; a retry after a loss waits
+    /// for the survivors to end the failed attempt).
     pub(super) fn run_placed(
         &self,
         input: &RenderInput,
         cfg: &ClusterConfig,
         placement: &Placement,
+        busy_wait: Duration,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
         let n = cfg.phase1.nodes;
         let mut cfg = cfg.clone();
@@ -98,38 +103,10 @@ impl Coordinator {
             let opts = self.tcp;
             tasks.push(rt.spawn(async move {
                 let name = format!("worker {k} ({addr})");
-                let (mut s, hello) =
-                    tcp::connect(&addr, &token, Role::Coordinator, n as u32, &opts)
-                        .await
-                        .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
-                anyhow::ensure!(
-                    hello.role == Role::Worker,
-                    "{name}, set-up: answered as {:?}, not as a worker",
-                    hello.role
-                );
-                let d = opts.deadline.max(Duration::from_secs(10));
                 let to = NodeId::from(k);
-                tcp::raw::write_msg(
-                    &mut s,
-                    &codec,
-                    me,
-                    to,
-                    &Session::Setup(Box::new(setup)),
-                    &name,
-                )
-                .await?;
-                let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
-                let sent = match need {
-                    Session::Need(true) => {
-                        let len = cells.len() as u64;
-                        tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(cells), &name)
-                            .await?;
-                        len
-                    }
-                    Session::Need(false) => 0,
-                    Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
-                    other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
-                };
+                let msg = Session::Setup(Box::new(setup));
+                let (s, sent) =
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, cells, busy_wait).await?;
                 Ok((
                     Link {
                         rank: to,
@@ -142,7 +119,9 @@ impl Coordinator {
         }
         let mut links = Vec::with_capacity(n);
         let mut measured = Measured::default();
-        for (l, sent) in join_all(&rt, tasks, "a set-up task")? {
+        for (l, sent) in join_setups(&rt, tasks, "a set-up task", |k| {
+            format!("worker {k} ({})", self.workers[k])
+        })? {
             measured.cells_bytes_sent += sent;
             measured.cells_cached += usize::from(sent == 0);
             links.push(l);
@@ -152,36 +131,111 @@ impl Coordinator {
             ready_wait: self.tcp.handshake_timeout * 4 + Duration::from_secs(10),
             recv_timeout: self.recv_timeout,
         };
-        drive(&t, d, input, &cfg, t_setup, measured, |t, e| {
-            self.lost_in_phase1(t, n, e)
+        drive(&t, d, input, &cfg, t_setup, measured, |t, e, phase| {
+            self.lost_workers(t, n, e, phase)
         })
     }
 }
 
-/// Waits for every one of the coordinator's set-up `tasks` (all of them,
-/// so that none is left running) and gives their values in task order, or
-/// the first error in task order (`what` names a task that panicked or was
-/// cancelled).
-pub(super) fn join_all<T>(
+/// Connects to a worker at `addr` (`name` in errors) as the coordinator
+/// (rank `me`; the worker is rank `to`), sends `setup`, reads its cache
+/// answer and sends `payload` (cells or bricks) if it asks. A worker that
+/// answers "busy" serves another coordinator, or is still ending an
+/// earlier attempt of this frame: it is asked again every 100 ms for up to
+/// `busy_wait` (see [`busy_wait`]), then the answer is an error. Returns
+/// the stream and the payload bytes sent (0 on a cache hit).
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn hand_setup(
+    addr: &str,
+    name: &str,
+    token: &tcp::Token,
+    opts: &TcpOptions,
+    me: NodeId,
+    to: NodeId,
+    setup: &Session,
+    payload: Vec<u8>,
+    busy_wait: Duration,
+) -> anyhow::Result<(tokio::net::TcpStream, u64)> {
+    let codec = Codec::default();
+    let until = Instant::now() + busy_wait;
+    loop {
+        let (mut s, hello) = tcp::connect(addr, token, Role::Coordinator, me.0, opts)
+            .await
+            .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
+        anyhow::ensure!(
+            hello.role == Role::Worker,
+            "{name}, set-up: answered as {:?}, not as a worker",
+            hello.role
+        );
+        tcp::raw::write_msg_within(&mut s, &codec, me, to, setup, name, opts.deadline).await?;
+        // A worker answers at once (a cache look-up): silence for the
+        // heartbeat deadline is a stalled worker.
+        let need: Session = tcp::raw::read_msg(&mut s, &codec, opts.deadline, name).await?;
+        return match need {
+            Session::Need(true) => {
+                let len = payload.len() as u64;
+                let cells = Session::Cells(payload);
+                tcp::raw::write_msg_within(&mut s, &codec, me, to, &cells, name, opts.deadline)
+                    .await?;
+                Ok((s, len))
+            }
+            Session::Need(false) => Ok((s, 0)),
+            Session::Failed(why) if why.starts_with("busy") && Instant::now() < until => {
+                drop(s);
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
+            }
+            Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
+            other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
+        };
+    }
+}
+
+/// How long an attempt asks a busy worker again: not at all on the first
+/// attempt of a frame ("busy" is an error naming the worker: it serves
+/// another coordinator), twice the heartbeat `deadline` plus 2 s on a
+/// retry after a loss (the survivors may still be ending the failed
+/// attempt: they notice the closed links within the deadline).
+pub(super) fn busy_wait(retry: bool, deadline: Duration) -> Duration {
+    if retry {
+        deadline * 2 + Duration::from_secs(2)
+    } else {
+        Duration::ZERO
+    }
+}
+
+/// Waits for every one of the set-up tasks, one per worker by rank, and gives
+/// their values in rank order. When tasks
+/// fail, the error (the first in rank order) carries the ranks of every
+/// failed task as [`LostWorkers`] (phase `set-up`; `name` names a rank's
+/// worker), for `--on-failure reassign`.
+pub(super) fn join_setups<T>(
     rt: &tokio::runtime::Runtime,
     tasks: Vec<tokio::task::JoinHandle<anyhow::Result<T>>>,
     what: &str,
+    name: impl Fn(usize) -> String,
 ) -> anyhow::Result<Vec<T>> {
     let mut out = Vec::with_capacity(tasks.len());
     let mut first_err = None;
-    for t in tasks {
-        match rt.block_on(t) {
-            Ok(Ok(v)) => out.push(v),
-            Ok(Err(e)) => {
-                first_err.get_or_insert(e);
+    let mut lost = LostWorkers {
+        phase: "set-up".into(),
+        ..Default::default()
+    };
+    for (k, t) in tasks.into_iter().enumerate() {
+        let e = match rt.block_on(t) {
+            Ok(Ok(v)) => {
+                out.push(v);
+                continue;
             }
-            Err(e) => {
-                first_err.get_or_insert(anyhow::anyhow!("{what} failed: {e}"));
-            }
-        }
+            Ok(Err(e)) => e,
+            Err(e) => anyhow::anyhow!("{what} failed: {e}"),
+        };
+        lost.ranks.push(k);
+        lost.names.push(name(k));
+        first_err.get_or_insert(e);
     }
     match first_err {
-        Some(e) => Err(e),
+        Some(e) => Err(e.context(lost)),
         None => Ok(out),
     }
 }

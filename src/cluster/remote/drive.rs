@@ -52,6 +52,7 @@ pub(super) fn worker_setups(
         .scene
         .to_toml(&input.scene.data.path.to_string_lossy());
     let mut out = Vec::with_capacity(n);
+    let session_id = super::session::new_session_id();
     for (k, part) in placement.parts.iter().enumerate() {
         let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
         let peers: Vec<u32> = if overlap {
@@ -80,6 +81,7 @@ pub(super) fn worker_setups(
             cells_initial: part.len() as u64,
             cells_sha256: sha256(&cells),
             recv_timeout_s: recv_timeout.as_secs_f64(),
+            session_id,
         };
         out.push((setup, cells));
     }
@@ -100,12 +102,19 @@ pub(super) struct DriveOptions {
 /// first, since the others' errors follow from it. Waits at most 2 s for
 /// the links' endings.
 fn blame_the_dead<T: RemoteTransport>(t: &T, n: usize, e: anyhow::Error) -> anyhow::Error {
-    let endings = t.link_endings(Duration::from_secs(2));
-    let dead: Vec<String> = (0..n)
-        .filter(|&k| endings.get(k) == Some(&Some(false)))
-        .map(|k| t.peer_name(NodeId::from(k)))
-        .collect();
     let text = format!("{e:#}");
+    let dead = |endings: Vec<Option<bool>>| -> Vec<String> {
+        (0..n)
+            .filter(|&k| endings.get(k) == Some(&Some(false)))
+            .map(|k| t.peer_name(NodeId::from(k)))
+            .collect()
+    };
+    // The error comes from a death it names already: no need to wait.
+    let now = dead(t.link_endings(Duration::ZERO));
+    if !now.is_empty() && now.iter().all(|d| text.contains(d.as_str())) {
+        return e;
+    }
+    let dead = dead(t.link_endings(Duration::from_secs(2)));
     if dead.is_empty() || dead.iter().all(|d| text.contains(d.as_str())) {
         return e;
     }
@@ -118,16 +127,32 @@ fn blame_the_dead<T: RemoteTransport>(t: &T, n: usize, e: anyhow::Error) -> anyh
 /// The coordinator's frame over `t` (rank `n`, workers `0..n`), once every
 /// worker has its set-up and cells: `Ready` from all, `Go`, the manager in
 /// phase 1, the results, phase 2 worker to worker, the report.
-/// `on_phase1_error` may attach what the transport knows of a phase-1
-/// failure (which workers died). `t_setup` is when the set-up began.
+/// `on_error` may attach what the transport knows of a failure (which
+/// workers died) and gets the phase it happened in. `t_setup` is when the
+/// set-up began.
 pub(super) fn drive<T: RemoteTransport>(
     t: &T,
     d: DriveOptions,
     input: &RenderInput,
     cfg: &ClusterConfig,
     t_setup: Instant,
+    measured: Measured,
+    on_error: impl FnOnce(&T, anyhow::Error, &'static str) -> anyhow::Error,
+) -> anyhow::Result<(ClusterOutcome, Measured)> {
+    let mut phase = "set-up";
+    drive_phases(t, d, input, cfg, t_setup, measured, &mut phase).map_err(|e| on_error(t, e, phase))
+}
+
+/// [`drive`]'s body; `phase` follows the frame (`set-up`, `phase 1`,
+/// `collecting results`, `phase 2`) so that an error can be placed.
+fn drive_phases<T: RemoteTransport>(
+    t: &T,
+    d: DriveOptions,
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    t_setup: Instant,
     mut measured: Measured,
-    on_phase1_error: impl FnOnce(&T, anyhow::Error) -> anyhow::Error,
+    phase: &mut &'static str,
 ) -> anyhow::Result<(ClusterOutcome, Measured)> {
     let n = cfg.phase1.nodes;
     let cfg = cfg.clone();
@@ -172,6 +197,7 @@ pub(super) fn drive<T: RemoteTransport>(
     }
 
     // Phase 1: the manager here, the nodes on the workers.
+    *phase = "phase 1";
     let mut manager = manager_for(input, &cfg, initial)?;
     let wire0 = t.stats();
     let t1 = Instant::now();
@@ -191,6 +217,7 @@ pub(super) fn drive<T: RemoteTransport>(
         }
 
         // Results.
+        *phase = "collecting results";
         let t_collect = Instant::now();
         let mut results: Vec<Option<NodeResult>> = (0..n).map(|_| None).collect();
         while results.iter().any(Option::is_none) {
@@ -223,10 +250,7 @@ pub(super) fn drive<T: RemoteTransport>(
         }
         Ok((m_stop, m_trace, m_traffic, results, t_collect))
     })();
-    let (m_stop, m_trace, m_traffic, results, t_collect) = match phase1 {
-        Ok(x) => x,
-        Err(e) => return Err(on_phase1_error(t, e)),
-    };
+    let (m_stop, m_trace, m_traffic, results, t_collect) = phase1?;
     let host_s = t1.elapsed().as_secs_f64();
     measured.collect_s = t_collect.elapsed().as_secs_f64();
     let wire_m = {
@@ -246,6 +270,7 @@ pub(super) fn drive<T: RemoteTransport>(
     }
 
     // Phase 2, worker to worker; the pixels come here.
+    *phase = "phase 2";
     let t2 = Instant::now();
     let (ph2, logs) = phase2(t, d, input, &cfg, codec, &mut measured)?;
     measured.phase2_s = t2.elapsed().as_secs_f64();

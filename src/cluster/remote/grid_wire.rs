@@ -185,6 +185,9 @@ pub struct GridSetup {
     pub bricks_total: u32,
     /// Longest wait for a peer's message in phase 2, seconds.
     pub recv_timeout_s: f64,
+    /// The frame's random id (see
+    /// [`WorkerSetup::session_id`](super::session::WorkerSetup::session_id)).
+    pub session_id: [u8; 16],
 }
 
 impl GridSetup {

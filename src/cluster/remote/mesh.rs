@@ -6,9 +6,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio::runtime::Runtime;
 
+use crate::net::tcp::frame::{TAG_GOODBYE, TAG_HEARTBEAT};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{Codec, NodeId};
 
@@ -29,21 +31,59 @@ impl Mesh<'_> {
     /// This rank's transport to its peers and the coordinator: dials the
     /// lower ranks and accepts the higher ones ([`mesh`]),
     /// adds the coordinator's link (`coord`, the session's stream), and
-    /// runs them with `codec`'s frame limit.
+    /// runs them with `codec`'s frame limit. `session` is the frame's id
+    /// (peers of another frame are refused). While the mesh forms, the
+    /// coordinator's stream is watched: if it closes (the coordinator gave
+    /// the frame up or died), the mesh is abandoned at once, so that the
+    /// worker is free for the next frame.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn transport(
         &self,
         rank: u32,
         nodes: u32,
         peers: &[String],
+        session: [u8; 16],
         coord: NodeId,
         name: String,
-        stream: TcpStream,
+        mut stream: TcpStream,
         codec: Codec,
     ) -> anyhow::Result<TcpTransport> {
-        let mut links = self
-            .rt
-            .block_on(mesh(self.door, self.token, self.opts, rank, nodes, peers))?;
+        let formed = self.rt.block_on(async {
+            tokio::select! {
+                r = mesh(self.door, self.token, self.opts, rank, nodes, peers, session) => r.map_err(|e| (e, true)),
+                e = watch_coordinator(&mut stream, &name, self.opts.heartbeat) => Err((e, false)),
+            }
+        });
+        let mut links = match formed {
+            Ok(l) => l,
+            Err((e, tell)) => {
+                if tell {
+                    // Say why and end cleanly (Goodbye), so that the
+                    // coordinator blames the peer that failed, not us.
+                    let why = crate::cluster::remote::session::Session::Failed(format!(
+                        "node {rank}, set-up (joining the mesh): {e:#}"
+                    ));
+                    let _ = self.rt.block_on(async {
+                        let w = async {
+                            tcp::raw::write_msg(
+                                &mut stream,
+                                &codec,
+                                NodeId(rank),
+                                coord,
+                                &why,
+                                &name,
+                            )
+                            .await?;
+                            stream.write_all(&[TAG_GOODBYE]).await?;
+                            let _ = stream.shutdown().await;
+                            Ok::<_, anyhow::Error>(())
+                        };
+                        tokio::time::timeout(self.opts.handshake_timeout, w).await
+                    });
+                }
+                return Err(e);
+            }
+        };
         links.push(Link {
             rank: coord,
             name,
@@ -63,8 +103,56 @@ impl Mesh<'_> {
     }
 }
 
+/// Waits on the coordinator's stream while the mesh forms: the
+/// coordinator sends nothing but heartbeats before every worker is ready,
+/// so an end of stream, a goodbye or any other byte ends the wait with
+/// the error to give up on; meanwhile it sends heartbeats every
+/// `heartbeat`. Cancel safe (a read that has not completed takes nothing
+/// from the stream; a heartbeat is one byte).
+async fn watch_coordinator(s: &mut TcpStream, name: &str, heartbeat: Duration) -> anyhow::Error {
+    let mut buf = [0u8; 64];
+    let (mut r, mut w) = s.split();
+    let mut tick = tokio::time::interval(heartbeat);
+    loop {
+        tokio::select! {
+            got = r.read(&mut buf) => match got {
+                Ok(0) => {
+                    return anyhow::anyhow!(
+                        "{name} closed the connection while the mesh was forming (it gave the frame up)"
+                    )
+                }
+                Ok(n) => match buf[..n].iter().find(|&&b| b != TAG_HEARTBEAT) {
+                    None => {}
+                    Some(&TAG_GOODBYE) => {
+                        return anyhow::anyhow!(
+                            "{name} ended the session (Goodbye) while the mesh was forming"
+                        )
+                    }
+                    Some(b) => {
+                        return anyhow::anyhow!(
+                            "{name} sent a frame (tag {b}) while the mesh was forming; expected only heartbeats"
+                        )
+                    }
+                },
+                Err(e) => return anyhow::anyhow!("{name}: {e} while the mesh was forming"),
+            },
+            // Heartbeats to the coordinator, so that a mesh slow to form
+            // (a peer that does not answer) does not look like a stall of
+            // this worker.
+            _ = tick.tick() => {
+                if let Err(e) = w.write_all(&[TAG_HEARTBEAT]).await {
+                    return anyhow::anyhow!("{name}: {e} while the mesh was forming");
+                }
+            }
+        }
+    }
+}
+
 /// Dials every lower rank and accepts every higher one, concurrently
-/// (rank `me` of `nodes` workers at `peers`).
+/// (rank `me` of `nodes` workers at `peers`). Each dialer states the
+/// frame's id (`session`, 16 bytes) after the handshake; an accepted peer
+/// with another id (a link left over from an earlier frame, or one for a
+/// later frame) is closed and not counted.
 pub(super) async fn mesh(
     door: &super::worker::Door,
     token: &Token,
@@ -72,12 +160,16 @@ pub(super) async fn mesh(
     me: u32,
     nodes: u32,
     peers: &[String],
+    session: [u8; 16],
 ) -> anyhow::Result<Vec<Link>> {
     let dial = async {
         let mut links = Vec::new();
         for j in 0..me {
             let addr = &peers[j as usize];
-            let (s, hello) = tcp::connect(addr, token, Role::Worker, me, opts)
+            let (mut s, hello) = tcp::connect(addr, token, Role::Worker, me, opts)
+                .await
+                .with_context(|| format!("node {me} connecting to node {j} at {addr}"))?;
+            s.write_all(&session)
                 .await
                 .with_context(|| format!("node {me} connecting to node {j} at {addr}"))?;
             anyhow::ensure!(
@@ -101,10 +193,23 @@ pub(super) async fn mesh(
             while links.len() < want {
                 match door.next_peer().await {
                     Some(super::worker::Accepted {
-                        stream: s,
+                        stream: mut s,
                         hello: h,
                         from,
                     }) => {
+                        let mut id = [0u8; 16];
+                        let same = matches!(
+                            tokio::time::timeout(opts.handshake_timeout, s.read_exact(&mut id))
+                                .await,
+                            Ok(Ok(_))
+                        ) && id == session;
+                        if !same {
+                            eprintln!(
+                                "pvrsim worker: node {me}: a peer from {from} (rank {}) belongs to another frame; closed",
+                                h.rank
+                            );
+                            continue;
+                        }
                         let ok = h.role == Role::Worker
                             && h.rank > me
                             && h.rank < nodes

@@ -79,7 +79,7 @@ pub fn coordinate(
         ready_wait: recv_timeout,
         recv_timeout,
     };
-    drive(&t, d, input, &cfg, t_setup, measured, |_, e| e)
+    drive(&t, d, input, &cfg, t_setup, measured, |_, e, _| e)
 }
 
 /// A worker rank (`≥ 1`): receives its set-up and cells, runs its node

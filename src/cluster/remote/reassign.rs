@@ -1,19 +1,28 @@
-//! `--on-failure reassign`: when workers die in phase 1, their cells go to
-//! the survivors and the frame runs again on them.
+//! `--on-failure reassign`: when workers are lost at any phase of a frame
+//! (set-up, phase 1, collecting results, phase 2), their share of the work
+//! goes to the survivors and the frame runs again on them.
 //!
-//! A worker is *lost* when its link to the coordinator ended without
-//! `Goodbye` (killed, crashed, silent past the heartbeat deadline); the
+//! A worker is *lost* when its set-up failed (unreachable, no answer
+//! within the deadline, busy with another coordinator, a bad answer) or
+//! when its link to the coordinator ended without `Goodbye` (killed,
+//! crashed, silent past the heartbeat deadline, a malformed frame); the
 //! survivors give the frame up with a clean `Goodbye` once they notice the
 //! loss, so the coordinator tells the two apart
-//! ([`RemoteTransport::link_endings`]). Each survivor keeps its cells and takes
-//! a contiguous share of the lost workers' cells ([`reassign_parts`]); the
-//! frame then runs from the start on the survivors (their phase-1 work is
-//! not kept: the lost worker's lists are gone, and phase 1's manager
-//! protocol cannot drop a node mid-frame).
+//! ([`RemoteTransport::link_endings`]). Each survivor keeps its share and
+//! takes a contiguous part of the lost workers' share ([`reassign_parts`]:
+//! cells for mesh frames, bricks for grid frames); the frame then runs
+//! from the start on the survivors, with the compositing schedule planned
+//! for their number (binary swap with a non-power-of-two group, direct
+//! send, radix-k or master, as [`crate::compositor::schedule`] plans any
+//! count). This repeats while survivors remain, so a second loss during
+//! the retry is handled the same way.
+//!
+//! What is not kept: the survivors' phase-1 work. The lost worker's
+//! lists are gone, phase 1's manager protocol cannot drop a node
+//! mid-frame, and phase 2's schedule pairs lists by rank, so every
+//! survivor renders its (larger) share again.
 
-use std::time::Duration;
-
-use anyhow::Context;
+use std::time::{Duration, Instant};
 
 use super::coordinator::{Coordinator, Measured};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
@@ -21,20 +30,44 @@ use crate::net::{NodeId, RemoteTransport};
 use crate::node::Placement;
 use crate::render::RenderInput;
 
-/// Workers that died in phase 1 (their links ended without `Goodbye`),
-/// attached to the error of a failed frame.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// Workers lost in a frame (their set-up failed, or their links ended
+/// without `Goodbye`), attached to the error of a failed frame.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct LostWorkers {
-    /// Their ranks.
+    /// Their ranks in the failed frame.
     pub ranks: Vec<usize>,
     /// Their names.
     pub names: Vec<String>,
+    /// The phase the frame was in (`set-up`, `phase 1`, `collecting
+    /// results`, `phase 2`).
+    pub phase: String,
 }
 
 impl std::fmt::Display for LostWorkers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "phase 1: lost {}", self.names.join(", "))
+        write!(f, "{}: lost {}", self.phase, self.names.join(", "))
     }
+}
+
+/// One loss and what was done about it.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct LossEvent {
+    /// The phase the frame was in.
+    pub phase: String,
+    /// The workers lost, by name.
+    pub workers: Vec<String>,
+    /// Cells (mesh frames) or bricks (grid frames) moved to the survivors.
+    pub moved: u64,
+    /// Survivors that took them.
+    pub survivors: usize,
+    /// Seconds from the start of the frame (the first attempt) until the
+    /// loss was known and the retry began.
+    pub detected_at_s: f64,
+    /// Wall seconds of the failed attempt (from its start to the retry):
+    /// the measured cost of the loss.
+    pub attempt_s: f64,
+    /// The error that ended the attempt.
+    pub error: String,
 }
 
 /// What `--on-failure reassign` did.
@@ -42,17 +75,21 @@ impl std::fmt::Display for LostWorkers {
 pub struct Reassigned {
     /// The workers lost, by name.
     pub lost: Vec<String>,
-    /// Their cells, given to the survivors.
+    /// Their cells (or bricks), given to the survivors.
     pub cells: u64,
     /// The error that ended the first attempt.
     pub first_error: String,
+    /// Every loss in order.
+    pub events: Vec<LossEvent>,
+    /// Measured recovery cost: wall seconds of the failed attempts.
+    pub recovery_s: f64,
     /// The placement of the run that completed (survivors by new rank).
     #[serde(skip)]
     pub parts: Vec<Vec<u32>>,
 }
 
-/// The placement after losing `lost`: each survivor keeps its cells and
-/// takes a contiguous share of the lost workers' cells (ascending ids);
+/// The placement after losing `lost`: each survivor keeps its share and
+/// takes a contiguous part of the lost workers' share (ascending ids);
 /// survivors in rank order become ranks `0..`.
 pub fn reassign_parts(parts: &[Vec<u32>], lost: &[usize]) -> Vec<Vec<u32>> {
     let orphans: Vec<u32> = lost
@@ -72,9 +109,99 @@ pub fn reassign_parts(parts: &[Vec<u32>], lost: &[usize]) -> Vec<Vec<u32>> {
     out
 }
 
+/// Runs attempts of a frame until one completes: `attempt(workers, parts)`
+/// runs the frame on `workers` (indices into the original list) with
+/// `parts` (their shares by rank). When an attempt fails with
+/// [`LostWorkers`] attached, `reassign` is on and survivors remain, the
+/// lost workers' shares go to the survivors and the next attempt runs on
+/// them. Returns the outcome and, if any loss happened, what was done.
+pub fn with_reassign<T>(
+    workers: usize,
+    parts: Vec<Vec<u32>>,
+    reassign: bool,
+    what: &str,
+    mut attempt: impl FnMut(&[usize], &[Vec<u32>]) -> anyhow::Result<T>,
+) -> anyhow::Result<(T, Option<Reassigned>)> {
+    let t0 = Instant::now();
+    let mut alive: Vec<usize> = (0..workers).collect();
+    let mut parts = parts;
+    let mut done = Reassigned::default();
+    loop {
+        let t_attempt = Instant::now();
+        let late0 = crate::net::tcp::frame::late_wakeups().0;
+        let e = match attempt(&alive, &parts) {
+            Ok(x) => {
+                let r = (!done.events.is_empty()).then(|| Reassigned {
+                    parts: parts.clone(),
+                    ..done
+                });
+                return Ok((x, r));
+            }
+            Err(e) => e,
+        };
+        let (late, late_s) = crate::net::tcp::frame::late_wakeups();
+        let e = if late > late0 {
+            // Not the workers' fault: they heard nothing from us.
+            e.context(format!(
+                "this coordinator was itself not running for about {late_s:.1} s during the frame \
+                 (stopped, e.g. SIGSTOP, or starved of CPU); workers that gave up on it are not at fault"
+            ))
+        } else {
+            e
+        };
+        let Some(lost) = e.downcast_ref::<LostWorkers>().cloned() else {
+            return Err(context(e, &done));
+        };
+        if !reassign || lost.ranks.is_empty() || lost.ranks.len() >= alive.len() {
+            return Err(context(e, &done));
+        }
+        let moved: u64 = lost.ranks.iter().map(|&k| parts[k].len() as u64).sum();
+        parts = reassign_parts(&parts, &lost.ranks);
+        let mut k = 0;
+        alive.retain(|_| {
+            k += 1;
+            !lost.ranks.contains(&(k - 1))
+        });
+        let error = format!("{e:#}");
+        eprintln!(
+            "note: {error}\nnote: --on-failure reassign: {moved} {what} of {} go to the {} survivors; the frame runs again on them",
+            lost.names.join(", "),
+            alive.len()
+        );
+        if done.first_error.is_empty() {
+            done.first_error = error.clone();
+        }
+        done.lost.extend(lost.names.iter().cloned());
+        done.cells += moved;
+        let attempt_s = t_attempt.elapsed().as_secs_f64();
+        done.recovery_s += attempt_s;
+        done.events.push(LossEvent {
+            phase: lost.phase.clone(),
+            workers: lost.names,
+            moved,
+            survivors: alive.len(),
+            detected_at_s: t0.elapsed().as_secs_f64(),
+            attempt_s,
+            error,
+        });
+    }
+}
+
+/// The error of the last attempt, after earlier losses were recovered.
+fn context(e: anyhow::Error, done: &Reassigned) -> anyhow::Error {
+    if done.events.is_empty() {
+        e
+    } else {
+        e.context(format!(
+            "the frame on the survivors (--on-failure reassign, after losing {})",
+            done.lost.join(", ")
+        ))
+    }
+}
+
 impl Coordinator {
-    /// Runs one frame on the workers; with [`Coordinator::reassign`], once
-    /// more on the survivors if workers die in phase 1.
+    /// Runs one frame on the workers; with [`Coordinator::reassign`], again
+    /// on the survivors whenever workers are lost (at any phase).
     pub fn run(
         &self,
         input: &RenderInput,
@@ -87,69 +214,88 @@ impl Coordinator {
             self.workers.len()
         );
         let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
-        let e = match self.run_placed(input, cfg, &placement) {
-            Ok(x) => return Ok(x),
-            Err(e) => e,
-        };
-        let Some(lost) = e.downcast_ref::<LostWorkers>().cloned() else {
-            return Err(e);
-        };
-        if !self.reassign || lost.ranks.is_empty() || lost.ranks.len() >= n {
-            return Err(e);
-        }
-        let parts = reassign_parts(&placement.parts, &lost.ranks);
-        let cells: u64 = lost
-            .ranks
-            .iter()
-            .map(|&k| placement.parts[k].len() as u64)
-            .sum();
-        eprintln!(
-            "note: {e:#}\nnote: --on-failure reassign: {cells} cells of {} go to the {} survivors; the frame runs again on them",
-            lost.names.join(", "),
-            parts.len()
-        );
-        let survivors = Coordinator {
-            workers: (0..n)
-                .filter(|k| !lost.ranks.contains(k))
-                .map(|k| self.workers[k].clone())
-                .collect(),
-            reassign: false,
-            ..self.clone()
-        };
-        let mut cfg2 = cfg.clone();
-        cfg2.phase1.nodes = parts.len();
-        let placement2 = Placement {
-            parts: parts.clone(),
-        };
-        let (out, mut m) = survivors
-            .run_placed(input, &cfg2, &placement2)
-            .context("the frame on the survivors (--on-failure reassign)")?;
-        m.reassigned = Some(Reassigned {
-            lost: lost.names,
-            cells,
-            first_error: format!("{e:#}"),
-            parts,
-        });
+        let ((out, mut m), r) = with_reassign(
+            n,
+            placement.parts,
+            self.reassign,
+            "cells",
+            |alive, parts| {
+                let c = Coordinator {
+                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
+                    ..self.clone()
+                };
+                let mut cfg = cfg.clone();
+                cfg.phase1.nodes = alive.len();
+                let p = Placement {
+                    parts: parts.to_vec(),
+                };
+                let wait = super::coordinator::busy_wait(alive.len() < n, self.tcp.deadline);
+                c.run_placed(input, &cfg, &p, wait)
+            },
+        )?;
+        m.reassigned = r;
         Ok((out, m))
     }
 
-    /// The workers whose links ended without `Goodbye` (waiting for the
-    /// survivors to give up too), as an error context.
-    pub(super) fn lost_in_phase1(
+    /// The workers whose links ended without `Goodbye`, as an error
+    /// context for the phase the frame was in (see [`lost_on`]).
+    pub(super) fn lost_workers(
         &self,
         t: &impl RemoteTransport,
         n: usize,
         e: anyhow::Error,
+        phase: &str,
     ) -> anyhow::Error {
-        if !self.reassign {
-            return e;
-        }
-        let endings = t.link_endings(self.tcp.deadline * 2 + Duration::from_secs(2));
-        let ranks: Vec<usize> = (0..n).filter(|&k| endings[k] == Some(false)).collect();
-        let names = ranks
-            .iter()
-            .map(|&k| t.peer_name(NodeId::from(k)))
-            .collect();
-        e.context(LostWorkers { ranks, names })
+        lost_on(
+            t,
+            0,
+            n,
+            endings_wait(self.reassign, self.tcp.deadline),
+            e,
+            phase,
+        )
     }
+}
+
+/// How long a failed frame waits for its links to end before it names the
+/// lost workers: with `reassign`, until the survivors have surely given up
+/// (twice the heartbeat `deadline` plus 2 s, so that every loss is seen
+/// before the retry); without, one deadline plus 0.5 s (the dead worker is
+/// named, and the error stays within the deadline plus 2 s).
+pub(super) fn endings_wait(reassign: bool, deadline: Duration) -> Duration {
+    if reassign {
+        deadline * 2 + Duration::from_secs(2)
+    } else {
+        deadline + Duration::from_millis(500)
+    }
+}
+
+/// `e` with the workers of `t` (worker `k` at rank `off + k`, `k < n`)
+/// whose links ended without `Goodbye` attached as [`LostWorkers`] in
+/// `phase`, after waiting at most `wait` for the other links to end
+/// (unchanged if none was lost: the frame failed for another reason).
+pub(super) fn lost_on(
+    t: &impl RemoteTransport,
+    off: usize,
+    n: usize,
+    wait: Duration,
+    e: anyhow::Error,
+    phase: &str,
+) -> anyhow::Error {
+    let endings = t.link_endings(wait);
+    let ranks: Vec<usize> = (0..n)
+        .filter(|&k| endings.get(off + k) == Some(&Some(false)))
+        .collect();
+    if ranks.is_empty() {
+        return e;
+    }
+    let names = ranks
+        .iter()
+        .map(|&k| t.peer_name(NodeId::from(off + k)))
+        .collect();
+    e.context(LostWorkers {
+        ranks,
+        names,
+        phase: phase.to_string(),
+    })
 }

@@ -226,6 +226,20 @@ pub struct WorkerSetup {
     pub cells_sha256: [u8; 32],
     /// Longest wait for a message in phase 1 before giving up (seconds).
     pub recv_timeout_s: f64,
+    /// The frame's random id (the same in every worker's set-up): a mesh
+    /// peer states it after its handshake, so a link left over from an
+    /// earlier frame is never taken into this one.
+    pub session_id: [u8; 16],
+}
+
+/// A fresh random frame id for [`WorkerSetup::session_id`] and
+/// [`GridSetup::session_id`](super::grid_wire::GridSetup::session_id).
+pub fn new_session_id() -> [u8; 16] {
+    let mut id = [0u8; 16];
+    // A failing system RNG leaves a fixed id: links are still
+    // authenticated, only stale-link detection weakens.
+    let _ = getrandom::fill(&mut id);
+    id
 }
 
 impl WorkerSetup {

@@ -15,6 +15,7 @@
 //! tokio stream ([`read_frame_async`]: the transport).
 
 use std::io::Read;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use tokio::io::{AsyncRead, AsyncReadExt};
@@ -148,21 +149,58 @@ pub async fn read_frame_async<R: AsyncRead + Unpin>(
     }
 }
 
+/// Late deadline timers seen by this process: how many, and the longest
+/// delay past the deadline in microseconds (see [`late_wakeups`]).
+static LATE: AtomicU64 = AtomicU64::new(0);
+static LATE_MAX_US: AtomicU64 = AtomicU64::new(0);
+
+/// How often a link's deadline timer fired much later than it was due
+/// (more than half a deadline late), and the longest such delay in
+/// seconds: this process itself was not running (stopped with SIGSTOP,
+/// starved of CPU, a suspended VM), so the silence was not the peer's.
+/// A caller compares two readings to learn whether it happened meanwhile.
+pub fn late_wakeups() -> (u64, f64) {
+    (
+        LATE.load(Ordering::Relaxed),
+        LATE_MAX_US.load(Ordering::Relaxed) as f64 * 1e-6,
+    )
+}
+
+/// `f` within `deadline` of silence. A deadline timer that fires more
+/// than half a deadline late means that this process was not scheduled
+/// (not that the peer was silent): the wait then starts again, with the
+/// same future (nothing read is lost), and the bytes that arrived
+/// meanwhile are read at once.
 async fn within<F: std::future::Future>(
     deadline: Option<Duration>,
     what: &str,
     f: F,
 ) -> NetResult<F::Output> {
-    match deadline {
-        None => Ok(f.await),
-        Some(d) => tokio::time::timeout(d, f).await.map_err(|_| NetError::Io {
-            what: format!(
-                "nothing received for {:.1} s while waiting for {what}",
-                d.as_secs_f64()
-            ),
-            msg: "no heartbeat: the peer is stalled (e.g. SIGSTOP), hung, or the network is down"
-                .into(),
-        }),
+    let Some(d) = deadline else {
+        return Ok(f.await);
+    };
+    let mut f = std::pin::pin!(f);
+    loop {
+        let start = std::time::Instant::now();
+        match tokio::time::timeout(d, &mut f).await {
+            Ok(x) => return Ok(x),
+            Err(_) => {
+                let late = start.elapsed().saturating_sub(d);
+                if late > d / 2 {
+                    LATE.fetch_add(1, Ordering::Relaxed);
+                    LATE_MAX_US.fetch_max(late.as_micros() as u64, Ordering::Relaxed);
+                    continue;
+                }
+                return Err(NetError::Io {
+                    what: format!(
+                        "nothing received for {:.1} s while waiting for {what}",
+                        d.as_secs_f64()
+                    ),
+                    msg: "no heartbeat: the peer is stalled (e.g. SIGSTOP), hung, or the network is down"
+                        .into(),
+                });
+            }
+        }
     }
 }
 

@@ -34,6 +34,49 @@ pub async fn write_msg<S: AsyncWrite + Unpin, M: Message>(
     s.flush().await.map_err(io)
 }
 
+/// [`write_msg`] with a progress deadline: every 64 KiB of the frame must
+/// be written within `deadline` (a peer that stopped reading, or a link
+/// slowed to a crawl, is an error naming `peer`, not a hang).
+pub async fn write_msg_within<S: AsyncWrite + Unpin, M: Message>(
+    s: &mut S,
+    codec: &Codec,
+    from: NodeId,
+    to: NodeId,
+    msg: &M,
+    peer: &str,
+    deadline: Duration,
+) -> NetResult<()> {
+    let env = Envelope {
+        from,
+        to,
+        kind: M::KIND,
+        payload: codec.encode(msg)?,
+    };
+    let f = encode_frame(codec, &LinkFrame::Data(env))?;
+    let lost = |reason: String| NetError::PeerLost {
+        peer: peer.to_string(),
+        reason,
+    };
+    for chunk in f.chunks(64 * 1024) {
+        match tokio::time::timeout(deadline, s.write_all(chunk)).await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(lost(format!("sending a {}: {e}", M::KIND))),
+            Err(_) => {
+                return Err(lost(format!(
+                    "sending a {}: no progress for {:.1} s (the peer stopped reading, or the link crawls)",
+                    M::KIND,
+                    deadline.as_secs_f64()
+                )))
+            }
+        }
+    }
+    match tokio::time::timeout(deadline, s.flush()).await {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(lost(format!("sending a {}: {e}", M::KIND))),
+        Err(_) => Err(lost(format!("sending a {}: the flush stalled", M::KIND))),
+    }
+}
+
 /// Reads the next data frame (skipping heartbeats) and decodes it as `M`;
 /// a goodbye, an end of stream or `deadline` of silence is an error naming
 /// `peer`.

@@ -6,14 +6,15 @@
 
 use std::time::{Duration, Instant};
 
-use super::{GridMeasured, GridMsg, GridRemote, GridResult};
-use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out};
-use crate::cluster::remote::coordinator::join_all;
+use super::{GridMeasured, GridMsg, GridRemote};
+use crate::cluster::grid::{finish, prepare, report, GridConfig, GridOutcome, Phase1Out, Prepared};
+use crate::cluster::remote::coordinator::{busy_wait, hand_setup, join_setups};
 use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
 use crate::cluster::remote::phase2::{decode_message, RankLog};
-use crate::cluster::remote::session::{sha256, Session};
+use crate::cluster::remote::reassign::{endings_wait, lost_on, with_reassign};
+use crate::cluster::remote::session::{new_session_id, sha256, Session};
 use crate::cluster::ClockKind;
 use crate::compositor::codec::layers::from_name as layer_codec;
 use crate::compositor::layer::exec as layer_exec;
@@ -21,7 +22,7 @@ use crate::compositor::layer::rank::LayerGather;
 use crate::compositor::region::screen;
 use crate::compositor::{Payload, RoundKind, Schedule};
 use crate::data::Volume;
-use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport};
+use crate::net::tcp::{self, Link, TcpOptions, TcpTransport};
 use crate::net::{Codec, MessageKind, NodeId, RemoteTransport, SimTrace, Transport};
 use crate::node::grid::GridNodeStats;
 use crate::render::VolumeInput;
@@ -31,7 +32,9 @@ impl GridRemote {
     /// the workers send their layers to the coordinator, which composites
     /// (the paper); without, they run the compositor's schedule among
     /// themselves ([`crate::cluster::remote::phase2::run_partial`]) and only the final
-    /// pixels reach the coordinator.
+    /// pixels reach the coordinator. With [`GridRemote::reassign`], the
+    /// bricks of workers lost at any phase go to the survivors and the
+    /// frame runs again on them ([`with_reassign`]).
     pub fn run(
         &self,
         input: &VolumeInput,
@@ -49,18 +52,48 @@ impl GridRemote {
             self.workers.len(),
             cfg.nodes
         );
-        let p2p = !cfg.master;
         let mut cfg = cfg.clone();
         cfg.clock = ClockKind::Wall;
-        let prep = prepare(input, &cfg)?;
+        let mut prep = prepare(input, &cfg)?;
+        let parts = prep.parts.clone();
+        let ((mut out, mut m), r) =
+            with_reassign(cfg.nodes, parts, self.reassign, "bricks", |alive, parts| {
+                let sub = GridRemote {
+                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
+                    ..self.clone()
+                };
+                let mut c = cfg.clone();
+                c.nodes = alive.len();
+                prep.parts = parts.to_vec();
+                prep.total = c.nodes + prep.off;
+                let wait = busy_wait(alive.len() < cfg.nodes, self.tcp.deadline);
+                sub.run_prepared(input, &c, &prep, wait)
+            })?;
+        m.reassigned = r;
+        out.report.transport = Some(m.clone());
+        Ok((out, m))
+    }
+
+    /// One attempt of a frame on these workers with `prep`'s placement.
+    /// `busy_wait`: see [`hand_setup`].
+    fn run_prepared(
+        &self,
+        input: &VolumeInput,
+        cfg: &GridConfig,
+        prep: &Prepared,
+        busy_wait: Duration,
+    ) -> anyhow::Result<(GridOutcome, GridMeasured)> {
+        let p2p = !cfg.master;
         let codec = Codec::default();
         let rt = tcp::runtime()?;
         let scene_toml = input
             .scene
             .to_toml(&input.scene.data.path.to_string_lossy());
         let t_setup = Instant::now();
-        let me = NodeId::from(cfg.nodes);
+        // The coordinator's rank: one past every rank of the frame.
+        let me = NodeId::from(prep.total);
         let slice = WireSlice::from(&cfg.slice);
+        let session_id = new_session_id();
         let mut tasks = Vec::with_capacity(cfg.nodes);
         for k in 0..cfg.nodes {
             let rank = k + prep.off;
@@ -93,116 +126,119 @@ impl GridRemote {
                 compositor: cfg.compositor.clone(),
                 bricks_total: prep.bricks.len() as u32,
                 recv_timeout_s: self.recv_timeout.as_secs_f64(),
+                session_id,
             };
             let addr = self.workers[k].clone();
             let token = self.token.clone();
             let opts = self.tcp;
-            let wait = self.recv_timeout;
             tasks.push(rt.spawn(async move {
                 let name = format!("grid worker {k} ({addr})");
-                let (mut s, hello) = tcp::connect(&addr, &token, Role::Coordinator, me.0, &opts)
-                    .await
-                    .map_err(|e| anyhow::anyhow!("{name}, set-up: {e}"))?;
-                anyhow::ensure!(
-                    hello.role == Role::Worker,
-                    "{name}, set-up: answered as {:?}, not as a worker",
-                    hello.role
-                );
-                let d = opts.deadline.max(Duration::from_secs(10));
-                let to = NodeId::from(k);
+                let to = NodeId::from(rank);
                 let msg = Session::Grid(Box::new(GridMsg::Setup(Box::new(setup))));
-                tcp::raw::write_msg(&mut s, &codec, me, to, &msg, &name).await?;
-                let need: Session = tcp::raw::read_msg(&mut s, &codec, d, &name).await?;
-                let sent = match need {
-                    Session::Need(true) => {
-                        let len = bytes.len() as u64;
-                        tcp::raw::write_msg(&mut s, &codec, me, to, &Session::Cells(bytes), &name)
-                            .await?;
-                        len
-                    }
-                    Session::Need(false) => 0,
-                    Session::Failed(why) => anyhow::bail!("{name}, set-up: {why}"),
-                    other => anyhow::bail!("{name}, set-up: sent {other:?} instead of Need"),
+                let (s, sent) =
+                    hand_setup(&addr, &name, &token, &opts, me, to, &msg, bytes, busy_wait).await?;
+                let link = Link {
+                    rank: to,
+                    name,
+                    stream: s,
                 };
-                let t_sent = Instant::now();
-                if p2p {
-                    return Ok(Reply::Stream(
-                        Box::new(Link {
-                            rank: to,
-                            name,
-                            stream: s,
-                        }),
-                        sent,
-                        t_sent,
-                    ));
-                }
-                let m: Session = tcp::raw::read_msg(&mut s, &codec, wait, &name).await?;
-                let payload = codec.encode(&m)?.len() as u64;
-                let r = match m {
-                    Session::Grid(g) => match *g {
-                        GridMsg::Result(r) => r,
-                        other => anyhow::bail!("{name}: sent {other:?} instead of its layers"),
-                    },
-                    Session::Failed(why) => anyhow::bail!("{name}, rendering: {why}"),
-                    other => anyhow::bail!("{name}: sent {other:?} instead of its layers"),
-                };
-                Ok(Reply::Result(sent, t_sent, Instant::now(), payload, r))
+                Ok((link, sent, Instant::now()))
             }));
         }
         let mut m = GridMeasured {
             transport: self.transport.clone(),
             ..Default::default()
         };
-        let mut results = Vec::with_capacity(cfg.nodes);
         let mut links = Vec::new();
-        let (mut last_sent, mut last_in) = (t_setup, t_setup);
-        for reply in join_all(&rt, tasks, "a grid worker task")? {
-            match reply {
-                Reply::Result(sent, t_sent, t_in, payload, r) => {
-                    m.bricks_bytes_sent += sent;
-                    m.bricks_cached += usize::from(sent == 0);
-                    m.result_payload_bytes += payload;
-                    m.layer_bytes += r.layers.len() as u64;
-                    last_sent = last_sent.max(t_sent);
-                    last_in = last_in.max(t_in);
-                    results.push(*r);
-                }
-                Reply::Stream(link, sent, t_sent) => {
-                    m.bricks_bytes_sent += sent;
-                    m.bricks_cached += usize::from(sent == 0);
-                    last_sent = last_sent.max(t_sent);
-                    links.push(*link);
-                }
-            }
-        }
-        if p2p {
-            m.setup_s = last_sent.duration_since(t_setup).as_secs_f64();
-            let opts = TcpOptions { codec, ..self.tcp };
-            let t = TcpTransport::new(rt.clone(), me, cfg.nodes + 1, links, opts)?;
-            let r = self.collect_p2p(&t, input, &cfg, &prep, &mut m, last_sent);
-            t.close(Duration::from_secs(2));
-            let mut out = r?;
-            out.report.transport = Some(m.clone());
-            return Ok((out, m));
+        let mut last_sent = t_setup;
+        for (link, sent, t_sent) in join_setups(&rt, tasks, "a grid worker task", |k| {
+            format!("grid worker {k} ({})", self.workers[k])
+        })? {
+            m.bricks_bytes_sent += sent;
+            m.bricks_cached += usize::from(sent == 0);
+            last_sent = last_sent.max(t_sent);
+            links.push(link);
         }
         m.setup_s = last_sent.duration_since(t_setup).as_secs_f64();
-        m.collect_s = last_in.saturating_duration_since(last_sent).as_secs_f64();
+        let opts = TcpOptions { codec, ..self.tcp };
+        let t = TcpTransport::new(rt.clone(), me, prep.total + 1, links, opts)?;
+        let mut phase = "rendering";
+        let r = if p2p {
+            self.collect_p2p(&t, input, cfg, prep, &mut m, last_sent, &mut phase)
+        } else {
+            self.collect_master(&t, input, cfg, prep, &mut m, last_sent)
+        };
+        let r = r.map_err(|e| {
+            let wait = endings_wait(self.reassign, self.tcp.deadline);
+            lost_on(&t, prep.off, cfg.nodes, wait, e, phase)
+        });
+        t.close(Duration::from_secs(2));
+        Ok((r?, m))
+    }
+
+    /// With a master: every worker's layers over `t` (ranks `off..`), then
+    /// the master's compositing here, with the same code as the other
+    /// clocks ([`finish`]).
+    fn collect_master(
+        &self,
+        t: &TcpTransport,
+        input: &VolumeInput,
+        cfg: &GridConfig,
+        prep: &Prepared,
+        m: &mut GridMeasured,
+        t_sent: Instant,
+    ) -> anyhow::Result<GridOutcome> {
+        let codec = Codec::default();
+        let (n, off) = (cfg.nodes, prep.off);
+        for k in 0..n {
+            t.set_essential(NodeId::from(k + off), true);
+        }
         let lc = layer_codec(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
         let mut stats = vec![GridNodeStats::default(); prep.total];
         let mut layers = vec![Vec::new(); prep.total];
         let mut ends = vec![0.0; prep.total];
-        for (k, r) in results.into_iter().enumerate() {
-            let rank = k + prep.off;
+        let mut done = vec![false; n];
+        let mut t_in = t_sent;
+        while done.iter().any(|d| !d) {
+            let e = t.recv_timeout(self.recv_timeout)?.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "rendering: grid workers {:?} sent nothing within {:.0} s",
+                    (0..n).filter(|&k| !done[k]).collect::<Vec<_>>(),
+                    self.recv_timeout.as_secs_f64()
+                )
+            })?;
+            let rank = e.from.index();
+            let name = t.peer_name(e.from);
+            anyhow::ensure!(
+                (off..off + n).contains(&rank) && e.kind == MessageKind::Session,
+                "rendering: a {} message from {name}, not a grid worker's result",
+                e.kind
+            );
+            let k = rank - off;
+            let r = match codec.decode::<Session>(&e.payload)? {
+                Session::Grid(g) => match *g {
+                    GridMsg::Result(r) if !done[k] => r,
+                    other => anyhow::bail!("{name}: sent {other:?} instead of its layers"),
+                },
+                Session::Failed(why) => anyhow::bail!("{name}, rendering: {why}"),
+                other => anyhow::bail!("{name}: sent {other:?} instead of its layers"),
+            };
+            t_in = t_in.max(Instant::now());
+            m.result_payload_bytes += e.payload.len() as u64;
+            m.layer_bytes += r.layers.len() as u64;
             anyhow::ensure!(
                 r.stats.rank == rank,
-                "grid worker {k} reported rank {} instead of {rank}",
+                "{name} reported rank {} instead of {rank}",
                 r.stats.rank
             );
             layers[rank] = layer_exec::decode(lc.as_ref(), &r.layers)
-                .map_err(|e| anyhow::anyhow!("the layers of grid worker {k}: {e}"))?;
+                .map_err(|e| anyhow::anyhow!("the layers of {name}: {e}"))?;
             ends[rank] = r.stats.host_s;
             stats[rank] = r.stats;
+            done[k] = true;
+            t.set_essential(e.from, false);
         }
+        m.collect_s = t_in.saturating_duration_since(t_sent).as_secs_f64();
         stats[0].rank = 0;
         let p1 = Phase1Out {
             stats,
@@ -212,34 +248,26 @@ impl GridRemote {
             trace: SimTrace::default(),
         };
         let t2 = Instant::now();
-        let mut out = finish(input, &cfg, &prep, p1)?;
+        let out = finish(input, cfg, prep, p1)?;
         m.composite_s = t2.elapsed().as_secs_f64();
-        out.report.transport = Some(m.clone());
-        Ok((out, m))
+        Ok(out)
     }
-}
-
-/// What a coordinator's set-up task ends with.
-enum Reply {
-    /// With a master: the worker's result (bytes of samples sent, when the
-    /// set-up was sent, when the result came in, its payload bytes).
-    Result(u64, Instant, Instant, u64, Box<GridResult>),
-    /// Worker to worker: the link, kept for the frame's transport.
-    Stream(Box<Link>, u64, Instant),
 }
 
 impl GridRemote {
     /// The coordinator's side of a frame composited worker to worker: each
     /// worker's stats, the gathered pixels (pieces, and the root's own as
     /// raw f32), each rank's log; then the report from the logs.
+    #[allow(clippy::too_many_arguments)]
     fn collect_p2p(
         &self,
         t: &TcpTransport,
         input: &VolumeInput,
         cfg: &GridConfig,
-        prep: &crate::cluster::grid::Prepared,
+        prep: &Prepared,
         m: &mut GridMeasured,
         t_sent: Instant,
+        phase: &mut &'static str,
     ) -> anyhow::Result<GridOutcome> {
         let codec = Codec::default();
         let n = cfg.nodes;
@@ -298,6 +326,9 @@ impl GridRemote {
                             t2.get_or_insert_with(Instant::now);
                             t_last = Some(Instant::now());
                             stats[from] = Some(r.stats);
+                            if stats.iter().all(Option::is_some) {
+                                *phase = "phase 2";
+                            }
                         }
                         GridMsg::Done(log) if stats[from].is_some() && logs[from].is_none() => {
                             anyhow::ensure!(

@@ -89,6 +89,9 @@ pub struct GridMeasured {
     /// the last pixels in (phase 2 once every node has rendered; 0 with a
     /// master).
     pub phase2_after_renders_s: f64,
+    /// Set when `--on-failure reassign` moved lost workers' bricks to the
+    /// survivors (who, when, in which phase, the cost).
+    pub reassigned: Option<crate::cluster::remote::reassign::Reassigned>,
 }
 
 /// How the coordinator reaches its grid workers.
@@ -104,4 +107,7 @@ pub struct GridRemote {
     pub recv_timeout: Duration,
     /// `processes` or `tcp` (for the report).
     pub transport: String,
+    /// `--on-failure reassign`: the bricks of workers lost at any phase go
+    /// to the survivors and the frame runs again on them.
+    pub reassign: bool,
 }

@@ -14,6 +14,7 @@ use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
+use crate::cluster::remote::worker::{kill_self, Hooks};
 use crate::compositor::codec::layers::from_name as layer_codec;
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::LayerRank;
@@ -64,6 +65,7 @@ pub(in crate::cluster::remote) fn serve(
     setup: GridSetup,
     coord: NodeId,
     name: &str,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
     let me = NodeId(setup.rank);
@@ -114,32 +116,69 @@ pub(in crate::cluster::remote) fn serve(
         }
     };
     if !setup.peers.is_empty() {
-        return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name);
+        return serve_p2p(stream, kept, mesh, &setup, &bytes, coord, name, hooks);
     }
-    let result = render(&setup, &bytes, kept)
-        .and_then(|(stats, layers)| {
-            let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
-            let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
-            Ok(GridResult { stats, layers })
-        })
-        .map_err(|e| fail(rt, &mut stream, format!("{e:#}")))?;
-    let msg = Session::Grid(Box::new(GridMsg::Result(Box::new(result))));
-    rt.block_on(tcp::raw::write_msg(
-        &mut stream,
-        &codec,
-        me,
-        coord,
-        &msg,
-        name,
-    ))?;
-    // Wait for the coordinator to close, so that nothing is cut short.
-    let _ = rt.block_on(tcp::raw::read_msg::<_, Session>(
-        &mut stream,
-        &codec,
-        d,
-        name,
-    ));
-    Ok(())
+    serve_master(stream, kept, mesh, &setup, &bytes, coord, name, hooks)
+}
+
+/// A grid worker's frame with a master: the coordinator's link becomes a
+/// transport (heartbeats both ways while the bricks render, so a stalled
+/// or dead coordinator is noticed within the deadline, and the coordinator
+/// notices a stalled worker), then the layers go to the coordinator, and
+/// the worker waits for the coordinator to close the link.
+#[allow(clippy::too_many_arguments)]
+fn serve_master(
+    stream: TcpStream,
+    kept: &mut GridWorkerCache,
+    mesh: Mesh,
+    setup: &GridSetup,
+    bytes: &[u8],
+    coord: NodeId,
+    name: &str,
+    hooks: Hooks,
+) -> anyhow::Result<()> {
+    let codec = Codec::with_limit(setup.max_message_bytes);
+    anyhow::ensure!(
+        coord.0 == setup.nodes,
+        "{name} says it is rank {}, but the grid set-up has {} ranks",
+        coord.0,
+        setup.nodes
+    );
+    let link = tcp::Link {
+        rank: coord,
+        name: name.to_string(),
+        stream,
+    };
+    let opts = tcp::TcpOptions {
+        codec,
+        ..*mesh.opts
+    };
+    let t = TcpTransport::new(
+        Arc::clone(mesh.rt),
+        NodeId(setup.rank),
+        setup.nodes as usize + 1,
+        vec![link],
+        opts,
+    )?;
+    t.set_essential(coord, true);
+    if hooks.kill_after_chunks.is_some() {
+        kill_self("while rendering its bricks (--test-kill-after-chunks)");
+    }
+    let result = render(setup, bytes, kept).and_then(|(stats, layers)| {
+        let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
+        Ok(GridResult { stats, layers })
+    });
+    let msg = match &result {
+        Ok(r) => Session::Grid(Box::new(GridMsg::Result(Box::new(r.clone())))),
+        Err(e) => Session::Failed(format!("grid node {}: {e:#}", setup.rank)),
+    };
+    t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
+    t.set_essential(coord, false);
+    // Until the coordinator closes (or is lost), so that nothing is cut short.
+    let _ = t.link_endings(Duration::from_secs_f64(setup.recv_timeout_s));
+    t.close(Duration::from_secs(2));
+    result.map(|_| ())
 }
 
 /// A grid worker's frame composited worker to worker: join the mesh of
@@ -147,6 +186,7 @@ pub(in crate::cluster::remote) fn serve(
 /// the coordinator, run this rank's part of the schedule over the mesh
 /// ([`crate::cluster::remote::phase2::run_partial`] with a [`LayerRank`]), send the log. Any
 /// error is reported to the coordinator (`Failed`) before the links close.
+#[allow(clippy::too_many_arguments)]
 fn serve_p2p(
     stream: TcpStream,
     kept: &mut GridWorkerCache,
@@ -155,19 +195,21 @@ fn serve_p2p(
     bytes: &[u8],
     coord: NodeId,
     name: &str,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
     let t = mesh.transport(
         setup.rank,
         setup.nodes,
         &setup.peers,
+        setup.session_id,
         coord,
         name.to_string(),
         stream,
         codec,
     )?;
     t.set_essential(coord, true);
-    let r = frame_p2p(&t, kept, setup, bytes, coord);
+    let r = frame_p2p(&t, kept, setup, bytes, coord, hooks);
     match r {
         Ok(()) => {
             t.close(Duration::from_secs(10));
@@ -191,8 +233,12 @@ fn frame_p2p(
     setup: &GridSetup,
     bytes: &[u8],
     coord: NodeId,
+    hooks: Hooks,
 ) -> anyhow::Result<()> {
     let codec = Codec::with_limit(setup.max_message_bytes);
+    if hooks.kill_after_chunks.is_some() {
+        kill_self("while rendering its bricks (--test-kill-after-chunks)");
+    }
     let (stats, layers) = render(setup, bytes, kept)?;
     let result = GridResult {
         stats,
@@ -213,6 +259,13 @@ fn frame_p2p(
     );
     sched.validate().map_err(|e| anyhow::anyhow!(e))?;
     let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    if hooks.kill_in_phase2 {
+        // The stats above go out on the link's writer task; give it a
+        // moment (the message is small) so that the coordinator has them
+        // and the loss is one in phase 2, not while rendering.
+        std::thread::sleep(Duration::from_millis(300));
+        kill_self("at the start of phase 2 (--test-kill-in-phase2)");
+    }
     let mut state = LayerRank::new(
         lc.as_ref(),
         sched.image,

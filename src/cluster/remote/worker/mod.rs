@@ -14,6 +14,7 @@ mod accept;
 mod node;
 
 pub use accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};
+pub(in crate::cluster::remote) use node::kill_self;
 pub use node::{build_node, run_node, Hooks};
 
 use std::collections::VecDeque;
@@ -56,6 +57,13 @@ pub struct Worker {
     /// set-up has arrived and been validated, before the peer links are
     /// dialled: a deterministic death at set-up.
     pub kill_at_setup: bool,
+}
+
+/// Test hook (hidden `--test-stop`): the kill hooks stop the process with
+/// SIGSTOP instead (a stalled worker at a known point; it runs on when
+/// sent SIGCONT). Process-wide.
+pub fn hooks_stop_instead() {
+    node::HOOK_STOPS.store(true, std::sync::atomic::Ordering::SeqCst);
 }
 
 impl Worker {
@@ -156,10 +164,14 @@ impl Worker {
             SETUP_IDLE.min(d),
             &name,
         ))?;
+        eprintln!("pvrsim worker: a set-up from {name}");
         let setup = match setup {
             Session::Setup(s) => s,
             Session::Grid(g) => match *g {
                 crate::cluster::remote::grid::GridMsg::Setup(s) => {
+                    if self.kill_at_setup {
+                        node::kill_self("at set-up (--test-kill-at-setup)");
+                    }
                     self.door.set_rank(s.rank);
                     return crate::cluster::remote::grid::serve(
                         &self.rt,
@@ -176,6 +188,10 @@ impl Worker {
                         *s,
                         coord,
                         &name,
+                        Hooks {
+                            kill_after_chunks: self.kill_after_chunks,
+                            kill_in_phase2: self.kill_in_phase2,
+                        },
                     );
                 }
                 other => anyhow::bail!("{name} sent {other:?} instead of the set-up"),
@@ -239,6 +255,7 @@ impl Worker {
             setup.rank,
             setup.nodes,
             &setup.peers,
+            setup.session_id,
             coord,
             name,
             stream,

@@ -4,6 +4,7 @@
 //! process mid-frame ([`Hooks`]).
 
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use crate::cluster::remote::guard::SessionGuard;
@@ -17,13 +18,34 @@ use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
 use crate::render::cell::PreparedTf;
 use crate::scene::Scene;
 
-/// The test hooks' way to die: SIGKILL, as `kill -9` would.
-pub(super) fn kill_self(why: &str) {
-    eprintln!("pvrsim worker: killing itself {why}");
+/// Set by the hidden `--test-stop`: the hooks stop the process (SIGSTOP,
+/// as `kill -STOP` would) instead of killing it.
+pub(super) static HOOK_STOPS: AtomicBool = AtomicBool::new(false);
+/// A hook fires once per process (a stopped worker, continued, then
+/// serves clean frames).
+static HOOK_FIRED: AtomicBool = AtomicBool::new(false);
+
+/// The test hooks' way to fail: SIGKILL, as `kill -9` would, or with
+/// `--test-stop` SIGSTOP (the process continues when sent SIGCONT). Only
+/// the first hook of a process fires.
+pub(in crate::cluster::remote) fn kill_self(why: &str) {
+    if HOOK_FIRED.swap(true, Ordering::SeqCst) {
+        return;
+    }
+    let stop = HOOK_STOPS.load(Ordering::SeqCst);
+    let (sig, what) = if stop {
+        (libc::SIGSTOP, "stopping")
+    } else {
+        (libc::SIGKILL, "killing")
+    };
+    eprintln!("pvrsim worker: {what} itself {why}");
     // SAFETY: getpid and kill have no preconditions; this is a test hook
-    // that ends the process on purpose.
+    // that stops or ends the process on purpose.
     unsafe {
-        libc::kill(libc::getpid(), libc::SIGKILL);
+        libc::kill(libc::getpid(), sig);
+    }
+    if stop {
+        eprintln!("pvrsim worker: continued after stopping {why}");
     }
 }
 

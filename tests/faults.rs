@@ -1,0 +1,343 @@
+//! Issue 25: faults at every phase of a frame over TCP on loopback with 4
+//! workers, for mesh frames and grid frames (master and worker-to-worker
+//! compositing). Each case starts worker 2 with a hidden test hook (a
+//! `kill -9` or a `SIGSTOP` at set-up, in phase 1 or in phase 2; or a stop
+//! before the frame) and checks:
+//!
+//! - with `--on-failure reassign` the frame completes on the survivors and
+//!   the image is the undisturbed one bit for bit (`--canonical --ert 1`;
+//!   worker-to-worker grid compositing over 3 survivors instead of 4
+//!   associates the blends differently: within 1/255), and the report
+//!   names the worker and the phase;
+//! - with `abort` it fails within `--heartbeat-timeout` + 2 s with a
+//!   message naming worker 2 and the phase;
+//! - then the same pool (the stopped worker continued, a killed one
+//!   restarted) serves a clean frame with the undisturbed image.
+//!
+//! The healthy workers serve every case of a test (one pool per frame
+//! kind); heartbeat deadline 1 s; small images.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use pvrsim::cli::{Cli, Command as Cmd};
+use pvrsim::cluster::grid::GridConfig;
+use pvrsim::cluster::remote::grid::GridRemote;
+use pvrsim::cluster::remote::Coordinator;
+use pvrsim::net::tcp::{TcpOptions, Token};
+use pvrsim::render::VolumeInput;
+
+mod transport_support;
+use transport_support::*;
+
+/// The heartbeat deadline of the workers and the coordinator.
+const HB: Duration = Duration::from_secs(1);
+
+fn tcp_opts() -> TcpOptions {
+    TcpOptions {
+        deadline: HB,
+        handshake_timeout: HB,
+        ..Default::default()
+    }
+}
+
+/// How worker 2 fails in a case.
+#[derive(Debug, Clone, Copy)]
+enum Fault {
+    /// A hook (`--test-...`) kills it.
+    Kill(&'static str),
+    /// The same hook stops it (SIGSTOP); the case continues it after.
+    Stop(&'static str),
+    /// `kill -STOP` before the frame; continued after.
+    StoppedBefore,
+}
+
+/// The pool: three healthy workers that serve every case, and worker 2,
+/// started anew with the case's hook.
+struct Pool {
+    tok: std::path::PathBuf,
+    healthy: Vec<WorkerProc>,
+    victim: Option<WorkerProc>,
+    _dir: tempfile::TempDir,
+}
+
+impl Pool {
+    fn new() -> Pool {
+        let dir = tempfile::tempdir().unwrap();
+        let tok = token_file(dir.path(), "token");
+        let healthy = (0..3).map(|_| worker(&tok, &[])).collect();
+        Pool {
+            tok,
+            healthy,
+            victim: None,
+            _dir: dir,
+        }
+    }
+
+    fn token(&self) -> Token {
+        Token::load(&self.tok).unwrap()
+    }
+
+    /// Worker 2 anew, with `args`.
+    fn victim(&mut self, args: &[&str]) {
+        self.victim = Some(worker(&self.tok, args));
+    }
+
+    /// Addresses by rank: worker 2 is the victim.
+    fn addrs(&self) -> Vec<String> {
+        let v = self.victim.as_ref().expect("a victim");
+        let h = &self.healthy;
+        [&h[0], &h[1], v, &h[2]]
+            .iter()
+            .map(|w| w.addr.clone())
+            .collect()
+    }
+
+    /// Sets worker 2 up for `fault`.
+    fn arm(&mut self, fault: Fault) {
+        match fault {
+            Fault::Kill(hook) => {
+                let a: Vec<&str> = hook.split(' ').collect();
+                self.victim(&a);
+            }
+            Fault::Stop(hook) => {
+                let mut a = vec!["--test-stop"];
+                a.extend(hook.split(' '));
+                self.victim(&a);
+            }
+            Fault::StoppedBefore => {
+                self.victim(&[]);
+                self.victim.as_ref().unwrap().signal("-STOP");
+            }
+        }
+    }
+
+    /// After a case: a stopped worker 2 continues, a killed one is
+    /// started anew (without hooks), so that the pool is whole again.
+    fn heal(&mut self, fault: Fault) {
+        match fault {
+            Fault::Kill(_) => self.victim(&[]),
+            Fault::Stop(_) | Fault::StoppedBefore => {
+                self.victim.as_ref().unwrap().signal("-CONT");
+            }
+        }
+    }
+}
+
+fn worker(tok: &Path, hooks: &[&str]) -> WorkerProc {
+    let mut a = vec!["--heartbeat-timeout", "1"];
+    a.extend_from_slice(hooks);
+    WorkerProc::start_with(Some(tok), &a, false)
+}
+
+/// The mesh cases: each fault at each phase, and the phase the
+/// coordinator must name.
+const MESH_CASES: &[(Fault, &str)] = &[
+    (Fault::StoppedBefore, "set-up"),
+    (Fault::Kill("--test-kill-at-setup"), "set-up"),
+    (Fault::Stop("--test-kill-at-setup"), "set-up"),
+    (Fault::Kill("--test-kill-after-chunks 2"), "phase 1"),
+    (Fault::Stop("--test-kill-after-chunks 2"), "phase 1"),
+    (Fault::Kill("--test-kill-in-phase2"), "phase 2"),
+    (Fault::Stop("--test-kill-in-phase2"), "phase 2"),
+];
+
+fn coordinator(pool: &Pool, reassign: bool) -> Coordinator {
+    Coordinator {
+        workers: pool.addrs(),
+        token: pool.token(),
+        tcp: tcp_opts(),
+        recv_timeout: Duration::from_secs(30),
+        reassign,
+    }
+}
+
+/// The abort bound: the heartbeat deadline plus 2 s.
+fn abort_bound() -> Duration {
+    HB + Duration::from_secs(2)
+}
+
+#[test]
+fn mesh_frames_survive_every_fault_at_every_phase() {
+    let (input, cfg) = config(
+        &data("aorta-small-view-b.toml"),
+        &["--nodes", "4", "--canonical", "--ert", "1"],
+    );
+    let mut pool = Pool::new();
+    pool.victim(&[]);
+    let reference = bits(&coordinator(&pool, false).run(&input, &cfg).unwrap().0.image);
+    for &(fault, phase) in MESH_CASES {
+        for reassign in [true, false] {
+            let case = format!("{fault:?}, reassign {reassign}");
+            pool.arm(fault);
+            let t = Instant::now();
+            let r = coordinator(&pool, reassign).run(&input, &cfg);
+            let took = t.elapsed();
+            if reassign {
+                let (out, m) = r.unwrap_or_else(|e| panic!("{case}: {e:#}"));
+                assert_eq!(bits(&out.image), reference, "{case}: not the same image");
+                let re = m.reassigned.expect("a reassignment in the report");
+                assert_eq!(re.events.len(), 1, "{case}: {re:?}");
+                let ev = &re.events[0];
+                assert_eq!(ev.phase, phase, "{case}: {ev:?}");
+                assert!(
+                    ev.workers.len() == 1 && ev.workers[0].starts_with("worker 2 "),
+                    "{case}: {ev:?}"
+                );
+                assert!(ev.moved > 0 && ev.survivors == 3, "{case}: {ev:?}");
+                assert!(
+                    re.recovery_s > 0.0 && re.recovery_s <= took.as_secs_f64(),
+                    "{case}: {re:?}"
+                );
+                assert_eq!(out.report.n_nodes, 3, "{case}");
+            } else {
+                let e = format!(
+                    "{:#}",
+                    r.err().unwrap_or_else(|| panic!("{case}: no error"))
+                );
+                assert!(e.contains("worker 2"), "{case}: {e}");
+                assert!(e.contains(phase), "{case}: names no phase {phase}: {e}");
+                assert!(took < abort_bound(), "{case}: failed after {took:?}: {e}");
+            }
+            pool.heal(fault);
+            let (out, _) = coordinator(&pool, false)
+                .run(&input, &cfg)
+                .unwrap_or_else(|e| panic!("{case}: the clean frame after it: {e:#}"));
+            assert_eq!(
+                bits(&out.image),
+                reference,
+                "{case}: the clean frame after it"
+            );
+        }
+    }
+}
+
+fn grid_scene(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("crop.toml");
+    let vol = data("volume/mni-crop.nhdr");
+    std::fs::write(
+        &p,
+        format!(
+            r#"[data]
+path = {:?}
+field = "intensity"
+[camera]
+eye = [60, -50, 70]
+target = [-2.5, -18.5, 23.5]
+up = [0, 0, 1]
+projection = "perspective"
+fov_y_deg = 40
+[image]
+width = 48
+height = 40
+background = [0.1, 0.1, 0.2]
+[transfer]
+unit_distance = 1
+points = [[0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.3, 0.05], [1, 1, 1, 0.9, 0.4]]
+"#,
+            vol.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    p
+}
+
+fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
+    let mut v = vec!["pvrsim", "cluster", scene.to_str().unwrap()];
+    v.extend_from_slice(args);
+    let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
+        unreachable!()
+    };
+    let cfg = pvrsim::cli::cluster_grid::config(&a).unwrap();
+    let sc = pvrsim::scene::Scene::load(&a.scene).unwrap();
+    let vol = pvrsim::data::io::read_volume(&sc.data.path, &sc.data.field).unwrap();
+    (VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg)
+}
+
+fn grid_remote(pool: &Pool, reassign: bool) -> GridRemote {
+    GridRemote {
+        workers: pool.addrs(),
+        token: pool.token(),
+        tcp: tcp_opts(),
+        recv_timeout: Duration::from_secs(30),
+        transport: "tcp".into(),
+        reassign,
+    }
+}
+
+/// Grid frames, 4 workers, 8 bricks: with a master (the bricks' layers go
+/// to the coordinator) and worker to worker (binary swap), each fault at
+/// set-up, while rendering and (worker to worker) in phase 2.
+#[test]
+fn grid_frames_survive_every_fault_at_every_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = grid_scene(dir.path());
+    let mut pool = Pool::new();
+    for comp in ["master", "binary-swap"] {
+        let mut args = vec!["--nodes", "4", "--subvolumes", "2", "--ert", "1"];
+        args.extend(if comp == "master" {
+            ["--master"]
+        } else {
+            ["--compositor=binary-swap"]
+        });
+        let (input, cfg) = grid_config(&scene, &args);
+        pool.victim(&[]);
+        let reference = grid_remote(&pool, false).run(&input, &cfg).unwrap().0.image;
+        let mut cases = vec![
+            (Fault::StoppedBefore, "set-up"),
+            (Fault::Kill("--test-kill-at-setup"), "set-up"),
+            (Fault::Kill("--test-kill-after-chunks 0"), "rendering"),
+            (Fault::Stop("--test-kill-after-chunks 0"), "rendering"),
+        ];
+        if comp != "master" {
+            cases.push((Fault::Kill("--test-kill-in-phase2"), "phase 2"));
+            cases.push((Fault::Stop("--test-kill-in-phase2"), "phase 2"));
+        }
+        for (fault, phase) in cases {
+            for reassign in [true, false] {
+                let case = format!("{comp}, {fault:?}, reassign {reassign}");
+                pool.arm(fault);
+                let t = Instant::now();
+                let r = grid_remote(&pool, reassign).run(&input, &cfg);
+                let took = t.elapsed();
+                if reassign {
+                    let (out, m) = r.unwrap_or_else(|e| panic!("{case}: {e:#}"));
+                    if comp == "master" {
+                        assert_eq!(bits(&out.image), bits(&reference), "{case}");
+                    } else {
+                        let d = max_diff_255(&out.image, &reference);
+                        assert!(d <= 1.0, "{case}: {d}/255 from the undisturbed image");
+                    }
+                    let re = m.reassigned.expect("a reassignment in the report");
+                    let ev = &re.events[0];
+                    assert_eq!((re.events.len(), ev.phase.as_str()), (1, phase), "{case}");
+                    assert!(
+                        ev.workers[0].starts_with("grid worker 2 "),
+                        "{case}: {ev:?}"
+                    );
+                    assert_eq!((ev.moved, ev.survivors), (2, 3), "{case}: {ev:?}");
+                    assert_eq!(out.report.transport.unwrap().reassigned, Some(re), "{case}");
+                } else {
+                    let e = format!(
+                        "{:#}",
+                        r.err().unwrap_or_else(|| panic!("{case}: no error"))
+                    );
+                    assert!(e.contains("grid worker 2"), "{case}: {e}");
+                    assert!(e.contains(phase), "{case}: names no phase {phase}: {e}");
+                    assert!(took < abort_bound(), "{case}: failed after {took:?}: {e}");
+                }
+                pool.heal(fault);
+                let (out, _) = grid_remote(&pool, false)
+                    .run(&input, &cfg)
+                    .unwrap_or_else(|e| panic!("{case}: the clean frame after it: {e:#}"));
+                assert_eq!(
+                    bits(&out.image),
+                    bits(&reference),
+                    "{case}: the clean frame"
+                );
+            }
+        }
+    }
+}
