@@ -67,6 +67,11 @@ pub struct FidelityArgs {
     /// exit 1 when a ratio leaves its band.
     #[arg(long, value_name = "LINK")]
     pub check: Option<String>,
+    /// With --check: bands whose description contains TEXT (e.g. `frame`)
+    /// are printed and marked but do not fail the check (a known gap,
+    /// named in docs/experiments/fidelity.md). Repeatable.
+    #[arg(long, value_name = "TEXT")]
+    pub report_band: Vec<String>,
     /// Run no frame: print, plot and check the rows in OUT/fidelity.json.
     #[arg(long)]
     pub report_only: bool,
@@ -78,6 +83,11 @@ pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
         !(a.report_only && a.calibrate),
         "--report-only runs nothing; leave out --calibrate"
     );
+    anyhow::ensure!(
+        a.report_band.is_empty() || a.check.is_some(),
+        "--report-band marks bands of --check; give --check LINK"
+    );
+    let report_band = a.report_band.clone();
     let mut profile = a.profile.clone();
     let mut o = FidelityOptions {
         mesh_scene: a.mesh_scene,
@@ -126,14 +136,20 @@ pub fn run(a: FidelityArgs) -> anyhow::Result<()> {
     }
     let mut failed = 0;
     for b in &r.bands {
+        let reported = report_band.iter().any(|t| b.what.contains(t.as_str()));
         println!(
-            "band {}: {}: modelled / measured {:.3} (within {:.0} %)",
+            "band {}: {}: modelled / measured {:.3} (within {:.0} %){}",
             if b.ok { "ok  " } else { "FAIL" },
             b.what,
             b.ratio,
-            100.0 * b.tolerance
+            100.0 * b.tolerance,
+            if reported {
+                " [reported, not held: --report-band]"
+            } else {
+                ""
+            }
         );
-        failed += usize::from(!b.ok);
+        failed += usize::from(!b.ok && !reported);
     }
     if o.check_link.is_some() {
         anyhow::ensure!(
