@@ -409,6 +409,7 @@ mod seeds {
             cells_initial: 2,
             cells_sha256: sha256(&cells),
             recv_timeout_s: 30.0,
+            session_id: [7; 16],
         }
     }
 
