@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Extra CI steps for the real transports (call from .ci/run after the README's
 # test command; CI runs as root). Installs iproute2 (ip, tc) and python3 if
-# missing, builds the release binary, and runs the namespace and fidelity checks; then
+# missing, builds the release binary, and runs the namespace checks (the
+# transports, then network faults: a link down mid-frame, one at a crawl,
+# then the fidelity check); then
 # installs OpenMPI and libclang (apt-get update first) and runs the MPI
 # check. On a developer's machine that check builds `--features mpi` in
 # target-mpi/ so target/ stays valid; CI's target/ is thrown away after
@@ -14,6 +16,7 @@ if ! command -v ip >/dev/null || ! command -v tc >/dev/null || ! command -v pyth
 fi
 cargo build --release
 scripts/netns-check.sh tests/data/aorta-small-view-b.toml 4
+scripts/netns-faults.sh tests/data/aorta-small-view-b.toml
 # The simulator against measured runs: calibrate, then 2 and 4 nodes over TCP
 # workers and worker processes on the 100 Mbit emulated link; exits 1 when a
 # ratio leaves its band (docs/experiments/fidelity.md). About 1.5 min.

@@ -115,12 +115,21 @@ impl Pool {
     }
 
     /// After a case: a stopped worker 2 continues, a killed one is
-    /// started anew (without hooks), so that the pool is whole again.
+    /// started anew (without hooks), so that the pool is whole again. A
+    /// worker stopped mid-frame notices, once continued, that the frame is
+    /// gone: it must give it up (its log says so) within the deadline plus
+    /// 2 s (closing its links) and a margin for a loaded host.
     fn heal(&mut self, fault: Fault) {
         match fault {
             Fault::Kill(_) => self.victim(&[]),
-            Fault::Stop(_) | Fault::StoppedBefore => {
-                self.victim.as_ref().unwrap().signal("-CONT");
+            Fault::StoppedBefore => self.victim.as_ref().unwrap().signal("-CONT"),
+            Fault::Stop(hook) => {
+                let v = self.victim.as_ref().unwrap();
+                v.signal("-CONT");
+                assert!(
+                    v.wait_line("failed", HB + Duration::from_secs(4)),
+                    "worker 2, continued after {hook}, still holds the old frame"
+                );
             }
         }
     }

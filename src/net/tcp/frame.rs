@@ -234,6 +234,41 @@ mod tests {
         }
     }
 
+    /// This process not scheduled (the runtime's only thread blocked, as
+    /// under SIGSTOP) for four of a link's deadlines; the peer's next
+    /// heartbeat comes just after it runs again: the late timer does not
+    /// declare the peer silent (without the check it would), the wait
+    /// starts again, the heartbeat is read, and the late wake-up is counted.
+    #[test]
+    fn a_late_deadline_timer_is_not_the_peers_silence() {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = l.local_addr().unwrap();
+        let peer = std::thread::spawn(move || {
+            let (mut s, _) = l.accept().unwrap();
+            std::thread::sleep(Duration::from_millis(880));
+            std::io::Write::write_all(&mut s, &[TAG_HEARTBEAT]).unwrap();
+            std::thread::sleep(Duration::from_millis(500));
+        });
+        let (late0, _) = late_wakeups();
+        let got = rt.block_on(async {
+            let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+            // Blocks the runtime's only thread for four deadlines, from
+            // just after the read starts.
+            tokio::spawn(async {
+                tokio::time::sleep(Duration::from_millis(10)).await;
+                std::thread::sleep(Duration::from_millis(800));
+            });
+            read_frame_async(&mut s, &Codec::default(), Some(Duration::from_millis(200))).await
+        });
+        peer.join().unwrap();
+        assert_eq!(got.unwrap(), Some(LinkFrame::Heartbeat));
+        assert!(late_wakeups().0 > late0);
+    }
+
     #[test]
     fn forged_length_is_an_error_before_allocation() {
         let codec = Codec::with_limit(1 << 20);
