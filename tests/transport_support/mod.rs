@@ -100,16 +100,24 @@ impl WorkerProc {
     }
 
     pub fn wait_line(&self, needle: &str, within: Duration) -> bool {
+        self.wait_line_or_seen(needle, within).is_ok()
+    }
+
+    /// As [`Self::wait_line`], with the lines read meanwhile when `needle`
+    /// did not come (for the failure message).
+    pub fn wait_line_or_seen(&self, needle: &str, within: Duration) -> Result<(), Vec<String>> {
         let until = Instant::now() + within;
+        let mut seen = Vec::new();
         while let Ok(l) = self
             .lines
             .recv_timeout(until.saturating_duration_since(Instant::now()))
         {
             if l.contains(needle) {
-                return true;
+                return Ok(());
             }
+            seen.push(l);
         }
-        false
+        Err(seen)
     }
 
     pub fn signal(&self, sig: &str) {

@@ -165,6 +165,12 @@ fn serve_master(
         kill_self("while rendering its bricks (--test-kill-after-chunks)");
     }
     let result = render(setup, bytes, kept).and_then(|(stats, layers)| {
+        let early = queued_unless_given_up(&t)?;
+        anyhow::ensure!(
+            early.is_empty(),
+            "{} unexpected message(s) from the coordinator while rendering",
+            early.len()
+        );
         let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
         let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
         Ok(GridResult { stats, layers })
@@ -179,6 +185,23 @@ fn serve_master(
     let _ = t.link_endings(Duration::from_secs_f64(setup.recv_timeout_s));
     t.close(Duration::from_secs(2));
     result.map(|_| ())
+}
+
+/// The messages queued while this worker rendered, or an error if the
+/// coordinator gave the frame up meanwhile (e.g. while this process was
+/// stopped past the heartbeat deadline): it is essential during the frame,
+/// so its `Goodbye`, like any lost link, is an error here. The frame is
+/// then dropped and the session ends failed, not "done" with layers that
+/// nobody reads (its peers' phase-2 messages may well be queued already).
+fn queued_unless_given_up(t: &TcpTransport) -> anyhow::Result<Vec<crate::net::Envelope>> {
+    let mut queued = Vec::new();
+    loop {
+        match t.try_recv() {
+            Ok(Some(e)) => queued.push(e),
+            Ok(None) => return Ok(queued),
+            Err(e) => anyhow::bail!("the frame was given up while this worker rendered: {e}"),
+        }
+    }
 }
 
 /// A grid worker's frame composited worker to worker: join the mesh of
@@ -240,6 +263,7 @@ fn frame_p2p(
         kill_self("while rendering its bricks (--test-kill-after-chunks)");
     }
     let (stats, layers) = render(setup, bytes, kept)?;
+    let early = queued_unless_given_up(t)?;
     let result = GridResult {
         stats,
         layers: Vec::new(),
@@ -279,9 +303,12 @@ fn frame_p2p(
         coord,
         &sched,
         &mut state,
-        Vec::new(),
+        early,
         Duration::from_secs_f64(setup.recv_timeout_s),
     )?;
+    // The coordinator waits for every rank's log before it ends the frame:
+    // its `Goodbye` before ours went out means it gave the frame up.
+    queued_unless_given_up(t)?;
     let msg = Session::Grid(Box::new(GridMsg::Done(Box::new(log))));
     t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
     Ok(())
