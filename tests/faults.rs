@@ -226,36 +226,6 @@ fn mesh_frames_survive_every_fault_at_every_phase() {
     }
 }
 
-fn grid_scene(dir: &Path) -> std::path::PathBuf {
-    let p = dir.join("crop.toml");
-    let vol = data("volume/mni-crop.nhdr");
-    std::fs::write(
-        &p,
-        format!(
-            r#"[data]
-path = {:?}
-field = "intensity"
-[camera]
-eye = [60, -50, 70]
-target = [-2.5, -18.5, 23.5]
-up = [0, 0, 1]
-projection = "perspective"
-fov_y_deg = 40
-[image]
-width = 48
-height = 40
-background = [0.1, 0.1, 0.2]
-[transfer]
-unit_distance = 1
-points = [[0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.3, 0.05], [1, 1, 1, 0.9, 0.4]]
-"#,
-            vol.to_str().unwrap()
-        ),
-    )
-    .unwrap();
-    p
-}
-
 fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
     let mut v = vec!["pvrsim", "cluster", scene.to_str().unwrap()];
     v.extend_from_slice(args);
@@ -285,7 +255,7 @@ fn grid_remote(pool: &Pool, reassign: bool) -> GridRemote {
 #[test]
 fn grid_frames_survive_every_fault_at_every_phase() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = grid_scene(dir.path());
+    let scene = grid_scene(dir.path(), (48, 40));
     let mut pool = Pool::new();
     for comp in ["master", "binary-swap"] {
         let mut args = vec!["--nodes", "4", "--subvolumes", "2", "--ert", "1"];

@@ -301,3 +301,87 @@ fn wrong_tokens_and_silent_connections_leave_the_pool_ready() {
     assert!(t.elapsed() < Duration::from_secs(10), "{:?}", t.elapsed());
     drop(idle);
 }
+
+/// The coordinator itself stopped (SIGSTOP) mid-frame for three times the
+/// workers' heartbeat deadline: the workers give up on it, and once it
+/// continues its error says that it was not running, instead of blaming
+/// a worker as stalled (issue 26), without reassigning the frame away
+/// from the healthy workers even with `--on-failure reassign`. Then the
+/// same pool serves a clean frame. A grid frame of 2 bricks a worker at
+/// 640x560 renders for a few hundred ms, so a stop at the workers' "a
+/// set-up from" lands inside the frame.
+#[test]
+fn a_stopped_coordinator_blames_itself_not_the_workers() {
+    let dir = tempfile::tempdir().unwrap();
+    let tok = token_file(dir.path(), "token");
+    let w: Vec<WorkerProc> = (0..2).map(|_| worker(&tok, &[])).collect();
+    let addrs = w
+        .iter()
+        .map(|w| w.addr.clone())
+        .collect::<Vec<_>>()
+        .join(",");
+    let big = grid_scene(dir.path(), (640, 560));
+    let c = Command::new(EXE)
+        .arg("cluster")
+        .arg(&big)
+        .args(["--nodes", "2", "--subvolumes", "2"])
+        .args(["--compositor", "binary-swap", "--on-failure", "reassign"])
+        .args(["--transport", "tcp", "--token-file"])
+        .arg(&tok)
+        .args(["--workers", &addrs, "--heartbeat-timeout", "1", "-o"])
+        .arg(dir.path().join("stopped.png"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    assert!(
+        w[0].wait_line("a set-up from", Duration::from_secs(30)),
+        "the frame did not start"
+    );
+    let pid = c.id().to_string();
+    let kill = |sig: &str| {
+        assert!(Command::new("kill")
+            .args([sig, &pid])
+            .status()
+            .unwrap()
+            .success());
+    };
+    kill("-STOP");
+    std::thread::sleep(HB * 3);
+    kill("-CONT");
+    let t = Instant::now();
+    let out = c.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "the stopped frame succeeded: {err}");
+    assert!(
+        err.contains("this coordinator was itself not running for about")
+            && err.contains("workers that gave up on it are not at fault"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("go to the"),
+        "reassigned after its own stop: {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        t.elapsed() < HB * 8,
+        "failed {:?} after it continued",
+        t.elapsed()
+    );
+    // The same pool, a clean frame.
+    let small = grid_scene(dir.path(), (48, 40));
+    let ok = Command::new(EXE)
+        .arg("cluster")
+        .arg(&small)
+        .args(["--nodes", "2", "--transport", "tcp", "--token-file"])
+        .arg(&tok)
+        .args(["--workers", &addrs, "-o"])
+        .arg(dir.path().join("clean.png"))
+        .output()
+        .unwrap();
+    assert!(
+        ok.status.success(),
+        "the clean frame after it: {}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+}

@@ -34,6 +34,7 @@ pub mod metered;
 pub mod mpi;
 pub mod remote;
 pub mod sim;
+pub mod stall;
 pub mod tcp;
 pub mod trace;
 pub mod transport;

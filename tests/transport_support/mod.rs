@@ -209,3 +209,37 @@ pub fn max_diff_255(a: &pvrsim::image::Image, b: &pvrsim::image::Image) -> f64 {
         .fold(0.0, f64::max)
         * 255.0
 }
+
+/// A perspective scene of the bundled MNI crop (`tests/data/volume`) at
+/// `size` = (width, height), written to `dir/crop.toml`.
+pub fn grid_scene(dir: &Path, size: (u32, u32)) -> PathBuf {
+    let p = dir.join("crop.toml");
+    let vol = data("volume/mni-crop.nhdr");
+    std::fs::write(
+        &p,
+        format!(
+            r#"[data]
+path = {:?}
+field = "intensity"
+[camera]
+eye = [60, -50, 70]
+target = [-2.5, -18.5, 23.5]
+up = [0, 0, 1]
+projection = "perspective"
+fov_y_deg = 40
+[image]
+width = {}
+height = {}
+background = [0.1, 0.1, 0.2]
+[transfer]
+unit_distance = 1
+points = [[0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.3, 0.05], [1, 1, 1, 0.9, 0.4]]
+"#,
+            vol.to_str().unwrap(),
+            size.0,
+            size.1
+        ),
+    )
+    .unwrap();
+    p
+}

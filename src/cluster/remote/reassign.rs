@@ -114,14 +114,20 @@ pub fn reassign_parts(parts: &[Vec<u32>], lost: &[usize]) -> Vec<Vec<u32>> {
 /// `parts` (their shares by rank). When an attempt fails with
 /// [`LostWorkers`] attached, `reassign` is on and survivors remain, the
 /// lost workers' shares go to the survivors and the next attempt runs on
-/// them. Returns the outcome and, if any loss happened, what was done.
+/// them. An attempt that failed while this process itself was not
+/// running for half the heartbeat `deadline` or more
+/// ([`crate::net::stall`]) is an error that says so, with no
+/// reassignment: the workers that gave up on us are not at fault. Returns
+/// the outcome and, if any loss happened, what was done.
 pub fn with_reassign<T>(
     workers: usize,
     parts: Vec<Vec<u32>>,
+    deadline: Duration,
     reassign: bool,
     what: &str,
     mut attempt: impl FnMut(&[usize], &[Vec<u32>]) -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, Option<Reassigned>)> {
+    crate::net::stall::watch();
     let t0 = Instant::now();
     let mut alive: Vec<usize> = (0..workers).collect();
     let mut parts = parts;
@@ -140,15 +146,20 @@ pub fn with_reassign<T>(
             Err(e) => e,
         };
         let (late, late_s) = crate::net::tcp::frame::late_wakeups();
-        let e = if late > late0 {
-            // Not the workers' fault: they heard nothing from us.
-            e.context(format!(
-                "this coordinator was itself not running for about {late_s:.1} s during the frame \
-                 (stopped, e.g. SIGSTOP, or starved of CPU); workers that gave up on it are not at fault"
-            ))
-        } else {
-            e
-        };
+        let stalled = crate::net::stall::longest_since(t_attempt);
+        if late > late0 || stalled >= deadline / 2 {
+            // Not the workers' fault: they heard nothing from us. Nor is
+            // a reassignment away from them the cure.
+            let s = late_s.max(stalled.as_secs_f64());
+            return Err(context(
+                e.context(format!(
+                    "this coordinator was itself not running for about {s:.1} s during the frame \
+                     (stopped, e.g. SIGSTOP, suspended, or starved of CPU); workers that gave up on \
+                     it are not at fault: run the frame again"
+                )),
+                &done,
+            ));
+        }
         let Some(lost) = e.downcast_ref::<LostWorkers>().cloned() else {
             return Err(context(e, &done));
         };
@@ -217,6 +228,7 @@ impl Coordinator {
         let ((out, mut m), r) = with_reassign(
             n,
             placement.parts,
+            self.tcp.deadline,
             self.reassign,
             "cells",
             |alive, parts| {

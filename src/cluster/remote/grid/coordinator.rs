@@ -56,8 +56,13 @@ impl GridRemote {
         cfg.clock = ClockKind::Wall;
         let mut prep = prepare(input, &cfg)?;
         let parts = prep.parts.clone();
-        let ((mut out, mut m), r) =
-            with_reassign(cfg.nodes, parts, self.reassign, "bricks", |alive, parts| {
+        let ((mut out, mut m), r) = with_reassign(
+            cfg.nodes,
+            parts,
+            self.tcp.deadline,
+            self.reassign,
+            "bricks",
+            |alive, parts| {
                 let sub = GridRemote {
                     workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
                     ..self.clone()
@@ -68,7 +73,8 @@ impl GridRemote {
                 prep.total = c.nodes + prep.off;
                 let wait = busy_wait(alive.len() < cfg.nodes, self.tcp.deadline);
                 sub.run_prepared(input, &c, &prep, wait)
-            })?;
+            },
+        )?;
         m.reassigned = r;
         out.report.transport = Some(m.clone());
         Ok((out, m))

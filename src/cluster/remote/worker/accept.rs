@@ -11,8 +11,11 @@
 //! - Nothing but a fixed refusal goes to an unauthenticated peer (see
 //!   [`crate::net::tcp::handshake`]); the reason is logged here.
 //! - Authenticated coordinators and probes start a session if the worker
-//!   is idle; while it is busy, a coordinator is told so
-//!   (`Session::Failed("busy ...")`) and a probe is closed. Authenticated
+//!   is idle or becomes idle within [`BUSY_GRACE`] (the tail of the last
+//!   session: a coordinator that starts its next frame at once must not
+//!   race the worker closing the previous one); while it stays busy, a
+//!   coordinator is told so (`Session::Failed("busy ...")`) and a probe
+//!   is closed. Authenticated
 //!   workers (mesh peers) wait in a bounded queue for the session's mesh
 //!   (a peer may dial before this worker's own set-up arrives); stale ones
 //!   are dropped.
@@ -38,6 +41,12 @@ use crate::net::{Codec, NodeId};
 pub const MAX_PENDING: usize = 128;
 /// Longest a connection may take to authenticate.
 pub const PRE_AUTH: Duration = Duration::from_secs(3);
+/// How long a coordinator or probe that arrives while a session runs
+/// waits for it to end before it is told "busy": a session's tail (links
+/// closing after the result went out) takes milliseconds, and the next
+/// frame of a series arrives in it. At most half the heartbeat deadline,
+/// which the coordinator allows for the worker's answer.
+pub const BUSY_GRACE: Duration = Duration::from_millis(1500);
 /// Mesh peers that may wait for a session to take them (beyond that, the
 /// oldest is dropped).
 const PEER_QUEUE: usize = 256;
@@ -192,6 +201,21 @@ async fn accept_loop(listener: TcpListener, sh: Arc<Shared>) {
     }
 }
 
+/// Sets `busy` if it is clear now or clears within `grace` (checked every
+/// 10 ms); false if it stayed set.
+async fn take_within(busy: &AtomicBool, grace: Duration) -> bool {
+    let until = Instant::now() + grace;
+    loop {
+        let took = busy
+            .compare_exchange(false, true, Ordering::SeqCst, Ordering::SeqCst)
+            .is_ok();
+        if took || Instant::now() >= until {
+            return took;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}
+
 async fn handshake(mut s: TcpStream, from: SocketAddr, id: u64, sh: Arc<Shared>) {
     let t = sh.opts.handshake_timeout.min(PRE_AUTH);
     let name = from.to_string();
@@ -219,11 +243,7 @@ async fn handshake(mut s: TcpStream, from: SocketAddr, id: u64, sh: Arc<Shared>)
     };
     match hello.role {
         Role::Coordinator | Role::Probe => {
-            if sh
-                .busy
-                .compare_exchange(false, true, Ordering::SeqCst, Ordering::SeqCst)
-                .is_ok()
-            {
+            if take_within(&sh.busy, BUSY_GRACE.min(sh.opts.deadline / 2)).await {
                 if sh.sessions.send(a).await.is_err() {
                     sh.busy.store(false, Ordering::SeqCst);
                 }
