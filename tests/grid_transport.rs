@@ -19,36 +19,10 @@ use pvrsim::net::tcp::TcpOptions;
 use pvrsim::render::VolumeInput;
 
 mod transport_support;
-use transport_support::{bits, data, EXE};
+use transport_support::{bits, grid_scene_from, EXE};
 
 fn scene(dir: &Path, eye: &str) -> std::path::PathBuf {
-    let p = dir.join(format!("crop-{}.toml", eye.len()));
-    let vol = data("volume/mni-crop.nhdr");
-    std::fs::write(
-        &p,
-        format!(
-            r#"[data]
-path = {:?}
-field = "intensity"
-[camera]
-eye = {eye}
-target = [-2.5, -18.5, 23.5]
-up = [0, 0, 1]
-projection = "perspective"
-fov_y_deg = 40
-[image]
-width = 48
-height = 40
-background = [0.1, 0.1, 0.2]
-[transfer]
-unit_distance = 1
-points = [[0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.3, 0.05], [1, 1, 1, 0.9, 0.4]]
-"#,
-            vol.to_str().unwrap()
-        ),
-    )
-    .unwrap();
-    p
+    grid_scene_from(dir, eye, (48, 40))
 }
 
 fn config(scene: &Path, args: &[&str]) -> anyhow::Result<(VolumeInput, GridConfig)> {

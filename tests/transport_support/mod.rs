@@ -213,7 +213,17 @@ pub fn max_diff_255(a: &pvrsim::image::Image, b: &pvrsim::image::Image) -> f64 {
 /// A perspective scene of the bundled MNI crop (`tests/data/volume`) at
 /// `size` = (width, height), written to `dir/crop.toml`.
 pub fn grid_scene(dir: &Path, size: (u32, u32)) -> PathBuf {
-    let p = dir.join("crop.toml");
+    grid_scene_from(dir, "[60, -50, 70]", size)
+}
+
+/// [`grid_scene`] seen from `eye` (a TOML array), written to
+/// `dir/crop-<len of eye>.toml` unless it is the default eye.
+pub fn grid_scene_from(dir: &Path, eye: &str, size: (u32, u32)) -> PathBuf {
+    let p = if eye == "[60, -50, 70]" {
+        dir.join("crop.toml")
+    } else {
+        dir.join(format!("crop-{}.toml", eye.len()))
+    };
     let vol = data("volume/mni-crop.nhdr");
     std::fs::write(
         &p,
@@ -222,7 +232,7 @@ pub fn grid_scene(dir: &Path, size: (u32, u32)) -> PathBuf {
 path = {:?}
 field = "intensity"
 [camera]
-eye = [60, -50, 70]
+eye = {eye}
 target = [-2.5, -18.5, 23.5]
 up = [0, 0, 1]
 projection = "perspective"
