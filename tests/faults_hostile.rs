@@ -307,9 +307,13 @@ fn wrong_tokens_and_silent_connections_leave_the_pool_ready() {
 /// continues its error says that it was not running, instead of blaming
 /// a worker as stalled (issue 26), without reassigning the frame away
 /// from the healthy workers even with `--on-failure reassign`. Then the
-/// same pool serves a clean frame. A grid frame of 2 bricks a worker at
-/// 640x560 renders for a few hundred ms, so a stop at the workers' "a
-/// set-up from" lands inside the frame.
+/// same pool serves a clean frame. A mesh frame, because its phase 1 ends
+/// only when the manager, on the coordinator, says so: the workers need
+/// the coordinator until then, wherever in the frame the stop lands (a
+/// grid frame's workers may finish into their socket buffers). At 1600^2
+/// phase 1 takes seconds, so a stop at a worker's "phase 1 started"
+/// outlasts the workers' deadline inside it (a frame that needs nothing
+/// from a stopped coordinator may well complete).
 #[test]
 fn a_stopped_coordinator_blames_itself_not_the_workers() {
     let dir = tempfile::tempdir().unwrap();
@@ -320,12 +324,25 @@ fn a_stopped_coordinator_blames_itself_not_the_workers() {
         .map(|w| w.addr.clone())
         .collect::<Vec<_>>()
         .join(",");
-    let big = grid_scene(dir.path(), (640, 560));
+    let text = std::fs::read_to_string(data("aorta-small-view-b.toml"))
+        .unwrap()
+        .replace("width      = 100", "width      = 1600")
+        .replace("height     = 100", "height     = 1600")
+        .replace(
+            "path  = \"aorta-small.vtk\"",
+            &format!("path = {:?}", data("aorta-small.vtk").display().to_string()),
+        );
+    assert!(
+        text.contains("= 1600") && text.contains("tests/data"),
+        "{text}"
+    );
+    let big = dir.path().join("big.toml");
+    std::fs::write(&big, text).unwrap();
     let c = Command::new(EXE)
         .arg("cluster")
         .arg(&big)
-        .args(["--nodes", "2", "--subvolumes", "2"])
-        .args(["--compositor", "binary-swap", "--on-failure", "reassign"])
+        .args(["--nodes", "2", "--ert", "0.9", "--no-baselines"])
+        .args(["--on-failure", "reassign"])
         .args(["--transport", "tcp", "--token-file"])
         .arg(&tok)
         .args(["--workers", &addrs, "--heartbeat-timeout", "1", "-o"])
@@ -335,7 +352,7 @@ fn a_stopped_coordinator_blames_itself_not_the_workers() {
         .spawn()
         .unwrap();
     assert!(
-        w[0].wait_line("a set-up from", Duration::from_secs(30)),
+        w[0].wait_line("phase 1 started", Duration::from_secs(30)),
         "the frame did not start"
     );
     let pid = c.id().to_string();
@@ -352,7 +369,13 @@ fn a_stopped_coordinator_blames_itself_not_the_workers() {
     let t = Instant::now();
     let out = c.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "the stopped frame succeeded: {err}");
+    if out.status.success() {
+        let logs: Vec<String> = w.iter().flat_map(|w| w.lines.try_iter()).collect();
+        panic!(
+            "the stopped frame succeeded: {err}\nworkers:\n{}",
+            logs.join("\n")
+        );
+    }
     assert!(
         err.contains("this coordinator was itself not running for about")
             && err.contains("workers that gave up on it are not at fault"),
@@ -369,11 +392,11 @@ fn a_stopped_coordinator_blames_itself_not_the_workers() {
         t.elapsed()
     );
     // The same pool, a clean frame.
-    let small = grid_scene(dir.path(), (48, 40));
     let ok = Command::new(EXE)
         .arg("cluster")
-        .arg(&small)
-        .args(["--nodes", "2", "--transport", "tcp", "--token-file"])
+        .arg(data("aorta-small-view-b.toml"))
+        .args(["--nodes", "2", "--no-baselines", "--transport", "tcp"])
+        .arg("--token-file")
         .arg(&tok)
         .args(["--workers", &addrs, "-o"])
         .arg(dir.path().join("clean.png"))
