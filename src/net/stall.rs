@@ -11,7 +11,8 @@
 //! (`tcp::frame::late_wakeups`): they only see stalls that hit a wait.
 
 use std::collections::VecDeque;
-use std::sync::{Mutex, Once};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, Once, OnceLock};
 use std::time::{Duration, Instant};
 
 /// How often the watchdog wakes.
@@ -24,16 +25,22 @@ const KEPT: usize = 64;
 static START: Once = Once::new();
 /// Stalls: when each ended, and how long it was.
 static STALLS: Mutex<VecDeque<(Instant, Duration)>> = Mutex::new(VecDeque::new());
+/// When the watchdog started, and when it last woke (microseconds after
+/// its start; 0 before the first wake-up).
+static EPOCH: OnceLock<Instant> = OnceLock::new();
+static LAST_TICK_US: AtomicU64 = AtomicU64::new(0);
 
 /// Starts the watchdog (once per process; later calls do nothing).
 pub fn watch() {
     START.call_once(|| {
+        let epoch = *EPOCH.get_or_init(Instant::now);
         let spawned = std::thread::Builder::new()
             .name("pvrsim-stall-watch".into())
-            .spawn(|| loop {
+            .spawn(move || loop {
                 let before = Instant::now();
                 std::thread::sleep(TICK);
                 let late = before.elapsed().saturating_sub(TICK);
+                LAST_TICK_US.store(epoch.elapsed().as_micros() as u64, Ordering::Relaxed);
                 if late > RECORD {
                     let mut s = super::inbox::lock(&STALLS);
                     if s.len() == KEPT {
@@ -48,13 +55,37 @@ pub fn watch() {
     });
 }
 
-/// The longest stall that ended at or after `t` (zero if none, or if
-/// [`watch`] was never called).
+/// The longest stall that ended at or after `t`, or that is ending now
+/// (zero if none, or if [`watch`] was never called). A thread that runs
+/// again right after SIGCONT may ask before the watchdog has woken: the
+/// gap since the watchdog's last wake-up counts then, so the answer does
+/// not depend on which thread the scheduler ran first.
 pub fn longest_since(t: Instant) -> Duration {
-    super::inbox::lock(&STALLS)
+    let recorded = super::inbox::lock(&STALLS)
         .iter()
         .filter(|(end, _)| *end >= t)
         .map(|&(_, d)| d)
         .max()
-        .unwrap_or(Duration::ZERO)
+        .unwrap_or(Duration::ZERO);
+    recorded.max(ongoing())
+}
+
+/// How much later than due the watchdog's next wake-up already is, if
+/// more than [`RECORD`] (zero before its first wake-up).
+fn ongoing() -> Duration {
+    let (Some(epoch), last) = (EPOCH.get(), LAST_TICK_US.load(Ordering::Relaxed)) else {
+        return Duration::ZERO;
+    };
+    if last == 0 {
+        return Duration::ZERO;
+    }
+    let since = epoch
+        .elapsed()
+        .saturating_sub(Duration::from_micros(last))
+        .saturating_sub(TICK);
+    if since > RECORD {
+        since
+    } else {
+        Duration::ZERO
+    }
 }

@@ -2,11 +2,14 @@
 //! the coordinator. It passes the actors' messages through and keeps
 //! session messages (kind `Session`) away from them: a peer's failure
 //! report becomes an error naming that peer; on a worker, messages that
-//! peers sent before this worker's `Go` are handed out first.
+//! peers sent before this worker's `Go` are handed out first. And
+//! [`given_up_while_stopped`]: a worker's check, before its frame's last
+//! message, that the coordinator did not give the frame up while the
+//! worker itself was not running.
 
 use std::collections::VecDeque;
 use std::sync::Mutex;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::session::Session;
 use crate::net::{
@@ -121,6 +124,43 @@ impl<T: RemoteTransport> Transport for SessionGuard<'_, T> {
         match self.pop() {
             Some(e) => Ok(Some(e)),
             None => self.inner.try_recv()?.map(|e| self.check(e)).transpose(),
+        }
+    }
+}
+
+/// How long a worker that was itself not running waits for the
+/// coordinator's word before its frame's last message.
+pub const STALL_CHECK: Duration = Duration::from_secs(1);
+
+/// Before a worker's last message of a frame (its result, its phase-2
+/// log): if this process was itself not running for a while since
+/// `since` (stopped with SIGSTOP, suspended, starved: see
+/// [`crate::net::stall`]), the coordinator may have given the frame up
+/// meanwhile, and its `Goodbye` (or the closed link) may still be on its
+/// way through this process's reader while the peers' messages, buffered
+/// before the stop, let the frame run to its end. Then wait up to
+/// [`STALL_CHECK`] for it: the coordinator is essential here, so its
+/// `Goodbye` is an error, and so is a lost link. Messages read meanwhile
+/// are dropped (none is due at this point). A frame without a stall pays
+/// nothing.
+pub fn given_up_while_stopped<T: RemoteTransport>(t: &T, since: Instant) -> anyhow::Result<()> {
+    let stalled = crate::net::stall::longest_since(since);
+    if stalled.is_zero() {
+        return Ok(());
+    }
+    let until = Instant::now() + STALL_CHECK;
+    loop {
+        let left = until.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Ok(());
+        }
+        match t.recv_timeout(left) {
+            Ok(None) => return Ok(()),
+            Ok(Some(_)) => {}
+            Err(e) => anyhow::bail!(
+                "this worker was not running for about {:.1} s, and the frame was given up meanwhile: {e}",
+                stalled.as_secs_f64()
+            ),
         }
     }
 }

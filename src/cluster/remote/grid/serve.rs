@@ -11,6 +11,7 @@ use tokio::runtime::Runtime;
 
 use super::{GridMsg, GridResult};
 use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
+use crate::cluster::remote::guard::given_up_while_stopped;
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
@@ -137,6 +138,7 @@ fn serve_master(
     name: &str,
     hooks: Hooks,
 ) -> anyhow::Result<()> {
+    let since = std::time::Instant::now();
     let codec = Codec::with_limit(setup.max_message_bytes);
     anyhow::ensure!(
         coord.0 == setup.nodes,
@@ -166,6 +168,7 @@ fn serve_master(
     }
     let result = render(setup, bytes, kept).and_then(|(stats, layers)| {
         let early = queued_unless_given_up(&t)?;
+        given_up_while_stopped(&t, since)?;
         anyhow::ensure!(
             early.is_empty(),
             "{} unexpected message(s) from the coordinator while rendering",
@@ -258,6 +261,7 @@ fn frame_p2p(
     coord: NodeId,
     hooks: Hooks,
 ) -> anyhow::Result<()> {
+    let since = std::time::Instant::now();
     let codec = Codec::with_limit(setup.max_message_bytes);
     if hooks.kill_after_chunks.is_some() {
         kill_self("while rendering its bricks (--test-kill-after-chunks)");
@@ -309,6 +313,7 @@ fn frame_p2p(
     // The coordinator waits for every rank's log before it ends the frame:
     // its `Goodbye` before ours went out means it gave the frame up.
     queued_unless_given_up(t)?;
+    given_up_while_stopped(t, since)?;
     let msg = Session::Grid(Box::new(GridMsg::Done(Box::new(log))));
     t.send(coord, MessageKind::Session, codec.encode(&msg)?)?;
     Ok(())

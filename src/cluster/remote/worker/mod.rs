@@ -107,6 +107,9 @@ impl Worker {
     /// outcome). Connections that fail the handshake are reported on stderr
     /// and do not count.
     pub fn serve(&mut self, once: bool) -> anyhow::Result<()> {
+        // Sessions check it before their last message (a frame given up
+        // while this process was stopped).
+        crate::net::stall::watch();
         loop {
             let next = self.door.next_session();
             let acc = match self.accept_timeout {

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use crate::cluster::remote::guard::SessionGuard;
+use crate::cluster::remote::guard::{given_up_while_stopped, SessionGuard};
 use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::{
@@ -94,6 +94,7 @@ pub fn run_node<T: RemoteTransport>(
     go_wait: Duration,
     hooks: Hooks,
 ) -> anyhow::Result<()> {
+    let since = std::time::Instant::now();
     let coord = NodeId(setup.nodes);
     let codec = Codec::with_limit(setup.max_message_bytes);
     let d = go_wait;
@@ -166,6 +167,10 @@ pub fn run_node<T: RemoteTransport>(
         traffic,
         wire,
     };
+    if let Err(e) = given_up_while_stopped(t, since) {
+        t.close(Duration::from_secs(2));
+        return Err(e.context(format!("node {} at the end of phase 1", setup.rank)));
+    }
     t.send(
         coord,
         MessageKind::Session,
@@ -182,6 +187,7 @@ pub fn run_node<T: RemoteTransport>(
         wire.wire_bytes_sent -= wire0.wire_bytes_sent;
         wire.wire_bytes_recv -= wire0.wire_bytes_recv;
         wire.payload = diff_traffic(&wire.payload, &wire0.payload);
+        given_up_while_stopped(t, since)?;
         Ok((log, wire))
     });
     match r {
