@@ -132,23 +132,36 @@ pub fn scanline<T: Texel>(
             let hi = ((run[1] as isize - ia).max(0) as usize).min(w);
             let mut u = find(next, lo);
             while u < hi {
-                let i = (u as isize + ia) as usize;
-                let x0 = lerp(r0[i].f(), r0[i + 1].f(), fa);
-                let x1 = lerp(r1[i].f(), r1[i + 1].f(), fa);
-                let c = table[s.lut.index(lerp(x0, x1, fb))];
-                n.taken += 1;
-                let p = &mut row[u];
-                let t = 1.0 - p[3];
-                *p = [
-                    p[0] + t * c[0],
-                    p[1] + t * c[1],
-                    p[2] + t * c[2],
-                    p[3] + t * c[3],
-                ];
-                if p[3] >= s.ert {
-                    next[u] = u as u32 + 1;
+                // A stretch of open pixels: each column's lerp along j is
+                // shared by the two pixels whose cells it bounds.
+                let mut i = (u as isize + ia) as usize;
+                let mut left = lerp(r0[i].f(), r1[i].f(), fb);
+                loop {
+                    let right = lerp(r0[i + 1].f(), r1[i + 1].f(), fb);
+                    let c = table[s.lut.index(lerp(left, right, fa))];
+                    n.taken += 1;
+                    let p = &mut row[u];
+                    let t = 1.0 - p[3];
+                    *p = [
+                        p[0] + t * c[0],
+                        p[1] + t * c[1],
+                        p[2] + t * c[2],
+                        p[3] + t * c[3],
+                    ];
+                    let done = p[3] >= s.ert;
+                    if done {
+                        next[u] = u as u32 + 1;
+                    }
+                    u += 1;
+                    if u >= hi || next[u] as usize != u {
+                        break;
+                    }
+                    left = right;
+                    i += 1;
                 }
-                u = find(next, u + 1);
+                if u < hi {
+                    u = find(next, u);
+                }
             }
         }
         n.skipped_ert += inrun.saturating_sub(n.taken - taken0);

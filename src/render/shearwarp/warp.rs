@@ -5,6 +5,7 @@
 //! exactly, zero outside), then composited over the background as the
 //! other renderers do: `C + (1 - A) bg`, alpha `A`.
 
+use glam::Vec4;
 use rayon::prelude::*;
 
 use super::factor::Factor;
@@ -16,38 +17,53 @@ use crate::image::Image;
 pub fn warp(f: &Factor, inter: &[[f32; 4]], image: &mut Image, bg: [f32; 3]) -> u64 {
     let [wi, hi] = f.size;
     let w = image.width as usize;
-    let at = |u: isize, v: isize| -> [f32; 4] {
+    let px_at = |u: isize, v: isize| -> Vec4 {
         if u < 0 || v < 0 || u as usize >= wi || v as usize >= hi {
-            [0.0; 4]
+            Vec4::ZERO
         } else {
-            inter[v as usize * wi + u as usize]
+            Vec4::from_array(inter[v as usize * wi + u as usize])
         }
     };
+    let bg = Vec4::new(bg[0], bg[1], bg[2], 0.0);
+    let m = f.warp_matrix;
     image
         .pixels
         .par_chunks_mut(w)
         .enumerate()
         .map(|(y, row)| {
             let mut covered = 0;
+            let p0 = f.warp_origin + m.y_axis * y as f64;
             for (x, px) in row.iter_mut().enumerate() {
-                let p = f.warp_origin + f.warp_matrix * glam::DVec2::new(x as f64, y as f64);
-                let (u0, v0) = (p.x.floor(), p.y.floor());
-                let (fu, fv) = ((p.x - u0) as f32, (p.y - v0) as f32);
-                let (u0, v0) = (u0 as isize, v0 as isize);
-                let c = if u0 < -1 || v0 < -1 || u0 >= wi as isize || v0 >= hi as isize {
-                    [0.0; 4]
+                let p = p0 + m.x_axis * x as f64;
+                // floor without a libm call: truncation of a value made
+                // positive (below -2 the pixel is outside, where a wrong
+                // fraction does not matter).
+                let (su, sv) = (p.x + 2.0, p.y + 2.0);
+                let (u0, v0) = (su as isize - 2, sv as isize - 2);
+                let fu = (su - (u0 + 2) as f64) as f32;
+                let fv = (sv - (v0 + 2) as f64) as f32;
+                let c = if u0 >= 0 && v0 >= 0 && (u0 as usize) + 1 < wi && (v0 as usize) + 1 < hi {
+                    // Inside: the four neighbours without bounds tests.
+                    covered += 1;
+                    let k = v0 as usize * wi + u0 as usize;
+                    let q = &inter[k..k + wi + 2];
+                    let (a, b) = (Vec4::from_array(q[0]), Vec4::from_array(q[1]));
+                    let (c, d) = (Vec4::from_array(q[wi]), Vec4::from_array(q[wi + 1]));
+                    let top = (b - a) * fu + a;
+                    let bot = (d - c) * fu + c;
+                    (bot - top) * fv + top
+                } else if u0 < -1 || v0 < -1 || u0 >= wi as isize || v0 >= hi as isize {
+                    Vec4::ZERO
                 } else {
                     covered += 1;
-                    let (a, b) = (at(u0, v0), at(u0 + 1, v0));
-                    let (c, d) = (at(u0, v0 + 1), at(u0 + 1, v0 + 1));
-                    std::array::from_fn(|i| {
-                        let top = (b[i] - a[i]) * fu + a[i];
-                        let bot = (d[i] - c[i]) * fu + c[i];
-                        (bot - top) * fv + top
-                    })
+                    let (a, b) = (px_at(u0, v0), px_at(u0 + 1, v0));
+                    let (c, d) = (px_at(u0, v0 + 1), px_at(u0 + 1, v0 + 1));
+                    let top = (b - a) * fu + a;
+                    let bot = (d - c) * fu + c;
+                    (bot - top) * fv + top
                 };
-                let t = 1.0 - c[3];
-                *px = [c[0] + t * bg[0], c[1] + t * bg[1], c[2] + t * bg[2], c[3]];
+                let out = c + bg * (1.0 - c.w);
+                *px = [out.x, out.y, out.z, c.w];
             }
             covered
         })
