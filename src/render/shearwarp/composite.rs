@@ -2,8 +2,9 @@
 //! half of shear-warp), front to back with "over", premultiplied f32 RGBA.
 //!
 //! Each intermediate scanline `v` is independent of the others (its rays
-//! stay in it in sheared object space), so scanlines go to the threads; a
-//! scanline meets the slices one after the other, front to back. In slice
+//! stay in it in sheared object space), so bands of [`BAND`] scanlines go
+//! to the threads; a band meets the slices one after the other, front to
+//! back (Lacroute's object order within the band). In slice
 //! `k` it samples cell scanline `j = v + ⌊o_j⌋` at the slice's constant
 //! fractions (`o = ` [`Factor::slice_offset`]), pixel `u` the cell
 //! `i = u + ⌊o_i⌋`: only cells in the slice's non-transparent runs
@@ -89,84 +90,112 @@ fn find(next: &mut [u32], u: usize) -> usize {
     r
 }
 
-/// Composites every slice of `steps` into intermediate scanline `v`
-/// (`row`, width `W`, cleared to zero); `next` is scratch of `W + 1`.
-pub fn scanline<T: Texel>(
+/// Intermediate scanlines per band: a band (16 rows of f32 RGBA, a few
+/// hundred KiB at most) stays in cache while every slice is composited
+/// into it, and each slice's voxel scanlines for the band are read in
+/// memory order.
+pub const BAND: usize = 16;
+
+/// Composites every slice of `steps` into the band of intermediate
+/// scanlines from `v0` (`rows`: whole scanlines of width `w`, cleared to
+/// zero), slice by slice, front to back; `next` is scratch.
+pub fn band<T: Texel>(
     s: &Slices<'_, T>,
     steps: &[SliceStep],
-    v: usize,
-    row: &mut [[f32; 4]],
+    v0: usize,
+    w: usize,
+    rows: &mut [[f32; 4]],
     next: &mut Vec<u32>,
 ) -> SampleCounts {
-    let w = row.len();
+    let nrows = rows.len() / w;
     next.clear();
-    next.extend(0..=w as u32);
+    for _ in 0..nrows {
+        next.extend(0..=w as u32);
+    }
+    let mut n = SampleCounts::default();
+    for st in steps {
+        for (b, row) in rows.chunks_exact_mut(w).enumerate() {
+            let nx = &mut next[b * (w + 1)..(b + 1) * (w + 1)];
+            scanline(s, st, v0 + b, row, nx, &mut n);
+        }
+    }
+    n
+}
+
+/// Composites slice `st` into intermediate scanline `v` (`row`); `next`
+/// holds its `w + 1` skip links.
+#[inline]
+fn scanline<T: Texel>(
+    s: &Slices<'_, T>,
+    st: &SliceStep,
+    v: usize,
+    row: &mut [[f32; 4]],
+    next: &mut [u32],
+    n: &mut SampleCounts,
+) {
+    let w = row.len();
     let [ni, nj, _] = s.rle.n;
     let cells = ni - 1;
     let all = [[0, cells as u32]];
-    let mut n = SampleCounts::default();
-    for st in steps {
-        let j = v as isize + st.floor[1];
-        if j < 0 || j as usize + 1 >= nj {
-            continue;
-        }
-        let j = j as usize;
-        if find(next, 0) >= w {
-            break;
-        }
-        let runs: &[[u32; 2]] = if s.empty_skip {
-            s.rle.row_runs(st.k, j)
-        } else {
-            &all
-        };
-        let inrun: u64 = runs.iter().map(|r| (r[1] - r[0]) as u64).sum();
-        n.skipped_empty += cells as u64 - inrun;
-        let taken0 = n.taken;
-        let table = if st.half { s.half } else { s.full };
-        let (r0, r1) = (s.rle.row(st.k, j), s.rle.row(st.k, j + 1));
-        let [fa, fb] = st.frac;
-        let ia = st.floor[0];
-        for run in runs {
-            // Pixels u with cell u + ia in the run, inside the image.
-            let lo = ((run[0] as isize - ia).max(0) as usize).min(w);
-            let hi = ((run[1] as isize - ia).max(0) as usize).min(w);
-            let mut u = find(next, lo);
-            while u < hi {
-                // A stretch of open pixels: each column's lerp along j is
-                // shared by the two pixels whose cells it bounds.
-                let mut i = (u as isize + ia) as usize;
-                let mut left = lerp(r0[i].f(), r1[i].f(), fb);
-                loop {
-                    let right = lerp(r0[i + 1].f(), r1[i + 1].f(), fb);
-                    let c = table[s.lut.index(lerp(left, right, fa))];
-                    n.taken += 1;
-                    let p = &mut row[u];
-                    let t = 1.0 - p[3];
-                    *p = [
-                        p[0] + t * c[0],
-                        p[1] + t * c[1],
-                        p[2] + t * c[2],
-                        p[3] + t * c[3],
-                    ];
-                    let done = p[3] >= s.ert;
-                    if done {
-                        next[u] = u as u32 + 1;
-                    }
-                    u += 1;
-                    if u >= hi || next[u] as usize != u {
-                        break;
-                    }
-                    left = right;
-                    i += 1;
+    let j = v as isize + st.floor[1];
+    if j < 0 || j as usize + 1 >= nj {
+        return;
+    }
+    let j = j as usize;
+    if find(next, 0) >= w {
+        return;
+    }
+    let runs: &[[u32; 2]] = if s.empty_skip {
+        s.rle.row_runs(st.k, j)
+    } else {
+        &all
+    };
+    let mut inrun = 0u64;
+    let taken0 = n.taken;
+    let table = if st.half { s.half } else { s.full };
+    let (r0, r1) = (s.rle.row(st.k, j), s.rle.row(st.k, j + 1));
+    let [fa, fb] = st.frac;
+    let ia = st.floor[0];
+    for run in runs {
+        inrun += (run[1] - run[0]) as u64;
+        // Pixels u with cell u + ia in the run, inside the image.
+        let lo = ((run[0] as isize - ia).max(0) as usize).min(w);
+        let hi = ((run[1] as isize - ia).max(0) as usize).min(w);
+        let mut u = find(next, lo);
+        while u < hi {
+            // A stretch of open pixels: each column's lerp along j is
+            // shared by the two pixels whose cells it bounds.
+            let mut i = (u as isize + ia) as usize;
+            let mut left = lerp(r0[i].f(), r1[i].f(), fb);
+            loop {
+                let right = lerp(r0[i + 1].f(), r1[i + 1].f(), fb);
+                let c = table[s.lut.index(lerp(left, right, fa))];
+                n.taken += 1;
+                let p = &mut row[u];
+                let t = 1.0 - p[3];
+                *p = [
+                    p[0] + t * c[0],
+                    p[1] + t * c[1],
+                    p[2] + t * c[2],
+                    p[3] + t * c[3],
+                ];
+                if p[3] >= s.ert {
+                    next[u] = u as u32 + 1;
                 }
-                if u < hi {
-                    u = find(next, u);
+                u += 1;
+                if u >= hi || next[u] as usize != u {
+                    break;
                 }
+                left = right;
+                i += 1;
+            }
+            if u < hi {
+                u = find(next, u);
             }
         }
-        n.skipped_ert += inrun.saturating_sub(n.taken - taken0);
     }
-    n
+    n.skipped_empty += cells as u64 - inrun;
+    n.skipped_ert += inrun.saturating_sub(n.taken - taken0);
 }
 
 #[cfg(test)]

@@ -34,7 +34,7 @@ use crate::render::slicing::{Classify, Lut, Order, SampleCounts, SliceStats, Tex
 use crate::render::VolumeInput;
 use crate::scene::Projection;
 
-use composite::{scanline, slice_steps, Slices};
+use composite::{band, slice_steps, Slices};
 use factor::Factor;
 use rle::{AxisRle, Encoding};
 
@@ -227,10 +227,13 @@ fn composite_all<T: Texel>(
         ert: opts.ert,
         empty_skip: opts.empty_skip,
     };
+    let w = f.size[0];
     let n = inter
-        .par_chunks_mut(f.size[0])
+        .par_chunks_mut(w * composite::BAND)
         .enumerate()
-        .map_init(Vec::new, |next, (v, row)| scanline(&s, steps, v, row, next))
+        .map_init(Vec::new, |next, (b, rows)| {
+            band(&s, steps, b * composite::BAND, w, rows, next)
+        })
         .reduce(SampleCounts::default, SampleCounts::merge);
     (n, rle.bytes())
 }

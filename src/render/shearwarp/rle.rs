@@ -20,7 +20,9 @@
 
 use crate::render::slicing::{Lut, Texel};
 
-/// A run of non-transparent cells `[start, end)` of one cell scanline.
+/// A run of cells `[start, end)` of one cell scanline that holds every
+/// non-transparent cell of the stretch (and transparent gaps shorter than
+/// [`MIN_GAP`]).
 pub type Run = [u32; 2];
 
 /// One principal axis's voxels and runs.
@@ -54,6 +56,25 @@ pub struct Encoding<T> {
 pub fn cell_opaque(lut: &Lut, lo: f32, hi: f32) -> bool {
     let e = 4.0 * f32::EPSILON;
     !lut.transparent(lo - e * (lo.abs() + 1.0), hi + e * (hi.abs() + 1.0))
+}
+
+/// Transparent gaps shorter than this many cells are kept inside a run:
+/// their samples add exactly zero (so the image is the same), and a run
+/// start costs more than a few transparent samples.
+pub const MIN_GAP: u32 = 4;
+
+/// Merges the runs from `row0` on whose gap is shorter than [`MIN_GAP`].
+fn merge_short_gaps(runs: &mut Vec<Run>, row0: usize) {
+    let mut w = row0;
+    for r in row0..runs.len() {
+        if w > row0 && runs[r][0] - runs[w - 1][1] < MIN_GAP {
+            runs[w - 1][1] = runs[r][1];
+        } else {
+            runs[w] = runs[r];
+            w += 1;
+        }
+    }
+    runs.truncate(w);
 }
 
 impl<T: Texel> AxisRle<T> {
@@ -91,6 +112,7 @@ impl<T: Texel> AxisRle<T> {
             for j in 0..nj - 1 {
                 let r0 = &self.voxels[(k * nj + j) * ni..][..ni];
                 let r1 = &self.voxels[(k * nj + j + 1) * ni..][..ni];
+                let row0 = self.runs.len();
                 let mut start = None;
                 for i in 0..ni - 1 {
                     let q = [r0[i].f(), r0[i + 1].f(), r1[i].f(), r1[i + 1].f()];
@@ -108,6 +130,7 @@ impl<T: Texel> AxisRle<T> {
                 if let Some(s) = start {
                     self.runs.push([s, (ni - 1) as u32]);
                 }
+                merge_short_gaps(&mut self.runs, row0);
                 self.offsets.push(self.runs.len() as u32);
             }
         }
