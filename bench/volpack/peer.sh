@@ -1,8 +1,9 @@
 #!/bin/sh
-# Ours (slice3d, the default grid renderer) beside VolPack (Lacroute's
+# Ours (slice3d, the default grid renderer, and shearwarp) beside VolPack (Lacroute's
 # shear-warp, classified volume) on mni152-view and colin27-brain-view:
 # one thread each, per frame, view-independent preparation excluded on both
-# sides (our min-max blocks and tiled texture, VolPack's classification),
+# sides (our min-max blocks and tiled texture, our shear-warp run-length
+# encodings, VolPack's classification),
 # the two binaries alternating ROUNDS times in this one run; prints each
 # side's median of the per-round medians (wall time on both sides: the
 # alternation spreads the load of a shared machine over both) and the ratio.
@@ -32,6 +33,7 @@ for r in $(seq "$ROUNDS"); do
     fi
     for s in mni152-view colin27-brain-view; do
         RAYON_NUM_THREADS=1 LAYOUT=tiled "$OURS" "$D/$s.toml" "$FRAMES" | grep median | sed "s/^/round $r ours $s /" >> "$T/log"
+        RAYON_NUM_THREADS=1 RENDERER=shearwarp "$OURS" "$D/$s.toml" "$FRAMES" | grep median | sed "s/^/round $r ours $s /" >> "$T/log"
     done
 done
 # Our error against the f64 grid reference (pvrsim render --compare).
@@ -39,33 +41,41 @@ PVRSIM=$ROOT/target/release/pvrsim
 for s in mni152-view colin27-brain-view; do
     if [ -x "$PVRSIM" ]; then
         "$PVRSIM" render "$D/$s.toml" -o "$T/$s.png" --compare 2>&1 | grep "against the grid reference" | sed "s/^/error ours $s /" >> "$T/log"
+        "$PVRSIM" render "$D/$s.toml" --renderer shearwarp -o "$T/$s-sw.png" --compare 2>&1 | grep "against the grid reference" | sed "s/^/error shearwarp $s /" >> "$T/log"
     fi
 done
 python3 - "$T/log" <<'PY'
 import re, sys, statistics
 vp = {"197x233x189": [], "301x370x316": []}
 ours = {"mni152-view": [], "colin27-brain-view": []}
-err = {}
+sw = {"mni152-view": [], "colin27-brain-view": []}
+err, swerr = {}, {}
 for line in open(sys.argv[1]):
     m = re.search(r"volpack (\d+x\d+x\d+) .*frame median cpu [\d.]+ ms, wall ([\d.]+) ms", line)
     if m:
         vp[m.group(1)].append(float(m.group(2)))
-    m = re.search(r"error ours (\S+) .*max-abs ([\d.]+)/255.*RMSE ([\d.]+)/255", line)
+    m = re.search(r"error (ours|shearwarp) (\S+) .*max-abs ([\d.]+)/255.*RMSE ([\d.]+)/255", line)
     if m:
-        err[m.group(1)] = f"{float(m.group(2)):.2f} / {float(m.group(3)):.3f}"
+        (err if m.group(1) == "ours" else swerr)[m.group(2)] = f"{float(m.group(3)):.2f} / {float(m.group(4)):.3f}"
         continue
     m = re.search(r"ours (\S+) Tiled: median ([\d.]+) ms", line)
     if m:
         ours[m.group(1)].append(float(m.group(2)))
-print("| scene | ours slice3d ms (1 thread) | VolPack ms (1 thread) | ours / VolPack | ours max / RMSE vs f64 reference (1/255) |")
-print("|---|---|---|---|---|")
+    m = re.search(r"ours (\S+) ShearWarp: median ([\d.]+) ms", line)
+    if m:
+        sw[m.group(1)].append(float(m.group(2)))
+print("| scene | ours slice3d ms | ours shearwarp ms | VolPack ms | shearwarp / VolPack | slice3d max / RMSE | shearwarp max / RMSE (vs f64 reference, 1/255) |")
+print("|---|---|---|---|---|---|---|")
 for s, v in [("mni152-view", "197x233x189"), ("colin27-brain-view", "301x370x316")]:
     o = statistics.median(ours[s])
+    q = statistics.median(sw[s]) if sw[s] else float("nan")
     if vp[v]:
         w = statistics.median(vp[v])
-        print(f"| {s} | {o:.1f} | {w:.1f} | {o / w:.2f} | {err.get(s, '-')} |")
+        print(f"| {s} | {o:.1f} | {q:.1f} | {w:.1f} | {q / w:.2f} | {err.get(s, '-')} | {swerr.get(s, '-')} |")
     else:
-        print(f"| {s} | {o:.1f} | (not installed) | | {err.get(s, '-')} |")
+        print(f"| {s} | {o:.1f} | {q:.1f} | (not installed) | | {err.get(s, '-')} | {swerr.get(s, '-')} |")
+print("One thread each, medians of the per-round medians; VolPack's classification and our")
+print("preparation excluded.")
 print("VolPack's error against the reference is not measured here: its driver renders luminance")
 print("(opacity only) in its own framing, not pixel-aligned with the scene's camera.")
 PY

@@ -28,6 +28,10 @@ pub enum RendererKind {
     Adaptive,
     /// Regular grids: EWA splatting, `--order axis|dda|sort|radix`.
     Splat,
+    /// Regular grids, orthographic views: Lacroute's shear-warp over
+    /// run-length encoded slices (bilinear within a slice, a 2D warp).
+    #[value(name = "shearwarp")]
+    ShearWarp,
 }
 
 /// Options of `pvrsim render`.
@@ -215,7 +219,8 @@ impl Validate for RenderArgs {
             | RendererKind::Slice3d
             | RendererKind::Slice2d
             | RendererKind::Adaptive
-            | RendererKind::Splat => {}
+            | RendererKind::Splat
+            | RendererKind::ShearWarp => {}
         }
         Ok(())
     }

@@ -11,6 +11,7 @@ use super::render::{RenderArgs, RenderOutcome, RendererKind};
 use crate::image::Image;
 use crate::render::adaptive::{self, AdaptiveOptions};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
+use crate::render::shearwarp::{self, ShearWarpOptions};
 use crate::render::slice2d::{self, Slice2dOptions};
 use crate::render::slice3d::{self, Slice3dOptions, SliceCount};
 use crate::render::slicing::Classify;
@@ -121,7 +122,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
     anyhow::ensure!(
         kind != RendererKind::Cell,
         "--renderer cell draws tetrahedral meshes; scene {} renders a regular grid \
-         (use slice3d, slice2d or reference)",
+         (use slice3d, slice2d, shearwarp or reference)",
         a.scene.display()
     );
     anyhow::ensure!(
@@ -217,10 +218,21 @@ pub fn render_with(
             v["time_total_s"] = serde_json::json!(st.time_s);
             Ok((img, v))
         }
-        RendererKind::Slice3d | RendererKind::Slice2d => {
+        RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::ShearWarp => {
             let (img, st) = if kind == RendererKind::Slice3d {
                 let o = slice3d_options(a)?;
                 super::with_threads(a.threads, || slice3d::render(input, &o))??
+            } else if kind == RendererKind::ShearWarp {
+                anyhow::ensure!(
+                    a.classify.is_none() && a.order.is_none(),
+                    "--classify and --order do not apply to --renderer shearwarp \
+                     (post-classified, front to back)"
+                );
+                let o = ShearWarpOptions {
+                    ert: a.ert,
+                    empty_skip: !a.no_empty_skip,
+                };
+                super::with_threads(a.threads, || shearwarp::render(input, &o))??
             } else {
                 let o = slice2d_options(a)?;
                 super::with_threads(a.threads, || slice2d::render(input, &o))??

@@ -62,7 +62,8 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         RendererKind::Slice3d
         | RendererKind::Slice2d
         | RendererKind::Adaptive
-        | RendererKind::Splat => {
+        | RendererKind::Splat
+        | RendererKind::ShearWarp => {
             unreachable!("refused above")
         }
         RendererKind::Cell => {
@@ -133,10 +134,11 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
                     | RendererKind::Slice2d
                     | RendererKind::Adaptive
                     | RendererKind::Splat
+                    | RendererKind::ShearWarp
             )
         ) && a.blocks.is_none()
             && a.tolerance.is_none(),
-        "--renderer slice3d/slice2d/adaptive/splat (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
+        "--renderer slice3d/slice2d/adaptive/splat/shearwarp (and --blocks, --tolerance) draw regular grids; scene {} renders a tetrahedral mesh \
          (use cell or reference)",
         a.scene.display()
     );

@@ -9,6 +9,7 @@
 //!   voxel cells, the cubic along the ray, adaptive quadrature).
 //! - [`slice3d`]: view-aligned texture slicing in software (trilinear).
 //! - [`slice2d`]: object-aligned slicing (bilinear) with per-slice LOD.
+//! - [`shearwarp`]: shear-warp factorisation over run-length encoded slices.
 //! - [`splat`]: EWA splatting of regular grids in axis, DDA or sorted order.
 
 pub mod adaptive;
@@ -17,6 +18,7 @@ pub mod gauss;
 pub mod grid_reference;
 pub mod input;
 pub mod reference;
+pub mod shearwarp;
 pub mod slice2d;
 pub mod slice3d;
 pub mod slicing;
