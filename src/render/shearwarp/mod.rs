@@ -112,9 +112,8 @@ pub fn check(input: &VolumeInput, opts: &ShearWarpOptions) -> Result<()> {
     let scene = &input.scene;
     if let Projection::Perspective { fov_y_deg } = scene.camera.projection {
         return Err(Error::Invalid(format!(
-            "--renderer shearwarp renders orthographic views only: scene {} uses a perspective \
-             projection (fov_y_deg = {fov_y_deg}); use --renderer slice3d",
-            scene.data.path.display()
+            "--renderer shearwarp renders orthographic views only: the scene's [camera] has \
+             projection = \"perspective\" (fov_y_deg = {fov_y_deg}); use --renderer slice3d"
         )));
     }
     let view = scene.camera.view(scene.image.width, scene.image.height);
