@@ -3,7 +3,7 @@
 //! bricks per axis on one node, and into 2 per axis on 2 and 4 nodes, at
 //! two image sizes, every node in its own worker process, which records its
 //! process CPU seconds (the slicer's threads included;
-//! [`crate::node::GridNodeStats`]).
+//! [`crate::node::grid::GridNodeStats`]).
 //! Each node's render is a sample `t = samples · per_sample + textures ·
 //! per_texture_draw + texture bytes / upload_bytes_per_s + 4 · pixels /
 //! readback_bytes_per_s`, fitted by

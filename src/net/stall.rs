@@ -5,7 +5,7 @@
 //! [`watch`] starts one watchdog thread per process that sleeps [`TICK`]
 //! at a time; a wake-up more than [`RECORD`] late means no thread of the
 //! process ran meanwhile (SIGSTOP stops them all), and the gap is kept
-//! (the last [`KEPT`] of them). [`longest_since`] tells a caller whose
+//! (the last 64 of them). [`longest_since`] tells a caller whose
 //! frame failed how long the process was not running since the frame
 //! began. The per-link deadline timers have their own, narrower check
 //! (`tcp::frame::late_wakeups`): they only see stalls that hit a wait.
