@@ -23,7 +23,15 @@ scripts/netns-faults.sh tests/data/aorta-small-view-b.toml
 # The 2-node whole-frame wall band (issue 24) is not met yet on a loaded
 # 2-core host (modelled 0.52-0.83 of measured): printed, not held, until
 # the model prices it (docs/experiments/fidelity.md, "Remaining gaps").
-REPORT_BANDS=frame LINKS=100mbit NODES=2,4 REPEATS=5 OUT=target/fidelity-ci scripts/fidelity-check.sh
+# The CPU bands compare a calibration with frames run a minute later; a
+# load change on a shared host between the two moves CPU time too (caches,
+# clock frequency: seen once at 1.37 with a doc build beside it). A failed
+# check runs once more, calibration included; a model that is off fails
+# both.
+fidelity() {
+  REPORT_BANDS=frame LINKS=100mbit NODES=2,4 REPEATS=5 OUT=target/fidelity-ci${1:-} scripts/fidelity-check.sh
+}
+fidelity || { echo "fidelity check failed; once more, calibration included"; fidelity -again; }
 
 if ! command -v mpirun >/dev/null || ! command -v mpicc >/dev/null \
     || ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then
