@@ -18,50 +18,12 @@ use std::sync::Arc;
 
 use clap::Parser;
 use pvrsim::cli::{Cli, Command as Cmd};
-use pvrsim::data::{Volume, Voxels};
 use pvrsim::render::slice3d::{self, Slice3dOptions};
 use pvrsim::render::{grid_reference, VolumeInput};
 use pvrsim::scene::Scene;
 
-/// A head phantom, u8, `n^3` voxels of 1 mm centred on the origin: air 0,
-/// a skin shell (value 70) between radii 0.44 n and 0.47 n, fat/CSF (25)
-/// inside it, and a "brain" (value 210, opaque under the TF) whose surface
-/// is folded, radius 0.30 n (1 + 0.06 sin 5θ cos 4φ). Edges are smooth over
-/// about one voxel (tanh), like a scanner's partial-volume blur.
-pub fn head_phantom(n: u64) -> Volume {
-    let c = (n as f64 - 1.0) / 2.0;
-    let mut v = Vec::with_capacity((n * n * n) as usize);
-    let step = |x: f64| 0.5 * (1.0 + (x / 0.7).tanh()); // 0 -> 1 across x = 0
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = (i as f64 - c, j as f64 - c, k as f64 - c);
-                let r = (x * x + y * y + z * z).sqrt();
-                let th = z.atan2((x * x + y * y).sqrt());
-                let ph = y.atan2(x);
-                let nf = n as f64;
-                let skin_out = 0.47 * nf;
-                let skin_in = 0.44 * nf;
-                let brain = 0.30 * nf * (1.0 + 0.06 * (5.0 * th).sin() * (4.0 * ph).cos());
-                let inside_head = step(skin_out - r);
-                let inside_skin = step(skin_in - r);
-                let inside_brain = step(brain - r);
-                let s = inside_head * (70.0 * (1.0 - inside_skin) + 25.0 * inside_skin)
-                    + inside_brain * (210.0 - 25.0);
-                v.push(s.round().clamp(0.0, 255.0) as u8);
-            }
-        }
-    }
-    Volume::new(
-        Path::new("head-phantom"),
-        [n; 3],
-        [1.0; 3],
-        [-c; 3],
-        "s",
-        Voxels::U8(v),
-    )
-    .unwrap()
-}
+mod phantom;
+use phantom::head_phantom;
 
 /// The phantom seen in perspective from close by: the eye 1.15 n from the
 /// centre (0.68 n outside the skin), 60° field of view; faint skin
@@ -98,7 +60,7 @@ points = [[0.0, 0, 0, 0, 0], [0.16, 0.9, 0.7, 0.6, 0], [0.27, 0.95, 0.75, 0.65, 
         Path::new("head-phantom.toml"),
     )
     .unwrap();
-    VolumeInput::new(sc, Arc::new(head_phantom(n))).unwrap()
+    VolumeInput::new(sc, Arc::new(head_phantom(n, 0.7))).unwrap()
 }
 
 fn shared(name: &str) -> Option<PathBuf> {
