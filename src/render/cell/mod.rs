@@ -32,6 +32,7 @@ pub mod order;
 pub mod project;
 pub mod radix;
 pub mod scan;
+pub mod scan_box;
 pub mod segment;
 pub mod setup;
 pub mod sizes;

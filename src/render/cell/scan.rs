@@ -80,8 +80,14 @@ pub struct ScanTarget<'a> {
     pub counts: &'a mut ScanCounts,
     /// Segments waiting to be integrated.
     pub batch: Batch,
-    /// Their local pixel index, `z_front` and `z_back`.
-    pub pending: [(u32, f32, f32); BATCH],
+    /// Their local pixel index.
+    pub pend_idx: [u32; BATCH],
+    /// Their `z_front`.
+    pub pend_zf: [f32; BATCH],
+    /// Their `z_back`.
+    pub pend_zb: [f32; BATCH],
+    /// Whether the CPU runs the vectorised box scan ([`super::scan_box`]).
+    pub simd: bool,
     /// The transfer-function piece of the cell being scanned when its whole
     /// scalar range lies in one piece ([`PreparedTf::single_piece`]), else
     /// `NO_PIECE`: its segments then skip the per-segment piece look-up.
@@ -109,7 +115,10 @@ impl<'a> ScanTarget<'a> {
             canonical,
             counts,
             batch: Batch::default(),
-            pending: [(0, 0.0, 0.0); BATCH],
+            pend_idx: [0; BATCH],
+            pend_zf: [0.0; BATCH],
+            pend_zb: [0.0; BATCH],
+            simd: simd_available(),
             cell_piece: NO_PIECE,
         }
     }
@@ -123,11 +132,9 @@ impl<'a> ScanTarget<'a> {
         self.batch.s_out[n] = s_out;
         self.batch.len[n] = length;
         self.batch.piece_hint[n] = self.cell_piece;
-        self.pending[n] = (
-            (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0),
-            z_in,
-            z_out,
-        );
+        self.pend_idx[n] = (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0);
+        self.pend_zf[n] = z_in;
+        self.pend_zb[n] = z_out;
         self.batch.n = n + 1;
         if n + 1 == BATCH {
             self.flush();
@@ -143,10 +150,10 @@ impl<'a> ScanTarget<'a> {
         self.tf.integrate_batch(self.integrator, &mut self.batch);
         self.counts.segments_generated += n as u64;
         for l in 0..n {
-            let (idx, z_front, z_back) = self.pending[l];
+            let idx = self.pend_idx[l];
             let seg = Segment {
-                z_front,
-                z_back,
+                z_front: self.pend_zf[l],
+                z_back: self.pend_zb[l],
                 rgba: self.batch.result(l),
             };
             if self.canonical {
@@ -161,6 +168,18 @@ impl<'a> ScanTarget<'a> {
             }
         }
         self.batch.n = 0;
+    }
+}
+
+/// Whether this CPU can run [`super::scan_box`]'s AVX2 kernel.
+fn simd_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -256,6 +275,20 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
         return;
     }
     let (i0, i1, j0, j1) = range;
+    if i0 > i1 || j0 > j1 {
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if out.simd
+        && nedge == 0
+        && u64::from(i1 - i0 + 1) * u64::from(j1 - j0 + 1)
+            <= u64::from(super::scan_box::MAX_BOX_PIXELS)
+    {
+        // SAFETY: `simd` is set only where the CPU has AVX2; the box is
+        // inside the tile and small enough.
+        unsafe { super::scan_box::scan_box_avx2(t, &ent, &ext, range, out) };
+        return;
+    }
     let x_max = i1 as f32 + 1.0;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;

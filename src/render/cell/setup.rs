@@ -10,8 +10,6 @@
 //! orientation sign `sigma` (which side is inside) differs. Every later
 //! formula is odd in `(n, h)` so the crossing depth is bit-identical too.
 
-use crate::data::mesh::FACE_VERTICES;
-
 /// One face plane of a tet: `n · p = h`, outward normal `sigma * n`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FacePlane {
@@ -63,22 +61,34 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 /// stretch of positive length.
 #[inline]
 pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetSetup> {
+    // The slots in increasing global id (a sorting network): every face's
+    // vertex triple is then this order with one vertex left out, so it is
+    // sorted without sorting it again, and the edges from the lowest vertex
+    // are shared by the three faces that hold it.
+    let mut o = [0usize, 1, 2, 3];
+    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+        if ids[o[a]] > ids[o[b]] {
+            o.swap(a, b);
+        }
+    }
+    let q = o.map(|slot| p[slot]);
+    let (e01, e02, e03) = (sub(q[1], q[0]), sub(q[2], q[0]), sub(q[3], q[0]));
+    // Face k (in sorted order) leaves out q[k]: `(a, normal)` with `a` its
+    // lowest vertex, the normal `(b - a) x (c - a)` of its sorted triple.
+    let sorted_faces = [
+        (q[1], cross(sub(q[2], q[1]), sub(q[3], q[1]))),
+        (q[0], cross(e02, e03)),
+        (q[0], cross(e01, e03)),
+        (q[0], cross(e01, e02)),
+    ];
     let mut faces = [FacePlane::default(); 4];
-    for (f, slots) in FACE_VERTICES.iter().enumerate() {
-        let mut tri = [
-            (ids[slots[0]], slots[0]),
-            (ids[slots[1]], slots[1]),
-            (ids[slots[2]], slots[2]),
-        ];
-        tri.sort_unstable_by_key(|t| t.0);
-        let (a, b, c) = (p[tri[0].1], p[tri[1].1], p[tri[2].1]);
-        let n = cross(sub(b, a), sub(c, a));
+    for (k, (a, n)) in sorted_faces.into_iter().enumerate() {
         let h = dot(n, a);
-        let side = dot(n, p[f]) - h;
+        let side = dot(n, q[k]) - h;
         if side == 0.0 || !side.is_finite() {
             return None;
         }
-        faces[f] = FacePlane {
+        faces[o[k]] = FacePlane {
             n,
             h,
             sigma: if side > 0.0 { -1.0 } else { 1.0 },
