@@ -21,7 +21,10 @@ pub struct OpCounts {
     pub cells_projected: u64,
     /// Of those, degenerate (no ray stretch of positive length).
     pub cells_degenerate: u64,
-    /// Pixel centres tested against a cell.
+    /// Pixel centres found inside a cell: in orthographic views the covered
+    /// ones (the scalar span scan and the vectorised box scan test
+    /// different candidate sets but count alike, so the virtual clock does
+    /// not depend on the CPU), in perspective every one tested.
     pub pixels_tested: u64,
     /// Ray segments generated (integrated and inserted).
     pub segments_generated: u64,

@@ -108,7 +108,10 @@ pub struct CellStats {
     pub cells_degenerate: u64,
     /// (cell, tile) pairs scanned; over `cells_projected`, the tiling overhead.
     pub cell_tile_pairs: u64,
-    /// Pixel centres tested against a cell.
+    /// Pixel centres found inside a cell: in orthographic views the covered
+    /// ones (the scalar span scan and the vectorised box scan test
+    /// different candidate sets but count alike, so the virtual clock does
+    /// not depend on the CPU), in perspective every one tested.
     pub pixels_tested: u64,
     /// Ray segments produced by scan conversion.
     pub segments_generated: u64,
