@@ -40,10 +40,10 @@ const fn compress_table() -> [[i32; 8]; 256] {
     let mut t = [[0i32; 8]; 256];
     let mut m = 0;
     while m < 256 {
-        let (mut bit, mut k) = (0, 0);
+        let (mut bit, mut k) = (0i32, 0usize);
         while bit < 8 {
             if m & (1 << bit) != 0 {
-                t[m][k] = bit as i32;
+                t[m][k] = bit;
                 k += 1;
             }
             bit += 1;
