@@ -183,3 +183,39 @@ fn remote_grid_runs_refuse_what_they_cannot_do() {
     let e = r.run(&input, &cfg).unwrap_err();
     assert!(e.to_string().contains("grid worker 0"), "{e:#}");
 }
+
+/// `pvrsim cluster --frames 3` over worker processes: the workers serve
+/// one session a frame, so every frame completes; with the cache the later
+/// frames reuse all 8 textures, with `--no-texture-cache` none, and the
+/// images are the same bit for bit.
+#[test]
+fn grid_frames_over_worker_processes_all_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene(dir.path(), "[60, -50, 70]");
+    let mut pngs = Vec::new();
+    for (cache, kept) in [(true, "[0, 8, 8]"), (false, "[0, 0, 0]")] {
+        let png = dir.path().join(format!("frames-{cache}.png"));
+        let mut cmd = std::process::Command::new(EXE);
+        cmd.args(["cluster", s.to_str().unwrap(), "--nodes", "4"])
+            .args(["--subvolumes", "2", "--transport", "processes"])
+            .args(["--frames", "3", "--no-baselines", "--output"])
+            .arg(&png);
+        if !cache {
+            cmd.arg("--no-texture-cache");
+        }
+        let out = cmd.output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "cache {cache}: {text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains("3 frames, wall seconds each"), "{text}");
+        assert!(
+            text.contains(&format!("bricks from kept textures each: {kept}")),
+            "cache {cache}: {text}"
+        );
+        pngs.push(std::fs::read(&png).unwrap());
+    }
+    assert_eq!(pngs[0], pngs[1], "the cache changes no pixel");
+}

@@ -402,7 +402,8 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             profile.readback_bytes_per_s = f.readback_bytes_per_s;
             format!(
                 "# Grid (software slicer, built-in hydrogen 48^3 and 64^3, 1-3 bricks per axis on 1 node, 2 on 2\n\
-                 # and 4 nodes in worker processes, 96 and 160 px, per node process CPU with --timer cpu, median of the repeats):\n\
+                 # and 4 nodes in worker processes, 96 and 160 px, per node process CPU with --timer cpu, the fastest of\n\
+                 # repeats frames on warm workers (a first frame, run before, dropped; --no-texture-cache)):\n\
                  # per_sample, per_texture_draw (per brick), upload_bytes_per_s (texture build) and\n\
                  # readback_bytes_per_s (subimage) by NNLS: {} samples, R2 {:.4} (weighted), relative\n\
                  # residual rms {:.1} %, total {:.3} s measured vs {:.3} s model\n",

@@ -53,7 +53,7 @@ pub struct FidelityArgs {
     /// Grid variants: binary-swap, master.
     #[arg(long, value_delimiter = ',', default_value = "binary-swap,master")]
     pub grid_variants: Vec<String>,
-    /// Measured runs per frame (kept: the median CPU, the least wall time).
+    /// Measured runs per frame (kept: the least CPU and wall time of each row).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
     /// Output folder: fidelity.csv, fidelity.json, fidelity-PHASE.png.

@@ -31,7 +31,7 @@ pub struct Row {
     pub phase: String,
     /// `cpu` or `wall`: what the measured column is.
     pub clock: String,
-    /// Measured seconds (over repetitions: the median CPU, the least wall).
+    /// Measured seconds (over repetitions: the least).
     pub measured_s: f64,
     /// Modelled seconds.
     pub modelled_s: f64,
@@ -207,10 +207,12 @@ pub fn median(v: &[f64]) -> f64 {
 }
 
 /// Rows of several repetitions of the same frames merged: per key, the
-/// median modelled seconds and, measured, the median CPU seconds (`cpu`
-/// rows) or the **least** wall seconds (`wall` rows: other jobs on the host
-/// only ever add to a wall time, so the least-disturbed run is the one to
-/// compare with a model that has a core per node).
+/// median modelled seconds and the **least** measured seconds, CPU (`cpu`
+/// rows) or wall (`wall` rows). The host only ever adds to either: other
+/// jobs to a wall time; page faults, cycles a virtual machine's host
+/// steals and caches other jobs evicted to a thread's CPU time. So the
+/// least-disturbed run is the one to compare with a model that has a core
+/// per node, and the calibration keeps each sample's fastest run too.
 pub fn merge_repeats(reps: &[Vec<Row>]) -> Vec<Row> {
     let mut keys: Vec<String> = Vec::new();
     let mut groups: std::collections::BTreeMap<String, Vec<&Row>> = Default::default();
@@ -225,12 +227,7 @@ pub fn merge_repeats(reps: &[Vec<Row>]) -> Vec<Row> {
         .map(|k| {
             let g = &groups[k];
             let mut row = g[0].clone();
-            let measured: Vec<f64> = g.iter().map(|r| r.measured_s).collect();
-            row.measured_s = if row.clock == "wall" {
-                measured.iter().copied().fold(f64::INFINITY, f64::min)
-            } else {
-                median(&measured)
-            };
+            row.measured_s = g.iter().map(|r| r.measured_s).fold(f64::INFINITY, f64::min);
             row.modelled_s = median(&g.iter().map(|r| r.modelled_s).collect::<Vec<_>>());
             row
         })
@@ -375,7 +372,7 @@ mod tests {
     }
 
     #[test]
-    fn repeats_merge_by_median_and_bands_use_the_median_node() {
+    fn repeats_keep_the_fastest_and_bands_use_the_median_node() {
         let r = |node, measured: f64| Row {
             workload: "grid".into(),
             variant: "binary-swap".into(),
@@ -390,7 +387,7 @@ mod tests {
         };
         let merged = merge_repeats(&[vec![r(0, 1.0)], vec![r(0, 3.0)], vec![r(0, 2.0)]]);
         assert_eq!(merged.len(), 1);
-        assert_eq!(merged[0].measured_s, 2.0);
+        assert_eq!(merged[0].measured_s, 1.0);
         let wall = |m| Row {
             clock: "wall".into(),
             ..r(0, m)

@@ -106,6 +106,18 @@ impl ClusterResult {
         .expect("reports serialize")
     }
 
+    /// Every frame's report as `--report` writes it, in order (a mesh job
+    /// has one frame).
+    pub fn frame_reports_json(&self) -> Vec<serde_json::Value> {
+        match self {
+            ClusterResult::Mesh(o) => vec![serde_json::to_value(&o.report)],
+            ClusterResult::Grid(f) => f.iter().map(|o| serde_json::to_value(&o.report)).collect(),
+        }
+        .into_iter()
+        .map(|r| r.expect("reports serialize"))
+        .collect()
+    }
+
     /// The (last) frame's report as text, as `pvrsim cluster` prints it.
     pub fn summary(&self) -> String {
         match self {

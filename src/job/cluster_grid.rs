@@ -172,17 +172,19 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
                 "--heartbeat-timeout".to_string(),
                 t.heartbeat_timeout.to_string(),
             ];
-            // Reassigning needs workers that serve a second session.
+            // Reassigning, and every frame after the first (one session a
+            // frame), need workers that serve more than one session.
+            let serving = reassign || cams.len() > 1;
             let mut w = LocalWorkers::spawn_serving(
                 &exe,
                 cfg.nodes,
                 &extra,
                 Duration::from_secs(30),
-                !reassign,
+                !serving,
             )?;
             let r = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes);
             let outs = run_remote_frames(&r, &input, &cfg, &cams);
-            if reassign {
+            if serving {
                 // Workers serving more sessions are stopped and reaped on drop.
                 return outs;
             }

@@ -40,6 +40,23 @@ pub fn process_cpu_s() -> f64 {
     clock_s(libc::CLOCK_PROCESS_CPUTIME_ID)
 }
 
+/// Minor page faults (no I/O) the process has taken so far
+/// (`getrusage(RUSAGE_SELF)`). A fresh process's first touch of its memory
+/// is one fault a page, at a price set by the host (far higher in a
+/// micro-VM whose guest memory is backed lazily) rather than by the work;
+/// the count tells how much of a render's CPU time may be that. (The
+/// user/system split of `getrusage` is not used: with tick-based CPU
+/// accounting it is sampled every 4 ms, too coarse for a 10 ms render.)
+pub fn minor_faults() -> u64 {
+    // SAFETY: an all-zero rusage is a valid value; getrusage only writes it.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `ru` is a valid, writable rusage.
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) } != 0 {
+        return 0;
+    }
+    ru.ru_minflt.max(0) as u64
+}
+
 /// One compute action of one handler call on a real transport: what the
 /// cost model said it costs and what it took.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -56,6 +56,10 @@ pub struct GridNodeStats {
     /// includes theirs).
     #[serde(default)]
     pub process_cpu_s: f64,
+    /// Minor page faults of the process during the render (a fresh worker
+    /// process's first touch of its buffers; [`crate::net::cpu::minor_faults`]).
+    #[serde(default)]
+    pub minor_faults: u64,
     /// Bricks whose texture came from the node's cache this frame (kept
     /// from an earlier frame; `slice3d` only).
     #[serde(default)]
@@ -176,6 +180,7 @@ impl GridNodeActor {
         let t = Instant::now();
         let cpu0 = crate::net::cpu::thread_cpu_s();
         let pcpu0 = crate::net::cpu::process_cpu_s();
+        let faults0 = crate::net::cpu::minor_faults();
         let mut work = Vec::with_capacity(self.bricks.len());
         if let Some(planes) = self.planes {
             for (b, vol, rank) in &self.bricks {
@@ -240,6 +245,7 @@ impl GridNodeActor {
         self.stats.host_s = t.elapsed().as_secs_f64();
         self.stats.cpu_s = crate::net::cpu::thread_cpu_s() - cpu0;
         self.stats.process_cpu_s = crate::net::cpu::process_cpu_s() - pcpu0;
+        self.stats.minor_faults = crate::net::cpu::minor_faults().saturating_sub(faults0);
         Ok(self.stats.device.total())
     }
 }

@@ -170,12 +170,22 @@ pub fn render_brick(
     } else {
         rect
     };
-    let w = img.width as usize;
-    let mut px = Vec::with_capacity(rect.width() as usize * rect.height() as usize);
-    for y in rect.y0..rect.y1 {
-        let row = y as usize * w;
-        px.extend_from_slice(&img.pixels[row + rect.x0 as usize..row + rect.x1 as usize]);
+    // The renderer returned the brick's rectangle (`Slice3dOptions::brick`).
+    if (img.width, img.height) != (frame.rect.width(), frame.rect.height()) {
+        return Err(crate::error::Error::Invalid(format!(
+            "brick {}: the renderer drew {}x{} pixels for a {}x{} rectangle",
+            b.id,
+            img.width,
+            img.height,
+            frame.rect.width(),
+            frame.rect.height()
+        )));
     }
+    let px = if rect.width() == 0 || rect.height() == 0 {
+        Vec::new()
+    } else {
+        img.pixels
+    };
     Ok(BrickOutput {
         layer: Layer::quantize(rect, spec.rank, spec.depth, &px),
         stats,

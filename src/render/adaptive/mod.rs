@@ -231,7 +231,12 @@ pub fn render_prepared(
         slice: st,
         adaptive: AdaptiveStats::of(av),
     };
-    let mut image = Image::new(w, h);
+    // A brick draws (and returns) its rectangle only, as slice3d.
+    let (ox, oy) = opts.brick.map_or((0, 0), |b| (b.rect.x0, b.rect.y0));
+    let (iw, ih) = opts
+        .brick
+        .map_or((w, h), |b| (b.rect.width(), b.rect.height()));
+    let mut image = Image::new(iw, ih);
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];
     }
@@ -242,7 +247,7 @@ pub fn render_prepared(
         Some(b) => Some(b.planes),
         None => planes::Planes::new(&view, vol, opts.slices),
     };
-    let Some(planes) = planes else {
+    let Some(planes) = planes.filter(|_| iw > 0 && ih > 0) else {
         st.time_render_s = start.elapsed().as_secs_f64();
         return Ok((image, stats(st)));
     };
@@ -271,20 +276,15 @@ pub fn render_prepared(
                image: &mut Image| {
         image
             .pixels
-            .par_chunks_mut(w as usize)
+            .par_chunks_mut(iw as usize)
             .enumerate()
             .map(|(j, row)| {
                 let mut n = SampleCounts::default();
                 for (i, px) in row.iter_mut().enumerate() {
+                    let (x, y) = (ox + i as u32, oy + j as u32);
                     let r = match &opts.brick {
-                        None => planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32),
-                        Some(b) => {
-                            let (x, y) = (i as u32, j as u32);
-                            if x < b.rect.x0 || x >= b.rect.x1 || y < b.rect.y0 || y >= b.rect.y1 {
-                                continue;
-                            }
-                            crate::render::slice3d::brick::ray_samples(&view, b, ud, x, y)
-                        }
+                        None => planes::ray_samples(&view, &planes, vol, ud, x, y),
+                        Some(b) => crate::render::slice3d::brick::ray_samples(&view, b, ud, x, y),
                     };
                     let Some(r) = r else {
                         continue;

@@ -58,7 +58,9 @@ pub struct Slice3dOptions {
     pub empty_skip: bool,
     /// Render the input as one brick of a larger volume (sort-last
     /// parallel rendering): the whole's slice planes, only the samples the
-    /// brick owns, only the pixels of its rectangle. `None`: the whole.
+    /// brick owns, only the pixels of its rectangle, and the image returned
+    /// is that rectangle (its pixel `(0, 0)` the rectangle's `(x0, y0)`),
+    /// not the whole frame. `None`: the whole.
     pub brick: Option<brick::BrickFrame>,
 }
 
@@ -176,7 +178,14 @@ pub fn render_prepared(
         blocks: prep.blocks.range.len() as u64,
         ..Default::default()
     };
-    let mut image = Image::new(w, h);
+    // A brick draws its rectangle only: a frame-sized buffer per brick
+    // would be touched (and, in a fresh worker process, page-faulted) for
+    // pixels it never covers.
+    let (ox, oy) = opts.brick.map_or((0, 0), |b| (b.rect.x0, b.rect.y0));
+    let (iw, ih) = opts
+        .brick
+        .map_or((w, h), |b| (b.rect.width(), b.rect.height()));
+    let mut image = Image::new(iw, ih);
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];
     }
@@ -184,7 +193,7 @@ pub fn render_prepared(
         Some(b) => Some(b.planes),
         None => planes::Planes::new(&view, vol, opts.slices),
     };
-    let Some(planes) = planes else {
+    let Some(planes) = planes.filter(|_| iw > 0 && ih > 0) else {
         st.time_render_s = start.elapsed().as_secs_f64();
         return Ok((image, st));
     };
@@ -231,7 +240,7 @@ pub fn render_prepared(
     // the same texture tiles one after the other, while they are cached.
     let run = |s: &(dyn Fn(&planes::RaySamples, &mut SampleCounts) -> [f32; 4] + Sync),
                image: &mut Image| {
-        let w = w as usize;
+        let w = iw as usize;
         image
             .pixels
             .par_chunks_mut(w * PIXEL_TILE)
@@ -244,21 +253,10 @@ pub fn render_prepared(
                         let j = band * PIXEL_TILE + dj;
                         for i in i0..(i0 + PIXEL_TILE).min(w) {
                             let px = &mut rows[dj * w + i];
+                            let (x, y) = (ox + i as u32, oy + j as u32);
                             let r = match &opts.brick {
-                                None => {
-                                    planes::ray_samples(&view, &planes, vol, ud, i as u32, j as u32)
-                                }
-                                Some(b) => {
-                                    let (x, y) = (i as u32, j as u32);
-                                    if x < b.rect.x0
-                                        || x >= b.rect.x1
-                                        || y < b.rect.y0
-                                        || y >= b.rect.y1
-                                    {
-                                        continue;
-                                    }
-                                    brick::ray_samples(&view, b, ud, x, y)
-                                }
+                                None => planes::ray_samples(&view, &planes, vol, ud, x, y),
+                                Some(b) => brick::ray_samples(&view, b, ud, x, y),
                             };
                             let Some(r) = r else {
                                 continue;
