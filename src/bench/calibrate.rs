@@ -97,14 +97,14 @@ pub enum Timer {
 
 /// A stopwatch on the `--timer` clock.
 #[derive(Debug, Clone, Copy)]
-struct Watch(Timer, Instant, f64);
+pub(super) struct Watch(Timer, Instant, f64);
 
 impl Watch {
-    fn start(t: Timer) -> Watch {
+    pub(super) fn start(t: Timer) -> Watch {
         Watch(t, Instant::now(), crate::net::cpu::thread_cpu_s())
     }
 
-    fn secs(&self) -> f64 {
+    pub(super) fn secs(&self) -> f64 {
         match self.0 {
             Timer::Cpu => crate::net::cpu::thread_cpu_s() - self.2,
             Timer::Wall => self.1.elapsed().as_secs_f64(),
@@ -134,7 +134,11 @@ fn ert_modes() -> [(&'static str, NodeErt); 4] {
     ]
 }
 
-/// Times one node rendering all of `input` (in 8 work units) with `opts`.
+/// Times one node rendering all of `input` (in 8 work units) with `opts`,
+/// then each quarter of a 4-node placement (RCB, as the cluster places
+/// cells) as a node of its own: a cluster node's working set is its part,
+/// and a fit on whole-mesh runs alone priced a quarter's steps as if its
+/// lists and vertices were as far apart in memory as the whole's.
 fn time_run(
     input: &RenderInput,
     opts: NodeOptions,
@@ -143,13 +147,31 @@ fn time_run(
     out: &mut Vec<Sample>,
 ) {
     let view = input.scene.view();
-    let tf = PreparedTf::new(&input.scene.transfer);
-    let mut node = NodeRenderer::new(view, tf, opts);
     // Units of 1/8, 1/8, 1/4 and 1/2 of the mesh, so that receive samples vary in size.
     let parts = Placement::new(&input.mesh, 8, PlacementMethod::Rcb, None).parts;
-    for range in [0..1, 1..2, 2..4, 4..8] {
-        let cells: Vec<u32> = parts[range].concat();
-        let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, &cells);
+    let whole: Vec<Vec<u32>> = [0..1, 1..2, 2..4, 4..8]
+        .into_iter()
+        .map(|r| parts[r].concat())
+        .collect();
+    time_node(input, opts, &whole, step, timer, out);
+    for quarter in Placement::new(&input.mesh, 4, PlacementMethod::Rcb, Some(&view)).parts {
+        time_node(input, opts, &[quarter], step, timer, out);
+    }
+}
+
+/// Times one node receiving `units` (cell ids) and rendering them.
+fn time_node(
+    input: &RenderInput,
+    opts: NodeOptions,
+    units: &[Vec<u32>],
+    step: usize,
+    timer: Timer,
+    out: &mut Vec<Sample>,
+) {
+    let tf = PreparedTf::new(&input.scene.transfer);
+    let mut node = NodeRenderer::new(input.scene.view(), tf, opts);
+    for cells in units {
+        let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, cells);
         let t = Watch::start(timer);
         let ops = node.add_work(&unit).expect("valid unit");
         out.push(Sample {
@@ -354,6 +376,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
         };
         let mut samples = Vec::new();
         let mut first = None;
+        let mut phase2_inputs = Vec::new();
         for path in &scene_paths {
             let (input, _) = RenderInput::load(path)
                 .with_context(|| format!("--scenes: cannot load {}", path.display()))?;
@@ -386,11 +409,22 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
                     }
                 }
             }
+            phase2_inputs.push(input.clone());
             first.get_or_insert(input);
         }
         let input = first.context("no scene given")?;
         let (per_entry, per_cell) = time_direct(&input, a.timer);
         let (mut profile, q) = fit_profile(&samples, per_entry, per_cell);
+        let p2 = super::calibrate_phase2::measure(&phase2_inputs, a.repeats, a.timer)?;
+        profile.per_segment_sent = p2.per_segment_sent;
+        profile.per_segment_received = p2.per_segment_received;
+        let phase2_line = format!(
+            "# per_segment_sent and per_segment_received measured directly: binary swaps of every\n\
+             # scene's lists (RCB over 2 and 4 nodes, ERT off), rle codec, encoding and decode + merge\n\
+             # timed apart ({} segments carried; fastest of {} runs).\n",
+            p2.segments,
+            a.repeats.max(1)
+        );
         let grid_line = if a.no_grid {
             "# grid costs not fitted (--no-grid)\n".to_string()
         } else {
@@ -423,13 +457,14 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
              # Scenes {}, image scales {:?}, partial composition on/off, ERT off / paper (D 20, C 100,\n\
              # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
              # (relative errors) on the operation counts of each timed call:\n{}\
-             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n{}",
+             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n{}{}",
             a.timer,
             scenes.join(", "),
             a.scales,
             a.step_cells,
             a.repeats,
             quality_lines(&q),
+            phase2_line,
             grid_line
         );
         print!("{header}");

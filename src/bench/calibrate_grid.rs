@@ -82,7 +82,7 @@ pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<V
     for n in [48u64, 64] {
         let scene = data.write_grid(n)?;
         for (d, nodes) in [(1u32, 1usize), (2, 1), (3, 1), (2, 2), (2, 4)] {
-            for size in [96u32, 160] {
+            for size in [96u32, 160, 256] {
                 let frames = render_frames(&scene, &probe, d, nodes, size, repeats.max(1), timer)?;
                 anyhow::ensure!(
                     frames.len() >= 2,

@@ -11,6 +11,7 @@ pub mod adaptive;
 pub mod calibrate;
 pub mod calibrate_grid;
 pub mod calibrate_network;
+pub mod calibrate_phase2;
 pub mod grid;
 pub mod orderings;
 pub mod splat;

@@ -10,12 +10,15 @@
 //! cost on arrival; then the next round. A message for a later round that
 //! arrives early waits in the inbox counters, as it would on the cluster.
 //!
-//! Compute costs come from the node's [`CostProfile`], mapped as follows
-//! (the profile has no compositing-specific terms; stated, not measured):
-//! merging a received segment = one segment insertion (`per_segment`);
-//! compositing a region = one list walk per pixel (`per_list_walked`) plus
-//! one list entry per segment held (`per_list_entry_walked`); pasting a
-//! gathered pixel = `per_list_walked`. Encoding costs are not charged.
+//! Compute costs come from the node's [`CostProfile`]: a segment sent in
+//! lists costs its sender `per_segment_sent` (encoding) and its receiver
+//! `per_segment_received` (decoding and merging), both measured by `pvrsim
+//! calibrate` on a binary swap of the built-in mesh; a profile without them
+//! (the shipped ones) charges nothing for encoding and one segment
+//! insertion (`per_segment`) for a merge. Compositing a region = one list
+//! walk per pixel (`per_list_walked`) plus one list entry per segment held
+//! (`per_list_entry_walked`); pasting a gathered pixel = `per_list_walked`
+//! (stated, not measured).
 
 use std::collections::BTreeMap;
 
@@ -195,6 +198,12 @@ pub(crate) fn replay(
     Ok(sim)
 }
 
+/// Ray segments in a lists message of `px` pixels that takes `raw_bytes`
+/// under the raw codec (24 bytes of header, 4 a pixel, 24 a segment).
+pub fn lists_segments(raw_bytes: u64, px: u64) -> u64 {
+    raw_bytes.saturating_sub(24 + 4 * px) / 24
+}
+
 /// The replay of a phase 2 on the network model, built message by message
 /// (from an in-process run, or from the logs of ranks that ran it over a
 /// real transport), with the compute costs of the module docs.
@@ -220,7 +229,7 @@ impl ReplayPlan {
     /// Rank `k` composites `px` pixels holding `segs` list entries in round `r`.
     pub fn composite(&mut self, r: usize, k: usize, px: usize, segs: usize, profile: &CostProfile) {
         let c = px as f64 * profile.per_list_walked + segs as f64 * profile.per_list_entry_walked;
-        self.plans[k][r].before = c;
+        self.plans[k][r].before += c;
         self.busy[k] += c;
     }
 
@@ -239,8 +248,16 @@ impl ReplayPlan {
         let (mk, cost) = match what {
             Payload::Lists(rect) => {
                 let px = rect.width() as u64 * rect.height() as u64;
-                let segs = raw_bytes.saturating_sub(24 + 4 * px) / 24;
-                (MessageKind::Segments, segs as f64 * profile.per_segment)
+                let segs = lists_segments(raw_bytes, px) as f64;
+                let encode = segs * profile.per_segment_sent;
+                self.plans[from][r].before += encode;
+                self.busy[from] += encode;
+                let merge = if profile.per_segment_received > 0.0 {
+                    profile.per_segment_received
+                } else {
+                    profile.per_segment
+                };
+                (MessageKind::Segments, segs * merge)
             }
             Payload::Pixels(rect) => {
                 let px = rect.width() as f64 * rect.height() as f64;
@@ -263,5 +280,44 @@ impl ReplayPlan {
     ) -> anyhow::Result<(SimReport, Vec<u64>, Vec<f64>)> {
         let sim = replay(self.plans, self.costs, model, record_trace)?;
         Ok((sim, self.bytes_sent, self.busy))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::cell::scan::Rect;
+
+    /// One lists message of 3 segments over 2 pixels from rank 0 to 1.
+    fn busy_of(profile: &CostProfile) -> Vec<f64> {
+        let rect = Rect {
+            x0: 0,
+            y0: 0,
+            x1: 2,
+            y1: 1,
+        };
+        let mut plan = ReplayPlan::new(2, 1);
+        let raw = 24 + 4 * 2 + 24 * 3;
+        assert_eq!(lists_segments(raw, 2), 3);
+        plan.message(0, 0, 1, Payload::Lists(rect), 40, raw, profile);
+        plan.run(&NetworkModel::ideal(), false).unwrap().2
+    }
+
+    #[test]
+    fn lists_cost_their_sender_encoding_and_their_receiver_merging() {
+        let p = CostProfile {
+            per_segment: 1.0,
+            per_segment_sent: 2.0,
+            per_segment_received: 5.0,
+            ..Default::default()
+        };
+        assert_eq!(busy_of(&p), vec![6.0, 15.0]);
+        // Shipped profiles (no phase-2 terms): a merge is an insertion,
+        // encoding is free, as before the terms existed.
+        let old = CostProfile {
+            per_segment: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(busy_of(&old), vec![0.0, 3.0]);
     }
 }

@@ -56,6 +56,12 @@ pub struct CostProfile {
     pub per_shared_entry: f64,
     /// Per cell packed into or unpacked from a work unit.
     pub per_work_cell: f64,
+    /// Phase 2: per ray segment a node encodes into a message of lists
+    /// (measured by `pvrsim calibrate` on a binary swap; 0: not charged).
+    pub per_segment_sent: f64,
+    /// Phase 2: per ray segment a node receives in lists, decoded and
+    /// merged into its own (0: `per_segment`, an insertion, is charged).
+    pub per_segment_received: f64,
     /// Grid nodes without a device model: per trilinear sample taken by the
     /// software slicer (fetch, classify, blend).
     pub per_sample: f64,
