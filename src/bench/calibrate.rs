@@ -21,7 +21,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::node::calibration::{
-    fit_profile, fit_table1, FitQuality, Sample, SampleKind, Table1Row,
+    fit_profile, fit_table1, FitQuality, Measured, Sample, SampleKind, Table1Row,
 };
 use crate::node::cost::{CostProfile, ProfileFile};
 use crate::node::renderer::NodeErt;
@@ -414,7 +414,13 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
         }
         let input = first.context("no scene given")?;
         let (per_entry, per_cell) = time_direct(&input, a.timer);
-        let (mut profile, q) = fit_profile(&samples, per_entry, per_cell);
+        let per_piece = super::calibrate_pieces::measure(&input.scene.transfer, a.repeats, a.timer);
+        let measured = Measured {
+            per_shared_entry: per_entry,
+            per_work_cell: per_cell,
+            per_segment_piece: per_piece,
+        };
+        let (mut profile, q) = fit_profile(&samples, measured);
         let p2 = super::calibrate_phase2::measure(&phase2_inputs, a.repeats, a.timer)?;
         profile.per_segment_sent = p2.per_segment_sent;
         profile.per_segment_received = p2.per_segment_received;
@@ -457,7 +463,9 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
              # Scenes {}, image scales {:?}, partial composition on/off, ERT off / paper (D 20, C 100,\n\
              # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
              # (relative errors) on the operation counts of each timed call:\n{}\
-             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode).\n{}{}",
+             # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode);\n\
+             # per_segment_piece too (exact integrator, batches crossing one control point against batches\n\
+             # inside one piece, the first scene's transfer function), and taken off the step samples first.\n{}{}",
             a.timer,
             scenes.join(", "),
             a.scales,

@@ -44,6 +44,10 @@ pub struct CostProfile {
     pub per_segment: f64,
     /// Per merge by partial composition.
     pub per_merge: f64,
+    /// Per piece the exact integrator integrates of a segment that crosses
+    /// transfer-function control points (`segment_pieces`; measured
+    /// directly by `pvrsim calibrate`).
+    pub per_segment_piece: f64,
     /// ERT update: per pixel list walked.
     pub per_list_walked: f64,
     /// ERT update: per list entry visited.
@@ -145,7 +149,8 @@ pub fn breakdown(o: &OpCounts, p: &CostProfile) -> Breakdown {
         scan: f(o.cells_projected, p.per_cell_setup)
             + f(o.pixels_tested, p.per_pixel_test)
             + f(o.segments_generated, p.per_segment)
-            + f(o.segments_merged, p.per_merge),
+            + f(o.segments_merged, p.per_merge)
+            + f(o.segment_pieces, p.per_segment_piece),
         ert_update: f(o.lists_walked, p.per_list_walked)
             + f(o.list_entries_walked, p.per_list_entry_walked)
             + f(o.table_entries_updated, p.per_table_entry)

@@ -30,6 +30,11 @@ pub struct OpCounts {
     pub segments_generated: u64,
     /// Merges done by partial composition on insertion.
     pub segments_merged: u64,
+    /// Exact integrator: pieces integrated of the segments that cross
+    /// transfer-function control points or need sub-steps (one a piece
+    /// between two points; segments within one piece are not counted).
+    #[serde(default)]
+    pub segment_pieces: u64,
     /// ERT update: pixel lists walked (pixels whose list changed).
     pub lists_walked: u64,
     /// ERT update: list entries visited while computing termination depths.
@@ -71,6 +76,7 @@ impl OpCounts {
             pixels_tested,
             segments_generated,
             segments_merged,
+            segment_pieces,
             lists_walked,
             list_entries_walked,
             table_entries_updated,

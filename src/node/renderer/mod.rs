@@ -388,6 +388,7 @@ impl NodeRenderer {
         ops.pixels_tested = counts.pixels_tested;
         ops.segments_generated = counts.segments_generated;
         ops.segments_merged = counts.segments_merged;
+        ops.segment_pieces = counts.segment_pieces;
         let processed = end - self.next;
         self.next = end;
         self.since_update += processed;

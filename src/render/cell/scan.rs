@@ -53,6 +53,8 @@ pub struct ScanCounts {
     pub segments_generated: u64,
     /// Merge operations by partial composition.
     pub segments_merged: u64,
+    /// Pieces the exact integrator cut crossing segments into.
+    pub segment_pieces: u64,
 }
 
 impl ScanCounts {
@@ -61,6 +63,7 @@ impl ScanCounts {
         self.pixels_tested += o.pixels_tested;
         self.segments_generated += o.segments_generated;
         self.segments_merged += o.segments_merged;
+        self.segment_pieces += o.segment_pieces;
     }
 }
 
@@ -152,6 +155,7 @@ impl<'a> ScanTarget<'a> {
         }
         self.tf.integrate_batch(self.integrator, &mut self.batch);
         self.counts.segments_generated += n as u64;
+        self.counts.segment_pieces += self.batch.pieces as u64;
         for l in 0..n {
             let idx = self.pend_idx[l];
             let seg = Segment {

@@ -28,6 +28,9 @@ pub struct Batch {
     /// knows it (the whole cell's scalar range lies in one piece), else
     /// [`NO_PIECE`].
     pub piece_hint: [u16; BATCH],
+    /// Set by [`PreparedTf::integrate_batch`]: pieces the exact integrator
+    /// cut the lanes that cross control points (or need sub-steps) into.
+    pub pieces: u32,
     /// Scratch: each lane's transfer-function piece, gathered.
     lanes: Lanes,
 }
@@ -41,6 +44,7 @@ impl Default for Batch {
             len: [0.0; BATCH],
             rgba: [[0.0; BATCH]; 4],
             piece_hint: [NO_PIECE; BATCH],
+            pieces: 0,
             lanes: Lanes {
                 split: [false; BATCH],
                 piece: [0; BATCH],
@@ -86,6 +90,7 @@ impl PreparedTf {
     pub fn integrate_batch(&self, integrator: Integrator, b: &mut Batch) {
         let lanes = ((b.n + 7) & !7).min(BATCH);
         let (inv_ud, exact) = (self.inv_unit_distance, integrator == Integrator::Exact);
+        b.pieces = 0;
         // Pass 1: each lane's piece; a lane whose ends lie in different
         // pieces crosses a control point and is split later. With few
         // control points, a vectorised count of the points at or below each
@@ -143,6 +148,7 @@ impl PreparedTf {
                     tasks.ends.push((l as u16, tasks.piece.len() as u32));
                 }
             }
+            b.pieces = tasks.piece.len() as u32;
             if !tasks.ends.is_empty() {
                 #[cfg(target_arch = "x86_64")]
                 {
