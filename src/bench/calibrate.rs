@@ -200,6 +200,50 @@ fn time_node(
     }
 }
 
+/// The timed samples of every scene, image scale, partial composition
+/// on / off and ERT mode: every configuration once per pass, `--repeats`
+/// passes in turn (a slow spell of a shared host then slows one pass of
+/// many configurations, not every run of a few), each sample keeping its
+/// fastest pass (the runs are deterministic, so sample k of every pass did
+/// the same work).
+fn mesh_samples(inputs: &[RenderInput], a: &CalibrateArgs) -> Vec<Sample> {
+    let mut configs = Vec::new();
+    for input in inputs {
+        for &scale in &a.scales {
+            let (w, h) = (input.scene.image.width, input.scene.image.height);
+            let sized = input.clone().with_size(
+                ((w as f64 * scale).round() as u32).max(1),
+                ((h as f64 * scale).round() as u32).max(1),
+            );
+            for partial in [true, false] {
+                for (_, ert) in ert_modes() {
+                    let opts = NodeOptions {
+                        partial_composition: partial,
+                        ert,
+                        ..Default::default()
+                    };
+                    configs.push((sized.clone(), opts));
+                }
+            }
+        }
+    }
+    let mut best: Vec<Vec<Sample>> = vec![Vec::new(); configs.len()];
+    for _ in 0..a.repeats.max(1) {
+        for (c, (sized, opts)) in configs.iter().enumerate() {
+            let mut run = Vec::new();
+            time_run(sized, *opts, a.step_cells, a.timer, &mut run);
+            if best[c].is_empty() {
+                best[c] = run;
+            } else {
+                for (b, r) in best[c].iter_mut().zip(run) {
+                    b.secs = b.secs.min(r.secs);
+                }
+            }
+        }
+    }
+    best.into_iter().flatten().collect()
+}
+
 /// Seconds per shared-table entry merged and per work cell moved.
 fn time_direct(input: &RenderInput, timer: Timer) -> (f64, f64) {
     let view = input.scene.view();
@@ -374,44 +418,15 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             Some(s) => s.clone(),
             None => built_in.scenes.clone(),
         };
-        let mut samples = Vec::new();
-        let mut first = None;
-        let mut phase2_inputs = Vec::new();
+        let mut inputs = Vec::new();
         for path in &scene_paths {
             let (input, _) = RenderInput::load(path)
                 .with_context(|| format!("--scenes: cannot load {}", path.display()))?;
-            for &scale in &a.scales {
-                let (w, h) = (input.scene.image.width, input.scene.image.height);
-                let sized = input.clone().with_size(
-                    ((w as f64 * scale).round() as u32).max(1),
-                    ((h as f64 * scale).round() as u32).max(1),
-                );
-                for partial in [true, false] {
-                    for (_, ert) in ert_modes() {
-                        let opts = NodeOptions {
-                            partial_composition: partial,
-                            ert,
-                            ..Default::default()
-                        };
-                        let mut best: Vec<Sample> = Vec::new();
-                        for _ in 0..a.repeats.max(1) {
-                            let mut run = Vec::new();
-                            time_run(&sized, opts, a.step_cells, a.timer, &mut run);
-                            if best.is_empty() {
-                                best = run;
-                            } else {
-                                for (b, r) in best.iter_mut().zip(run) {
-                                    b.secs = b.secs.min(r.secs);
-                                }
-                            }
-                        }
-                        samples.extend(best);
-                    }
-                }
-            }
-            phase2_inputs.push(input.clone());
-            first.get_or_insert(input);
+            inputs.push(input);
         }
+        let samples = mesh_samples(&inputs, a);
+        let phase2_inputs = inputs.clone();
+        let first = inputs.into_iter().next();
         let input = first.context("no scene given")?;
         let (per_entry, per_cell) = time_direct(&input, a.timer);
         let per_piece = super::calibrate_pieces::measure(&input.scene.transfer, a.repeats, a.timer);
@@ -442,8 +457,8 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             profile.readback_bytes_per_s = f.readback_bytes_per_s;
             format!(
                 "# Grid (software slicer, built-in hydrogen 48^3 and 64^3, 1-3 bricks per axis on 1 node, 2 on 2\n\
-                 # and 4 nodes in worker processes, 96 and 160 px, per node process CPU with --timer cpu, the fastest of\n\
-                 # repeats frames on warm workers (a first frame, run before, dropped; --no-texture-cache)):\n\
+                 # and 4 nodes in worker processes, 96, 160 and 256 px, per node process CPU with --timer cpu, the fastest of\n\
+                 # repeats passes over every configuration, each a warm frame (a first frame, run before, dropped; --no-texture-cache)):\n\
                  # per_sample, per_texture_draw (per brick), upload_bytes_per_s (texture build) and\n\
                  # readback_bytes_per_s (subimage) by NNLS: {} samples, R2 {:.4} (weighted), relative\n\
                  # residual rms {:.1} %, total {:.3} s measured vs {:.3} s model\n",
@@ -461,7 +476,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
         let header = format!(
             "# Calibrated on this machine by `pvrsim calibrate` (one thread, {:?} clock).\n\
              # Scenes {}, image scales {:?}, partial composition on/off, ERT off / paper (D 20, C 100,\n\
-             # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} runs. Unit costs fitted by non-negative least squares\n\
+             # single) / multi / pyramid (the cluster's default); steps of {} cells, fastest of {} passes over every configuration. Unit costs fitted by non-negative least squares\n\
              # (relative errors) on the operation counts of each timed call:\n{}\
              # per_shared_entry and per_work_cell measured directly (apply_shared; give_work + encode + decode);\n\
              # per_segment_piece too (exact integrator, batches crossing one control point against batches\n\
