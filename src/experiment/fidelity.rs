@@ -183,6 +183,7 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
         None => data.write_grid(64)?,
     };
     let mut rows = Vec::new();
+    let mut frames = Vec::new();
     let workloads: &[String] = if o.report_only { &[] } else { &o.workloads };
     anyhow::ensure!(
         !o.report_only || o.out.join("fidelity.json").exists(),
@@ -210,10 +211,22 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
                         link: &o.link,
                         nodes: n,
                     };
-                    rows.extend(one_frame(o, &f, scene, &extra)?);
+                    frames.push(prepare(o, f, scene, &extra)?);
                 }
             }
         }
+    }
+    // Repeat k of every frame before repeat k + 1 of any: a slow spell of
+    // a shared host then slows one repeat of several rows, which keep their
+    // least, instead of every repeat of one row.
+    let mut reps: Vec<Vec<Vec<Row>>> = vec![Vec::new(); frames.len()];
+    for i in 0..o.repeats {
+        for (p, r) in frames.iter().zip(&mut reps) {
+            r.push(measure_once(o, p, i)?);
+        }
+    }
+    for r in &reps {
+        rows.extend(merge_repeats(r));
     }
     let mut all = Vec::new();
     let json = o.out.join("fidelity.json");
@@ -242,12 +255,22 @@ pub fn run(o: &FidelityOptions) -> anyhow::Result<FidelityReport> {
     })
 }
 
-fn one_frame(
+/// A frame of the matrix, modelled once, ready to be measured.
+struct Prepared<'a> {
+    frame: Frame<'a>,
+    what: String,
+    stem: String,
+    modelled: serde_json::Value,
+    measured: Vec<(String, ParamValue)>,
+}
+
+/// Runs `f` on the virtual clock and builds its measured run's options.
+fn prepare<'a>(
     o: &FidelityOptions,
-    f: &Frame,
+    f: Frame<'a>,
     scene: &Path,
     extra: &[(String, ParamValue)],
-) -> anyhow::Result<Vec<Row>> {
+) -> anyhow::Result<Prepared<'a>> {
     let mut base = vec![
         opt("scene", scene.display()),
         opt("nodes", f.nodes),
@@ -268,7 +291,7 @@ fn one_frame(
     let mut virt = base.clone();
     virt.push(opt("clock", "virtual"));
     let what = format!("{} {} on {} nodes", f.workload, f.variant, f.nodes);
-    let v = run_job(&virt, &format!("{what}, virtual clock"))?;
+    let modelled = run_job(&virt, &format!("{what}, virtual clock"))?;
     let stem = format!(
         "{}-{}-{}-{}-{}",
         f.workload,
@@ -277,7 +300,7 @@ fn one_frame(
         f.link,
         f.nodes
     );
-    save_report(&o.out, &format!("{stem}-modelled.json"), &v)?;
+    save_report(&o.out, &format!("{stem}-modelled.json"), &modelled)?;
     let mut measured = base;
     measured.push(opt("transport", f.transport));
     match f.transport {
@@ -290,48 +313,48 @@ fn one_frame(
         }
         _ => {}
     }
-    // A grid frame is measured warm: one run of repeats + 1 frames on the
-    // same workers, the first dropped (a fresh worker process's first touch
-    // of its memory, one page fault a page, is the host's price, not the
-    // frame's; the calibration drops it too). Mesh frames: one run each.
-    let runs: Vec<serde_json::Value> = if f.workload == "grid" {
-        let mut m = measured.clone();
-        m.push(opt("frames", o.repeats + 1));
-        let mut frames = run_frames(&m, &format!("{what}, {}", f.transport))?;
-        anyhow::ensure!(
-            frames.len() == o.repeats + 1,
-            "{what}: {} frames came back, {} asked for",
-            frames.len(),
-            o.repeats + 1
-        );
-        frames.split_off(1)
-    } else {
-        Vec::new()
-    };
-    let mut reps = Vec::new();
-    for i in 0..o.repeats {
-        let m = match runs.get(i) {
-            Some(m) => m.clone(),
-            None => run_job(
-                &measured,
-                &format!("{what}, {} (run {})", f.transport, i + 1),
-            )?,
-        };
-        save_report(&o.out, &format!("{stem}-measured-{}.json", i + 1), &m)?;
-        let r = if f.workload == "mesh" {
-            f.mesh_rows(&m, &v)?
-        } else {
-            f.grid_rows(&m, &v)?
-        };
-        info!(
-            "{what} on {}: frame measured {:.4} s, modelled {:.4} s",
-            f.transport,
-            m["frame_s"].as_f64().unwrap_or(0.0),
-            v["frame_s"].as_f64().unwrap_or(0.0)
-        );
-        reps.push(r);
+    if f.workload == "grid" {
+        // A grid frame is measured warm: a run of two frames on the same
+        // workers, the first dropped (a fresh worker process's first touch
+        // of its memory, one page fault a page, is the host's price, not
+        // the frame's; the calibration drops it too).
+        measured.push(opt("frames", 2));
     }
-    Ok(merge_repeats(&reps))
+    Ok(Prepared {
+        frame: f,
+        what,
+        stem,
+        modelled,
+        measured,
+    })
+}
+
+/// Repeat `i` of a prepared frame: its rows.
+fn measure_once(o: &FidelityOptions, p: &Prepared, i: usize) -> anyhow::Result<Vec<Row>> {
+    let f = &p.frame;
+    let label = format!("{}, {} (run {})", p.what, f.transport, i + 1);
+    let mut frames = run_frames(&p.measured, &label)?;
+    let want = if f.workload == "grid" { 2 } else { 1 };
+    anyhow::ensure!(
+        frames.len() == want,
+        "{label}: {} frames came back, {want} asked for",
+        frames.len()
+    );
+    let m = frames.pop().expect("a frame");
+    save_report(&o.out, &format!("{}-measured-{}.json", p.stem, i + 1), &m)?;
+    let v = &p.modelled;
+    info!(
+        "{} on {}: frame measured {:.4} s, modelled {:.4} s",
+        p.what,
+        f.transport,
+        m["frame_s"].as_f64().unwrap_or(0.0),
+        v["frame_s"].as_f64().unwrap_or(0.0)
+    );
+    if f.workload == "mesh" {
+        f.mesh_rows(&m, v)
+    } else {
+        f.grid_rows(&m, v)
+    }
 }
 
 /// Keeps a run's report under `out/reports/`.
