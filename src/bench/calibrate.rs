@@ -232,16 +232,25 @@ fn mesh_samples(inputs: &[RenderInput], a: &CalibrateArgs) -> Vec<Sample> {
         for (c, (sized, opts)) in configs.iter().enumerate() {
             let mut run = Vec::new();
             time_run(sized, *opts, a.step_cells, a.timer, &mut run);
-            if best[c].is_empty() {
-                best[c] = run;
-            } else {
-                for (b, r) in best[c].iter_mut().zip(run) {
-                    b.secs = b.secs.min(r.secs);
-                }
-            }
+            keep_fastest(&mut best[c], run, |s| &mut s.secs);
         }
     }
     best.into_iter().flatten().collect()
+}
+
+/// Sample k of `best` keeps the least seconds of itself and sample k of
+/// `run` (the same work, timed in another pass); an empty `best` takes
+/// `run`.
+pub(super) fn keep_fastest<T>(best: &mut Vec<T>, run: Vec<T>, secs: fn(&mut T) -> &mut f64) {
+    if best.is_empty() {
+        *best = run;
+        return;
+    }
+    for (b, mut r) in best.iter_mut().zip(run) {
+        let t = *secs(&mut r);
+        let b = secs(b);
+        *b = b.min(t);
+    }
 }
 
 /// Seconds per shared-table entry merged and per work cell moved.
@@ -425,10 +434,8 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             inputs.push(input);
         }
         let samples = mesh_samples(&inputs, a);
-        let phase2_inputs = inputs.clone();
-        let first = inputs.into_iter().next();
-        let input = first.context("no scene given")?;
-        let (per_entry, per_cell) = time_direct(&input, a.timer);
+        let input = inputs.first().context("no scene given")?;
+        let (per_entry, per_cell) = time_direct(input, a.timer);
         let per_piece = super::calibrate_pieces::measure(&input.scene.transfer, a.repeats, a.timer);
         let measured = Measured {
             per_shared_entry: per_entry,
@@ -436,7 +443,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             per_segment_piece: per_piece,
         };
         let (mut profile, q) = fit_profile(&samples, measured);
-        let p2 = super::calibrate_phase2::measure(&phase2_inputs, a.repeats, a.timer)?;
+        let p2 = super::calibrate_phase2::measure(&inputs, a.repeats, a.timer)?;
         profile.per_segment_sent = p2.per_segment_sent;
         profile.per_segment_received = p2.per_segment_received;
         let phase2_line = format!(

@@ -93,34 +93,23 @@ pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<V
     let mut best: Vec<Vec<GridSample>> = vec![Vec::new(); configs.len()];
     for _ in 0..repeats.max(1) {
         for (c, (scene, d, nodes, size)) in configs.iter().enumerate() {
-            let frames = render_frames(scene, &probe, *d, *nodes, *size, 1, timer)?;
-            anyhow::ensure!(
-                frames.len() == 2,
-                "grid calibration: {} frames came back, 2 asked for",
-                frames.len()
-            );
-            let warm = &frames[1];
-            if best[c].is_empty() {
-                best[c] = warm.clone();
-            }
-            for (b, s) in best[c].iter_mut().zip(warm) {
-                b.secs = b.secs.min(s.secs);
-            }
+            let warm = render_warm(scene, &probe, *d, *nodes, *size, timer)?;
+            super::calibrate::keep_fastest(&mut best[c], warm, |s| &mut s.secs);
         }
     }
     Ok(best.into_iter().flatten().collect())
 }
 
-/// One run of `warm + 1` frames: per frame, per node, its counts and time.
-fn render_frames(
+/// One run of two frames on the same workers: per node, the counts and
+/// time of the second.
+fn render_warm(
     scene: &Path,
     profile: &Path,
     d: u32,
     nodes: usize,
     size: u32,
-    warm: usize,
     timer: Timer,
-) -> anyhow::Result<Vec<Vec<GridSample>>> {
+) -> anyhow::Result<Vec<GridSample>> {
     let job = ClusterJob::from_options(&[
         opt("scene", scene.display()),
         opt("nodes", nodes),
@@ -129,7 +118,7 @@ fn render_frames(
         opt("profile", profile.display()),
         opt("width", size),
         opt("height", size),
-        opt("frames", warm + 1),
+        opt("frames", 2),
         ("no_texture_cache".to_string(), ParamValue::Bool(true)),
         ("no_baselines".to_string(), ParamValue::Bool(true)),
     ])
@@ -137,30 +126,31 @@ fn render_frames(
     let r = job
         .run()
         .map_err(|e| anyhow::anyhow!("grid calibration run: {e}"))?;
-    r.frame_reports_json()
+    let frames = r.frame_reports_json();
+    anyhow::ensure!(
+        frames.len() == 2,
+        "grid calibration: {} frames came back, 2 asked for",
+        frames.len()
+    );
+    let nodes = frames[1]["nodes"]
+        .as_array()
+        .ok_or_else(|| anyhow::anyhow!("grid calibration: a report without nodes"))?;
+    Ok(nodes
         .iter()
-        .map(|rep| {
-            let nodes = rep["nodes"]
-                .as_array()
-                .ok_or_else(|| anyhow::anyhow!("grid calibration: a report without nodes"))?;
-            Ok(nodes
-                .iter()
-                .map(|node| {
-                    let num = |k: &str| node[k].as_f64().unwrap_or(0.0);
-                    GridSample {
-                        samples: num("samples_taken") as u64,
-                        textures: node["bricks"].as_array().map_or(0, |b| b.len() as u64),
-                        texture_bytes: num("texture_bytes") as u64,
-                        pixels: num("pixels") as u64,
-                        secs: match timer {
-                            Timer::Cpu => num("process_cpu_s"),
-                            Timer::Wall => num("host_s"),
-                        },
-                    }
-                })
-                .collect())
+        .map(|node| {
+            let num = |k: &str| node[k].as_f64().unwrap_or(0.0);
+            GridSample {
+                samples: num("samples_taken") as u64,
+                textures: node["bricks"].as_array().map_or(0, |b| b.len() as u64),
+                texture_bytes: num("texture_bytes") as u64,
+                pixels: num("pixels") as u64,
+                secs: match timer {
+                    Timer::Cpu => num("process_cpu_s"),
+                    Timer::Wall => num("host_s"),
+                },
+            }
         })
-        .collect()
+        .collect())
 }
 
 /// Fits the three costs to `samples`.

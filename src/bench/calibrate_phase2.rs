@@ -68,7 +68,7 @@ fn one_swap(input: &RenderInput, nodes: usize, timer: Timer) -> anyhow::Result<(
         let carried: u64 = msgs
             .iter()
             .map(|m| match m.what {
-                Payload::Lists(rect) => crate::cluster::phase2::lists_segments(
+                Payload::Lists(rect) => crate::compositor::codec::raw_lists_segments(
                     m.raw_bytes,
                     rect.width() as u64 * rect.height() as u64,
                 ),

@@ -198,12 +198,6 @@ pub(crate) fn replay(
     Ok(sim)
 }
 
-/// Ray segments in a lists message of `px` pixels that takes `raw_bytes`
-/// under the raw codec (24 bytes of header, 4 a pixel, 24 a segment).
-pub fn lists_segments(raw_bytes: u64, px: u64) -> u64 {
-    raw_bytes.saturating_sub(24 + 4 * px) / 24
-}
-
 /// The replay of a phase 2 on the network model, built message by message
 /// (from an in-process run, or from the logs of ranks that ran it over a
 /// real transport), with the compute costs of the module docs.
@@ -248,7 +242,7 @@ impl ReplayPlan {
         let (mk, cost) = match what {
             Payload::Lists(rect) => {
                 let px = rect.width() as u64 * rect.height() as u64;
-                let segs = lists_segments(raw_bytes, px) as f64;
+                let segs = crate::compositor::codec::raw_lists_segments(raw_bytes, px) as f64;
                 let encode = segs * profile.per_segment_sent;
                 self.plans[from][r].before += encode;
                 self.busy[from] += encode;
@@ -298,7 +292,7 @@ mod tests {
         };
         let mut plan = ReplayPlan::new(2, 1);
         let raw = 24 + 4 * 2 + 24 * 3;
-        assert_eq!(lists_segments(raw, 2), 3);
+        assert_eq!(crate::compositor::codec::raw_lists_segments(raw, 2), 3);
         plan.message(0, 0, 1, Payload::Lists(rect), 40, raw, profile);
         plan.run(&NetworkModel::ideal(), false).unwrap().2
     }

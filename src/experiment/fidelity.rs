@@ -262,6 +262,8 @@ struct Prepared<'a> {
     stem: String,
     modelled: serde_json::Value,
     measured: Vec<(String, ParamValue)>,
+    /// Frames of one measured run (the last is measured).
+    frames: usize,
 }
 
 /// Runs `f` on the virtual clock and builds its measured run's options.
@@ -313,12 +315,13 @@ fn prepare<'a>(
         }
         _ => {}
     }
-    if f.workload == "grid" {
-        // A grid frame is measured warm: a run of two frames on the same
-        // workers, the first dropped (a fresh worker process's first touch
-        // of its memory, one page fault a page, is the host's price, not
-        // the frame's; the calibration drops it too).
-        measured.push(opt("frames", 2));
+    // A grid frame is measured warm: a run of two frames on the same
+    // workers, the first dropped (a fresh worker process's first touch of
+    // its memory, one page fault a page, is the host's price, not the
+    // frame's; the calibration drops it too).
+    let frames = if f.workload == "grid" { 2 } else { 1 };
+    if frames > 1 {
+        measured.push(opt("frames", frames));
     }
     Ok(Prepared {
         frame: f,
@@ -326,6 +329,7 @@ fn prepare<'a>(
         stem,
         modelled,
         measured,
+        frames,
     })
 }
 
@@ -334,11 +338,11 @@ fn measure_once(o: &FidelityOptions, p: &Prepared, i: usize) -> anyhow::Result<V
     let f = &p.frame;
     let label = format!("{}, {} (run {})", p.what, f.transport, i + 1);
     let mut frames = run_frames(&p.measured, &label)?;
-    let want = if f.workload == "grid" { 2 } else { 1 };
     anyhow::ensure!(
-        frames.len() == want,
-        "{label}: {} frames came back, {want} asked for",
-        frames.len()
+        frames.len() == p.frames,
+        "{label}: {} frames came back, {} asked for",
+        frames.len(),
+        p.frames
     );
     let m = frames.pop().expect("a frame");
     save_report(&o.out, &format!("{}-measured-{}.json", p.stem, i + 1), &m)?;

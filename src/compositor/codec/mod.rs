@@ -72,6 +72,12 @@ pub fn raw_lists_bytes(lists: &RegionLists) -> u64 {
     (HEADER_BYTES + 4 * lists.pixels() + SEGMENT_BYTES * lists.segments().len()) as u64
 }
 
+/// Segments in lists of `pixels` pixels whose raw encoding takes
+/// `raw_bytes` (the inverse of [`raw_lists_bytes`]).
+pub fn raw_lists_segments(raw_bytes: u64, pixels: u64) -> u64 {
+    raw_bytes.saturating_sub(HEADER_BYTES as u64 + 4 * pixels) / SEGMENT_BYTES as u64
+}
+
 /// Size of `pixels` under the raw codec.
 pub fn raw_pixels_bytes(pixels: &RegionPixels) -> u64 {
     (HEADER_BYTES + PIXEL_BYTES * pixels.px.len()) as u64

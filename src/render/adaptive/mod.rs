@@ -232,10 +232,7 @@ pub fn render_prepared(
         adaptive: AdaptiveStats::of(av),
     };
     // A brick draws (and returns) its rectangle only, as slice3d.
-    let (ox, oy) = opts.brick.map_or((0, 0), |b| (b.rect.x0, b.rect.y0));
-    let (iw, ih) = opts
-        .brick
-        .map_or((w, h), |b| (b.rect.width(), b.rect.height()));
+    let (ox, oy, iw, ih) = crate::render::slice3d::brick::draw_area(opts.brick.as_ref(), w, h);
     let mut image = Image::new(iw, ih);
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];

@@ -46,6 +46,15 @@ pub struct BrickFrame {
     pub rect: Rect,
 }
 
+/// The pixels a renderer draws and returns for `brick` in a `w` x `h`
+/// frame, as `(x0, y0, width, height)`: the brick's rectangle, or the
+/// whole frame without a brick.
+pub fn draw_area(brick: Option<&BrickFrame>, w: u32, h: u32) -> (u32, u32, u32, u32) {
+    brick.map_or((0, 0, w, h), |b| {
+        (b.rect.x0, b.rect.y0, b.rect.width(), b.rect.height())
+    })
+}
+
 /// `[t_in, t_out]` of `G0 + t dG` inside the box `[lo, hi]` (global grid
 /// coordinates), `t >= 0`; each face's crossing is `(face - G0_a) / dG_a`,
 /// the same expression in the bricks on both sides of a face.

@@ -181,10 +181,7 @@ pub fn render_prepared(
     // A brick draws its rectangle only: a frame-sized buffer per brick
     // would be touched (and, in a fresh worker process, page-faulted) for
     // pixels it never covers.
-    let (ox, oy) = opts.brick.map_or((0, 0), |b| (b.rect.x0, b.rect.y0));
-    let (iw, ih) = opts
-        .brick
-        .map_or((w, h), |b| (b.rect.width(), b.rect.height()));
+    let (ox, oy, iw, ih) = brick::draw_area(opts.brick.as_ref(), w, h);
     let mut image = Image::new(iw, ih);
     for p in &mut image.pixels {
         *p = [bg[0], bg[1], bg[2], 0.0];
