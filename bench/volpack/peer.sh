@@ -36,27 +36,38 @@ for r in $(seq "$ROUNDS"); do
         RAYON_NUM_THREADS=1 RENDERER=shearwarp "$OURS" "$D/$s.toml" "$FRAMES" | grep median | sed "s/^/round $r ours $s /" >> "$T/log"
     done
 done
-# Our error against the f64 grid reference (pvrsim render --compare).
+# Errors against the f64 grid reference, all three the same way: the 8-bit
+# PNGs against the reference's PNG (examples/png_diff, RGB, 1/255).
 PVRSIM=$ROOT/target/release/pvrsim
-for s in mni152-view colin27-brain-view; do
-    if [ -x "$PVRSIM" ]; then
-        "$PVRSIM" render "$D/$s.toml" -o "$T/$s.png" --compare 2>&1 | grep "against the grid reference" | sed "s/^/error ours $s /" >> "$T/log"
-        "$PVRSIM" render "$D/$s.toml" --renderer shearwarp -o "$T/$s-sw.png" --compare 2>&1 | grep "against the grid reference" | sed "s/^/error shearwarp $s /" >> "$T/log"
-    fi
-done
+DIFF=$ROOT/target/release/examples/png_diff
+VPT=${TMPDIR:-/tmp}/pvrsim-volpack
+if [ -x "$PVRSIM" ] && [ -x "$DIFF" ]; then
+    for s in mni152-view colin27-brain-view; do
+        "$PVRSIM" render "$D/$s.toml" --renderer reference -o "$T/$s-ref.png" > /dev/null
+        "$PVRSIM" render "$D/$s.toml" -o "$T/$s.png" > /dev/null
+        "$PVRSIM" render "$D/$s.toml" --renderer shearwarp -o "$T/$s-sw.png" > /dev/null
+        "$DIFF" "$T/$s.png" "$T/$s-ref.png" | sed "s/^/error ours $s /" >> "$T/log"
+        "$DIFF" "$T/$s-sw.png" "$T/$s-ref.png" | sed "s/^/error shearwarp $s /" >> "$T/log"
+        if [ -f "$VPT/$s-volpack.png" ]; then
+            "$DIFF" "$VPT/$s-volpack.png" "$T/$s-ref.png" | sed "s/^/error volpack $s /" >> "$T/log"
+        fi
+    done
+else
+    echo "no error columns: build pvrsim and the png_diff example (cargo build --release --examples)"
+fi
 python3 - "$T/log" <<'PY'
 import re, sys, statistics
 vp = {"197x233x189": [], "301x370x316": []}
 ours = {"mni152-view": [], "colin27-brain-view": []}
 sw = {"mni152-view": [], "colin27-brain-view": []}
-err, swerr = {}, {}
+err = {"ours": {}, "shearwarp": {}, "volpack": {}}
 for line in open(sys.argv[1]):
     m = re.search(r"volpack (\d+x\d+x\d+) .*frame median cpu [\d.]+ ms, wall ([\d.]+) ms", line)
     if m:
         vp[m.group(1)].append(float(m.group(2)))
-    m = re.search(r"error (ours|shearwarp) (\S+) .*max-abs ([\d.]+)/255.*RMSE ([\d.]+)/255", line)
+    m = re.search(r"error (ours|shearwarp|volpack) (\S+) max (\d+)/255.*RMSE ([\d.]+)/255", line)
     if m:
-        (err if m.group(1) == "ours" else swerr)[m.group(2)] = f"{float(m.group(3)):.2f} / {float(m.group(4)):.3f}"
+        err[m.group(1)][m.group(2)] = f"{m.group(3)} / {float(m.group(4)):.2f}"
         continue
     m = re.search(r"ours (\S+) Tiled: median ([\d.]+) ms", line)
     if m:
@@ -64,18 +75,20 @@ for line in open(sys.argv[1]):
     m = re.search(r"ours (\S+) ShearWarp: median ([\d.]+) ms", line)
     if m:
         sw[m.group(1)].append(float(m.group(2)))
-print("| scene | ours slice3d ms | ours shearwarp ms | VolPack ms | shearwarp / VolPack | slice3d max / RMSE | shearwarp max / RMSE (vs f64 reference, 1/255) |")
-print("|---|---|---|---|---|---|---|")
+print("| scene | ours slice3d ms | ours shearwarp ms | VolPack ms | shearwarp / VolPack | slice3d max / RMSE | shearwarp max / RMSE | VolPack max / RMSE |")
+print("|---|---|---|---|---|---|---|---|")
+def e(who, s):
+    return err[who].get(s, "-")
 for s, v in [("mni152-view", "197x233x189"), ("colin27-brain-view", "301x370x316")]:
     o = statistics.median(ours[s])
     q = statistics.median(sw[s]) if sw[s] else float("nan")
     if vp[v]:
         w = statistics.median(vp[v])
-        print(f"| {s} | {o:.1f} | {q:.1f} | {w:.1f} | {q / w:.2f} | {err.get(s, '-')} | {swerr.get(s, '-')} |")
+        print(f"| {s} | {o:.1f} | {q:.1f} | {w:.1f} | {q / w:.2f} | {e('ours', s)} | {e('shearwarp', s)} | {e('volpack', s)} |")
     else:
-        print(f"| {s} | {o:.1f} | {q:.1f} | (not installed) | | {err.get(s, '-')} | {swerr.get(s, '-')} |")
+        print(f"| {s} | {o:.1f} | {q:.1f} | (not installed) | | {e('ours', s)} | {e('shearwarp', s)} | - |")
 print("One thread each, medians of the per-round medians; VolPack's classification and our")
 print("preparation excluded.")
-print("VolPack's error against the reference is not measured here: its driver renders luminance")
-print("(opacity only) in its own framing, not pixel-aligned with the scene's camera.")
+print("Errors (max / RMSE, 1/255): each 8-bit PNG against the f64 grid reference's PNG, RGB;")
+print("VolPack renders RGBA with the scene's camera, pixel-aligned (bench/volpack/scene.py).")
 PY

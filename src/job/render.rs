@@ -42,8 +42,10 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(short, long, default_value = "out.png")]
     pub output: PathBuf,
-    /// Renderer. Default: picked from the data, `cell` for a tetrahedral
-    /// mesh, `slice3d` for a regular grid.
+    /// Renderer. Default: picked from the data and the view: `cell` for a
+    /// tetrahedral mesh; for a regular grid `shearwarp` when the camera is
+    /// orthographic (fastest), `slice3d` when it is perspective or a
+    /// slicer option (--slices, --spacing, --classify, --order) is given.
     #[arg(long, value_enum)]
     pub renderer: Option<RendererKind>,
     /// Grids: classify after interpolating the scalar (`post`, the scene

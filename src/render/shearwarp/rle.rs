@@ -18,6 +18,8 @@
 //! stays that of interpolating the scalar field, and a transfer-function
 //! change only re-runs [`Encoding::classify`].
 
+use rayon::prelude::*;
+
 use crate::render::slicing::{Lut, Texel};
 
 /// A run of cells `[start, end)` of one cell scanline that holds every
@@ -39,11 +41,12 @@ pub struct AxisRle<T> {
     pub runs: Vec<Run>,
 }
 
-/// The three encodings of one volume under one transfer function.
+/// The encodings of one volume under one transfer function, one per
+/// principal axis that was asked for.
 #[derive(Debug, Clone)]
 pub struct Encoding<T> {
-    /// Indexed by the principal axis (0 = x).
-    pub axis: [AxisRle<T>; 3],
+    /// Indexed by the principal axis (0 = x); `None`: not built.
+    pub axis: [Option<AxisRle<T>>; 3],
 }
 
 /// True when the TF's opacity is non-zero somewhere in `[lo, hi]`.
@@ -77,6 +80,59 @@ fn merge_short_gaps(runs: &mut Vec<Run>, row0: usize) {
     runs.truncate(w);
 }
 
+/// The lookup entries `[a, b]` (`a <= b`) that a voxel of value `v` spans
+/// under [`cell_opaque`]'s widening: `index(v ∓ 4 ulps (|v| + 1))`. The
+/// index is monotone in the value, so the entries of a cell's `[min, max]`
+/// are the smallest `a` and the largest `b` of its four corners: the test
+/// per cell is [`cell_opaque`]'s, bit for bit (`classify_matches_cell_opaque`).
+#[inline(always)]
+fn widened_entries(lut: &Lut, v: f32) -> [u16; 2] {
+    let e = 4.0 * f32::EPSILON;
+    let w = e * (v.abs() + 1.0);
+    let (a, b) = (lut.index(v - w), lut.index(v + w));
+    [a.min(b) as u16, a.max(b) as u16]
+}
+
+/// [`widened_entries`] of every voxel of `row` into `out` (through the
+/// 256-entry `table` for u8 voxels).
+#[inline]
+fn row_entries<T: Texel>(
+    row: &[T],
+    lut: &Lut,
+    table: Option<&[[u16; 2]; 256]>,
+    out: &mut Vec<[u16; 2]>,
+) {
+    out.clear();
+    out.extend(row.iter().map(|&v| match (v.byte(), table) {
+        (Some(b), Some(t)) => t[b as usize],
+        _ => widened_entries(lut, v.f()),
+    }));
+}
+
+/// Appends to `runs` the runs of the cell scanline between voxel scanlines
+/// whose [`widened_entries`] are `e0` and `e1`.
+fn scanline_runs(e0: &[[u16; 2]], e1: &[[u16; 2]], lut: &Lut, runs: &mut Vec<Run>) {
+    let row0 = runs.len();
+    let mut start = None;
+    for i in 0..e0.len() - 1 {
+        let q = [e0[i], e0[i + 1], e1[i], e1[i + 1]];
+        let a = q[0][0].min(q[1][0]).min(q[2][0]).min(q[3][0]);
+        let b = q[0][1].max(q[1][1]).max(q[2][1]).max(q[3][1]);
+        match (!lut.transparent_entries(a as usize, b as usize), start) {
+            (true, None) => start = Some(i as u32),
+            (false, Some(s)) => {
+                runs.push([s, i as u32]);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        runs.push([s, (e0.len() - 1) as u32]);
+    }
+    merge_short_gaps(runs, row0);
+}
+
 impl<T: Texel> AxisRle<T> {
     /// Copies `data` (x fastest, `dims`) into the object order of `axes`
     /// (`(i, j, k)` as volume axes) and encodes its runs under `lut`.
@@ -84,13 +140,46 @@ impl<T: Texel> AxisRle<T> {
         let n = axes.map(|a| dims[a]);
         let stride = [1, dims[0], dims[0] * dims[1]];
         let (si, sj, sk) = (stride[axes[0]], stride[axes[1]], stride[axes[2]]);
-        let mut voxels = Vec::with_capacity(n[0] * n[1] * n[2]);
-        for k in 0..n[2] {
-            for j in 0..n[1] {
-                let base = k * sk + j * sj;
-                voxels.extend((0..n[0]).map(|i| data[base + i * si]));
-            }
-        }
+        let mut voxels = vec![data[0]; n[0] * n[1] * n[2]];
+        let slab = n[0] * n[1];
+        // Chunks of SLABS output slices go to the threads. Within a chunk the
+        // outer loop runs over the axis of the larger input stride: the
+        // scanlines read for one outer value then come from one slab of the
+        // input, reused from cache across the middle loop (each input cache
+        // line serves up to SLABS output slices when `k` is the input's x),
+        // instead of a sweep of the whole volume per output slice.
+        const SLABS: usize = 64;
+        voxels
+            .par_chunks_mut(slab * SLABS)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                let k0 = c * SLABS;
+                let kn = chunk.len() / slab;
+                let mut fill = |k: usize, j: usize| {
+                    let base = (k0 + k) * sk + j * sj;
+                    let out = &mut chunk[(k * n[1] + j) * n[0]..][..n[0]];
+                    if si == 1 {
+                        out.copy_from_slice(&data[base..base + n[0]]);
+                    } else {
+                        for (i, o) in out.iter_mut().enumerate() {
+                            *o = data[base + i * si];
+                        }
+                    }
+                };
+                if sj > sk {
+                    for j in 0..n[1] {
+                        for k in 0..kn {
+                            fill(k, j);
+                        }
+                    }
+                } else {
+                    for k in 0..kn {
+                        for j in 0..n[1] {
+                            fill(k, j);
+                        }
+                    }
+                }
+            });
         let mut a = AxisRle {
             n,
             voxels,
@@ -101,38 +190,38 @@ impl<T: Texel> AxisRle<T> {
         a
     }
 
-    /// Re-encodes the runs under a new transfer function's table.
+    /// Re-encodes the runs under a new transfer function's table (slices in
+    /// parallel).
     pub fn classify(&mut self, lut: &Lut) {
         let [ni, nj, nk] = self.n;
+        let table: Option<[[u16; 2]; 256]> = self.voxels[0]
+            .byte()
+            .map(|_| std::array::from_fn(|b| widened_entries(lut, b as f32)));
+        let voxels = &self.voxels;
+        let slices: Vec<(Vec<Run>, Vec<u32>)> = (0..nk)
+            .into_par_iter()
+            .map(|k| {
+                let row = |j: usize| &voxels[(k * nj + j) * ni..][..ni];
+                let (mut runs, mut ends) = (Vec::new(), Vec::with_capacity(nj - 1));
+                let (mut e0, mut e1) = (Vec::with_capacity(ni), Vec::with_capacity(ni));
+                row_entries(row(0), lut, table.as_ref(), &mut e0);
+                for j in 0..nj - 1 {
+                    row_entries(row(j + 1), lut, table.as_ref(), &mut e1);
+                    scanline_runs(&e0, &e1, lut, &mut runs);
+                    ends.push(runs.len() as u32);
+                    std::mem::swap(&mut e0, &mut e1);
+                }
+                (runs, ends)
+            })
+            .collect();
         self.offsets.clear();
         self.runs.clear();
         self.offsets.reserve(nk * (nj - 1) + 1);
         self.offsets.push(0);
-        for k in 0..nk {
-            for j in 0..nj - 1 {
-                let r0 = &self.voxels[(k * nj + j) * ni..][..ni];
-                let r1 = &self.voxels[(k * nj + j + 1) * ni..][..ni];
-                let row0 = self.runs.len();
-                let mut start = None;
-                for i in 0..ni - 1 {
-                    let q = [r0[i].f(), r0[i + 1].f(), r1[i].f(), r1[i + 1].f()];
-                    let lo = q.iter().copied().fold(f32::INFINITY, f32::min);
-                    let hi = q.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                    match (cell_opaque(lut, lo, hi), start) {
-                        (true, None) => start = Some(i as u32),
-                        (false, Some(s)) => {
-                            self.runs.push([s, i as u32]);
-                            start = None;
-                        }
-                        _ => {}
-                    }
-                }
-                if let Some(s) = start {
-                    self.runs.push([s, (ni - 1) as u32]);
-                }
-                merge_short_gaps(&mut self.runs, row0);
-                self.offsets.push(self.runs.len() as u32);
-            }
+        for (runs, ends) in slices {
+            let base = self.runs.len() as u32;
+            self.offsets.extend(ends.iter().map(|e| base + e));
+            self.runs.extend(runs);
         }
     }
 
@@ -160,19 +249,125 @@ impl<T: Texel> AxisRle<T> {
 impl<T: Texel> Encoding<T> {
     /// Encodes `data` (x fastest, `dims`) along all three axes.
     pub fn new(data: &[T], dims: [usize; 3], lut: &Lut) -> Encoding<T> {
-        let axis = [0, 1, 2].map(|c| AxisRle::new(data, dims, super::factor::axes(c), lut));
+        Self::for_axes(data, dims, lut, [true; 3])
+    }
+
+    /// Encodes `data` along the principal axes `c` with `want[c]`.
+    pub fn for_axes(data: &[T], dims: [usize; 3], lut: &Lut, want: [bool; 3]) -> Encoding<T> {
+        let axis = [0, 1, 2]
+            .map(|c| want[c].then(|| AxisRle::new(data, dims, super::factor::axes(c), lut)));
         Encoding { axis }
     }
 
-    /// Re-encodes the runs of all three axes under `lut`.
+    /// Re-encodes the runs of the built axes under `lut`.
     pub fn classify(&mut self, lut: &Lut) {
-        for a in &mut self.axis {
+        for a in self.axis.iter_mut().flatten() {
             a.classify(lut);
         }
     }
 
-    /// Bytes of the three encodings.
+    /// Bytes of the built encodings.
     pub fn bytes(&self) -> u64 {
-        self.axis.iter().map(AxisRle::bytes).sum()
+        self.axis.iter().flatten().map(AxisRle::bytes).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::TransferFunction;
+
+    /// The runs of one scanline from [`cell_opaque`] on each cell's
+    /// `[min, max]`, the definition the fast path must reproduce.
+    fn runs_by_definition<T: Texel>(r0: &[T], r1: &[T], lut: &Lut) -> Vec<Run> {
+        let mut runs = Vec::new();
+        let mut start = None;
+        let ni = r0.len();
+        for i in 0..ni - 1 {
+            let q = [r0[i].f(), r0[i + 1].f(), r1[i].f(), r1[i + 1].f()];
+            let lo = q.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = q.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            match (cell_opaque(lut, lo, hi), start) {
+                (true, None) => start = Some(i as u32),
+                (false, Some(s)) => {
+                    runs.push([s, i as u32]);
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(s) = start {
+            runs.push([s, (ni - 1) as u32]);
+        }
+        merge_short_gaps(&mut runs, 0);
+        runs
+    }
+
+    fn check<T: Texel>(data: &[T], dims: [usize; 3], lut: &Lut) {
+        for c in 0..3 {
+            let ax = super::super::factor::axes(c);
+            let a = AxisRle::new(data, dims, ax, lut);
+            let [ni, nj, nk] = a.n;
+            let stride = [1, dims[0], dims[0] * dims[1]];
+            for k in 0..nk {
+                for j in 0..nj {
+                    let want: Vec<T> = (0..ni)
+                        .map(|i| data[i * stride[ax[0]] + j * stride[ax[1]] + k * stride[ax[2]]])
+                        .collect();
+                    assert!(
+                        a.row(k, j).iter().zip(&want).all(|(x, y)| x.f() == y.f()),
+                        "axis {c}: voxels of scanline ({j}, {k})"
+                    );
+                }
+                for j in 0..nj - 1 {
+                    assert_eq!(
+                        a.row_runs(k, j),
+                        &runs_by_definition(a.row(k, j), a.row(k, j + 1), lut)[..],
+                        "axis {c}: runs of cell scanline ({j}, {k})"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn classify_matches_cell_opaque() {
+        // Transparent below 0.3 and in a notch [0.5, 0.7]: a cell's
+        // transparency depends on its lowest corner (at the notch's lower
+        // edge) and on its highest (at 0.3 and the notch's upper edge).
+        let tf = TransferFunction::from_rows(
+            &[
+                [0.0, 1.0, 1.0, 1.0, 0.0],
+                [0.3, 1.0, 1.0, 1.0, 0.0],
+                [0.4, 1.0, 0.5, 0.0, 0.2],
+                [0.5, 1.0, 0.5, 0.0, 0.0],
+                [0.7, 1.0, 0.5, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 1.0, 0.6],
+            ],
+            1.0,
+        );
+        let dims = [13, 9, 7];
+        let n = dims.iter().product::<usize>();
+        // Smooth ramps up and down (4, 6 and 8 per voxel along x, y, z: most
+        // cells are narrow, many sit on an edge, each corner is a cell's
+        // lowest in one of them) and a deterministic scramble of every byte
+        // value.
+        let ramp: Vec<u8> = (0..n)
+            .map(|i| {
+                let (x, y, z) = (i % 13, i / 13 % 9, i / 117);
+                (60 + 4 * x + 6 * y + 8 * z) as u8
+            })
+            .collect();
+        let falling: Vec<u8> = ramp.iter().map(|v| 255 - v).collect();
+        let scramble: Vec<u8> = (0..n)
+            .map(|i| ((i * 97 + i / 13 * 31) % 256) as u8)
+            .collect();
+        for bytes in [ramp, falling, scramble] {
+            check(&bytes, dims, &Lut::new(&tf, [0.0, 255.0]));
+            let words: Vec<u16> = bytes.iter().map(|&b| b as u16 * 257).collect();
+            check(&words, dims, &Lut::new(&tf, [0.0, 65535.0]));
+            let floats: Vec<f32> = bytes.iter().map(|&b| b as f32 / 255.0 - 0.1).collect();
+            check(&floats, dims, &Lut::new(&tf, [-0.1, 0.9]));
+        }
     }
 }

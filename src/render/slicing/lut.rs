@@ -82,7 +82,13 @@ impl Lut {
     /// opacity (entries are rounded, so the test covers both neighbours).
     #[inline]
     pub fn transparent(&self, lo: f32, hi: f32) -> bool {
-        let (a, b) = (self.index(lo), self.index(hi));
+        self.transparent_entries(self.index(lo), self.index(hi))
+    }
+
+    /// True if every entry from `a` to `b` (inclusive, `a <= b`) has zero
+    /// opacity.
+    #[inline(always)]
+    pub fn transparent_entries(&self, a: usize, b: usize) -> bool {
         self.nz[b + 1] == self.nz[a]
     }
 }

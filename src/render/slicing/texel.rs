@@ -32,12 +32,24 @@ pub trait Texel: Copy + Send + Sync + 'static {
 
     /// The value as f32 (exact for u8, u16, i16).
     fn f(self) -> f32;
+
+    /// The value itself when the type is `u8` (so per-value tables of 256
+    /// entries can stand for per-voxel work), else `None`.
+    #[inline(always)]
+    fn byte(self) -> Option<u8> {
+        None
+    }
 }
 
 impl Texel for u8 {
     #[inline(always)]
     fn f(self) -> f32 {
         self as f32
+    }
+
+    #[inline(always)]
+    fn byte(self) -> Option<u8> {
+        Some(self)
     }
 
     #[cfg(target_arch = "x86_64")]
