@@ -282,3 +282,88 @@ proptest! {
         prop_assert_eq!(sb.samples_skipped_empty, 0);
     }
 }
+
+/// A transfer-function edit keeps the run-length encodings when every cell
+/// they skip stays transparent (colours, opacities kept non-zero, values
+/// made transparent), and falls back to runs over min-max blocks when it
+/// makes skipped values visible (then `refine` re-encodes per cell); a
+/// frame on encodings that would skip visible values is refused. Every
+/// image equals a fresh render's, bit for bit.
+#[test]
+fn transfer_function_edits_reencode_only_what_they_reveal() {
+    let base = phantom_input(
+        32,
+        [0.3, -0.5, 0.8],
+        "projection = \"orthographic\"\nheight = 40",
+    );
+    let opts = ShearWarpOptions::default();
+    let mut prep = shearwarp::prepare(&base);
+    let edit = |f: &dyn Fn(&mut pvrsim::scene::transfer::ControlPoint)| {
+        let mut e = base.clone();
+        e.scene.transfer.points.iter_mut().for_each(f);
+        e
+    };
+    let fresh = |inp: &VolumeInput| shearwarp::render(inp, &opts).unwrap().0;
+    // (name, edited input, re-encodes; the kept or block runs then skip
+    // fewer cells than a per-cell encoding under the edit would)
+    let cases = [
+        (
+            "recoloured",
+            edit(&|p| p.rgb = [p.rgb[2], p.rgb[0], p.rgb[1]]),
+            false,
+            false,
+        ),
+        ("opacity halved", edit(&|p| p.opacity *= 0.5), false, false),
+        (
+            "skin made transparent",
+            edit(&|p| {
+                if (p.s - 0.27).abs() < 1e-9 {
+                    p.opacity = 0.0
+                }
+            }),
+            false,
+            true,
+        ),
+        (
+            "fat revealed",
+            edit(&|p| {
+                if (p.s - 0.6).abs() < 1e-9 {
+                    p.opacity = 0.3
+                }
+            }),
+            true,
+            true,
+        ),
+    ];
+    for (name, inp, reencodes, coarser) in cases {
+        let refused = shearwarp::render_prepared(&inp, &prep, &opts).is_err();
+        assert_eq!(refused, reencodes, "{name}: a frame on the old encodings");
+        assert_eq!(prep.reclassify(&inp), reencodes, "{name}: re-encoded");
+        let (got, st) = shearwarp::render_prepared(&inp, &prep, &opts).unwrap();
+        assert!(
+            got.pixels == fresh(&inp).pixels,
+            "{name}: {}",
+            got.error_against(&fresh(&inp))
+        );
+        let mut refined = prep.clone();
+        refined.refine(&inp);
+        let (fine, sf) = shearwarp::render_prepared(&inp, &refined, &opts).unwrap();
+        assert!(
+            fine.pixels == got.pixels,
+            "{name}, refined: {}",
+            fine.error_against(&got)
+        );
+        // Block runs skip less than per-cell runs, never more.
+        assert!(
+            sf.samples_taken <= st.samples_taken,
+            "{name}: {sf:?} vs {st:?}"
+        );
+        assert_eq!(
+            sf.samples_taken < st.samples_taken,
+            coarser,
+            "{name}: coarser runs"
+        );
+        // Back to the scene's own TF for the next case.
+        prep = shearwarp::prepare(&base);
+    }
+}

@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use crate::data::Voxels;
 use crate::error::{Error, Result};
 use crate::image::Image;
-use crate::render::slicing::{Classify, Lut, Order, SampleCounts, SliceStats, Texel};
+use crate::render::slicing::{Classify, Lut, MinMaxBlocks, Order, SampleCounts, SliceStats, Texel};
 use crate::render::VolumeInput;
 use crate::scene::Projection;
 
@@ -78,13 +78,32 @@ pub struct Prepared {
     pub dims: [u64; 3],
     /// Seconds spent building it.
     pub time_s: f64,
+    /// The volume's min-max blocks (transfer-function independent): built
+    /// by [`prepare`], or by the first [`Prepared::reclassify`] that needs
+    /// them after [`prepare_for_view`].
+    pub blocks: Option<MinMaxBlocks>,
 }
 
 /// Builds the three run-length encodings of `input`'s volume under its
 /// transfer function (every view direction; VolPack's classification
-/// builds the same three).
+/// builds the same three) and the volume's min-max blocks (for
+/// [`Prepared::reclassify`]).
 pub fn prepare(input: &VolumeInput) -> Prepared {
-    prepare_axes(input, [true; 3])
+    let mut p = prepare_axes(input, [true; 3]);
+    let t = Instant::now();
+    p.blocks = Some(min_max_blocks(&input.volume));
+    p.time_s += t.elapsed().as_secs_f64();
+    p
+}
+
+/// The min-max blocks of `vol`.
+fn min_max_blocks(vol: &crate::data::Volume) -> MinMaxBlocks {
+    match &vol.voxels {
+        Voxels::U8(v) => MinMaxBlocks::new(v, vol.dims),
+        Voxels::U16(v) => MinMaxBlocks::new(v, vol.dims),
+        Voxels::I16(v) => MinMaxBlocks::new(v, vol.dims),
+        Voxels::F32(v) => MinMaxBlocks::new(v, vol.dims),
+    }
 }
 
 /// Builds only the encoding the scene's view needs (its principal axis):
@@ -112,7 +131,89 @@ fn prepare_axes(input: &VolumeInput, want: [bool; 3]) -> Prepared {
         encoded,
         dims: vol.dims,
         time_s: t.elapsed().as_secs_f64(),
+        blocks: None,
     }
+}
+
+impl Prepared {
+    /// Makes the encodings exact for `input`'s transfer function (the same
+    /// volume, a new TF; [`rle::AxisRle::reclassify`]): an edit that keeps
+    /// every skipped value transparent keeps the runs (microseconds); one
+    /// that reveals skipped values classifies the volume's min-max blocks
+    /// (built once per volume) and runs over whole blocks
+    /// (exact, coarser: frames take more samples until [`Self::refine`]).
+    /// Returns true when the runs changed. The time is added to `time_s`.
+    pub fn reclassify(&mut self, input: &VolumeInput) -> bool {
+        let t = Instant::now();
+        let lut = Lut::new(&input.scene.transfer, input.range);
+        if self.exact_under(&lut) {
+            self.time_s += t.elapsed().as_secs_f64();
+            return false;
+        }
+        let blocks = self
+            .blocks
+            .get_or_insert_with(|| min_max_blocks(&input.volume));
+        // The cells' test, on each block's range (widened the same way).
+        let opaque: Vec<bool> = blocks
+            .range
+            .iter()
+            .map(|&[lo, hi]| rle::cell_opaque(&lut, lo, hi))
+            .collect();
+        let did = match &mut self.encoded {
+            Encoded::U8(e) => e.reclassify(&lut, blocks, &opaque),
+            Encoded::U16(e) => e.reclassify(&lut, blocks, &opaque),
+            Encoded::I16(e) => e.reclassify(&lut, blocks, &opaque),
+            Encoded::F32(e) => e.reclassify(&lut, blocks, &opaque),
+        };
+        self.time_s += t.elapsed().as_secs_f64();
+        did
+    }
+
+    /// True when every built axis's runs are exact under `lut`.
+    fn exact_under(&self, lut: &Lut) -> bool {
+        fn all<T: Texel>(e: &Encoding<T>, lut: &Lut) -> bool {
+            e.axis.iter().flatten().all(|a| a.exact_under(lut))
+        }
+        match &self.encoded {
+            Encoded::U8(e) => all(e, lut),
+            Encoded::U16(e) => all(e, lut),
+            Encoded::I16(e) => all(e, lut),
+            Encoded::F32(e) => all(e, lut),
+        }
+    }
+
+    /// Re-encodes every built axis per cell under `input`'s transfer
+    /// function (what [`prepare`] does; after [`Self::reclassify`] fell back
+    /// to block runs, this restores the per-cell skipping).
+    pub fn refine(&mut self, input: &VolumeInput) {
+        let t = Instant::now();
+        let lut = Lut::new(&input.scene.transfer, input.range);
+        match &mut self.encoded {
+            Encoded::U8(e) => e.classify(&lut),
+            Encoded::U16(e) => e.classify(&lut),
+            Encoded::I16(e) => e.classify(&lut),
+            Encoded::F32(e) => e.classify(&lut),
+        }
+        self.time_s += t.elapsed().as_secs_f64();
+    }
+}
+
+/// The encoding of principal axis `c`, exact under `lut`.
+fn axis_of<'a, T: Texel>(e: &'a Encoding<T>, c: usize, lut: &Lut) -> Result<&'a AxisRle<T>> {
+    let a = e.axis[c].as_ref().ok_or_else(|| {
+        Error::Invalid(format!(
+            "internal: the shear-warp encodings were prepared without principal axis {c} of \
+             this view (use shearwarp::prepare for every view)"
+        ))
+    })?;
+    if !a.exact_under(lut) {
+        return Err(Error::Invalid(
+            "the shear-warp encodings were built for a transfer function (or scalar range) \
+             under which values of this one were transparent: call Prepared::reclassify first"
+                .into(),
+        ));
+    }
+    Ok(a)
 }
 
 /// Checks options and the scene: the ERT threshold, and an orthographic
@@ -189,28 +290,18 @@ pub fn render_prepared(
         half: &half,
     };
     let c = f.principal;
-    let missing = || {
-        Error::Invalid(format!(
-            "internal: the shear-warp encodings were prepared without principal axis {c} of \
-             this view (use shearwarp::prepare for every view)"
-        ))
-    };
     let (mut counts, texture_bytes) = match &prep.encoded {
         Encoded::U8(e) => {
-            let a = e.axis[c].as_ref().ok_or_else(missing)?;
-            composite_all(a, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
         }
         Encoded::U16(e) => {
-            let a = e.axis[c].as_ref().ok_or_else(missing)?;
-            composite_all(a, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
         }
         Encoded::I16(e) => {
-            let a = e.axis[c].as_ref().ok_or_else(missing)?;
-            composite_all(a, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
         }
         Encoded::F32(e) => {
-            let a = e.axis[c].as_ref().ok_or_else(missing)?;
-            composite_all(a, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
         }
     };
     let mut image = Image::new(w, h);

@@ -20,6 +20,9 @@
 
 use rayon::prelude::*;
 
+use crate::render::slicing::blocks::BLOCK;
+use crate::render::slicing::lut::ZeroSet;
+use crate::render::slicing::MinMaxBlocks;
 use crate::render::slicing::{Lut, Texel};
 
 /// A run of cells `[start, end)` of one cell scanline that holds every
@@ -39,6 +42,73 @@ pub struct AxisRle<T> {
     pub offsets: Vec<u32>,
     /// The runs, each scanline's in increasing order.
     pub runs: Vec<Run>,
+    /// The transfer function's zero-opacity entries the runs skip.
+    pub zero: ZeroSet,
+    /// After a transfer-function edit that revealed skipped values
+    /// ([`Self::reclassify`]): runs per row of min-max blocks, which stand
+    /// for `runs` until [`Self::classify`] re-encodes per cell.
+    pub block_runs: Option<BlockRuns>,
+}
+
+/// Runs over whole min-max blocks ([`MinMaxBlocks`], `B` = [`BLOCK`] cells
+/// a side), one list per block row: cell scanline `j` of slice `k` uses
+/// block row `(j / B, min(k / B, n_k - 1))`, whose blocks' `[min, max]`
+/// bound every voxel of the scanline's cells (a block's range covers its
+/// cells' corners, the next layer included). A cell is skipped only when
+/// its block is transparent, so the runs are exact, at block granularity.
+#[derive(Debug, Clone)]
+pub struct BlockRuns {
+    /// Block rows along `j` and `k`.
+    nb: [usize; 2],
+    /// `runs[offsets[r] .. offsets[r + 1]]` are block row `r = b_k n_bj + b_j`'s.
+    offsets: Vec<u32>,
+    /// In cells.
+    runs: Vec<Run>,
+}
+
+impl BlockRuns {
+    /// The block rows of an axis with object axes `axes` and `n` voxels,
+    /// from the blocks' classification `opaque` (x fastest over `nb`).
+    pub fn new(n: [usize; 3], axes: [usize; 3], nb: [u64; 3], opaque: &[bool]) -> BlockRuns {
+        let b = BLOCK as usize;
+        let [nbi, nbj, nbk] = axes.map(|a| nb[a] as usize);
+        let stride = [1, nb[0] as usize, (nb[0] * nb[1]) as usize];
+        let (si, sj, sk) = (stride[axes[0]], stride[axes[1]], stride[axes[2]]);
+        let cells = (n[0] - 1) as u32;
+        let mut offsets = Vec::with_capacity(nbj * nbk + 1);
+        let mut runs: Vec<Run> = Vec::new();
+        offsets.push(0);
+        for bk in 0..nbk {
+            for bj in 0..nbj {
+                let row0 = runs.len();
+                for bi in 0..nbi {
+                    if !opaque[bi * si + bj * sj + bk * sk] {
+                        continue;
+                    }
+                    let (c0, c1) = ((bi * b) as u32, (((bi + 1) * b) as u32).min(cells));
+                    let open = runs.len() > row0;
+                    match runs.last_mut() {
+                        Some(r) if open && r[1] == c0 => r[1] = c1,
+                        _ => runs.push([c0, c1]),
+                    }
+                }
+                offsets.push(runs.len() as u32);
+            }
+        }
+        BlockRuns {
+            nb: [nbj, nbk],
+            offsets,
+            runs,
+        }
+    }
+
+    /// The runs of cell scanline `j` of slice `k`.
+    #[inline]
+    fn row(&self, k: usize, j: usize) -> &[Run] {
+        let b = BLOCK as usize;
+        let r = (k / b).min(self.nb[1] - 1) * self.nb[0] + j / b;
+        &self.runs[self.offsets[r] as usize..self.offsets[r + 1] as usize]
+    }
 }
 
 /// The encodings of one volume under one transfer function, one per
@@ -185,14 +255,47 @@ impl<T: Texel> AxisRle<T> {
             voxels,
             offsets: Vec::new(),
             runs: Vec::new(),
+            zero: lut.zero_set(),
+            block_runs: None,
         };
         a.classify(lut);
         a
     }
 
+    /// True when the runs are exact under `lut`: every cell they skip is
+    /// transparent under it too (its zero-opacity entries include the ones
+    /// the runs were built for, same scalar mapping).
+    pub fn exact_under(&self, lut: &Lut) -> bool {
+        self.zero.within(&lut.zero_set())
+    }
+
+    /// Makes the runs exact under `lut`: an edit of colours, or of
+    /// opacities that stay non-zero where they were (or become zero), keeps
+    /// them ([`Self::exact_under`]: a few microseconds); one that makes
+    /// transparent values visible replaces them by runs over the min-max
+    /// blocks that `opaque` classifies under `lut` ([`BlockRuns`]: exact,
+    /// coarser, well under a millisecond), until [`Self::classify`]
+    /// re-encodes per cell. Returns true when the runs changed.
+    pub fn reclassify(
+        &mut self,
+        lut: &Lut,
+        blocks: &MinMaxBlocks,
+        opaque: &[bool],
+        axes: [usize; 3],
+    ) -> bool {
+        if self.exact_under(lut) {
+            return false;
+        }
+        self.block_runs = Some(BlockRuns::new(self.n, axes, blocks.nb, opaque));
+        self.zero = lut.zero_set();
+        true
+    }
+
     /// Re-encodes the runs under a new transfer function's table (slices in
     /// parallel).
     pub fn classify(&mut self, lut: &Lut) {
+        self.zero = lut.zero_set();
+        self.block_runs = None;
         let [ni, nj, nk] = self.n;
         let table: Option<[[u16; 2]; 256]> = self.voxels[0]
             .byte()
@@ -228,6 +331,9 @@ impl<T: Texel> AxisRle<T> {
     /// The runs of cell scanline `j` of slice `k`.
     #[inline]
     pub fn row_runs(&self, k: usize, j: usize) -> &[Run] {
+        if let Some(b) = &self.block_runs {
+            return b.row(k, j);
+        }
         let r = k * (self.n[1] - 1) + j;
         &self.runs[self.offsets[r] as usize..self.offsets[r + 1] as usize]
     }
@@ -264,6 +370,17 @@ impl<T: Texel> Encoding<T> {
         for a in self.axis.iter_mut().flatten() {
             a.classify(lut);
         }
+    }
+
+    /// [`AxisRle::reclassify`] of the built axes; true when any changed.
+    pub fn reclassify(&mut self, lut: &Lut, blocks: &MinMaxBlocks, opaque: &[bool]) -> bool {
+        let mut any = false;
+        for (c, a) in self.axis.iter_mut().enumerate() {
+            if let Some(a) = a {
+                any |= a.reclassify(lut, blocks, opaque, super::factor::axes(c));
+            }
+        }
+        any
     }
 
     /// Bytes of the built encodings.

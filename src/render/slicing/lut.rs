@@ -18,6 +18,32 @@ use crate::scene::TransferFunction;
 /// Entries of the table.
 pub const LUT_SIZE: usize = 4096;
 
+/// The entries of a [`Lut`] with zero opacity (bit `e % 64` of word
+/// `e / 64`), with the scalar-to-entry mapping they are indexed by: what
+/// empty-space encodings built under a transfer function depend on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZeroSet {
+    words: Vec<u64>,
+    scale: f32,
+    offset: f32,
+}
+
+impl ZeroSet {
+    /// True when every entry with zero opacity in `self` has zero opacity
+    /// in `other` too, under the same mapping: a scalar interval that was
+    /// transparent under `self` still is under `other`, so an encoding that
+    /// skips `self`'s transparent cells stays exact for `other`.
+    pub fn within(&self, other: &ZeroSet) -> bool {
+        self.scale == other.scale
+            && self.offset == other.offset
+            && self
+                .words
+                .iter()
+                .zip(&other.words)
+                .all(|(a, b)| a & !b == 0)
+    }
+}
+
 /// The lookup table of one transfer function over one scalar range.
 #[derive(Debug, Clone)]
 pub struct Lut {
@@ -83,6 +109,21 @@ impl Lut {
     #[inline]
     pub fn transparent(&self, lo: f32, hi: f32) -> bool {
         self.transparent_entries(self.index(lo), self.index(hi))
+    }
+
+    /// The entries with zero opacity, with this table's mapping.
+    pub fn zero_set(&self) -> ZeroSet {
+        let mut words = vec![0u64; LUT_SIZE.div_ceil(64)];
+        for e in 0..LUT_SIZE {
+            if self.nz[e + 1] == self.nz[e] {
+                words[e / 64] |= 1 << (e % 64);
+            }
+        }
+        ZeroSet {
+            words,
+            scale: self.scale,
+            offset: self.offset,
+        }
     }
 
     /// True if every entry from `a` to `b` (inclusive, `a <= b`) has zero
