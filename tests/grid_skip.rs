@@ -18,6 +18,7 @@ use std::sync::Arc;
 
 use clap::Parser;
 use pvrsim::cli::{Cli, Command as Cmd};
+use pvrsim::render::shearwarp::{self, ShearWarpOptions};
 use pvrsim::render::slice3d::{self, Slice3dOptions};
 use pvrsim::render::{grid_reference, VolumeInput};
 use pvrsim::scene::Scene;
@@ -143,6 +144,25 @@ fn skip_on_off(name: &str, inp: &VolumeInput) {
     assert_eq!(a, b, "{name}: skipping is exact, the images are equal");
     assert!(sa.samples_taken <= sb.samples_taken);
     assert_eq!(sb.samples_skipped_empty, 0);
+    // Shear-warp, the default for orthographic views: its run-length
+    // encoding skips exactly too.
+    let on = ShearWarpOptions::default();
+    if shearwarp::check(inp, &on).is_ok() {
+        let off = ShearWarpOptions {
+            empty_skip: false,
+            ..on
+        };
+        let (a, sa) = shearwarp::render(inp, &on).unwrap();
+        let (b, sb) = shearwarp::render(inp, &off).unwrap();
+        println!(
+            "{name}: shearwarp skipping on vs off {}; samples taken {} vs {}",
+            a.error_against(&b),
+            sa.samples_taken,
+            sb.samples_taken
+        );
+        assert_eq!(a, b, "{name}: shear-warp skipping is exact, the images are equal");
+        assert!(sa.samples_taken < sb.samples_taken, "{name}: shear-warp skips");
+    }
 }
 
 #[test]
