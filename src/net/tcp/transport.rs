@@ -235,7 +235,8 @@ impl RemoteTransport for TcpTransport {
     }
 
     /// Sends `Goodbye` on every link, waits (at most `wait`) for the
-    /// writers to flush, and stops the readers. Also done on drop.
+    /// writers to flush, then stops the readers and any writer that could
+    /// not flush (the link is closed). Also done on drop.
     fn close(&self, wait: Duration) {
         for p in lock(&self.peers).iter_mut().flatten() {
             p.tx = None;
@@ -245,15 +246,19 @@ impl RemoteTransport for TcpTransport {
         if writers.is_empty() && readers.is_empty() {
             return;
         }
+        let mut writers = writers;
         self.rt.block_on(async {
             let _ = tokio::time::timeout(wait, async {
-                for h in writers {
+                for h in &mut writers {
                     let _ = h.await;
                 }
             })
             .await;
         });
-        for h in readers {
+        // A writer still blocked (its peer stopped reading: a full socket
+        // buffer) is ended too, or it would hold the link, its socket and
+        // its queued frames for as long as the process lives.
+        for h in writers.iter().chain(&readers) {
             h.abort();
         }
     }
