@@ -102,6 +102,7 @@ pub struct TcpTransport {
     codec: Codec,
     stats: Arc<Mutex<WireStats>>,
     failed: Mutex<Option<(String, String)>>,
+    deadline: Duration,
     writers: Mutex<Vec<JoinHandle<()>>>,
     readers: Mutex<Vec<JoinHandle<()>>>,
 }
@@ -159,6 +160,7 @@ impl TcpTransport {
             codec: opts.codec,
             stats,
             failed: Mutex::new(None),
+            deadline: opts.deadline,
             writers: Mutex::new(writers),
             readers: Mutex::new(readers),
         })
@@ -261,6 +263,22 @@ impl RemoteTransport for TcpTransport {
         for h in writers.iter().chain(&readers) {
             h.abort();
         }
+    }
+
+    /// See [`RemoteTransport::close_after_failure`]: "a while" is half the
+    /// heartbeat deadline. Each writer gets an empty frame (never a real
+    /// one), its signal to shut the socket down without `Goodbye`.
+    fn close_after_failure(&self, since: Instant, wait: Duration) -> bool {
+        let lost = crate::net::stall::longest_since(since) >= self.deadline / 2;
+        if lost {
+            for p in lock(&self.peers).iter_mut().flatten() {
+                if let Some(tx) = p.tx.take() {
+                    let _ = tx.send(Vec::new());
+                }
+            }
+        }
+        self.close(wait);
+        lost
     }
 
     /// How each rank's link ended, after waiting at most `wait` for the
@@ -396,6 +414,11 @@ async fn writer(
 ) {
     loop {
         match tokio::time::timeout(heartbeat, rx.recv()).await {
+            Ok(Some(frame)) if frame.is_empty() => {
+                // Ended as a lost rank: no Goodbye (see close_after_failure).
+                let _ = w.shutdown().await;
+                return;
+            }
             Ok(Some(frame)) => {
                 if w.write_all(&frame).await.is_err() {
                     return;
