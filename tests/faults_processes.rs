@@ -282,7 +282,10 @@ fn grid_frames_over_processes_survive_every_fault_at_every_phase() {
             let re = re.unwrap_or_else(|| panic!("{case}: no reassignment in the report"));
             let ev = &re.events[0];
             assert_eq!((re.events.len(), ev.phase.as_str()), (1, phase), "{case}");
-            assert!(ev.workers[0].starts_with("grid worker 2 "), "{case}: {ev:?}");
+            assert!(
+                ev.workers[0].starts_with("grid worker 2 "),
+                "{case}: {ev:?}"
+            );
             assert_eq!((ev.moved, ev.survivors), (2, 3), "{case}: {ev:?}");
 
             let case = format!("grid {comp}, {fault:?}, abort");

@@ -23,7 +23,10 @@ fn runtime() -> Arc<tokio::runtime::Runtime> {
 
 /// Rank 0's transport (of 2) linked to rank 1, whose end is a bare socket
 /// the test holds.
-fn linked(rt: &Arc<tokio::runtime::Runtime>, opts: TcpOptions) -> (TcpTransport, std::net::TcpStream) {
+fn linked(
+    rt: &Arc<tokio::runtime::Runtime>,
+    opts: TcpOptions,
+) -> (TcpTransport, std::net::TcpStream) {
     let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let peer = std::net::TcpStream::connect(l.local_addr().unwrap()).unwrap();
     let (mine, _) = l.accept().unwrap();
@@ -43,7 +46,8 @@ fn linked(rt: &Arc<tokio::runtime::Runtime>, opts: TcpOptions) -> (TcpTransport,
 
 /// Everything the peer reads until the connection ends (or 10 s).
 fn read_all(mut peer: std::net::TcpStream) -> Vec<u8> {
-    peer.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    peer.set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
     let mut v = Vec::new();
     let _ = peer.read_to_end(&mut v);
     v
@@ -56,7 +60,8 @@ fn a_close_that_cannot_flush_ends_the_writer() {
     // 64 MiB queued: far more than the socket buffers take.
     let mb = 1 << 20;
     for _ in 0..64 {
-        t.send(NodeId(1), MessageKind::Segments, vec![7u8; mb]).unwrap();
+        t.send(NodeId(1), MessageKind::Segments, vec![7u8; mb])
+            .unwrap();
     }
     let t0 = Instant::now();
     t.close(Duration::from_millis(300));
@@ -72,7 +77,11 @@ fn a_close_that_cannot_flush_ends_the_writer() {
     );
     // The peer sees the link end, not the rest of the frames later.
     let got = read_all(peer);
-    assert!(got.len() < 64 * mb, "{} bytes: every frame still went out", got.len());
+    assert!(
+        got.len() < 64 * mb,
+        "{} bytes: every frame still went out",
+        got.len()
+    );
 }
 
 /// The frames the peer read after `close_after_failure`, and what it
@@ -86,14 +95,18 @@ fn after_failure(stop: Duration) -> (Vec<LinkFrame>, bool) {
     };
     let (t, peer) = linked(&rt, opts);
     let since = Instant::now();
-    t.send(NodeId(1), MessageKind::Session, b"failed".to_vec()).unwrap();
+    t.send(NodeId(1), MessageKind::Session, b"failed".to_vec())
+        .unwrap();
     if !stop.is_zero() {
         // A SIGSTOP from outside, and a SIGCONT after `stop`.
         std::thread::sleep(Duration::from_millis(100));
         let me = std::process::id();
         let s = stop.as_secs_f64();
         let mut k = std::process::Command::new("sh")
-            .args(["-c", &format!("kill -STOP {me}; sleep {s}; kill -CONT {me}")])
+            .args([
+                "-c",
+                &format!("kill -STOP {me}; sleep {s}; kill -CONT {me}"),
+            ])
             .spawn()
             .unwrap();
         k.wait().unwrap();
@@ -121,5 +134,9 @@ fn a_rank_stopped_past_half_its_deadline_leaves_without_goodbye() {
     assert_eq!(kinds(&frames), ["data", "goodbye"]);
     let (frames, lost) = after_failure(Duration::from_millis(800));
     assert!(lost, "a 0.8 s stop with a 1 s deadline");
-    assert_eq!(kinds(&frames), ["data"], "the queued message, then no Goodbye");
+    assert_eq!(
+        kinds(&frames),
+        ["data"],
+        "the queued message, then no Goodbye"
+    );
 }

@@ -221,7 +221,12 @@ pub fn run_processes(
     // need workers that serve more than one session.
     let serving = t.on_failure == OnFailure::Reassign || cams.len() > 1;
     let mut w = t.spawn_processes(exe, cfg.nodes, serving)?;
-    let r = remote(t, w.addrs.clone(), w.token().clone(), TransportKind::Processes);
+    let r = remote(
+        t,
+        w.addrs.clone(),
+        w.token().clone(),
+        TransportKind::Processes,
+    );
     let outs = run_remote_frames(&r, input, cfg, cams)?;
     // Serving workers, and every worker after a failed frame (one may be
     // stopped: no waiting for it), are killed and reaped on drop.

@@ -5,12 +5,13 @@
 #![allow(dead_code)]
 
 mod procs;
+#[allow(unused_imports)]
 pub use procs::*;
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
