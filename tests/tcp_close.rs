@@ -12,6 +12,14 @@ use std::time::{Duration, Instant};
 use pvrsim::net::tcp::{decode_all, Link, LinkFrame, TcpOptions, TcpTransport};
 use pvrsim::net::{Codec, MessageKind, NodeId, RemoteTransport, Transport};
 
+/// The tests stop this whole process (every test's threads): one at a
+/// time.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn runtime() -> Arc<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -55,6 +63,7 @@ fn read_all(mut peer: std::net::TcpStream) -> Vec<u8> {
 
 #[test]
 fn a_close_that_cannot_flush_ends_the_writer() {
+    let _s = serial();
     let rt = runtime();
     let (t, peer) = linked(&rt, TcpOptions::default());
     // 64 MiB queued: far more than the socket buffers take.
@@ -84,6 +93,69 @@ fn a_close_that_cannot_flush_ends_the_writer() {
     );
 }
 
+/// Stops this process for `stop` (a SIGSTOP from outside, and a SIGCONT
+/// after `stop`), after a moment.
+fn stop_me(stop: Duration) {
+    std::thread::sleep(Duration::from_millis(100));
+    let me = std::process::id();
+    let s = stop.as_secs_f64();
+    std::process::Command::new("sh")
+        .args([
+            "-c",
+            &format!("kill -STOP {me}; sleep {s}; kill -CONT {me}"),
+        ])
+        .spawn()
+        .unwrap()
+        .wait()
+        .unwrap();
+}
+
+/// A peer's `Goodbye` is a clean end, unless this process was stopped
+/// long enough for the peer to have given up on it: with a 1 s deadline
+/// and heartbeats every 0.6 s, a stop of 0.5 s (with the period before it,
+/// the peer may have heard nothing for 1.1 s). The peer sends heartbeats
+/// every 100 ms, so that this side's own deadline never passes.
+#[test]
+fn a_goodbye_after_a_stop_past_the_deadline_ends_the_frame() {
+    let _s = serial();
+    use std::io::Write;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    pvrsim::net::stall::watch();
+    for stop in [Duration::ZERO, Duration::from_millis(500)] {
+        let rt = runtime();
+        let opts = TcpOptions {
+            deadline: Duration::from_secs(1),
+            heartbeat: Duration::from_millis(600),
+            ..Default::default()
+        };
+        let (t, mut peer) = linked(&rt, opts);
+        let done = Arc::new(AtomicBool::new(false));
+        let beat = {
+            let (mut p, done) = (peer.try_clone().unwrap(), Arc::clone(&done));
+            std::thread::spawn(move || {
+                while !done.load(Ordering::SeqCst) {
+                    let _ = p.write_all(&[pvrsim::net::tcp::frame::TAG_HEARTBEAT]);
+                    std::thread::sleep(Duration::from_millis(100));
+                }
+            })
+        };
+        if !stop.is_zero() {
+            stop_me(stop);
+        }
+        done.store(true, Ordering::SeqCst);
+        beat.join().unwrap();
+        peer.write_all(&[pvrsim::net::tcp::frame::TAG_GOODBYE])
+            .unwrap();
+        let r = t.recv_timeout(Duration::from_millis(300));
+        if stop.is_zero() {
+            assert!(matches!(r, Ok(None)), "{r:?}");
+        } else {
+            let e = r.expect_err("a Goodbye after the stop").to_string();
+            assert!(e.contains("not running"), "{e}");
+        }
+    }
+}
+
 /// The frames the peer read after `close_after_failure`, and what it
 /// returned, with this process stopped for `stop` first (0: not).
 fn after_failure(stop: Duration) -> (Vec<LinkFrame>, bool) {
@@ -98,18 +170,7 @@ fn after_failure(stop: Duration) -> (Vec<LinkFrame>, bool) {
     t.send(NodeId(1), MessageKind::Session, b"failed".to_vec())
         .unwrap();
     if !stop.is_zero() {
-        // A SIGSTOP from outside, and a SIGCONT after `stop`.
-        std::thread::sleep(Duration::from_millis(100));
-        let me = std::process::id();
-        let s = stop.as_secs_f64();
-        let mut k = std::process::Command::new("sh")
-            .args([
-                "-c",
-                &format!("kill -STOP {me}; sleep {s}; kill -CONT {me}"),
-            ])
-            .spawn()
-            .unwrap();
-        k.wait().unwrap();
+        stop_me(stop);
     }
     let lost = t.close_after_failure(since, Duration::from_secs(2));
     let (frames, err) = decode_all(&read_all(peer), &Codec::default());
@@ -118,7 +179,8 @@ fn after_failure(stop: Duration) -> (Vec<LinkFrame>, bool) {
 }
 
 #[test]
-fn a_rank_stopped_past_half_its_deadline_leaves_without_goodbye() {
+fn a_rank_stopped_past_its_deadline_leaves_without_goodbye() {
+    let _s = serial();
     let (frames, lost) = after_failure(Duration::ZERO);
     assert!(!lost);
     let kinds = |f: &[LinkFrame]| -> Vec<&'static str> {
@@ -132,8 +194,8 @@ fn a_rank_stopped_past_half_its_deadline_leaves_without_goodbye() {
             .collect()
     };
     assert_eq!(kinds(&frames), ["data", "goodbye"]);
-    let (frames, lost) = after_failure(Duration::from_millis(800));
-    assert!(lost, "a 0.8 s stop with a 1 s deadline");
+    let (frames, lost) = after_failure(Duration::from_secs(1));
+    assert!(lost, "a 1 s stop with a 1 s deadline");
     assert_eq!(
         kinds(&frames),
         ["data"],

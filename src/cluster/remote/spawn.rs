@@ -54,7 +54,11 @@ impl LocalWorkers {
         once: bool,
     ) -> anyhow::Result<Self> {
         if let Some((rank, _)) = hook {
-            anyhow::ensure!(rank < n, "a test hook for worker {rank} of {n}");
+            anyhow::ensure!(
+                rank < n,
+                "--test-worker-hook: no worker {rank} among ranks 0..{}",
+                n - 1
+            );
         }
         let pid = std::process::id();
         let tag: String = crate::net::tcp::auth::random_bytes::<6>()?
