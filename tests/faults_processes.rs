@@ -163,7 +163,8 @@ fn abort_case(case: &str, scene: &Path, common: &[&str], fault: Fault, who: &str
     assert!(err.contains(who), "{case}: names no {who}: {err}");
     assert!(err.contains(phase), "{case}: names no phase {phase}: {err}");
     assert!(!png.exists(), "{case}: an image was written");
-    assert!(!run.children.is_empty(), "{case}: no worker child seen");
+    // (The children seen are a sample: a frame that fails at once may end
+    // between two polls. The token-folder scan finds any child left.)
     let left = run.children_left(Duration::from_millis(500));
     assert!(left.is_empty(), "{case}: children left behind: {left:?}");
 }
