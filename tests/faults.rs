@@ -18,16 +18,11 @@
 //! kind); heartbeat deadline 1 s; small images.
 
 use std::path::Path;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use clap::Parser;
-use pvrsim::cli::{Cli, Command as Cmd};
-use pvrsim::cluster::grid::GridConfig;
 use pvrsim::cluster::remote::grid::GridRemote;
 use pvrsim::cluster::remote::Coordinator;
 use pvrsim::net::tcp::{TcpOptions, Token};
-use pvrsim::render::VolumeInput;
 
 mod transport_support;
 use transport_support::*;
@@ -224,18 +219,6 @@ fn mesh_frames_survive_every_fault_at_every_phase() {
             );
         }
     }
-}
-
-fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
-    let mut v = vec!["pvrsim", "cluster", scene.to_str().unwrap()];
-    v.extend_from_slice(args);
-    let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
-        unreachable!()
-    };
-    let cfg = pvrsim::cli::cluster_grid::config(&a).unwrap();
-    let sc = pvrsim::scene::Scene::load(&a.scene).unwrap();
-    let vol = pvrsim::data::io::read_volume(&sc.data.path, &sc.data.field).unwrap();
-    (VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg)
 }
 
 fn grid_remote(pool: &Pool, reassign: bool) -> GridRemote {

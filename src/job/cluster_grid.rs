@@ -10,9 +10,9 @@ use anyhow::Context;
 
 use super::cluster::{load_profile, ClusterArgs};
 use super::grid_args::{compositor_name, GridArgs};
+use super::transport_args::TransportArgs;
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
 use crate::cluster::remote::grid::GridRemote;
-use crate::cluster::remote::LocalWorkers;
 use crate::cluster::ClockKind;
 use crate::net::tcp::Token;
 use crate::node::grid::render::RendererKind;
@@ -46,6 +46,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     );
     use super::transport_args::TransportKind;
     let n = &a.net;
+    n.worker_hook()?;
     anyhow::ensure!(
         (n.workers.is_empty() && n.hostfile.is_none() && n.token_file.is_none())
             || n.transport == Some(TransportKind::Tcp),
@@ -154,47 +155,11 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
     }
     use super::transport_args::TransportKind;
     let t = &a.net;
-    let tcp = t.tcp_options();
-    let reassign = t.on_failure == super::transport_args::OnFailure::Reassign;
-    let remote = |workers: Vec<String>, token: Token, kind: TransportKind| GridRemote {
-        workers,
-        token,
-        tcp,
-        recv_timeout: Duration::from_secs_f64(t.recv_timeout),
-        transport: kind.name().to_string(),
-        reassign,
-    };
     match t.transport {
         None | Some(TransportKind::Threads) => grid::run_frames(&input, &cfg, &cams),
         Some(TransportKind::Processes) => {
             let exe = std::env::current_exe().context("cannot find this program's path")?;
-            let extra = vec![
-                "--heartbeat-timeout".to_string(),
-                t.heartbeat_timeout.to_string(),
-            ];
-            // Reassigning, and every frame after the first (one session a
-            // frame), need workers that serve more than one session.
-            let serving = reassign || cams.len() > 1;
-            let mut w = LocalWorkers::spawn_serving(
-                &exe,
-                cfg.nodes,
-                &extra,
-                Duration::from_secs(30),
-                !serving,
-            )?;
-            let r = remote(w.addrs.clone(), w.token().clone(), TransportKind::Processes);
-            let outs = run_remote_frames(&r, &input, &cfg, &cams);
-            if serving {
-                // Workers serving more sessions are stopped and reaped on drop.
-                return outs;
-            }
-            let bad = w.finish(Duration::from_secs(10));
-            let outs = outs?;
-            anyhow::ensure!(
-                bad.is_empty(),
-                "worker processes {bad:?} did not exit cleanly"
-            );
-            Ok(outs)
+            run_processes(t, &exe, &input, &cfg, &cams)
         }
         Some(TransportKind::Tcp) => {
             let workers = match &t.hostfile {
@@ -212,7 +177,7 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
                 None => Token::none(),
             };
             run_remote_frames(
-                &remote(workers, token, TransportKind::Tcp),
+                &remote(t, workers, token, TransportKind::Tcp),
                 &input,
                 &cfg,
                 &cams,
@@ -223,6 +188,56 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
              mesh scenes run for now (use --transport processes or tcp for grids)"
         ),
     }
+}
+
+/// The coordinator of grid frames on `workers` with `t`'s options.
+fn remote(
+    t: &TransportArgs,
+    workers: Vec<String>,
+    token: Token,
+    kind: super::transport_args::TransportKind,
+) -> GridRemote {
+    GridRemote {
+        workers,
+        token,
+        tcp: t.tcp_options(),
+        recv_timeout: Duration::from_secs_f64(t.recv_timeout),
+        transport: kind.name().to_string(),
+        reassign: t.on_failure == super::transport_args::OnFailure::Reassign,
+    }
+}
+
+/// Grid frames, one per camera, over `--transport processes`: children of
+/// `exe` (this program, or `pvrsim` from a test), one per node.
+pub fn run_processes(
+    t: &TransportArgs,
+    exe: &std::path::Path,
+    input: &VolumeInput,
+    cfg: &GridConfig,
+    cams: &[crate::scene::Camera],
+) -> anyhow::Result<Vec<GridOutcome>> {
+    use super::transport_args::{OnFailure, TransportKind};
+    // Reassigning, and every frame after the first (one session a frame),
+    // need workers that serve more than one session.
+    let serving = t.on_failure == OnFailure::Reassign || cams.len() > 1;
+    let mut w = t.spawn_processes(exe, cfg.nodes, serving)?;
+    let r = remote(
+        t,
+        w.addrs.clone(),
+        w.token().clone(),
+        TransportKind::Processes,
+    );
+    let outs = run_remote_frames(&r, input, cfg, cams)?;
+    // Serving workers, and every worker after a failed frame (one may be
+    // stopped: no waiting for it), are killed and reaped on drop.
+    if !serving {
+        let bad = w.finish(Duration::from_secs(10));
+        anyhow::ensure!(
+            bad.is_empty(),
+            "worker processes {bad:?} did not exit cleanly"
+        );
+    }
+    Ok(outs)
 }
 
 /// One session per camera on the same workers (they keep their bricks and

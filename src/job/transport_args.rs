@@ -88,6 +88,11 @@ pub struct TransportArgs {
     /// as a protocol deadlock.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub recv_timeout: f64,
+    /// Test hook, with --transport processes: `RANK:ARGS` passes ARGS (the
+    /// worker's hidden `--test-...` hooks, space-separated) to the child of
+    /// rank RANK only, e.g. `2:--test-stop --test-kill-in-phase2`. Hidden.
+    #[arg(long, value_name = "RANK:ARGS", hide = true)]
+    pub test_worker_hook: Option<String>,
 }
 
 /// The error of `--transport mpi` in a build without the `mpi` feature.
@@ -140,6 +145,7 @@ impl TransportArgs {
             self.recv_timeout.is_finite() && self.recv_timeout > 0.0,
             "--recv-timeout must be a positive number of seconds"
         );
+        self.worker_hook()?;
         if self.transport == Some(TransportKind::Mpi) {
             anyhow::ensure!(cfg!(feature = "mpi"), NO_MPI);
             anyhow::ensure!(
@@ -168,6 +174,76 @@ impl TransportArgs {
                 Ok(Some(k))
             }
         }
+    }
+
+    /// `--test-worker-hook RANK:ARGS`, checked: the rank and the worker
+    /// arguments (`--test-...` options and their numbers only), and only
+    /// with `--transport processes`.
+    pub fn worker_hook(&self) -> anyhow::Result<Option<(usize, Vec<String>)>> {
+        let Some(h) = &self.test_worker_hook else {
+            return Ok(None);
+        };
+        anyhow::ensure!(
+            self.transport == Some(TransportKind::Processes),
+            "--test-worker-hook needs --transport processes"
+        );
+        let bad = || anyhow::anyhow!("--test-worker-hook {h:?}: not RANK:--test-... hooks");
+        let (rank, args) = h.split_once(':').ok_or_else(bad)?;
+        let rank: usize = rank.trim().parse().map_err(|_| bad())?;
+        let args: Vec<String> = args.split_whitespace().map(str::to_string).collect();
+        let hookish = |a: &String| a.starts_with("--test-") || a.parse::<u64>().is_ok();
+        anyhow::ensure!(!args.is_empty() && args.iter().all(hookish), bad());
+        Ok(Some((rank, args)))
+    }
+
+    /// Starts the `--transport processes` children: `n` workers of `exe`
+    /// with this heartbeat deadline (and `--test-worker-hook`'s arguments
+    /// for its rank); `serving`: they serve more than one session (for
+    /// `reassign` and multi-frame runs), else one (`--once`).
+    pub fn spawn_processes(
+        &self,
+        exe: &Path,
+        n: usize,
+        serving: bool,
+    ) -> anyhow::Result<LocalWorkers> {
+        let extra = vec![
+            "--heartbeat-timeout".to_string(),
+            self.heartbeat_timeout.to_string(),
+        ];
+        let hook = self.worker_hook()?;
+        let hook = hook.as_ref().map(|(r, a)| (*r, a.as_slice()));
+        LocalWorkers::spawn_hooked(exe, n, &extra, hook, Duration::from_secs(30), !serving)
+    }
+
+    /// The mesh frame over `--transport processes`, the children started
+    /// from `exe` (this program, or `pvrsim` from a test).
+    pub fn run_processes(
+        &self,
+        exe: &Path,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let reassign = self.on_failure == OnFailure::Reassign;
+        // Reassigning needs workers that serve a second session.
+        let mut workers = self.spawn_processes(exe, cfg.phase1.nodes, reassign)?;
+        let c = Coordinator {
+            workers: workers.addrs.clone(),
+            token: workers.token().clone(),
+            tcp: self.tcp_options(),
+            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
+            reassign,
+        };
+        let r = c.run(input, cfg);
+        // Serving workers, and every worker after a failed frame (one may
+        // be stopped: no waiting for it), are killed and reaped on drop.
+        if r.is_ok() && !reassign {
+            let bad = workers.finish(Duration::from_secs(10));
+            anyhow::ensure!(
+                bad.is_empty(),
+                "worker processes {bad:?} did not exit cleanly"
+            );
+        }
+        r
     }
 
     /// Link timing from these options: the heartbeat deadline, and a
@@ -241,36 +317,7 @@ impl TransportArgs {
             TransportKind::Mpi => anyhow::bail!(NO_MPI),
             TransportKind::Processes => {
                 let exe = std::env::current_exe().context("cannot find this program's path")?;
-                let extra = vec![
-                    "--heartbeat-timeout".to_string(),
-                    self.heartbeat_timeout.to_string(),
-                ];
-                let reassign = self.on_failure == OnFailure::Reassign;
-                // Reassigning needs workers that serve a second session.
-                let mut workers = LocalWorkers::spawn_serving(
-                    &exe,
-                    n,
-                    &extra,
-                    Duration::from_secs(30),
-                    !reassign,
-                )?;
-                let c = Coordinator {
-                    workers: workers.addrs.clone(),
-                    token: workers.token().clone(),
-                    tcp: self.tcp_options(),
-                    recv_timeout,
-                    reassign,
-                };
-                let r = c.run(input, cfg);
-                // Workers serving more sessions are stopped and reaped on drop.
-                if r.is_ok() && !reassign {
-                    let bad = workers.finish(Duration::from_secs(10));
-                    anyhow::ensure!(
-                        bad.is_empty(),
-                        "worker processes {bad:?} did not exit cleanly"
-                    );
-                }
-                r
+                self.run_processes(&exe, input, cfg)
             }
             TransportKind::Tcp => {
                 let workers = match &self.hostfile {

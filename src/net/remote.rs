@@ -57,6 +57,21 @@ pub trait RemoteTransport: Transport {
     /// queued messages to leave. Later sends fail or are dropped.
     fn close(&self, wait: Duration);
 
+    /// Closes after this rank's frame failed (`since`: when the frame
+    /// began). If this process was itself not running for a while since
+    /// then, long enough that its peers may have declared it lost (see
+    /// [`crate::net::stall`]), it ends its links as a lost rank would
+    /// (the queued messages leave, then no `Goodbye`): it is the one at
+    /// fault, and a clean end would hide that from a coordinator that
+    /// reassigns lost workers' shares. Otherwise as [`Self::close`].
+    /// Returns whether it closed as lost. The default (MPI, where a lost
+    /// rank ends the job) always closes cleanly.
+    fn close_after_failure(&self, since: std::time::Instant, wait: Duration) -> bool {
+        let _ = since;
+        self.close(wait);
+        false
+    }
+
     /// How each rank's link ended, after waiting at most `wait` for the
     /// links still open to end (messages read meanwhile are dropped):
     /// `Some(true)` a clean `Goodbye`, `Some(false)` lost, `None` still

@@ -1,19 +1,27 @@
 //! Helpers of the transport tests (`tests/transport.rs`,
-//! `tests/transport_failures.rs`): scene configs, worker processes, the CLI
-//! with a deadline, runs on threads and on worker processes.
+//! `tests/transport_failures.rs`, `tests/faults*.rs`, ...): scene configs,
+//! worker processes, the CLI with a deadline, runs on threads and on
+//! worker processes, process trees (`procs.rs`).
 #![allow(dead_code)]
+
+mod procs;
+#[allow(unused_imports)]
+pub use procs::*;
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
+use pvrsim::cli::cluster::ClusterArgs;
 use pvrsim::cli::{Cli, Command as Cmd};
+use pvrsim::cluster::grid::GridConfig;
 use pvrsim::cluster::remote::{Coordinator, LocalWorkers};
 use pvrsim::cluster::ClusterConfig;
 use pvrsim::net::tcp::{TcpOptions, Token};
-use pvrsim::render::RenderInput;
+use pvrsim::render::{RenderInput, VolumeInput};
 
 pub const EXE: &str = env!("CARGO_BIN_EXE_pvrsim");
 
@@ -23,18 +31,21 @@ pub fn data(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// The config and input of `pvrsim cluster SCENE ARGS...`.
-pub fn config(scene: &Path, args: &[&str]) -> (RenderInput, ClusterConfig) {
-    let mut v = vec![
-        "pvrsim",
-        "cluster",
-        scene.to_str().unwrap(),
-        "--no-baselines",
-    ];
+/// The arguments of `pvrsim cluster SCENE ARGS...`.
+pub fn cluster_args(scene: &Path, args: &[&str]) -> Box<ClusterArgs> {
+    let mut v = vec!["pvrsim", "cluster", scene.to_str().unwrap()];
     v.extend_from_slice(args);
     let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
         unreachable!()
     };
+    a
+}
+
+/// The config and input of `pvrsim cluster SCENE --no-baselines ARGS...`.
+pub fn config(scene: &Path, args: &[&str]) -> (RenderInput, ClusterConfig) {
+    let mut v = vec!["--no-baselines"];
+    v.extend_from_slice(args);
+    let a = cluster_args(scene, &v);
     let (input, _) = RenderInput::load(&a.scene).unwrap();
     let cfg = pvrsim::cli::cluster::config(&a).unwrap();
     (input, cfg)
@@ -198,6 +209,16 @@ pub fn on_threads(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::
     let mut wall = cfg.clone();
     wall.phase1.clock = pvrsim::cluster::ClockKind::Wall;
     pvrsim::cluster::run(input, &wall).unwrap()
+}
+
+/// The volume input and grid config of `pvrsim cluster SCENE ARGS...`
+/// for a grid scene.
+pub fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
+    let a = cluster_args(scene, args);
+    let cfg = pvrsim::cli::cluster_grid::config(&a).unwrap();
+    let sc = pvrsim::scene::Scene::load(&a.scene).unwrap();
+    let vol = pvrsim::data::io::read_volume(&sc.data.path, &sc.data.field).unwrap();
+    (VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg)
 }
 
 /// Largest channel difference, in 1/255 units.

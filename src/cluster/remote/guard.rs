@@ -164,3 +164,17 @@ pub fn given_up_while_stopped<T: RemoteTransport>(t: &T, since: Instant) -> anyh
         }
     }
 }
+
+/// Ends a worker's failed frame (begun at `since`) with
+/// [`RemoteTransport::close_after_failure`], and says so when it leaves
+/// as a lost worker (it was not running for about its deadline: the
+/// frame was given up because of it).
+pub fn close_failed<T: RemoteTransport>(t: &T, since: Instant) {
+    if t.close_after_failure(since, Duration::from_secs(2)) {
+        eprintln!(
+            "pvrsim worker: this worker was not running for about {:.1} s during the frame; \
+             it leaves the frame as a lost worker (no Goodbye), so that it is the one dropped",
+            crate::net::stall::longest_since(since).as_secs_f64()
+        );
+    }
+}

@@ -39,6 +39,27 @@ impl LocalWorkers {
         wait: Duration,
         once: bool,
     ) -> anyhow::Result<Self> {
+        Self::spawn_hooked(exe, n, extra, None, wait, once)
+    }
+
+    /// [`LocalWorkers::spawn_serving`], with `hook = Some((rank, args))`:
+    /// `args` go to that rank's child only, after `extra` (the worker's
+    /// hidden test hooks, from `pvrsim cluster --test-worker-hook`).
+    pub fn spawn_hooked(
+        exe: &Path,
+        n: usize,
+        extra: &[String],
+        hook: Option<(usize, &[String])>,
+        wait: Duration,
+        once: bool,
+    ) -> anyhow::Result<Self> {
+        if let Some((rank, _)) = hook {
+            anyhow::ensure!(
+                rank < n,
+                "--test-worker-hook: no worker {rank} among ranks 0..{}",
+                n - 1
+            );
+        }
         let pid = std::process::id();
         let tag: String = crate::net::tcp::auth::random_bytes::<6>()?
             .iter()
@@ -73,6 +94,7 @@ impl LocalWorkers {
                 .arg(&token_path)
                 .args(["--accept-timeout", &accept_timeout.to_string()])
                 .args(extra)
+                .args(hook.filter(|h| h.0 == k).map_or(&[][..], |h| h.1))
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::inherit())

@@ -16,7 +16,9 @@
 //! deadline puts a `Lost` event into the inbox; the next `recv` returns it
 //! as [`NetError::PeerLost`] naming the peer. A `Goodbye` is a clean end;
 //! it is an error only from a peer marked *essential* (one the caller still
-//! needs: the coordinator for a worker, a worker whose results are not in).
+//! needs: the coordinator for a worker, a worker whose results are not in),
+//! or after this process was itself not running long enough for its
+//! peers' deadlines to pass (they gave the frame up because of it).
 //!
 //! Counting: payload bytes per kind and destination in the same
 //! [`crate::net::TrafficStats`] the simulator fills, plus the bytes really written and
@@ -102,6 +104,9 @@ pub struct TcpTransport {
     codec: Codec,
     stats: Arc<Mutex<WireStats>>,
     failed: Mutex<Option<(String, String)>>,
+    deadline: Duration,
+    heartbeat: Duration,
+    created: Instant,
     writers: Mutex<Vec<JoinHandle<()>>>,
     readers: Mutex<Vec<JoinHandle<()>>>,
 }
@@ -159,9 +164,23 @@ impl TcpTransport {
             codec: opts.codec,
             stats,
             failed: Mutex::new(None),
+            deadline: opts.deadline,
+            heartbeat: opts.heartbeat,
+            created: Instant::now(),
             writers: Mutex::new(writers),
             readers: Mutex::new(readers),
         })
+    }
+
+    /// How long this process was not running since `since` (see
+    /// [`crate::net::stall`]), if that was long enough for a peer to hear
+    /// nothing from it for a whole deadline (the stall, plus up to one
+    /// heartbeat period before it, plus the watchdog's resolution): its
+    /// peers may have declared it lost. A shorter stall cannot have made
+    /// any peer's deadline pass.
+    fn stalled_out(&self, since: Instant) -> Option<Duration> {
+        let s = crate::net::stall::longest_since(since);
+        (!s.is_zero() && s + self.heartbeat + crate::net::stall::TICK >= self.deadline).then_some(s)
     }
 
     fn fail(&self, peer: NodeId, reason: String) -> NetError {
@@ -203,6 +222,17 @@ impl TcpTransport {
                         r,
                         "closed the connection (Goodbye) before it was done".into(),
                     ))
+                } else if let Some(s) = self.stalled_out(self.created) {
+                    // It may well have given up on us: so does this rank.
+                    Err(self.fail(
+                        r,
+                        format!(
+                            "closed the connection (Goodbye) after this process was not running \
+                             for about {:.1} s (stopped, e.g. SIGSTOP, or starved): the frame was \
+                             given up because of it",
+                            s.as_secs_f64()
+                        ),
+                    ))
                 } else {
                     Ok(None)
                 }
@@ -235,7 +265,8 @@ impl RemoteTransport for TcpTransport {
     }
 
     /// Sends `Goodbye` on every link, waits (at most `wait`) for the
-    /// writers to flush, and stops the readers. Also done on drop.
+    /// writers to flush, then stops the readers and any writer that could
+    /// not flush (the link is closed). Also done on drop.
     fn close(&self, wait: Duration) {
         for p in lock(&self.peers).iter_mut().flatten() {
             p.tx = None;
@@ -245,17 +276,38 @@ impl RemoteTransport for TcpTransport {
         if writers.is_empty() && readers.is_empty() {
             return;
         }
+        let mut writers = writers;
         self.rt.block_on(async {
             let _ = tokio::time::timeout(wait, async {
-                for h in writers {
+                for h in &mut writers {
                     let _ = h.await;
                 }
             })
             .await;
         });
-        for h in readers {
+        // A writer still blocked (its peer stopped reading: a full socket
+        // buffer) is ended too, or it would hold the link, its socket and
+        // its queued frames for as long as the process lives.
+        for h in writers.iter().chain(&readers) {
             h.abort();
         }
+    }
+
+    /// See [`RemoteTransport::close_after_failure`]: "a while" is long
+    /// enough for a peer's deadline to pass (`stalled_out`). Each writer
+    /// gets an empty frame (never a real one), its signal to shut the
+    /// socket down without `Goodbye`.
+    fn close_after_failure(&self, since: Instant, wait: Duration) -> bool {
+        let lost = self.stalled_out(since).is_some();
+        if lost {
+            for p in lock(&self.peers).iter_mut().flatten() {
+                if let Some(tx) = p.tx.take() {
+                    let _ = tx.send(Vec::new());
+                }
+            }
+        }
+        self.close(wait);
+        lost
     }
 
     /// How each rank's link ended, after waiting at most `wait` for the
@@ -391,6 +443,11 @@ async fn writer(
 ) {
     loop {
         match tokio::time::timeout(heartbeat, rx.recv()).await {
+            Ok(Some(frame)) if frame.is_empty() => {
+                // Ended as a lost rank: no Goodbye (see close_after_failure).
+                let _ = w.shutdown().await;
+                return;
+            }
             Ok(Some(frame)) => {
                 if w.write_all(&frame).await.is_err() {
                     return;

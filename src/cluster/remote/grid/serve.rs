@@ -11,7 +11,7 @@ use tokio::runtime::Runtime;
 
 use super::{GridMsg, GridResult};
 use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
-use crate::cluster::remote::guard::given_up_while_stopped;
+use crate::cluster::remote::guard::{close_failed, given_up_while_stopped};
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
@@ -186,7 +186,11 @@ fn serve_master(
     t.set_essential(coord, false);
     // Until the coordinator closes (or is lost), so that nothing is cut short.
     let _ = t.link_endings(Duration::from_secs_f64(setup.recv_timeout_s));
-    t.close(Duration::from_secs(2));
+    if result.is_err() {
+        close_failed(&t, since);
+    } else {
+        t.close(Duration::from_secs(2));
+    }
     result.map(|_| ())
 }
 
@@ -235,7 +239,8 @@ fn serve_p2p(
         codec,
     )?;
     t.set_essential(coord, true);
-    let r = frame_p2p(&t, kept, setup, bytes, coord, hooks);
+    let since = std::time::Instant::now();
+    let r = frame_p2p(&t, kept, setup, bytes, coord, hooks, since);
     match r {
         Ok(()) => {
             t.close(Duration::from_secs(10));
@@ -246,13 +251,14 @@ fn serve_p2p(
             let _ = codec
                 .encode(&Session::Failed(why.clone()))
                 .map(|b| t.send(coord, MessageKind::Session, b));
-            t.close(Duration::from_secs(2));
+            close_failed(&t, since);
             anyhow::bail!(why)
         }
     }
 }
 
-/// Render, stats to the coordinator, phase 2 over `t`, the log.
+/// Render, stats to the coordinator, phase 2 over `t`, the log (`since`:
+/// when the frame began, for the stall checks).
 fn frame_p2p(
     t: &TcpTransport,
     kept: &mut GridWorkerCache,
@@ -260,8 +266,8 @@ fn frame_p2p(
     bytes: &[u8],
     coord: NodeId,
     hooks: Hooks,
+    since: std::time::Instant,
 ) -> anyhow::Result<()> {
-    let since = std::time::Instant::now();
     let codec = Codec::with_limit(setup.max_message_bytes);
     if hooks.kill_after_chunks.is_some() {
         kill_self("while rendering its bricks (--test-kill-after-chunks)");

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use crate::cluster::remote::guard::{given_up_while_stopped, SessionGuard};
+use crate::cluster::remote::guard::{close_failed, given_up_while_stopped, SessionGuard};
 use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::{
@@ -147,7 +147,7 @@ pub fn run_node<T: RemoteTransport>(
                 MessageKind::Session,
                 codec.encode(&Session::Failed(why.clone()))?,
             );
-            t.close(Duration::from_secs(2));
+            close_failed(t, since);
             anyhow::bail!(why);
         }
     };
@@ -168,7 +168,7 @@ pub fn run_node<T: RemoteTransport>(
         wire,
     };
     if let Err(e) = given_up_while_stopped(t, since) {
-        t.close(Duration::from_secs(2));
+        close_failed(t, since);
         return Err(e.context(format!("node {} at the end of phase 1", setup.rank)));
     }
     t.send(
@@ -207,7 +207,7 @@ pub fn run_node<T: RemoteTransport>(
                 MessageKind::Session,
                 codec.encode(&Session::Failed(why.clone()))?,
             );
-            t.close(Duration::from_secs(2));
+            close_failed(t, since);
             anyhow::bail!(why)
         }
     }
