@@ -300,3 +300,38 @@ fn item10_nits() {
         "{kinds:?}"
     );
 }
+
+// ------------------------------------------------ the grid renderer's default
+
+/// Without `--renderer` a grid scene is drawn by shear-warp when the view is
+/// orthographic and does not magnify the voxels, else by slice3d, and the
+/// first line says which; slicer options keep slice3d.
+#[test]
+fn the_default_grid_renderer_follows_the_view() {
+    let d = tempfile::tempdir().unwrap();
+    let o = run_in(
+        d.path(),
+        &["generate", "hydrogen", "--size", "24", "-o", "h.nrrd"],
+    );
+    assert!(o.status.success(), "{}", text(&o).1);
+    let first = |args: &[&str]| {
+        let o = run_in(d.path(), args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o).1);
+        let out = text(&o).0;
+        out.lines().next().unwrap_or("").to_string()
+    };
+    // 256 px across a 24^3 grid: voxels larger than pixels.
+    let l = first(&["render", "h.toml", "-o", "a.png"]);
+    assert!(l.starts_with("renderer: slice3d"), "{l}");
+    // 16 px across it: pixels larger than voxels.
+    let small = [
+        "render", "h.toml", "-o", "b.png", "--width", "16", "--height", "16",
+    ];
+    let l = first(&small);
+    assert!(l.starts_with("renderer: shearwarp"), "{l}");
+    let l = first(&[&small[..], &["--slices", "40"]].concat());
+    assert!(l.starts_with("renderer: slice3d"), "{l}");
+    // Named: no line about the default.
+    let l = first(&[&small[..], &["--renderer", "shearwarp"]].concat());
+    assert!(l.starts_with("shearwarp of"), "{l}");
+}

@@ -160,8 +160,14 @@ fn skip_on_off(name: &str, inp: &VolumeInput) {
             sa.samples_taken,
             sb.samples_taken
         );
-        assert_eq!(a, b, "{name}: shear-warp skipping is exact, the images are equal");
-        assert!(sa.samples_taken < sb.samples_taken, "{name}: shear-warp skips");
+        assert_eq!(
+            a, b,
+            "{name}: shear-warp skipping is exact, the images are equal"
+        );
+        assert!(
+            sa.samples_taken < sb.samples_taken,
+            "{name}: shear-warp skips"
+        );
     }
 }
 

@@ -44,8 +44,9 @@ pub struct RenderArgs {
     pub output: PathBuf,
     /// Renderer. Default: picked from the data and the view: `cell` for a
     /// tetrahedral mesh; for a regular grid `shearwarp` when the camera is
-    /// orthographic (fastest), `slice3d` when it is perspective or a
-    /// slicer option (--slices, --spacing, --classify, --order) is given.
+    /// orthographic and pixels are at least as large as voxels (fastest),
+    /// `slice3d` when it is perspective, the view magnifies the voxels, or
+    /// a slicer option (--slices, --spacing, --classify, --order) is given.
     #[arg(long, value_enum)]
     pub renderer: Option<RendererKind>,
     /// Grids: classify after interpolating the scalar (`post`, the scene

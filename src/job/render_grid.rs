@@ -122,19 +122,25 @@ fn slicer_options_given(a: &RenderArgs) -> bool {
 }
 
 /// The grid renderer when `--renderer` is not given: **shear-warp** for an
-/// orthographic view it can draw (the fastest: one bilinear sample per
-/// voxel slice over run-length encoded slices, RMSE against the f64 grid
-/// reference below VolPack's, see docs/experiments/grids.md), **slice3d**
-/// otherwise: a perspective camera, a volume reaching behind the eye plane,
-/// or one of slice3d's own options given (`--slices`, `--spacing`,
-/// `--classify`, `--order`). slice3d samples every pixel's own ray: at hard
-/// silhouettes its max-abs error is several times lower than the warp's.
+/// orthographic view it can draw whose final pixels are at least as large
+/// as the voxels (the fastest: one bilinear sample per voxel slice over
+/// run-length encoded slices, RMSE against the f64 grid reference below
+/// VolPack's, see docs/experiments/shearwarp.md), **slice3d** otherwise: a
+/// perspective camera, a volume reaching behind the eye plane, a magnified
+/// view (voxels larger than pixels: the warp would blur them over several
+/// pixels, [`shearwarp::warp_scale`] < 1), or one of slice3d's own options
+/// given (`--slices`, `--spacing`, `--classify`, `--order`). slice3d
+/// samples every pixel's own ray: at hard silhouettes its max-abs error is
+/// several times lower than the warp's.
 pub fn default_renderer(a: &RenderArgs, input: &VolumeInput) -> RendererKind {
     let sw = ShearWarpOptions {
         ert: a.ert,
         empty_skip: !a.no_empty_skip,
     };
-    if slicer_options_given(a) || shearwarp::check(input, &sw).is_err() {
+    if slicer_options_given(a)
+        || shearwarp::check(input, &sw).is_err()
+        || shearwarp::warp_scale(input) < 1.0
+    {
         RendererKind::Slice3d
     } else {
         RendererKind::ShearWarp
@@ -182,12 +188,14 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
     let mut say = Vec::new();
     if a.renderer.is_none() {
         say.push(match kind {
-            RendererKind::ShearWarp => "renderer: shearwarp (the default for an orthographic grid \
-                view; --renderer slice3d samples each pixel's own ray: lower max-abs error at \
-                sharp silhouettes, slower)"
-                .to_string(),
-            _ => "renderer: slice3d (the default for this grid scene: perspective, a volume \
-                behind the eye plane, or slice3d's options given)"
+            RendererKind::ShearWarp => format!(
+                "renderer: shearwarp (the default for an orthographic grid view with pixels at \
+                 least as large as the voxels, here {:.2} voxels a pixel; --renderer slice3d \
+                 samples each pixel's own ray: lower max-abs error at sharp silhouettes, slower)",
+                shearwarp::warp_scale(&input)
+            ),
+            _ => "renderer: slice3d (the default for this grid scene: a perspective or magnified \
+                view, a volume behind the eye plane, or slice3d's options given)"
                 .to_string(),
         });
     }
