@@ -1,5 +1,5 @@
-//! `pvrsim bench --grids`: times `slice3d` and `slice2d` on the shared grid
-//! scenes at 256^2 and 512^2, one thread and all threads (median of
+//! `pvrsim bench --grids`: times `slice3d`, `slice2d` and `shearwarp`
+//! (where the view allows it: orthographic) on the shared grid scenes at 256^2 and 512^2, one thread and all threads (median of
 //! repeated frames; the frame-independent preparation, min–max blocks and
 //! the tiled texture, is timed apart, once), `slice3d-linear` (slice3d
 //! sampling the volume's own x-fastest layout, to show what the tiles
@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use crate::image::Image;
+use crate::render::shearwarp::{self, ShearWarpOptions};
 use crate::render::slice2d::{self, lod, Slice2dOptions};
 use crate::render::slice3d::{self, Layout, Slice3dOptions};
 use crate::render::slicing::{Classify, SliceStats};
@@ -84,7 +85,7 @@ pub fn run(
         .unwrap_or(1);
     let mut rows = Vec::new();
     println!(
-        "{:<24} {:<8} {:>5} {:>3} {:>9} {:>8} {:>8} {:>8} {:>10} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7}",
+        "{:<24} {:<14} {:>5} {:>3} {:>9} {:>8} {:>8} {:>8} {:>10} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7}",
         "scene",
         "renderer",
         "size",
@@ -124,7 +125,7 @@ pub fn run(
                 grid_reference::render(&input, &Default::default())
             })?;
             println!(
-                "{:<24} {:<8} {:>5} {:>3} {:>9.1}   (reference, once)",
+                "{:<24} {:<14} {:>5} {:>3} {:>9.1}   (reference, once)",
                 name,
                 "ref",
                 size,
@@ -135,12 +136,22 @@ pub fn run(
             // The same slicer on the volume's own x-fastest layout: what
             // the tiled texture saves, measured in the same run.
             let prep_linear = slice3d::prepare_with(&input, Classify::Post, Layout::Linear);
+            // Shear-warp (the default for orthographic views that do not
+            // magnify) when the view allows it.
+            let sw_opts = ShearWarpOptions::default();
+            let prep_sw = shearwarp::check(&input, &sw_opts)
+                .is_ok()
+                .then(|| shearwarp::prepare(&input));
+            let mut renderers = vec!["slice3d", "slice3d-linear", "slice2d"];
+            if prep_sw.is_some() {
+                renderers.push("shearwarp");
+            }
             let mut threads = vec![1];
             if cores > 1 {
                 threads.push(cores);
             }
             for &t in &threads {
-                for renderer in ["slice3d", "slice3d-linear", "slice2d"] {
+                for &renderer in &renderers {
                     let mut times = Vec::new();
                     let mut last: Option<(Image, SliceStats)> = None;
                     let cpu0 = cpu_seconds();
@@ -151,6 +162,8 @@ pub fn run(
                             } else if renderer == "slice3d-linear" {
                                 let o = Slice3dOptions::default();
                                 slice3d::render_prepared(&input, &prep_linear, &o)
+                            } else if let (Some(p), "shearwarp") = (&prep_sw, renderer) {
+                                shearwarp::render_prepared(&input, p, &sw_opts)
                             } else {
                                 slice2d::render(&input, &Slice2dOptions::default())
                             }
@@ -180,6 +193,8 @@ pub fn run(
                             prep.time_s * 1e3
                         } else if renderer == "slice3d-linear" {
                             prep_linear.time_s * 1e3
+                        } else if let (Some(p), "shearwarp") = (&prep_sw, renderer) {
+                            p.time_s * 1e3
                         } else {
                             st.time_prepare_s * 1e3
                         },
@@ -198,7 +213,7 @@ pub fn run(
                         rmse: e.rmse,
                     };
                     println!(
-                        "{:<24} {:<8} {:>5} {:>3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>10.1} {:>7.1} {:>7.1} {:>7.1} {:>7.2} {:>8.2} {:>7.3}",
+                        "{:<24} {:<14} {:>5} {:>3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>10.1} {:>7.1} {:>7.1} {:>7.1} {:>7.2} {:>8.2} {:>7.3}",
                         row.scene,
                         row.renderer,
                         row.size,
