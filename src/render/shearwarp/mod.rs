@@ -6,7 +6,11 @@
 //!   each of the three principal axes the scalars in that axis's slice
 //!   order and the run-length encoding of their cell scanlines into
 //!   transparent / non-transparent runs under the transfer function
-//!   ([`rle`]).
+//!   ([`rle`]); [`prepare_for_view`] builds only the view's axis (one
+//!   frame). A transfer-function edit goes through
+//!   [`Prepared::reclassify`]: the runs are kept when every skipped value
+//!   stays transparent, else runs over the volume's min-max blocks stand in
+//!   until [`Prepared::refine`] (both exact).
 //! - per frame ([`render_prepared`]): the factorisation ([`factor`]:
 //!   principal axis, shear, translation, warp), the slices composited front
 //!   to back into the intermediate image with bilinear resampling inside
