@@ -36,7 +36,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::render::slicing::{Classify, Lut, MinMaxBlocks, Order, SampleCounts, SliceStats, Texel};
 use crate::render::VolumeInput;
-use crate::scene::Projection;
+use crate::scene::{Projection, TransferFunction};
 
 use composite::{band, slice_steps, Slices};
 use factor::Factor;
@@ -86,6 +86,9 @@ pub struct Prepared {
     /// by [`prepare`], or by the first [`Prepared::reclassify`] that needs
     /// them after [`prepare_for_view`].
     pub blocks: Option<MinMaxBlocks>,
+    /// The lookup table of the transfer function and scalar range last
+    /// prepared for, reused by frames with the same ones.
+    pub lut: (TransferFunction, [f64; 2], Lut),
 }
 
 /// Builds the three run-length encodings of `input`'s volume under its
@@ -136,6 +139,7 @@ fn prepare_axes(input: &VolumeInput, want: [bool; 3]) -> Prepared {
         dims: vol.dims,
         time_s: t.elapsed().as_secs_f64(),
         blocks: None,
+        lut: (input.scene.transfer.clone(), input.range, lut),
     }
 }
 
@@ -150,7 +154,10 @@ impl Prepared {
     pub fn reclassify(&mut self, input: &VolumeInput) -> bool {
         let t = Instant::now();
         let lut = Lut::new(&input.scene.transfer, input.range);
-        if self.exact_under(&lut) {
+        let keep = self.exact_under(&lut);
+        self.lut = (input.scene.transfer.clone(), input.range, lut);
+        let lut = &self.lut.2;
+        if keep {
             self.time_s += t.elapsed().as_secs_f64();
             return false;
         }
@@ -161,13 +168,13 @@ impl Prepared {
         let opaque: Vec<bool> = blocks
             .range
             .iter()
-            .map(|&[lo, hi]| rle::cell_opaque(&lut, lo, hi))
+            .map(|&[lo, hi]| rle::cell_opaque(lut, lo, hi))
             .collect();
         let did = match &mut self.encoded {
-            Encoded::U8(e) => e.reclassify(&lut, blocks, &opaque),
-            Encoded::U16(e) => e.reclassify(&lut, blocks, &opaque),
-            Encoded::I16(e) => e.reclassify(&lut, blocks, &opaque),
-            Encoded::F32(e) => e.reclassify(&lut, blocks, &opaque),
+            Encoded::U8(e) => e.reclassify(lut, blocks, &opaque),
+            Encoded::U16(e) => e.reclassify(lut, blocks, &opaque),
+            Encoded::I16(e) => e.reclassify(lut, blocks, &opaque),
+            Encoded::F32(e) => e.reclassify(lut, blocks, &opaque),
         };
         self.time_s += t.elapsed().as_secs_f64();
         did
@@ -198,6 +205,7 @@ impl Prepared {
             Encoded::I16(e) => e.classify(&lut),
             Encoded::F32(e) => e.classify(&lut),
         }
+        self.lut = (input.scene.transfer.clone(), input.range, lut);
         self.time_s += t.elapsed().as_secs_f64();
     }
 }
@@ -295,29 +303,33 @@ pub fn render_prepared(
     let (w, h) = (scene.image.width, scene.image.height);
     let view = scene.camera.view(w, h);
     let f = Factor::new(&view, vol);
-    let lut = Lut::new(tf, input.range);
+    let own;
+    let lut = if prep.lut.0 == *tf && prep.lut.1 == input.range {
+        &prep.lut.2
+    } else {
+        own = Lut::new(tf, input.range);
+        &own
+    };
     let k = (f.delta / tf.unit_distance) as f32;
     let (full, half) = (lut.baked(k), lut.baked(0.5 * k));
     let steps = slice_steps(&f);
     let mut inter = vec![[0.0f32; 4]; f.size[0] * f.size[1]];
     let tables = Tables {
-        lut: &lut,
+        lut,
         full: &full,
         half: &half,
     };
     let c = f.principal;
     let (mut counts, texture_bytes) = match &prep.encoded {
-        Encoded::U8(e) => {
-            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
-        }
+        Encoded::U8(e) => composite_all(axis_of(e, c, lut)?, &tables, &steps, opts, &f, &mut inter),
         Encoded::U16(e) => {
-            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, lut)?, &tables, &steps, opts, &f, &mut inter)
         }
         Encoded::I16(e) => {
-            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, lut)?, &tables, &steps, opts, &f, &mut inter)
         }
         Encoded::F32(e) => {
-            composite_all(axis_of(e, c, &lut)?, &tables, &steps, opts, &f, &mut inter)
+            composite_all(axis_of(e, c, lut)?, &tables, &steps, opts, &f, &mut inter)
         }
     };
     let mut image = Image::new(w, h);
