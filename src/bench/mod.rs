@@ -10,6 +10,7 @@ use clap::Args;
 pub mod adaptive;
 pub mod calibrate;
 pub mod calibrate_grid;
+pub mod calibrate_splat;
 pub mod calibrate_network;
 pub mod calibrate_phase2;
 pub mod calibrate_pieces;
