@@ -48,6 +48,10 @@ pub struct CalibrateArgs {
     /// texture-build costs on the built-in hydrogen grid).
     #[arg(long)]
     pub no_grid: bool,
+    /// Skip the splat part (the splatting renderer's per-voxel, per-splat
+    /// and per-piece costs on built-in hydrogen grids).
+    #[arg(long)]
+    pub no_splat: bool,
     /// Image sizes as multiples of each scene's size (varies pixels per cell).
     #[arg(long, value_delimiter = ',', default_value = "0.5,1,2")]
     pub scales: Vec<f64>,
@@ -476,6 +480,17 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
                 f.total.1
             )
         };
+        let splat_line = if a.no_splat {
+            "# splat costs not fitted (--no-splat)\n".to_string()
+        } else {
+            let s = super::calibrate_splat::measure(a.repeats, a.timer)?;
+            let f = super::calibrate_splat::fit(&s)?;
+            profile.per_splat_voxel = f.per_splat_voxel;
+            profile.per_splat = f.per_splat;
+            profile.per_splat_piece = f.per_splat_piece;
+            profile.per_splat_pixel = f.per_splat_pixel;
+            super::calibrate_splat::header(&f, a.repeats, a.timer)
+        };
         let scenes: Vec<String> = match &a.scenes {
             Some(s) => s.iter().map(|p| p.display().to_string()).collect(),
             None => vec!["built-in aorta-small views A and B".to_string()],
@@ -496,7 +511,7 @@ fn run_node(a: &CalibrateArgs) -> anyhow::Result<()> {
             quality_lines(&q),
             phase2_line,
             grid_line
-        );
+        ) + &splat_line;
         print!("{header}");
         write_profile(
             &a.out,

@@ -13,6 +13,7 @@ pub mod calibrate_grid;
 pub mod calibrate_network;
 pub mod calibrate_phase2;
 pub mod calibrate_pieces;
+pub mod calibrate_splat;
 pub mod grid;
 pub mod orderings;
 pub mod splat;

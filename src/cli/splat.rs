@@ -99,6 +99,12 @@ pub struct SplatArgs {
         allow_negative_numbers = true
     )]
     pub ert: f32,
+    /// Also print the modelled one-thread frame time under this cost
+    /// profile (`calibrated`, `pentium4`, `radeon9700` or a TOML file; its
+    /// `per_splat_voxel`, `per_splat`, `per_splat_piece`, fitted by `pvrsim
+    /// calibrate`) beside the measured CPU time of the frame.
+    #[arg(long)]
+    pub profile: Option<String>,
 }
 
 /// Loads a grid scene into a [`VolumeInput`].
@@ -171,6 +177,22 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         st.ert_error_bound * 255.0
     );
     let mut json = serde_json::to_value(&st)?;
+    if let Some(name) = &a.profile {
+        let (p, shown) = crate::job::cluster::load_profile(name)?;
+        let modelled = p.splat_time(&st) * 1e3;
+        let cpu = st.order_cpu_ms + st.splat_cpu_ms;
+        println!(
+            "modelled {modelled:.1} ms with profile {shown}, measured {cpu:.1} ms CPU ({:.1} ms wall){}",
+            st.order_ms + st.splat_ms,
+            if modelled > 0.0 {
+                format!(", ratio {:.2}", modelled / cpu)
+            } else {
+                " (the profile has no splat costs: run pvrsim calibrate)".to_string()
+            }
+        );
+        json["modelled_ms"] = serde_json::to_value(modelled)?;
+        json["profile"] = serde_json::to_value(shown)?;
+    }
     if a.compare {
         let (r, _) = super::with_threads(a.threads, || {
             grid_reference::render(&input, &Default::default())

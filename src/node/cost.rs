@@ -101,6 +101,19 @@ pub struct CostProfile {
     /// 0 = not measured for this profile: [`CostProfile::cell_id_cost`]
     /// then derives it from `per_work_cell`.
     pub per_cell_id: f64,
+    /// Splatting (`pvrsim splat`, one thread): per voxel of the grid
+    /// (`SplatStats::voxels_total`: classification and the transparency
+    /// pre-pass visit every voxel). 0: not charged.
+    pub per_splat_voxel: f64,
+    /// Splatting: per footprint drawn (`SplatStats::voxels_drawn`: ordering,
+    /// projection, binning of a kept, on-screen voxel). 0: not charged.
+    pub per_splat: f64,
+    /// Splatting: per (splat, band) piece rasterised and composited
+    /// (`SplatStats::pieces` less `pieces_skipped_ert`). 0: not charged.
+    pub per_splat_piece: f64,
+    /// Splatting: per image pixel (`SplatStats::pixels`: the accumulation
+    /// buffer cleared, the background composited). 0: not charged.
+    pub per_splat_pixel: f64,
 }
 
 /// A profile file: a name, notes, and the unit costs.
@@ -167,6 +180,17 @@ pub const RADEON9700_TOML: &str = include_str!("../../configs/profiles/radeon970
 pub const PENTIUM4_TOML: &str = include_str!("../../configs/profiles/pentium4.toml");
 
 impl CostProfile {
+    /// The modelled one-thread time of a splatting frame with `st`'s
+    /// counts, seconds: `voxels_total · per_splat_voxel + voxels_drawn ·
+    /// per_splat + (pieces - pieces_skipped_ert) · per_splat_piece + pixels
+    /// · per_splat_pixel`.
+    pub fn splat_time(&self, st: &crate::render::splat::SplatStats) -> f64 {
+        st.voxels_total as f64 * self.per_splat_voxel
+            + st.voxels_drawn as f64 * self.per_splat
+            + st.pieces.saturating_sub(st.pieces_skipped_ert) as f64 * self.per_splat_piece
+            + st.pixels as f64 * self.per_splat_pixel
+    }
+
     /// Every cost multiplied by `k`.
     pub fn scaled(&self, k: f64) -> CostProfile {
         self.scaled_split(k, k)
@@ -232,6 +256,10 @@ impl CostProfile {
             c.upload_bytes_per_s,
             c.readback_bytes_per_s,
             c.per_cell_id,
+            c.per_splat_voxel,
+            c.per_splat,
+            c.per_splat_piece,
+            c.per_splat_pixel,
         ];
         anyhow::ensure!(
             all.iter().all(|v| v.is_finite() && *v >= 0.0),

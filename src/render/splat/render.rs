@@ -138,6 +138,9 @@ pub struct SplatStats {
     pub pieces_skipped_ert: u64,
     /// Bands.
     pub bands: u64,
+    /// Image pixels (`width · height`: cleared, and composited over the
+    /// background, once each a frame).
+    pub pixels: u64,
     /// CPU time of the process (all threads) during the order phase, ms:
     /// on a loaded machine wall times include time spent descheduled.
     pub order_cpu_ms: f64,
@@ -366,6 +369,7 @@ pub fn render_splat(input: &VolumeInput, opts: &SplatOptions) -> Result<(Image, 
         pieces: f.counts.pieces,
         pieces_skipped_ert: f.counts.pieces_skipped,
         bands: f.counts.bands,
+        pixels: w as u64 * h as u64,
         order_cpu_ms: (f.c1 - c0) * 1e3,
         splat_cpu_ms: (f.c2 - f.c1) * 1e3,
     };
