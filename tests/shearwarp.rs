@@ -303,6 +303,18 @@ fn transfer_function_edits_reencode_only_what_they_reveal() {
         e.scene.transfer.points.iter_mut().for_each(f);
         e
     };
+    // The opacity of the control point at `s` set to `o`.
+    let opacity_at = |s: f64, o: f64| {
+        let mut e = base.clone();
+        let p = e
+            .scene
+            .transfer
+            .points
+            .iter_mut()
+            .find(|p| (p.s - s).abs() < 1e-9);
+        p.expect("a control point at s").opacity = o;
+        e
+    };
     let fresh = |inp: &VolumeInput| shearwarp::render(inp, &opts).unwrap().0;
     // (name, edited input, re-encodes; the kept or block runs then skip
     // fewer cells than a per-cell encoding under the edit would)
@@ -314,26 +326,8 @@ fn transfer_function_edits_reencode_only_what_they_reveal() {
             false,
         ),
         ("opacity halved", edit(&|p| p.opacity *= 0.5), false, false),
-        (
-            "skin made transparent",
-            edit(&|p| {
-                if (p.s - 0.27).abs() < 1e-9 {
-                    p.opacity = 0.0
-                }
-            }),
-            false,
-            true,
-        ),
-        (
-            "fat revealed",
-            edit(&|p| {
-                if (p.s - 0.6).abs() < 1e-9 {
-                    p.opacity = 0.3
-                }
-            }),
-            true,
-            true,
-        ),
+        ("skin made transparent", opacity_at(0.27, 0.0), false, true),
+        ("fat revealed", opacity_at(0.6, 0.3), true, true),
     ];
     for (name, inp, reencodes, coarser) in cases {
         let refused = shearwarp::render_prepared(&inp, &prep, &opts).is_err();

@@ -18,6 +18,7 @@ use clap::Parser;
 use pvrsim::cli::cluster::ClusterArgs;
 use pvrsim::cli::{Cli, Command as Cmd};
 use pvrsim::cluster::grid::GridConfig;
+use pvrsim::cluster::remote::reassign::{LossEvent, Reassigned};
 use pvrsim::cluster::remote::{Coordinator, LocalWorkers};
 use pvrsim::cluster::ClusterConfig;
 use pvrsim::net::tcp::{TcpOptions, Token};
@@ -157,17 +158,43 @@ pub fn token_file(dir: &Path, name: &str) -> PathBuf {
     p
 }
 
-/// Runs `pvrsim cluster` as a child with a hard deadline; returns
-/// (success, stderr, seconds).
-pub fn cluster_cli(args: &[&str], deadline: Duration) -> (bool, String, f64) {
-    let t = Instant::now();
-    let mut child = Command::new(EXE)
+/// `pvrsim cluster ARGS` started as a child, stdout discarded, stderr
+/// piped.
+pub fn cluster_child(args: &[&str]) -> Child {
+    Command::new(EXE)
         .arg("cluster")
         .args(args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
+        .unwrap()
+}
+
+/// Asserts that `re` records one loss: worker `who` (a name prefix, e.g.
+/// `"worker 2 "`) alone, in `phase`, some work moved to 3 survivors.
+/// Returns the event.
+pub fn assert_one_loss<'a>(
+    case: &str,
+    re: &'a Reassigned,
+    phase: &str,
+    who: &str,
+) -> &'a LossEvent {
+    assert_eq!(re.events.len(), 1, "{case}: {re:?}");
+    let ev = &re.events[0];
+    assert_eq!(ev.phase, phase, "{case}: {ev:?}");
+    assert!(
+        ev.workers.len() == 1 && ev.workers[0].starts_with(who),
+        "{case}: {ev:?}"
+    );
+    assert!(ev.moved > 0 && ev.survivors == 3, "{case}: {ev:?}");
+    ev
+}
+
+/// Runs `pvrsim cluster` as a child with a hard deadline; returns
+/// (success, stderr, seconds).
+pub fn cluster_cli(args: &[&str], deadline: Duration) -> (bool, String, f64) {
+    let t = Instant::now();
+    let mut child = cluster_child(args);
     let mut err = child.stderr.take().unwrap();
     let reader = std::thread::spawn(move || {
         let mut s = String::new();

@@ -5,11 +5,8 @@
 
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-use super::EXE;
 
 /// The children of `parent` with their state (`R`, `S`, `T` stopped, `Z`
 /// zombie, ...), from `/proc/*/stat`.
@@ -146,13 +143,7 @@ impl CliRun {
 /// hang), recording its stderr lines as they come and its children.
 pub fn cluster_cli_watched(args: &[&str], deadline: Duration) -> CliRun {
     let t = Instant::now();
-    let mut child = Command::new(EXE)
-        .arg("cluster")
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = super::cluster_child(args);
     let err = child.stderr.take().unwrap();
     let reader = std::thread::spawn(move || {
         BufReader::new(err)

@@ -37,6 +37,7 @@ use crate::image::Image;
 use crate::render::slicing::{Classify, Lut, MinMaxBlocks, Order, SampleCounts, SliceStats, Texel};
 use crate::render::VolumeInput;
 use crate::scene::{Projection, TransferFunction};
+use crate::with_texels;
 
 use composite::{band, slice_steps, Slices};
 use factor::Factor;
@@ -105,12 +106,7 @@ pub fn prepare(input: &VolumeInput) -> Prepared {
 
 /// The min-max blocks of `vol`.
 fn min_max_blocks(vol: &crate::data::Volume) -> MinMaxBlocks {
-    match &vol.voxels {
-        Voxels::U8(v) => MinMaxBlocks::new(v, vol.dims),
-        Voxels::U16(v) => MinMaxBlocks::new(v, vol.dims),
-        Voxels::I16(v) => MinMaxBlocks::new(v, vol.dims),
-        Voxels::F32(v) => MinMaxBlocks::new(v, vol.dims),
-    }
+    with_texels!(&vol.voxels, d => MinMaxBlocks::new(d, vol.dims))
 }
 
 /// Builds only the encoding the scene's view needs (its principal axis):

@@ -179,16 +179,16 @@ fn row_entries<T: Texel>(
     }));
 }
 
-/// Appends to `runs` the runs of the cell scanline between voxel scanlines
-/// whose [`widened_entries`] are `e0` and `e1`.
-fn scanline_runs(e0: &[[u16; 2]], e1: &[[u16; 2]], lut: &Lut, runs: &mut Vec<Run>) {
+/// Appends to `runs` the runs of one cell scanline whose cells are
+/// non-transparent where `opaque` says so (cell `i` is the `i`-th item),
+/// short gaps merged ([`merge_short_gaps`]).
+#[inline]
+fn push_runs(opaque: impl Iterator<Item = bool>, runs: &mut Vec<Run>) {
     let row0 = runs.len();
     let mut start = None;
-    for i in 0..e0.len() - 1 {
-        let q = [e0[i], e0[i + 1], e1[i], e1[i + 1]];
-        let a = q[0][0].min(q[1][0]).min(q[2][0]).min(q[3][0]);
-        let b = q[0][1].max(q[1][1]).max(q[2][1]).max(q[3][1]);
-        match (!lut.transparent_entries(a as usize, b as usize), start) {
+    let mut n = 0;
+    for (i, o) in opaque.enumerate() {
+        match (o, start) {
             (true, None) => start = Some(i as u32),
             (false, Some(s)) => {
                 runs.push([s, i as u32]);
@@ -196,11 +196,24 @@ fn scanline_runs(e0: &[[u16; 2]], e1: &[[u16; 2]], lut: &Lut, runs: &mut Vec<Run
             }
             _ => {}
         }
+        n = i + 1;
     }
     if let Some(s) = start {
-        runs.push([s, (e0.len() - 1) as u32]);
+        runs.push([s, n as u32]);
     }
     merge_short_gaps(runs, row0);
+}
+
+/// Appends to `runs` the runs of the cell scanline between voxel scanlines
+/// whose [`widened_entries`] are `e0` and `e1`.
+fn scanline_runs(e0: &[[u16; 2]], e1: &[[u16; 2]], lut: &Lut, runs: &mut Vec<Run>) {
+    let opaque = (0..e0.len() - 1).map(|i| {
+        let q = [e0[i], e0[i + 1], e1[i], e1[i + 1]];
+        let a = q[0][0].min(q[1][0]).min(q[2][0]).min(q[3][0]);
+        let b = q[0][1].max(q[1][1]).max(q[2][1]).max(q[3][1]);
+        !lut.transparent_entries(a as usize, b as usize)
+    });
+    push_runs(opaque, runs);
 }
 
 impl<T: Texel> AxisRle<T> {
@@ -397,26 +410,14 @@ mod tests {
     /// The runs of one scanline from [`cell_opaque`] on each cell's
     /// `[min, max]`, the definition the fast path must reproduce.
     fn runs_by_definition<T: Texel>(r0: &[T], r1: &[T], lut: &Lut) -> Vec<Run> {
-        let mut runs = Vec::new();
-        let mut start = None;
-        let ni = r0.len();
-        for i in 0..ni - 1 {
+        let opaque = (0..r0.len() - 1).map(|i| {
             let q = [r0[i].f(), r0[i + 1].f(), r1[i].f(), r1[i + 1].f()];
             let lo = q.iter().copied().fold(f32::INFINITY, f32::min);
             let hi = q.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-            match (cell_opaque(lut, lo, hi), start) {
-                (true, None) => start = Some(i as u32),
-                (false, Some(s)) => {
-                    runs.push([s, i as u32]);
-                    start = None;
-                }
-                _ => {}
-            }
-        }
-        if let Some(s) = start {
-            runs.push([s, (ni - 1) as u32]);
-        }
-        merge_short_gaps(&mut runs, 0);
+            cell_opaque(lut, lo, hi)
+        });
+        let mut runs = Vec::new();
+        push_runs(opaque, &mut runs);
         runs
     }
 
