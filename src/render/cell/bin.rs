@@ -112,6 +112,11 @@ pub struct BinEntry {
     pub ids: [u32; 4],
 }
 
+/// A bin's storage, written by several binning tasks at disjoint slots.
+struct BinSlots(*mut BinEntry);
+// SAFETY: the tasks write disjoint slots of the bin (see `bin_cells_rect`).
+unsafe impl Sync for BinSlots {}
+
 /// Culls `tets` and bins the rest into `tw x th` tiles, each tile's cells in
 /// `order`.
 ///
@@ -120,8 +125,9 @@ pub struct BinEntry {
 /// they stay in cache):
 /// 1. in parallel chunks, cull every cell and keep the survivors' compact
 ///    [`BinEntry`]s (cell order);
-/// 2. append each entry to the bins of the tiles its range touches, reading
-///    the entries in cell order;
+/// 2. append each entry to the bins of the tiles its range touches: each
+///    chunk counts its entries per tile in pass 1, and writes them in
+///    parallel at its prefix-sum offset, so every bin is in cell order;
 /// 3. for front-to-back order, sort each bin by a stable radix sort of the
 ///    depth keys, bins in parallel (ties stay in cell order, so the order is
 ///    `(nearest depth, cell id)`, the same in every tile).
@@ -142,18 +148,26 @@ pub fn bin_cells_rect(
         x1: w,
         y1: h,
     };
+    // The tiles of a range, as `(row of tiles, first column, last column)`.
+    let tile_rows = |r: [u32; 4]| {
+        (r[2] / th..=r[3] / th).map(move |ty| (ty * tiles_x + r[0] / tw, ty * tiles_x + r[1] / tw))
+    };
+    let n_tiles = rects.len();
     struct Part {
         survivors: Vec<BinEntry>,
+        /// Per tile, how many of `survivors` touch it.
+        counts: Vec<usize>,
         empty: u64,
         off: u64,
         none: u64,
     }
-    let parts: Vec<Part> = tets
+    let mut parts: Vec<Part> = tets
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, chunk)| {
             let mut part = Part {
                 survivors: Vec::with_capacity(chunk.len()),
+                counts: vec![0; n_tiles],
                 empty: 0,
                 off: 0,
                 none: 0,
@@ -161,12 +175,19 @@ pub fn bin_cells_rect(
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
                 match cell_record(cell, ids, pv, tf, full) {
-                    Ok(rec) => part.survivors.push(BinEntry {
-                        key: near_key(rec.near),
-                        cell,
-                        range: rec.range,
-                        ids,
-                    }),
+                    Ok(rec) => {
+                        for (a, b) in tile_rows(rec.range) {
+                            for n in &mut part.counts[a as usize..=b as usize] {
+                                *n += 1;
+                            }
+                        }
+                        part.survivors.push(BinEntry {
+                            key: near_key(rec.near),
+                            cell,
+                            range: rec.range,
+                            ids,
+                        })
+                    }
                     Err(Culled::Empty) => part.empty += 1,
                     Err(Culled::Offscreen) => part.off += 1,
                     Err(Culled::NoPixelCentre) => part.none += 1,
@@ -179,26 +200,45 @@ pub fn bin_cells_rect(
         tiles: rects,
         ..Default::default()
     };
-    let survivors = || parts.iter().flat_map(|p| p.survivors.iter());
-    // The tiles of a range, as `(row of tiles, first column, last column)`.
-    let tile_rows = |r: [u32; 4]| {
-        (r[2] / th..=r[3] / th).map(move |ty| (ty * tiles_x + r[0] / tw, ty * tiles_x + r[1] / tw))
-    };
-    let mut counts = vec![0usize; out.tiles.len()];
-    for e in survivors() {
-        for (a, b) in tile_rows(e.range) {
-            for c in &mut counts[a as usize..=b as usize] {
-                *c += 1;
-            }
+    // Each part's first slot in each bin: the parts before it, in cell
+    // order, fill the bin's front. The parts then write their entries in
+    // parallel, each into its own disjoint slots, so a bin holds its cells
+    // in cell order, as a sequential pass would.
+    let mut bins: Vec<Vec<BinEntry>> = (0..n_tiles)
+        .map(|t| Vec::with_capacity(parts.iter().map(|p| p.counts[t]).sum()))
+        .collect();
+    let mut next = vec![0usize; n_tiles];
+    for p in &mut parts {
+        for (n, c) in next.iter_mut().zip(&mut p.counts) {
+            let first = *n;
+            *n += *c;
+            *c = first;
         }
     }
-    let mut bins: Vec<Vec<BinEntry>> = counts.iter().map(|&m| Vec::with_capacity(m)).collect();
-    for e in survivors() {
-        for (a, b) in tile_rows(e.range) {
-            for bin in &mut bins[a as usize..=b as usize] {
-                bin.push(*e);
+    let slots: Vec<BinSlots> = bins
+        .iter_mut()
+        .map(|b| BinSlots(b.spare_capacity_mut().as_mut_ptr().cast()))
+        .collect();
+    parts.par_iter_mut().for_each(|p| {
+        let Part {
+            survivors, counts, ..
+        } = p;
+        for e in survivors.iter() {
+            for (a, b) in tile_rows(e.range) {
+                let r = a as usize..=b as usize;
+                for (slot, n) in slots[r.clone()].iter().zip(&mut counts[r]) {
+                    // SAFETY: slot `n` of this bin lies below the bin's
+                    // capacity (the sum of all parts' counts) and belongs
+                    // to this part alone (its prefix range).
+                    unsafe { slot.0.add(*n).write(*e) };
+                    *n += 1;
+                }
             }
         }
+    });
+    for (b, &n) in bins.iter_mut().zip(&next) {
+        // SAFETY: the parts wrote every slot `0..n` of the bin above.
+        unsafe { b.set_len(n) };
     }
     for p in &parts {
         out.culled_empty += p.empty;

@@ -156,6 +156,17 @@ impl<'a> ScanTarget<'a> {
         self.tf.integrate_batch(self.integrator, &mut self.batch);
         self.counts.segments_generated += n as u64;
         self.counts.segment_pieces += self.batch.pieces as u64;
+        if self.partial && !self.canonical {
+            let batch = &self.batch;
+            self.counts.segments_merged += self.lists.insert_partial_run(
+                &self.pend_idx[..n],
+                &self.pend_zf[..n],
+                &self.pend_zb[..n],
+                |l| batch.result(l),
+            );
+            self.batch.n = 0;
+            return;
+        }
         for l in 0..n {
             let idx = self.pend_idx[l];
             let seg = Segment {
