@@ -79,6 +79,7 @@
 //! [`bench::BenchJob::cell_rows`] returns the measured rows).
 #![warn(missing_docs)]
 
+pub mod base;
 pub mod bench;
 pub mod budget;
 pub mod cli;

@@ -9,9 +9,10 @@ mod common;
 use proptest::prelude::*;
 
 use common::*;
+use pvrsim::base::{Rgba, Segment};
 use pvrsim::render::cell::integrate::{Batch, BATCH};
 use pvrsim::render::cell::list::{composite, insert_sorted, Inserted};
-use pvrsim::render::cell::{self, CellOptions, Integrator, PreparedTf, Rgba, Segment};
+use pvrsim::render::cell::{self, CellOptions, Integrator, PreparedTf};
 use pvrsim::scene::TransferFunction;
 
 /// A premultiplied colour: `a` in [0, 1], each `rgb <= a`.

@@ -12,6 +12,7 @@
 
 use std::path::Path;
 
+use pvrsim::base::Segment;
 use pvrsim::compositor::canonical;
 use pvrsim::compositor::codec::{self, Codec};
 use pvrsim::compositor::region::screen;
@@ -20,7 +21,7 @@ use pvrsim::compositor::{run_local, ExecOptions, LocalRun, RegionLists};
 use pvrsim::image::Image;
 use pvrsim::render::cell::list::{composite as legacy_composite, insert_sorted};
 use pvrsim::render::cell::{
-    self, bin, project, scan_tile, CellOptions, CellOrder, ErtOptions, PreparedTf, Segment,
+    self, bin, project, scan_tile, CellOptions, CellOrder, ErtOptions, PreparedTf,
 };
 
 /// The renderer's defaults with early ray termination off: these tests

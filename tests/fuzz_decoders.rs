@@ -344,6 +344,7 @@ fn session() {
 mod seeds {
     use std::path::Path;
 
+    use pvrsim::base::segment::Rgba;
     use pvrsim::cluster::remote::phase2::encode_message;
     use pvrsim::cluster::remote::session::{sha256, Session, WorkerSetup};
     use pvrsim::compositor::region::screen;
@@ -357,7 +358,6 @@ mod seeds {
     use pvrsim::net::{Codec, Envelope, Message, MessageKind, NodeId};
     use pvrsim::node::work::WorkCell;
     use pvrsim::node::{CostProfile, NodeOptions, NodePolicy, WorkUnit};
-    use pvrsim::render::cell::segment::Rgba;
 
     pub type Seeds = Vec<(&'static str, Vec<u8>)>;
 
@@ -505,7 +505,7 @@ mod seeds {
 
     /// What rank 1 sends the root in the gather round of the schedule the
     /// `phase2_message` body builds, and the round's index.
-    fn gather() -> (u32, pvrsim::render::cell::scan::Rect) {
+    fn gather() -> (u32, pvrsim::base::Rect) {
         let s = strategy::from_name("binary-swap")
             .unwrap()
             .schedule(3, screen(16, 16));
@@ -552,7 +552,7 @@ mod seeds {
         bad_kind[4] = 7;
         let mut wrong_round = good.clone();
         wrong_round[..4].copy_from_slice(&0u32.to_le_bytes());
-        let big = pvrsim::render::cell::scan::Rect {
+        let big = pvrsim::base::Rect {
             x0: 0,
             y0: 0,
             x1: u32::MAX,

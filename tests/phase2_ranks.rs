@@ -5,14 +5,14 @@
 
 use std::time::Duration;
 
+use pvrsim::base::segment::{Rgba, Segment};
+use pvrsim::base::Rect;
 use pvrsim::cluster::remote::phase2::*;
 use pvrsim::compositor::region::screen;
 use pvrsim::compositor::{codec, run_local, strategy, ExecOptions, Payload, RegionLists};
 use pvrsim::image::Image;
 use pvrsim::net::channel::ChannelNetwork;
 use pvrsim::net::{MessageKind, NodeId, Transport};
-use pvrsim::render::cell::scan::Rect;
-use pvrsim::render::cell::segment::{Rgba, Segment};
 
 /// Node `k`'s lists of `n`: per pixel 0..3 segments at depths interleaved
 /// with the other nodes' (node k owns depth slots `j n + k`), colours from

@@ -197,7 +197,7 @@ pub fn node_lists(
     input: &RenderInput,
     opts: NodeOptions,
 ) -> crate::compositor::RegionLists {
-    let full = crate::render::cell::scan::Rect {
+    let full = crate::base::Rect {
         x0: 0,
         y0: 0,
         x1: input.scene.image.width,

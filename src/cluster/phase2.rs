@@ -280,7 +280,7 @@ impl ReplayPlan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::cell::scan::Rect;
+    use crate::base::Rect;
 
     /// One lists message of 3 segments over 2 pixels from rank 0 to 1.
     fn busy_of(profile: &CostProfile) -> Vec<f64> {

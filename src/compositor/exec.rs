@@ -6,8 +6,8 @@
 //! [`LocalRun::deliver`] decodes and merges them. [`run_local`] does both for
 //! every round.
 
+use crate::base::Rect;
 use crate::image::Image;
-use crate::render::cell::scan::Rect;
 
 use super::canonical::over_background;
 use super::codec::{raw_lists_bytes, raw_pixels_bytes, Codec, DecodeError, Limits};

@@ -3,8 +3,8 @@
 //! compactly (one flat segment array plus per-pixel offsets); and the RGBA
 //! pixels a region composites to.
 
-use crate::render::cell::scan::Rect;
-use crate::render::cell::segment::{Rgba, Segment};
+use crate::base::segment::{Rgba, Segment};
+use crate::base::Rect;
 
 use super::canonical;
 use super::region::{area, contains};

@@ -26,9 +26,9 @@ pub mod region;
 pub mod schedule;
 pub mod strategy;
 
-/// The canonical composition lives with the renderer (which uses it for
-/// `--canonical`); re-exported here, where phase 2 relies on it.
-pub use crate::render::cell::canonical;
+/// The canonical composition lives in the base (the cell renderer uses it
+/// for `--canonical`); re-exported here, where phase 2 relies on it.
+pub use crate::base::canonical;
 
 pub use exec::{run_local, CompositeStats, ExecError, ExecOptions, LocalRun, Message, RoundStats};
 pub use lists::{RegionLists, RegionPixels};

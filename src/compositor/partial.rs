@@ -10,7 +10,7 @@
 //! gather        encode(Pixels(r)) for each send (None: nothing composited, nothing sent) · root: handoff()
 //! ```
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::codec::Codec;
 use super::exec::{ExecOptions, Message, NodeState, RoundStats};

@@ -1,7 +1,7 @@
 //! Rectangles of the screen: areas, containment, and the two ways strategies
 //! cut the screen (halves for binary swap, row strips for direct send).
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 /// Pixels in `r`.
 #[inline]

@@ -12,7 +12,7 @@
 //! discrete-event simulator (charge each exchange to a network model), or
 //! over a real transport.
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::region::{area, contains, overlaps};
 

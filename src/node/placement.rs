@@ -39,10 +39,10 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::base::Rect;
 use crate::data::TetMesh;
 use crate::render::cell::bin::cell_record;
 use crate::render::cell::project::ProjectedVertices;
-use crate::render::cell::scan::Rect;
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
 use crate::scene::View;

@@ -9,9 +9,9 @@
 //! This is for tests and checks (the image invariant of the node module);
 //! the cluster's compositor (direct send, binary swap) lives elsewhere.
 
+use crate::base::segment::{Rgba, Segment};
 use crate::image::Image;
 use crate::render::cell::list::SegmentLists;
-use crate::render::cell::segment::{Rgba, Segment};
 
 /// Composites the union of `lists` (all `width x height`) over `background`.
 pub fn composite_union(lists: &[&SegmentLists], background: [f64; 3]) -> Image {

@@ -36,6 +36,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use crate::base::Rect;
 use crate::compositor::codec::Codec as ListCodec;
 use crate::compositor::exec::{assemble, NodeState};
 use crate::compositor::partial::{ListRank, RankPartial};
@@ -44,7 +45,6 @@ use crate::compositor::{
 };
 use crate::image::Image;
 use crate::net::{Envelope, MessageKind, NodeId, Transport};
-use crate::render::cell::scan::Rect;
 
 /// The executor options of phase 2 for a scene, as
 /// [`crate::cluster::finish`] sets them.

@@ -3,9 +3,9 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::base::segment::{Rgba, Segment};
+use crate::base::Rect;
 use crate::compositor::canonical;
-use crate::render::cell::scan::Rect;
-use crate::render::cell::segment::{Rgba, Segment};
 
 fn region() -> impl Strategy<Value = (RegionLists, bool)> {
     (1u32..9, 1u32..9, 0u32..50, 0u32..50, any::<bool>()).prop_flat_map(|(w, h, x0, y0, partial)| {

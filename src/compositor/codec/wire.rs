@@ -1,10 +1,10 @@
 //! Byte-level helpers shared by the codecs: header, little-endian words,
 //! validated segments and pixels, and the decode error.
 
+use crate::base::segment::{Rgba, Segment};
+use crate::base::Rect;
 use crate::compositor::canonical;
 use crate::compositor::region::{area, is_valid};
-use crate::render::cell::scan::Rect;
-use crate::render::cell::segment::{Rgba, Segment};
 
 use super::HEADER_BYTES;
 

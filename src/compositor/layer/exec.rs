@@ -14,6 +14,7 @@
 //!
 //! [`Strategy::merges_early`]: crate::compositor::Strategy::merges_early
 
+use crate::base::Rect;
 use crate::compositor::codec::layers::{raw_bytes, LayerCodec};
 use crate::compositor::codec::Limits;
 use crate::compositor::exec::Message;
@@ -21,7 +22,6 @@ use crate::compositor::partial::RankPartial;
 use crate::compositor::region::{area, contains};
 use crate::compositor::schedule::{RoundKind, Schedule};
 use crate::image::Image;
-use crate::render::cell::scan::Rect;
 
 use super::rank::{LayerGather, LayerRank};
 use super::Layer;

@@ -29,7 +29,7 @@
 pub mod exec;
 pub mod rank;
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::region::area;
 

@@ -11,13 +11,13 @@
 //! (`x0 y0 x1 y1` in the phase-2 header, then `4 · area` f32 LE), so the
 //! hand-off adds no rounding.
 
+use crate::base::Rect;
 use crate::compositor::codec::layers::LayerCodec;
 use crate::compositor::exec::Message;
 use crate::compositor::partial::{Encoded, MergeCounts, RankPartial};
 use crate::compositor::region::{area, contains};
 use crate::compositor::schedule::Payload;
 use crate::image::Image;
-use crate::render::cell::scan::Rect;
 
 use super::exec::{decode_within, encode};
 use super::{composite, merge_adjacent, Layer};

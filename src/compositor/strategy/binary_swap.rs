@@ -41,7 +41,7 @@
 //! the two images is right. Keeping lists until the last round keeps the
 //! result exact for any placement.
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::super::region::halves;
 use super::super::schedule::{Exchange, Payload, Round, RoundKind, Schedule};

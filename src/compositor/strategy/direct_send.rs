@@ -7,7 +7,7 @@
 //! codec collapses empty pixels), every owner merges the `n` contributions,
 //! composites its strip, and sends the pixels to the root.
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::super::region::{area, strips};
 use super::super::schedule::{Exchange, Payload, Round, RoundKind, Schedule};

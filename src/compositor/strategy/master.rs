@@ -3,7 +3,7 @@
 //! the slaves' subimages go to one master node that blends them in
 //! visibility order). One round of `n - 1` messages; no gather.
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::super::schedule::{Exchange, Payload, Round, RoundKind, Schedule};
 use super::Strategy;

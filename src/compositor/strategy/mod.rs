@@ -12,7 +12,7 @@ pub use direct_send::DirectSend;
 pub use master::Master;
 pub use radix_k::{factors as radix_factors, RadixK, DEFAULT_K as RADIX_K_DEFAULT};
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::schedule::Schedule;
 

@@ -37,7 +37,7 @@
 //! ([`Strategy::merges_early`]), which is IceT's per-round compositing
 //! restricted to what is exact for any brick placement.
 
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 
 use super::super::region::{area, pieces};
 use super::super::schedule::{Exchange, Payload, Round, RoundKind, Schedule};

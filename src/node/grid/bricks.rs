@@ -21,9 +21,9 @@
 //! brick id) puts every brick before the bricks behind it on any ray: a
 //! visibility order for both projections (property-tested).
 
+use crate::base::Rect;
 use crate::data::{Volume, Voxels};
 use crate::error::{Error, Result};
-use crate::render::cell::scan::Rect;
 use crate::scene::{Projection, View};
 
 /// One brick of the whole volume.

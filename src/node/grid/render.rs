@@ -5,11 +5,11 @@
 
 use std::sync::Arc;
 
+use crate::base::Rect;
 use crate::compositor::layer::{Depth, Layer};
 use crate::data::Volume;
 use crate::error::Result;
 use crate::image::Image;
-use crate::render::cell::scan::Rect;
 use crate::render::slice3d::brick::BrickFrame;
 use crate::render::slice3d::planes::Planes;
 use crate::render::slice3d::{self, Slice3dOptions};

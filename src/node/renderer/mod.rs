@@ -73,15 +73,16 @@ use super::ops::OpCounts;
 use super::pixel_share::NodePixelLevels;
 use super::replica::Replica;
 use super::table::{NodeTable, SharedTable, TableError};
+use crate::base::segment::Segment;
+use crate::base::Rect;
 use crate::render::cell::bin::CellRecord;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::{PerspRays, ProjectedVertices};
-use crate::render::cell::scan::{Rect, ScanCounts, ScanTarget};
-use crate::render::cell::segment::Segment;
 use crate::render::cell::{scan_cell, CellOrder, Integrator, PreparedTf};
+use crate::render::cell::{ScanCounts, ScanTarget};
 use crate::scene::View;
 
 /// Early ray termination on a node.
@@ -158,7 +159,7 @@ pub struct NodeOptions {
     /// Early ray termination.
     pub ert: NodeErt,
     /// Keep the lists in canonical form (see
-    /// [`crate::render::cell::canonical`]): with ERT off the cluster's image
+    /// [`crate::base::canonical`]): with ERT off the cluster's image
     /// is then bit for bit `pvrsim render --canonical`'s, whatever the node
     /// count and placement. Off by default: on aorta-small view B, 8 nodes,
     /// it stores 4.4x the list entries and sends 3.5x the phase-2 bytes

@@ -4,12 +4,12 @@
 //! and the list walks that compute them.
 
 use super::NodeRenderer;
+use crate::base::segment::Segment;
 use crate::node::levels::{level_alphas, BlockGrid, LevelDelta, LevelMask};
 use crate::node::ops::OpCounts;
 use crate::node::pixel_share::{DepthQuant, NodePixelLevels, PixelDepths};
 use crate::node::shard_map::ShardMap;
 use crate::node::table::TableError;
-use crate::render::cell::segment::Segment;
 
 impl NodeRenderer {
     /// Turns on per-pixel level sharing ([`crate::node::pixel_share`]; with weak
@@ -284,8 +284,8 @@ pub fn termination_depth_counted(list: &[Segment], threshold: f32) -> (f32, usiz
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::base::segment::Rgba;
     use crate::render::cell::ert::termination_depth;
-    use crate::render::cell::segment::Rgba;
 
     #[test]
     fn counted_depth_agrees() {

@@ -18,7 +18,8 @@ use super::integrate::PreparedTf;
 use super::order::CellOrder;
 use super::project::ProjectedVertices;
 use super::radix;
-use super::scan::{covered_pixels, Rect};
+use super::scan::covered_pixels;
+use crate::base::Rect;
 
 /// Cells per binning task.
 const CHUNK: usize = 16 * 1024;

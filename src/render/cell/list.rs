@@ -7,7 +7,7 @@
 //! light (over is associative), keeps lists short, and a merged segment's alpha
 //! only grows — which is what early ray termination feeds on.
 
-use super::segment::{touches, Rgba, Segment};
+use crate::base::segment::{touches, Rgba, Segment};
 
 /// The ray-segment lists of a rectangle of pixels (a screen tile).
 #[derive(Debug, Clone, Default)]
@@ -143,14 +143,14 @@ impl SegmentLists {
     }
 
     /// Inserts `seg` into the list of local pixel `idx` in canonical form
-    /// ([`super::canonical::insert`]). Returns how many entries partial
+    /// ([`crate::base::canonical::insert`]). Returns how many entries partial
     /// composition removed.
     #[inline]
     pub fn insert_canonical(&mut self, idx: usize, seg: Segment, partial: bool) -> usize {
         if self.track {
             self.note_change(idx);
         }
-        super::canonical::insert(&mut self.lists[idx], seg, partial)
+        crate::base::canonical::insert(&mut self.lists[idx], seg, partial)
     }
 }
 

@@ -22,7 +22,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bin;
-pub mod canonical;
 pub mod ert;
 pub mod fastmath;
 pub mod floor;
@@ -33,7 +32,6 @@ pub mod project;
 pub mod radix;
 pub mod scan;
 pub mod scan_box;
-pub mod segment;
 pub mod setup;
 pub mod sizes;
 
@@ -45,11 +43,10 @@ pub use ert::{ErtOptions, ErtSpan, ErtStructure};
 pub use integrate::{Integrator, PreparedTf};
 pub use list::SegmentLists;
 pub use order::CellOrder;
-pub use segment::{Rgba, Segment};
 
 use crate::image::Image;
 use crate::render::RenderInput;
-use scan::{ScanCounts, ScanTarget};
+pub use scan::{ScanCounts, ScanTarget};
 
 /// Options of the cell-projection renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -334,7 +331,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
                 .iter()
                 .map(|l| {
                     let c = if opts.canonical {
-                        canonical::composite(l)
+                        crate::base::canonical::composite(l)
                     } else {
                         list::composite(l)
                     };
@@ -437,7 +434,7 @@ pub fn scan_tile(
     perspective: Option<project::PerspRays>,
     tf: &PreparedTf,
     opts: &CellOptions,
-    rect: scan::Rect,
+    rect: crate::base::Rect,
     cells: &[bin::CellRecord],
 ) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
@@ -472,7 +469,7 @@ pub fn scan_tile(
 #[inline]
 pub fn scan_cell(
     c: &bin::CellRecord,
-    rect: scan::Rect,
+    rect: crate::base::Rect,
     perspective: Option<&project::PerspRays>,
     target: &mut ScanTarget,
 ) -> u64 {

@@ -14,32 +14,8 @@ use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
 use super::integrate::{Batch, Integrator, PreparedTf, BATCH, NO_PIECE};
 use super::list::{Inserted, SegmentLists};
 use super::project::PerspRays;
-use super::segment::Segment;
 use super::setup::TetSetup;
-
-/// A rectangle of pixels `[x0, x1) x [y0, y1)`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Rect {
-    /// First column.
-    pub x0: u32,
-    /// First row.
-    pub y0: u32,
-    /// One past the last column.
-    pub x1: u32,
-    /// One past the last row.
-    pub y1: u32,
-}
-
-impl Rect {
-    /// Width in pixels.
-    pub fn width(&self) -> u32 {
-        self.x1 - self.x0
-    }
-    /// Height in pixels.
-    pub fn height(&self) -> u32 {
-        self.y1 - self.y0
-    }
-}
+use crate::base::{Rect, Segment};
 
 /// Counters of one scan.
 #[derive(Debug, Clone, Copy, Default)]
@@ -79,7 +55,7 @@ pub struct ScanTarget<'a> {
     pub integrator: Integrator,
     /// Partial composition on insertion.
     pub partial: bool,
-    /// Insert with [`super::canonical::insert`] (merge order fixed by the
+    /// Insert with [`crate::base::canonical::insert`] (merge order fixed by the
     /// depths, exact joins) instead of [`super::list::insert_sorted`].
     pub canonical: bool,
     /// Counters.

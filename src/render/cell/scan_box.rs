@@ -192,10 +192,11 @@ pub unsafe fn scan_box_avx2(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::base::segment::Segment;
+    use crate::base::Rect;
     use crate::render::cell::integrate::{Integrator, PreparedTf};
     use crate::render::cell::list::SegmentLists;
-    use crate::render::cell::scan::{covered_pixels, scan_ortho, Rect, ScanCounts};
-    use crate::render::cell::segment::Segment;
+    use crate::render::cell::scan::{covered_pixels, scan_ortho, ScanCounts};
     use crate::render::cell::setup::setup_tet;
     use crate::scene::transfer::TransferFunction;
     use proptest::prelude::*;

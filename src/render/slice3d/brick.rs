@@ -24,7 +24,7 @@
 //! exactly one brick.
 
 use super::planes::{Planes, RaySamples};
-use crate::render::cell::scan::Rect;
+use crate::base::Rect;
 use crate::scene::View;
 
 /// Where a brick sits in the whole volume, and the whole's slice planes.

@@ -333,7 +333,7 @@ fn worker_lists(
     setup: &WorkerSetup,
     (w, h): (u32, u32),
 ) -> crate::compositor::RegionLists {
-    let full = crate::render::cell::scan::Rect {
+    let full = crate::base::Rect {
         x0: 0,
         y0: 0,
         x1: w,

@@ -47,9 +47,9 @@ pub use rle::Rle;
 pub use sparse::Sparse;
 
 use super::wire::{put_header, DecodeError, Limits, Reader};
+use crate::base::Rect;
 use crate::compositor::layer::{Depth, Layer};
 use crate::compositor::region::area;
-use crate::render::cell::scan::Rect;
 
 /// Header bytes of a layer message: magic, rectangle, rank range.
 pub const LAYER_HEADER_BYTES: usize = super::HEADER_BYTES + 8;

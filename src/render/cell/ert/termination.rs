@@ -12,7 +12,7 @@
 //! a long merged stretch). Everything whose `z_front` is at or behind this depth
 //! is attenuated by at least `1 - threshold`.
 
-use crate::render::cell::segment::Segment;
+use crate::base::segment::Segment;
 
 /// Termination depth of a pixel whose list is `list` (sorted by `z_front`):
 /// the `z_back` of the first segment at which the alpha accumulated front to
@@ -47,7 +47,7 @@ pub fn error_bound(threshold: f64, max_radiance: f64, background: [f64; 3]) -> f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::cell::segment::Rgba;
+    use crate::base::segment::Rgba;
 
     fn seg(zf: f32, zb: f32, a: f32) -> Segment {
         Segment {

@@ -7,11 +7,12 @@ use super::schedule;
 use super::table::FlatTable;
 use super::termination::termination_depth;
 use super::{ErtSpan, ErtStructure};
+use crate::base::Rect;
 use crate::render::cell::bin::CellRecord;
 use crate::render::cell::integrate::PreparedTf;
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::PerspRays;
-use crate::render::cell::scan::{Rect, ScanCounts, ScanTarget};
+use crate::render::cell::scan::{ScanCounts, ScanTarget};
 use crate::render::cell::{scan_cell, CellOptions, TileResult};
 
 /// What ERT did in one tile.

@@ -27,7 +27,7 @@
 //! approximation; its image error against the reference is reported, not hidden.
 
 use super::fastmath::{exp_neg, fclamp, fmax, fmin, ln};
-use super::segment::Rgba;
+use crate::base::segment::Rgba;
 use crate::scene::transfer::{TransferFunction, OPACITY_MAX};
 
 mod batch;
