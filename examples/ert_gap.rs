@@ -10,12 +10,12 @@
 
 use std::path::PathBuf;
 
+use pvrsim::base::Rect;
 use pvrsim::node::renderer::NodeErt;
 use pvrsim::node::{NodeOptions, NodeRenderer, Placement, PlacementMethod, WorkUnit};
 use pvrsim::render::cell::bin::cell_record;
 use pvrsim::render::cell::ert::{ErtSpan, ErtStructure};
 use pvrsim::render::cell::project::ProjectedVertices;
-use pvrsim::render::cell::scan::Rect;
 use pvrsim::render::cell::PreparedTf;
 use pvrsim::render::RenderInput;
 
