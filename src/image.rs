@@ -17,12 +17,13 @@ pub struct Image {
     pub pixels: Vec<[f32; 4]>,
 }
 
-/// Difference between two images, in 1/255 units, over the RGB channels.
+/// Difference between two images, in 1/255 units, over the RGB channels
+/// ([`Image::error_against`]) or all four ([`Image::error_against_rgba`]).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ImageError {
     /// Largest absolute difference of any channel of any pixel.
     pub max_abs: f64,
-    /// Root-mean-square difference over all pixels and the three channels.
+    /// Root-mean-square difference over all pixels and the channels compared.
     pub rmse: f64,
     /// Pixels whose largest channel difference exceeds 1/255.
     pub pixels_over_1: usize,
@@ -85,7 +86,19 @@ impl Image {
     }
 
     /// Error of `self` against `reference` (same size), RGB channels, 1/255 units.
+    /// A NaN difference makes `max_abs` (and `rmse`) NaN.
     pub fn error_against(&self, reference: &Image) -> ImageError {
+        self.error_over(reference, 3)
+    }
+
+    /// [`Image::error_against`] over all four channels, alpha included
+    /// (1/255 units): for partial images, whose coverage is in alpha.
+    pub fn error_against_rgba(&self, reference: &Image) -> ImageError {
+        self.error_over(reference, 4)
+    }
+
+    /// The error over the first `channels` channels.
+    fn error_over(&self, reference: &Image, channels: usize) -> ImageError {
         assert_eq!(
             (self.width, self.height),
             (reference.width, reference.height),
@@ -97,20 +110,22 @@ impl Image {
         let mut over = 0usize;
         for (k, (a, b)) in self.pixels.iter().zip(&reference.pixels).enumerate() {
             let mut pmax = 0.0f64;
-            for c in 0..3 {
+            for c in 0..channels {
                 let d = (a[c] as f64 - b[c] as f64).abs() * 255.0;
                 sum2 += d * d;
-                pmax = pmax.max(d);
+                if d > pmax || d.is_nan() {
+                    pmax = d;
+                }
             }
             if pmax > 1.0 {
                 over += 1;
             }
-            if pmax > max_abs || pmax.is_nan() {
+            if (pmax > max_abs || pmax.is_nan()) && !max_abs.is_nan() {
                 max_abs = pmax;
                 worst = k;
             }
         }
-        let n = (self.pixels.len() * 3).max(1) as f64;
+        let n = (self.pixels.len() * channels).max(1) as f64;
         ImageError {
             max_abs,
             rmse: (sum2 / n).sqrt(),

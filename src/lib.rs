@@ -7,21 +7,30 @@
 //! ## Layers
 //!
 //! Every room (top-level module) imports only rooms below it; no two rooms
-//! import each other (docs/architecture.md draws it):
+//! import each other, and inside a room no two files do
+//! (`docs/architecture.md` draws it; `tests/architecture.rs` holds the table
+//! of allowed arrows and checks it: `cargo test --release --test
+//! architecture -- --nocapture` prints the arrows found):
 //!
 //! ```text
 //! frontends   cli (clap, printing)   experiment (sweeps)   bench (benchmarks, calibration)
 //!                         \               |               /
 //! job layer                job: typed jobs, validation, output and memory checks
 //!                                          |
-//! engine      cluster -> {manager -> node, compositor, net}
-//!             node -> {render, compositor, net}   compositor -> render
-//!             render -> {scene, data, image}      data -> scene
-//! base        scene, image, error, text, budget, net
+//! engine      cluster -> {manager, node, compositor, render, net}
+//!             manager -> node   node -> {compositor, render, net}
+//! renderers   render -> {data, scene, image, base}
+//! data        data -> scene
+//! base        scene, image, net, budget; base (Rect, Rgba, Segment, canonical); error, text
 //! ```
 //!
 //! `cli` calls `job`, `bench` and `experiment`; `experiment` and `bench`
-//! call `job`; `job` calls the engine; nothing below `job` knows a frontend.
+//! call `job`; nothing below `job` knows a frontend. Not every frontend path
+//! goes through `job`: the benchmarks time one phase of the engine directly
+//! (`bench -> render, node, compositor, cluster, net`), and `cli` reads data
+//! and scenes for the commands that have no job of their own (`info`,
+//! `scene`, `generate`, `demo`, `splat`, `worker`); each such arrow is named
+//! with its reason in the table.
 //!
 //! ## Examples
 //!

@@ -404,12 +404,14 @@ fn degenerate_and_sliver_tets_change_nothing() {
                         };
                         let tag = format!("{fname} field, {name} {integ} {order} tile {tile}");
                         let (img, stats) = render_finite(&inp_zero, &o);
-                        let (e, k) = max_diff(&img, &ref_img);
+                        let e = img.error_against_rgba(&ref_img);
+                        let (i, j) = e.worst_pixel;
                         assert!(
-                            e <= TOL,
-                            "{tag}, zero-volume tets added: pixel {k} got {:?}, want {:?}",
-                            img.pixels[k],
-                            ref_img.pixels[k]
+                            e.max_abs / 255.0 <= TOL,
+                            "{tag}, zero-volume tets added: pixel {:?} got {:?}, want {:?}",
+                            e.worst_pixel,
+                            img.get(i, j),
+                            ref_img.get(i, j)
                         );
                         if *name == "axis ortho" {
                             assert!(reach.iter().all(|r| r.1), "ambiguous test set-up");
@@ -439,12 +441,14 @@ fn degenerate_and_sliver_tets_change_nothing() {
                         if integ == Integrator::Midpoint && fname == "linear" {
                             continue;
                         }
-                        let (e, k) = max_diff(&img, &ref_img);
+                        let e = img.error_against_rgba(&ref_img);
+                        let (i, j) = e.worst_pixel;
                         assert!(
-                            e <= TOL,
-                            "{tag}, slivers added: pixel {k} got {:?}, want {:?}",
-                            img.pixels[k],
-                            ref_img.pixels[k]
+                            e.max_abs / 255.0 <= TOL,
+                            "{tag}, slivers added: pixel {:?} got {:?}, want {:?}",
+                            e.worst_pixel,
+                            img.get(i, j),
+                            ref_img.get(i, j)
                         );
                         worst = worst.max(e);
                     }
@@ -484,12 +488,14 @@ fn coordinates_offset_by_1e6() {
                 let o = opts(integ, order);
                 let (a, _) = render_finite(&near_in, &o);
                 let (b, _) = render_finite(&far_in, &o);
-                let (e, k) = max_diff(&b, &a);
+                let e = b.error_against_rgba(&a);
+                let (i, j) = e.worst_pixel;
                 assert!(
-                    e <= 2e-4,
-                    "{name} {integ} {order}: pixel {k} far {:?} near {:?}",
-                    b.pixels[k],
-                    a.pixels[k]
+                    e.max_abs / 255.0 <= 2e-4,
+                    "{name} {integ} {order}: pixel {:?} far {:?} near {:?}",
+                    e.worst_pixel,
+                    b.get(i, j),
+                    a.get(i, j)
                 );
                 assert!(a.pixels.iter().filter(|p| p[3] > 0.1).count() > 1000);
                 worst = worst.max(e);

@@ -72,14 +72,6 @@ fn full_image_and_bound(input: &RenderInput) -> (Image, f32) {
     (full, bound)
 }
 
-fn max_diff(a: &Image, b: &Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
-        .fold(0.0, f32::max)
-}
-
 fn bits(img: &Image) -> Vec<u32> {
     img.pixels.iter().flatten().map(|c| c.to_bits()).collect()
 }
@@ -106,7 +98,7 @@ fn image_equals_sequential_without_ert() {
                 ..canonical
             },
         );
-        let d = max_diff(&seq, &plain);
+        let d = (seq.error_against_rgba(&plain).max_abs / 255.0) as f32;
         eprintln!("view {view}: canonical vs insertion order: max |diff| = {d:e}");
         assert!(d <= 4e-6, "view {view}: {d}");
         for n in [1, 2, 3, 5, 8] {
@@ -117,7 +109,7 @@ fn image_equals_sequential_without_ert() {
                 assert!(
                     bits(&out.image) == bits(&seq),
                     "view {view} N {n} {comp}: max |diff| = {:e}",
-                    max_diff(&out.image, &seq)
+                    (out.image.error_against_rgba(&seq).max_abs / 255.0) as f32
                 );
                 assert_eq!(
                     out.report.cells_processed
@@ -133,7 +125,7 @@ fn image_equals_sequential_without_ert() {
             let cfg = config(n, NodeErt::OFF, false, true, "binary-swap");
             assert!(!cfg.phase1.node.canonical);
             let out = cluster::run(&input, &cfg).unwrap();
-            let d = max_diff(&out.image, &seq);
+            let d = (out.image.error_against_rgba(&seq).max_abs / 255.0) as f32;
             eprintln!("view {view} N {n} insertion order: max |diff| = {d:e}");
             assert!(d <= 4e-6, "view {view} N {n}: {d}");
         }
@@ -153,7 +145,7 @@ fn image_within_ert_bound() {
                     &config(n, NodeErt::PAPER, share, dlb, "binary-swap"),
                 )
                 .unwrap();
-                let d = max_diff(&out.image, &full);
+                let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
                 eprintln!("view {view} N {n} share {share} dlb {dlb}: {d:.4} (bound {bound:.4})");
                 assert!(d <= bound + 1e-5, "view {view} N {n}: {d} > {bound}");
             }
@@ -161,7 +153,7 @@ fn image_within_ert_bound() {
             let mut cfg = config(n, NodeErt::PAPER, false, true, "binary-swap");
             cfg.phase1.overlap = true;
             let out = cluster::run(&input, &cfg).unwrap();
-            let d = max_diff(&out.image, &full);
+            let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
             eprintln!(
                 "view {view} N {n} overlap: {d:.4} (bound {bound:.4}), skipped {}",
                 out.report.cells_skipped_ert
@@ -476,7 +468,7 @@ fn level_sharing_within_bound_and_deterministic() {
         for n in [1, 3, 8] {
             let cfg = config(n, ert, true, true, "binary-swap");
             let out = cluster::run(&input, &cfg).unwrap();
-            let d = max_diff(&out.image, &full);
+            let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
             eprintln!(
                 "view {view} N {n} levels: {d:.4} (bound {bound:.4}), skipped {}",
                 out.report.cells_skipped_ert
@@ -497,7 +489,7 @@ fn level_sharing_within_bound_and_deterministic() {
             ..config(8, ert, true, true, "binary-swap")
         };
         let out = cluster::run(&input, &cfg).unwrap();
-        let d = max_diff(&out.image, &full);
+        let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
         eprintln!(
             "view {view} N 8 levels rcb-view: {d:.4} (bound {bound:.4}), skipped {}",
             out.report.cells_skipped_ert
@@ -530,7 +522,7 @@ fn pixel_sharing_within_bound_deterministic_and_stronger() {
             let mut cfg = config(n, pyramid, true, true, "binary-swap");
             cfg.phase1.policy.help_gap = 0.3;
             let out = cluster::run(&input, &cfg).unwrap();
-            let d = max_diff(&out.image, &full);
+            let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
             let paper = cluster::run(
                 &input,
                 &config(n, NodeErt::PAPER, true, true, "binary-swap"),
@@ -629,7 +621,7 @@ fn replicated_data_within_bound_and_deterministic() {
             cfg.phase1.data = DataMode::Replicated;
             cfg.phase1.policy.help_gap = 0.3;
             let out = cluster::run(&input, &cfg).unwrap();
-            let d = max_diff(&out.image, &full);
+            let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
             eprintln!(
                 "view {view} N {n} replicated: {d:.4} (bound {bound:.4}), skipped {}, moved {}, grant bytes {:?}",
                 out.report.cells_skipped_ert,
@@ -684,7 +676,7 @@ fn release_ordering_within_bound_and_deterministic() {
         cfg.phase1.policy.release_block = 4;
         cfg.phase1.policy.release_lag = 0.1;
         let out = cluster::run(&input, &cfg).unwrap();
-        let d = max_diff(&out.image, &full);
+        let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
         assert!(d <= bound + 1e-5, "N {n}: {d} > {bound}");
         let processed: u64 = out.report.nodes.iter().map(|x| x.cells_processed).sum();
         let culled: u64 = out.report.nodes.iter().map(|x| x.cells_culled).sum();
@@ -800,7 +792,7 @@ fn sharded_manager_within_bound_and_deterministic() {
             let cfg = default_mode(n, shards);
             let out = cluster::run(&input, &cfg).unwrap();
             let r = &out.report;
-            let d = max_diff(&out.image, &full);
+            let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
             eprintln!(
                 "view {view} N {n} K {}: {d:.4} (bound {bound:.4}), skipped {}, shard busy {:?}, shares {:?}",
                 r.manager_shards, r.cells_skipped_ert, r.manager.shard_busy_s, r.manager.shard_shares
@@ -860,7 +852,7 @@ fn global_schedule_within_bound_and_deterministic() {
         cfg.phase1.schedule_min_stacking = min_stacking;
         let out = cluster::run(&input, &cfg).unwrap();
         let r = &out.report;
-        let d = max_diff(&out.image, &full);
+        let d = (out.image.error_against_rgba(&full).max_abs / 255.0) as f32;
         eprintln!(
             "N {n} W {waves} S {leaf}: {d:.4} (bound {bound:.4}), skipped {}, scheduled {}, moved {}",
             r.cells_skipped_ert, r.cells_scheduled, r.cells_moved

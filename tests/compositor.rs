@@ -103,18 +103,6 @@ fn same_bits(a: &Image, b: &Image) -> usize {
         .count()
 }
 
-fn max_abs_255(a: &Image, b: &Image) -> f64 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| {
-            p.iter()
-                .zip(q.iter())
-                .map(|(x, y)| (x - y).abs() as f64 * 255.0)
-        })
-        .fold(0.0, f64::max)
-}
-
 /// The sequential render with canonical final composition: all cells on
 /// one node.
 fn canonical_reference(input: &RenderInput) -> Image {
@@ -151,7 +139,7 @@ fn check_scene(scene: &'static str, counts: &[usize], rows: &mut Vec<Row>) {
         "{scene}: canonical vs current renderer (insertion-order merges): {} of {} pixels differ in bits, max-abs {:.2e}/255",
         same_bits(&want, &legacy),
         want.pixels.len(),
-        max_abs_255(&want, &legacy)
+        want.error_against_rgba(&legacy).max_abs
     );
     let ncells = input.mesh.tets.len() as u64;
     let (w, h) = (input.scene.image.width, input.scene.image.height);
@@ -175,7 +163,7 @@ fn check_scene(scene: &'static str, counts: &[usize], rows: &mut Vec<Row>) {
                     };
                     let (img, st) = run_local(s.as_ref(), c.as_ref(), lists.clone(), opts).unwrap();
                     let diff = same_bits(&img, &want);
-                    assert_eq!(diff, 0, "{scene} n={n} {sname} {cname} partial={partial}: {diff} pixels differ (max-abs {:.2e}/255)", max_abs_255(&img, &want));
+                    assert_eq!(diff, 0, "{scene} n={n} {sname} {cname} partial={partial}: {diff} pixels differ (max-abs {:.2e}/255)", img.error_against_rgba(&want).max_abs);
                     if *cname == "rle" && n > 1 {
                         assert!(
                             st.bytes_total < st.bytes_uncompressed,
@@ -302,7 +290,7 @@ fn insertion_order_merging_differs_only_by_rounding() {
             height: seq.height,
             pixels: px,
         };
-        let (d, m) = (same_bits(&img, &seq), max_abs_255(&img, &seq));
+        let (d, m) = (same_bits(&img, &seq), img.error_against_rgba(&seq).max_abs);
         eprintln!("insertion-order merging, n={n}: {d} pixels differ in bits from the sequential render, max-abs {m:.2e}/255");
         worst = worst.max(m);
     }

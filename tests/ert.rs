@@ -106,14 +106,6 @@ fn scene(
     Scene::parse(&text, Path::new("/tmp/x.toml")).expect("scene")
 }
 
-fn max_diff(a: &Image, b: &Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs()).fold(0.0, f32::max))
-        .fold(0.0, f32::max)
-}
-
 fn render(input: &RenderInput, opts: &CellOptions, threads: usize) -> (Image, CellStats) {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -185,7 +177,7 @@ proptest! {
         let bound = stats.ert_error_bound as f32;
         let want = (1.0 - threshold as f64) * input.scene.transfer.max_radiance();
         prop_assert!((stats.ert_error_bound - want).abs() < 1e-6, "reported bound {} != {}", stats.ert_error_bound, want);
-        let d = max_diff(&img, &full);
+        let d = (img.error_against(&full).max_abs / 255.0) as f32;
         prop_assert!(d <= bound + EPS, "max |ERT - full| = {d} > bound {bound} ({} cells skipped)", stats.cells_skipped_ert);
     }
 }
@@ -213,7 +205,7 @@ fn dense_scene_skips_cells_within_the_bound() {
                 stats.cells_skipped_ert > 0,
                 "{structure} at {threshold} skipped nothing"
             );
-            let d = max_diff(&img, &full);
+            let d = (img.error_against(&full).max_abs / 255.0) as f32;
             assert!(
                 d <= stats.ert_error_bound as f32 + EPS,
                 "{structure} at {threshold}: {d} > {}",
@@ -308,7 +300,10 @@ fn aorta_small_against_reference_and_oracle() {
             };
             let (img, s) = render(&input, &opts, 2);
             let bound = s.ert_error_bound as f32;
-            assert!(max_diff(&img, &full) <= bound + EPS, "view {view} {m:?}");
+            assert!(
+                (img.error_against(&full).max_abs / 255.0) as f32 <= bound + EPS,
+                "view {view} {m:?}"
+            );
             for ((p, q), r) in img.pixels.iter().zip(&full.pixels).zip(&reference.pixels) {
                 for c in 0..3 {
                     assert!(

@@ -22,21 +22,10 @@ use std::time::{Duration, Instant};
 
 use pvrsim::cluster::remote::grid::GridRemote;
 use pvrsim::cluster::remote::Coordinator;
-use pvrsim::net::tcp::{TcpOptions, Token};
+use pvrsim::net::tcp::Token;
 
 mod transport_support;
 use transport_support::*;
-
-/// The heartbeat deadline of the workers and the coordinator.
-const HB: Duration = Duration::from_secs(1);
-
-fn tcp_opts() -> TcpOptions {
-    TcpOptions {
-        deadline: HB,
-        handshake_timeout: HB,
-        ..Default::default()
-    }
-}
 
 /// How worker 2 fails in a case.
 #[derive(Debug, Clone, Copy)]
@@ -265,7 +254,7 @@ fn grid_frames_survive_every_fault_at_every_phase() {
                     if comp == "master" {
                         assert_eq!(bits(&out.image), bits(&reference), "{case}");
                     } else {
-                        let d = max_diff_255(&out.image, &reference);
+                        let d = out.image.error_against_rgba(&reference).max_abs;
                         assert!(d <= 1.0, "{case}: {d}/255 from the undisturbed image");
                     }
                     let re = m.reassigned.expect("a reassignment in the report");

@@ -13,21 +13,11 @@ use std::time::{Duration, Instant};
 
 use pvrsim::cluster::remote::session::Session;
 use pvrsim::cluster::remote::Coordinator;
-use pvrsim::net::tcp::{self, Role, TcpOptions, Token};
+use pvrsim::net::tcp::{self, Role, Token};
 use pvrsim::net::{Codec, NodeId};
 
 mod transport_support;
 use transport_support::*;
-
-const HB: Duration = Duration::from_secs(1);
-
-fn tcp_opts() -> TcpOptions {
-    TcpOptions {
-        deadline: HB,
-        handshake_timeout: HB,
-        ..Default::default()
-    }
-}
 
 fn worker(tok: &std::path::Path, hooks: &[&str]) -> WorkerProc {
     let mut a = vec!["--heartbeat-timeout", "1"];

@@ -36,7 +36,6 @@ use transport_support::*;
 
 /// The heartbeat deadline, as given to `pvrsim cluster`.
 const HB_ARG: &str = "1";
-const HB: Duration = Duration::from_secs(1);
 
 /// Worker 2's fault: the hook of its child; `stop`: `--test-stop` (the
 /// hook stops the child instead of killing it).
@@ -270,7 +269,7 @@ fn grid_frames_over_processes_survive_every_fault_at_every_phase() {
             if comp == "--master" {
                 assert_eq!(bits(&out.image), bits(&reference), "{case}");
             } else {
-                let d = max_diff_255(&out.image, &reference);
+                let d = out.image.error_against_rgba(&reference).max_abs;
                 assert!(d <= 1.0, "{case}: {d}/255 from the undisturbed image");
             }
             let re = out.report.transport.unwrap().reassigned;

@@ -26,6 +26,9 @@ use pvrsim::scene::Scene;
 mod phantom;
 use phantom::head_phantom;
 
+mod support;
+use support::shared;
+
 /// The phantom seen in perspective from close by: the eye 1.15 n from the
 /// centre (0.68 n outside the skin), 60° field of view; faint skin
 /// (opacity 0.04 per mm), the fat transparent, the brain opaque.
@@ -62,18 +65,6 @@ points = [[0.0, 0, 0, 0, 0], [0.16, 0.9, 0.7, 0.6, 0], [0.27, 0.95, 0.75, 0.65, 
     )
     .unwrap();
     VolumeInput::new(sc, Arc::new(head_phantom(n, 0.7))).unwrap()
-}
-
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        println!("SKIPPED: {} not found (shared data absent)", p.display());
-        None
-    }
 }
 
 fn load(path: &Path) -> VolumeInput {

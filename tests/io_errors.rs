@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use pvrsim::data::io::{read_mesh, vtk_legacy, vtu};
 use pvrsim::data::TetMesh;
 
+mod support;
+
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data")
@@ -21,22 +23,10 @@ fn read_bytes_as(name: &str, bytes: &[u8]) -> (String, Result<TetMesh, pvrsim::E
     (p.display().to_string(), r)
 }
 
-/// Asserts the read fails with a message naming the file and containing every `needle`.
+/// Asserts reading `bytes` as a mesh fails with a message naming the file
+/// and containing every `needle`; returns the message.
 fn expect_err(name: &str, bytes: &[u8], needles: &[&str]) -> String {
-    let (path, r) = read_bytes_as(name, bytes);
-    let msg = r
-        .err()
-        .unwrap_or_else(|| panic!("{name}: expected an error for {needles:?}"))
-        .to_string();
-    assert!(
-        msg.starts_with(&path),
-        "message does not name the file: {msg}"
-    );
-    eprintln!("{msg}");
-    for n in needles {
-        assert!(msg.contains(n), "message lacks {n:?}: {msg}");
-    }
-    msg
+    support::expect_err(name, bytes, needles, read_mesh)
 }
 
 const TET_ASCII: &str = "# vtk DataFile Version 3.0

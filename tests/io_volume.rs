@@ -8,6 +8,8 @@ use proptest::prelude::*;
 use pvrsim::data::io::read_volume;
 use pvrsim::data::{read_dataset, Dataset, Volume, Voxels};
 
+mod support;
+
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data")
@@ -22,21 +24,10 @@ fn read_as(name: &str, bytes: &[u8]) -> (String, Result<Volume, pvrsim::Error>) 
     (p.display().to_string(), r)
 }
 
-/// Asserts the read fails with a message naming the file and every needle.
+/// Asserts reading `bytes` as a volume fails with a message naming the
+/// file and every needle.
 fn expect_err(name: &str, bytes: &[u8], needles: &[&str]) {
-    let (path, r) = read_as(name, bytes);
-    let msg = r
-        .err()
-        .unwrap_or_else(|| panic!("{name}: expected an error for {needles:?}"))
-        .to_string();
-    assert!(
-        msg.starts_with(&path),
-        "message does not name the file: {msg}"
-    );
-    eprintln!("{msg}");
-    for n in needles {
-        assert!(msg.contains(n), "message lacks {n:?}: {msg}");
-    }
+    support::expect_err(name, bytes, needles, |p| read_volume(p, ""));
 }
 
 const CROP_SUM: f64 = 5_611_467.0; // printed by tests/data/volume/make_excerpts.py

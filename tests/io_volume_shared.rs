@@ -9,20 +9,8 @@ use std::path::{Path, PathBuf};
 use pvrsim::data::io::read_volume;
 use pvrsim::data::{Volume, VoxelType};
 
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIPPED: {} is absent (needs the shared data folder)",
-            p.display()
-        );
-        None
-    }
-}
+mod support;
+use support::shared;
 
 fn load(name: &str) -> Option<Volume> {
     let p = shared(name)?;

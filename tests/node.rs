@@ -103,14 +103,6 @@ fn union_image(nodes: &[NodeRenderer], input: &RenderInput) -> Image {
     composite_union(&lists, input.scene.image.background)
 }
 
-fn max_diff(a: &Image, b: &Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
-        .fold(0.0, f32::max)
-}
-
 fn no_ert(partial: bool) -> NodeOptions {
     NodeOptions {
         partial_composition: partial,
@@ -142,7 +134,7 @@ fn union_of_nodes_is_the_sequential_image() {
                 };
                 let (nodes, _) = run_cluster(&input, n, no_ert(partial), drive);
                 let img = union_image(&nodes, &input);
-                let d = max_diff(&img, &seq);
+                let d = (img.error_against_rgba(&seq).max_abs / 255.0) as f32;
                 eprintln!("view {view} partial {partial} N {n}: max |diff| = {d:e}");
                 if !partial || n == 1 {
                     assert_eq!(d, 0.0, "view {view} partial {partial} N {n}");
@@ -194,7 +186,7 @@ fn union_with_ert_is_within_the_bound() {
                     };
                     let (nodes, _) = run_cluster(&input, n, opts, drive);
                     let img = union_image(&nodes, &input);
-                    let d = max_diff(&img, &full);
+                    let d = (img.error_against_rgba(&full).max_abs / 255.0) as f32;
                     let skipped: u64 = nodes.iter().map(|x| x.totals().cells_skipped_ert).sum();
                     eprintln!(
                         "view {view} N {n} share {share} dlb {dlb} {span:?}: max diff {d:.4} (bound {bound:.4}), skipped {skipped}"

@@ -186,7 +186,7 @@ fn ert_with_sharing_and_dlb_stays_within_the_bound_on_every_transport() {
         ("threads", on_threads(&input, &cfg)),
         ("processes", on_processes(&input, &cfg)),
     ] {
-        let d = max_diff_255(&out.image, &full.image);
+        let d = out.image.error_against_rgba(&full.image).max_abs;
         eprintln!("{name}: max-abs {d:.3}/255 vs ERT off (bound {bound:.3}/255)");
         assert!(d <= bound + 1e-3, "{name}: {d}/255 > bound {bound}/255");
     }

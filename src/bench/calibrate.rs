@@ -15,7 +15,6 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use anyhow::Context;
 use clap::Args;
@@ -28,6 +27,9 @@ use crate::node::renderer::NodeErt;
 use crate::node::{NodeOptions, NodeRenderer, OpCounts, Placement, PlacementMethod, WorkUnit};
 use crate::render::cell::{ErtSpan, PreparedTf};
 use crate::render::RenderInput;
+
+pub use super::timer::Timer;
+use super::timer::{keep_fastest, Watch};
 
 /// Options of `pvrsim calibrate`.
 #[derive(Debug, Args)]
@@ -88,32 +90,6 @@ pub struct CalibrateArgs {
     /// `--network`: ping-pong calibration of the network instead.
     #[command(flatten)]
     pub net: super::calibrate_network::NetworkCalibrateArgs,
-}
-
-/// The clock of `--timer`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Timer {
-    /// Thread CPU seconds (`CLOCK_THREAD_CPUTIME_ID`).
-    Cpu,
-    /// Wall seconds.
-    Wall,
-}
-
-/// A stopwatch on the `--timer` clock.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Watch(Timer, Instant, f64);
-
-impl Watch {
-    pub(super) fn start(t: Timer) -> Watch {
-        Watch(t, Instant::now(), crate::net::cpu::thread_cpu_s())
-    }
-
-    pub(super) fn secs(&self) -> f64 {
-        match self.0 {
-            Timer::Cpu => crate::net::cpu::thread_cpu_s() - self.2,
-            Timer::Wall => self.1.elapsed().as_secs_f64(),
-        }
-    }
 }
 
 fn ert_modes() -> [(&'static str, NodeErt); 4] {
@@ -240,21 +216,6 @@ fn mesh_samples(inputs: &[RenderInput], a: &CalibrateArgs) -> Vec<Sample> {
         }
     }
     best.into_iter().flatten().collect()
-}
-
-/// Sample k of `best` keeps the least seconds of itself and sample k of
-/// `run` (the same work, timed in another pass); an empty `best` takes
-/// `run`.
-pub(super) fn keep_fastest<T>(best: &mut Vec<T>, run: Vec<T>, secs: fn(&mut T) -> &mut f64) {
-    if best.is_empty() {
-        *best = run;
-        return;
-    }
-    for (b, mut r) in best.iter_mut().zip(run) {
-        let t = *secs(&mut r);
-        let b = secs(b);
-        *b = b.min(t);
-    }
 }
 
 /// Seconds per shared-table entry merged and per work cell moved.

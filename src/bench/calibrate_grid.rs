@@ -15,7 +15,7 @@ use std::path::Path;
 
 use anyhow::Context;
 
-use super::calibrate::Timer;
+use super::timer::Timer;
 use crate::data::builtin::BuiltIn;
 use crate::job::api::ClusterJob;
 use crate::job::options::ParamValue;
@@ -94,7 +94,7 @@ pub fn measure(data: &BuiltIn, repeats: usize, timer: Timer) -> anyhow::Result<V
     for _ in 0..repeats.max(1) {
         for (c, (scene, d, nodes, size)) in configs.iter().enumerate() {
             let warm = render_warm(scene, &probe, *d, *nodes, *size, timer)?;
-            super::calibrate::keep_fastest(&mut best[c], warm, |s| &mut s.secs);
+            super::timer::keep_fastest(&mut best[c], warm, |s| &mut s.secs);
         }
     }
     Ok(best.into_iter().flatten().collect())

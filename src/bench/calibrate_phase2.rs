@@ -10,7 +10,7 @@
 //! the repeats. The virtual clock charges them in
 //! [`crate::cluster::phase2`].
 
-use super::calibrate::{Timer, Watch};
+use super::timer::{Timer, Watch};
 use crate::compositor::{ExecOptions, LocalRun, Payload, RoundKind};
 use crate::node::renderer::NodeErt;
 use crate::node::{NodeOptions, NodeRenderer, Placement, PlacementMethod, WorkUnit};

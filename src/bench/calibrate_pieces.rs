@@ -12,7 +12,7 @@
 //! extra pieces is `per_segment_piece`. The step fit then fits what is left
 //! after that term ([`crate::node::calibration::fit_profile`]).
 
-use super::calibrate::{Timer, Watch};
+use super::timer::{Timer, Watch};
 use crate::render::cell::integrate::{Batch, BATCH, NO_PIECE};
 use crate::render::cell::{Integrator, PreparedTf};
 use crate::scene::TransferFunction;

@@ -15,7 +15,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use super::calibrate::Timer;
+use super::timer::Timer;
 use crate::node::lsq::nnls;
 use crate::render::splat::{render_splat, SplatOptions, SplatStats};
 use crate::render::VolumeInput;
@@ -132,7 +132,7 @@ pub fn measure(repeats: usize, timer: Timer) -> anyhow::Result<Vec<SplatSample>>
             .iter()
             .map(|i| Ok(SplatSample::of(&render_in(&pool, i)?, timer)))
             .collect::<anyhow::Result<Vec<_>>>()?;
-        super::calibrate::keep_fastest(&mut best, run, |s| &mut s.secs);
+        super::timer::keep_fastest(&mut best, run, |s| &mut s.secs);
     }
     Ok(best)
 }

@@ -18,6 +18,7 @@ pub mod grid;
 pub mod orderings;
 pub mod splat;
 pub mod splat_experiments;
+pub mod timer;
 
 use crate::job::{output, with_threads};
 use crate::render::cell::{self, CellOptions, Integrator};

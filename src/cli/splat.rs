@@ -1,7 +1,11 @@
 //! `pvrsim splat SCENE -o out.png --order axis|dda|quicksort|radix`: EWA
-//! splatting of a grid scene (issue 11), with `--compare` against the grid
-//! reference and `--stats` JSON. Until the lead wires `--renderer splat`
-//! into `pvrsim render`, this is the splatting entry point.
+//! splatting of a grid scene (issue 11) with the splatter's own knobs, which
+//! `pvrsim render --renderer splat` does not take (`--sigma`,
+//! `--table-phases`, `--exact-footprints`, `--full-walk`, and `--profile`:
+//! the modelled one-thread frame time beside the measured CPU time), with
+//! `--compare` against the grid reference and `--stats` JSON. The everyday
+//! path is `pvrsim render SCENE --renderer splat`, wired through the job
+//! layer (`job/render_splat.rs`); this command calls the renderer directly.
 
 use std::path::PathBuf;
 use std::sync::Arc;

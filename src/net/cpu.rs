@@ -11,9 +11,8 @@
 //! took (split over the call's compute actions in proportion to their
 //! modelled seconds when there are several).
 
-use serde::{Deserialize, Serialize};
-
 use super::message::NodeId;
+pub use super::trace::CpuSample;
 use super::trace::TraceKind;
 
 fn clock_s(id: libc::clockid_t) -> f64 {
@@ -55,24 +54,6 @@ pub fn minor_faults() -> u64 {
         return 0;
     }
     ru.ru_minflt.max(0) as u64
-}
-
-/// One compute action of one handler call on a real transport: what the
-/// cost model said it costs and what it took.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CpuSample {
-    /// The rank.
-    pub node: NodeId,
-    /// The activity (scan, share, steal, composite, compute).
-    pub kind: TraceKind,
-    /// Wall-clock start of the call, seconds (the driver's clock).
-    pub start: f64,
-    /// Modelled seconds (the action's `seconds`).
-    pub modelled_s: f64,
-    /// Wall seconds of the call (its share, with several actions).
-    pub wall_s: f64,
-    /// Thread CPU seconds of the call (its share, with several actions).
-    pub cpu_s: f64,
 }
 
 /// Splits a call's measured `wall` and `cpu` seconds over its compute

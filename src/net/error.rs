@@ -2,7 +2,7 @@
 //! byte string becomes a [`NetError`] naming the message kind and what was
 //! wrong, never a panic.
 
-use super::message::{MessageKind, NodeId};
+use super::names::{MessageKind, NodeId};
 
 /// Anything that can go wrong while encoding, sending, receiving, decoding or
 /// simulating messages.

@@ -32,6 +32,7 @@ pub mod message;
 pub mod metered;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod names;
 pub mod remote;
 pub mod sim;
 pub mod stall;

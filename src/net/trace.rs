@@ -15,6 +15,24 @@ use serde_json::{json, Value};
 use super::actor::Activity;
 use super::message::{MessageKind, NodeId};
 
+/// One compute action of one handler call on a real transport: what the
+/// cost model said it costs and what it took.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CpuSample {
+    /// The rank.
+    pub node: NodeId,
+    /// The activity (scan, share, steal, composite, compute).
+    pub kind: TraceKind,
+    /// Wall-clock start of the call, seconds (the driver's clock).
+    pub start: f64,
+    /// Modelled seconds (the action's `seconds`).
+    pub modelled_s: f64,
+    /// Wall seconds of the call (its share, with several actions).
+    pub wall_s: f64,
+    /// Thread CPU seconds of the call (its share, with several actions).
+    pub cpu_s: f64,
+}
+
 /// What a span of a node's time was spent on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub enum TraceKind {
@@ -101,7 +119,7 @@ pub struct SimTrace {
     /// wall and thread CPU seconds ([`super::cpu`]). Empty on the virtual
     /// clock.
     #[serde(default)]
-    pub cpu: Vec<super::cpu::CpuSample>,
+    pub cpu: Vec<CpuSample>,
 }
 
 impl SimTrace {

@@ -1,7 +1,17 @@
 //! The computational core of one cluster node (paper §2.2, §3.2, §4.3), with
-//! no network, no clock, no threads and no I/O: everything here is a pure
-//! state machine that a discrete-event simulator, a thread or a TCP server
-//! can drive the same way.
+//! no network: everything here is a state machine that a discrete-event
+//! simulator, a thread or a TCP server can drive the same way, and the time
+//! a node reports to its driver is modelled (operation counts through the
+//! [`cost`] model, or the grid device model), never read from a clock.
+//!
+//! Clocks are read for statistics only: the grid node
+//! ([`grid::GridNodeActor`]) times its render with `Instant::now()` and the
+//! thread/process CPU clocks of [`crate::net::cpu`] (`GridNodeStats`'
+//! `host_s`, `cpu_s`, `process_cpu_s`, `minor_faults`), which never feed the
+//! modelled seconds; the mesh node's renderer reads no clock (`pvrsim
+//! calibrate` times it from outside). I/O is limited to reading cost
+//! profiles ([`cost::CostProfile::load`]); [`placement`] cuts the mesh with
+//! rayon.
 //!
 //! - [`placement`]: the initial placement of cells on `N` nodes (recursive
 //!   coordinate bisection or a Morton-curve cut), and its screen footprints.

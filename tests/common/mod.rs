@@ -307,13 +307,6 @@ pub fn max_err(img: &Image, want: &[[f64; 4]]) -> (f64, usize) {
     worst
 }
 
-/// Largest per-channel difference between two images, and where.
-pub fn max_diff(a: &Image, b: &Image) -> (f64, usize) {
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let want: Vec<[f64; 4]> = b.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-    max_err(a, &want)
-}
-
 /// The demo mesh (~20k cells) and its scene, generated once per test binary.
 pub fn demo_input() -> &'static RenderInput {
     static DEMO: OnceLock<RenderInput> = OnceLock::new();

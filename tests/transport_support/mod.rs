@@ -248,16 +248,6 @@ pub fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
     (VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg)
 }
 
-/// Largest channel difference, in 1/255 units.
-pub fn max_diff_255(a: &pvrsim::image::Image, b: &pvrsim::image::Image) -> f64 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y).abs() as f64))
-        .fold(0.0, f64::max)
-        * 255.0
-}
-
 /// A perspective scene of the bundled MNI crop (`tests/data/volume`) at
 /// `size` = (width, height), written to `dir/crop.toml`.
 pub fn grid_scene(dir: &Path, size: (u32, u32)) -> PathBuf {
@@ -300,4 +290,17 @@ points = [[0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.3, 0.05], [1, 1, 1, 0.9, 0.4]]
     )
     .unwrap();
     p
+}
+
+/// The heartbeat deadline of the fault tests' workers and coordinators.
+pub const HB: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// TCP options with [`HB`] as both the heartbeat deadline and the
+/// handshake timeout.
+pub fn tcp_opts() -> pvrsim::net::tcp::TcpOptions {
+    pvrsim::net::tcp::TcpOptions {
+        deadline: HB,
+        handshake_timeout: HB,
+        ..Default::default()
+    }
 }

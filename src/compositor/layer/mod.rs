@@ -27,6 +27,7 @@
 //! quantisation and `A = 0` implies `RGB = 0` (the codecs rely on it).
 
 pub mod exec;
+pub mod message;
 pub mod rank;
 
 use crate::base::Rect;

@@ -19,7 +19,7 @@ use crate::compositor::region::{area, contains};
 use crate::compositor::schedule::Payload;
 use crate::image::Image;
 
-use super::exec::{decode_within, encode};
+use super::message::{decode_within, encode};
 use super::{composite, merge_adjacent, Layer};
 
 /// One rank's layers through a schedule.

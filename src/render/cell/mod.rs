@@ -34,6 +34,7 @@ pub mod scan;
 pub mod scan_box;
 pub mod setup;
 pub mod sizes;
+pub mod target;
 
 use std::time::Instant;
 

@@ -11,171 +11,10 @@
 //! silhouette's shape, and no division by zero.
 
 use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
-use super::integrate::{Batch, Integrator, PreparedTf, BATCH, NO_PIECE};
-use super::list::{Inserted, SegmentLists};
 use super::project::PerspRays;
 use super::setup::TetSetup;
-use crate::base::{Rect, Segment};
-
-/// Counters of one scan.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct ScanCounts {
-    /// Pixel centres found inside a tet: in orthographic views the covered
-    /// ones (the scalar span scan and the vectorised box scan test
-    /// different candidate sets but count alike, so the virtual clock does
-    /// not depend on the CPU), in perspective every one tested.
-    pub pixels_tested: u64,
-    /// Ray segments produced.
-    pub segments_generated: u64,
-    /// Merge operations by partial composition.
-    pub segments_merged: u64,
-    /// Pieces the exact integrator cut crossing segments into.
-    pub segment_pieces: u64,
-}
-
-impl ScanCounts {
-    /// Adds another scan's counts.
-    pub fn add(&mut self, o: &ScanCounts) {
-        self.pixels_tested += o.pixels_tested;
-        self.segments_generated += o.segments_generated;
-        self.segments_merged += o.segments_merged;
-        self.segment_pieces += o.segment_pieces;
-    }
-}
-
-/// Everything a scan needs besides the tet.
-pub struct ScanTarget<'a> {
-    /// The tile's lists.
-    pub lists: &'a mut SegmentLists,
-    /// The tile.
-    pub tile: Rect,
-    /// Transfer function.
-    pub tf: &'a PreparedTf,
-    /// Integrator.
-    pub integrator: Integrator,
-    /// Partial composition on insertion.
-    pub partial: bool,
-    /// Insert with [`crate::base::canonical::insert`] (merge order fixed by the
-    /// depths, exact joins) instead of [`super::list::insert_sorted`].
-    pub canonical: bool,
-    /// Counters.
-    pub counts: &'a mut ScanCounts,
-    /// Segments waiting to be integrated.
-    pub batch: Batch,
-    /// Their local pixel index.
-    pub pend_idx: [u32; BATCH],
-    /// Their `z_front`.
-    pub pend_zf: [f32; BATCH],
-    /// Their `z_back`.
-    pub pend_zb: [f32; BATCH],
-    /// Whether the CPU runs the vectorised box scan ([`super::scan_box`]).
-    pub simd: bool,
-    /// The transfer-function piece of the cell being scanned when its whole
-    /// scalar range lies in one piece ([`PreparedTf::single_piece`]), else
-    /// `NO_PIECE`: its segments then skip the per-segment piece look-up.
-    pub cell_piece: u16,
-}
-
-impl<'a> ScanTarget<'a> {
-    /// A target writing into `lists` (the lists of `tile`), with partial
-    /// composition if `partial`, in canonical form if `canonical`.
-    pub fn new(
-        lists: &'a mut SegmentLists,
-        tile: Rect,
-        tf: &'a PreparedTf,
-        integrator: Integrator,
-        partial: bool,
-        canonical: bool,
-        counts: &'a mut ScanCounts,
-    ) -> Self {
-        ScanTarget {
-            lists,
-            tile,
-            tf,
-            integrator,
-            partial,
-            canonical,
-            counts,
-            batch: Batch::default(),
-            pend_idx: [0; BATCH],
-            pend_zf: [0.0; BATCH],
-            pend_zb: [0.0; BATCH],
-            simd: simd_available(),
-            cell_piece: NO_PIECE,
-        }
-    }
-
-    /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn emit(&mut self, i: u32, j: u32, z_in: f32, z_out: f32, s_in: f32, s_out: f32, length: f32) {
-        let n = self.batch.n;
-        self.batch.s_in[n] = s_in;
-        self.batch.s_out[n] = s_out;
-        self.batch.len[n] = length;
-        self.batch.piece_hint[n] = self.cell_piece;
-        self.pend_idx[n] = (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0);
-        self.pend_zf[n] = z_in;
-        self.pend_zb[n] = z_out;
-        self.batch.n = n + 1;
-        if n + 1 == BATCH {
-            self.flush();
-        }
-    }
-
-    /// Integrates the queued segments and inserts them into their lists.
-    pub fn flush(&mut self) {
-        let n = self.batch.n;
-        if n == 0 {
-            return;
-        }
-        self.tf.integrate_batch(self.integrator, &mut self.batch);
-        self.counts.segments_generated += n as u64;
-        self.counts.segment_pieces += self.batch.pieces as u64;
-        if self.partial && !self.canonical {
-            let batch = &self.batch;
-            self.counts.segments_merged += self.lists.insert_partial_run(
-                &self.pend_idx[..n],
-                &self.pend_zf[..n],
-                &self.pend_zb[..n],
-                |l| batch.result(l),
-            );
-            self.batch.n = 0;
-            return;
-        }
-        for l in 0..n {
-            let idx = self.pend_idx[l];
-            let seg = Segment {
-                z_front: self.pend_zf[l],
-                z_back: self.pend_zb[l],
-                rgba: self.batch.result(l),
-            };
-            if self.canonical {
-                self.counts.segments_merged +=
-                    self.lists.insert_canonical(idx as usize, seg, self.partial) as u64;
-                continue;
-            }
-            match self.lists.insert(idx as usize, seg, self.partial) {
-                Inserted::New => {}
-                Inserted::Merged => self.counts.segments_merged += 1,
-                Inserted::MergedBoth => self.counts.segments_merged += 2,
-            }
-        }
-        self.batch.n = 0;
-    }
-}
-
-/// Whether this CPU can run [`super::scan_box`]'s AVX2 kernel.
-fn simd_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
+pub use super::target::{ScanCounts, ScanTarget};
+use crate::base::Rect;
 
 /// Pixel range `[i0, i1] x [j0, j1]` (inclusive) whose centres lie in the
 /// bounding box of `pts` (continuous pixel coordinates), clipped to `clip`.
@@ -412,6 +251,113 @@ pub fn scan_persp(
                 s_out,
                 (t_out - t_in) * len_d,
             );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::base::Segment;
+    use crate::render::cell::integrate::{Integrator, PreparedTf};
+    use crate::render::cell::list::SegmentLists;
+    use crate::render::cell::setup::setup_tet;
+    use crate::scene::transfer::TransferFunction;
+    use proptest::prelude::*;
+
+    /// Scans tets into fresh lists of `tile` (no partial composition, so
+    /// every segment stays), by the box kernel or by the scalar span scan.
+    fn scan_all(
+        tets: &[([[f32; 3]; 4], [f32; 4])],
+        tile: Rect,
+        simd: bool,
+    ) -> (Vec<Vec<Segment>>, ScanCounts) {
+        let tf = PreparedTf::new(&TransferFunction::from_rows(
+            &[[0.0, 1.0, 0.2, 0.1, 0.3], [1.0, 0.1, 0.4, 1.0, 0.9]],
+            5.0,
+        ));
+        let mut lists = SegmentLists::new(tile.width(), tile.height());
+        let mut counts = ScanCounts::default();
+        let mut t = ScanTarget::new(
+            &mut lists,
+            tile,
+            &tf,
+            Integrator::Exact,
+            false,
+            false,
+            &mut counts,
+        );
+        t.simd = simd;
+        for (k, (p, s)) in tets.iter().enumerate() {
+            let base = 4 * k as u32;
+            let Some(setup) = setup_tet([base, base + 1, base + 2, base + 3], p, s) else {
+                continue;
+            };
+            let pts = p.map(|v| [v[0], v[1]]);
+            if let Some(range) = covered_pixels(&pts, tile) {
+                scan_ortho(&setup, range, &mut t);
+            }
+        }
+        t.flush();
+        (lists.lists().to_vec(), counts)
+    }
+
+    fn bits(l: &[Vec<Segment>]) -> Vec<Vec<[u32; 6]>> {
+        l.iter()
+            .map(|v| {
+                v.iter()
+                    .map(|s| {
+                        [
+                            s.z_front.to_bits(),
+                            s.z_back.to_bits(),
+                            s.rgba.rgb[0].to_bits(),
+                            s.rgba.rgb[1].to_bits(),
+                            s.rgba.rgb[2].to_bits(),
+                            s.rgba.a.to_bits(),
+                        ]
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// A coordinate: anywhere, or exactly on a pixel centre or a pixel edge
+    /// (ties between the planes of neighbouring cells).
+    fn coord(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+        prop_oneof![
+            lo..hi,
+            (lo as i32..hi as i32).prop_map(|i| i as f32 + 0.5),
+            (lo as i32..hi as i32).prop_map(|i| i as f32),
+        ]
+    }
+
+    fn vertex() -> impl Strategy<Value = [f32; 3]> {
+        (coord(-6.0, 40.0), coord(-6.0, 30.0), 0.5f32..20.0).prop_map(|(x, y, z)| [x, y, z])
+    }
+
+    fn tet() -> impl Strategy<Value = ([[f32; 3]; 4], [f32; 4])> {
+        (
+            [vertex(), vertex(), vertex(), vertex()],
+            [0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0],
+        )
+    }
+
+    proptest! {
+        /// The box kernel makes the scalar span scan's segments, bit for
+        /// bit, and the same counts (the virtual clock must not depend on
+        /// the CPU), for tets clipped by the tile's edges too.
+        #[test]
+        fn box_kernel_equals_span_scan(tets in proptest::collection::vec(tet(), 1..12)) {
+            if !std::arch::is_x86_feature_detected!("avx2") {
+                return Ok(());
+            }
+            let tile = Rect { x0: 3, y0: 2, x1: 35, y1: 27 };
+            let (a, ca) = scan_all(&tets, tile, true);
+            let (b, cb) = scan_all(&tets, tile, false);
+            prop_assert_eq!(bits(&a), bits(&b));
+            prop_assert_eq!(ca.pixels_tested, cb.pixels_tested);
+            prop_assert_eq!(ca.segments_generated, cb.segments_generated);
+            prop_assert_eq!(ca.pixels_tested, ca.segments_generated);
         }
     }
 }

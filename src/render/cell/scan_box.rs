@@ -25,8 +25,8 @@
 use std::arch::x86_64::*;
 
 use super::integrate::BATCH;
-use super::scan::ScanTarget;
 use super::setup::TetSetup;
+use super::target::ScanTarget;
 
 /// Bounding boxes up to this many pixels take the vectorised kernel (so the
 /// lane-to-pixel division below is exact, see [`scan_box_avx2`]).
@@ -192,110 +192,6 @@ pub unsafe fn scan_box_avx2(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::base::segment::Segment;
-    use crate::base::Rect;
-    use crate::render::cell::integrate::{Integrator, PreparedTf};
-    use crate::render::cell::list::SegmentLists;
-    use crate::render::cell::scan::{covered_pixels, scan_ortho, ScanCounts};
-    use crate::render::cell::setup::setup_tet;
-    use crate::scene::transfer::TransferFunction;
-    use proptest::prelude::*;
-
-    /// Scans tets into fresh lists of `tile` (no partial composition, so
-    /// every segment stays), by the box kernel or by the scalar span scan.
-    fn scan_all(
-        tets: &[([[f32; 3]; 4], [f32; 4])],
-        tile: Rect,
-        simd: bool,
-    ) -> (Vec<Vec<Segment>>, ScanCounts) {
-        let tf = PreparedTf::new(&TransferFunction::from_rows(
-            &[[0.0, 1.0, 0.2, 0.1, 0.3], [1.0, 0.1, 0.4, 1.0, 0.9]],
-            5.0,
-        ));
-        let mut lists = SegmentLists::new(tile.width(), tile.height());
-        let mut counts = ScanCounts::default();
-        let mut t = ScanTarget::new(
-            &mut lists,
-            tile,
-            &tf,
-            Integrator::Exact,
-            false,
-            false,
-            &mut counts,
-        );
-        t.simd = simd;
-        for (k, (p, s)) in tets.iter().enumerate() {
-            let base = 4 * k as u32;
-            let Some(setup) = setup_tet([base, base + 1, base + 2, base + 3], p, s) else {
-                continue;
-            };
-            let pts = p.map(|v| [v[0], v[1]]);
-            if let Some(range) = covered_pixels(&pts, tile) {
-                scan_ortho(&setup, range, &mut t);
-            }
-        }
-        t.flush();
-        (lists.lists().to_vec(), counts)
-    }
-
-    fn bits(l: &[Vec<Segment>]) -> Vec<Vec<[u32; 6]>> {
-        l.iter()
-            .map(|v| {
-                v.iter()
-                    .map(|s| {
-                        [
-                            s.z_front.to_bits(),
-                            s.z_back.to_bits(),
-                            s.rgba.rgb[0].to_bits(),
-                            s.rgba.rgb[1].to_bits(),
-                            s.rgba.rgb[2].to_bits(),
-                            s.rgba.a.to_bits(),
-                        ]
-                    })
-                    .collect()
-            })
-            .collect()
-    }
-
-    /// A coordinate: anywhere, or exactly on a pixel centre or a pixel edge
-    /// (ties between the planes of neighbouring cells).
-    fn coord(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
-        prop_oneof![
-            lo..hi,
-            (lo as i32..hi as i32).prop_map(|i| i as f32 + 0.5),
-            (lo as i32..hi as i32).prop_map(|i| i as f32),
-        ]
-    }
-
-    fn vertex() -> impl Strategy<Value = [f32; 3]> {
-        (coord(-6.0, 40.0), coord(-6.0, 30.0), 0.5f32..20.0).prop_map(|(x, y, z)| [x, y, z])
-    }
-
-    fn tet() -> impl Strategy<Value = ([[f32; 3]; 4], [f32; 4])> {
-        (
-            [vertex(), vertex(), vertex(), vertex()],
-            [0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0],
-        )
-    }
-
-    proptest! {
-        /// The box kernel makes the scalar span scan's segments, bit for
-        /// bit, and the same counts (the virtual clock must not depend on
-        /// the CPU), for tets clipped by the tile's edges too.
-        #[test]
-        fn box_kernel_equals_span_scan(tets in proptest::collection::vec(tet(), 1..12)) {
-            if !std::arch::is_x86_feature_detected!("avx2") {
-                return Ok(());
-            }
-            let tile = Rect { x0: 3, y0: 2, x1: 35, y1: 27 };
-            let (a, ca) = scan_all(&tets, tile, true);
-            let (b, cb) = scan_all(&tets, tile, false);
-            prop_assert_eq!(bits(&a), bits(&b));
-            prop_assert_eq!(ca.pixels_tested, cb.pixels_tested);
-            prop_assert_eq!(ca.segments_generated, cb.segments_generated);
-            prop_assert_eq!(ca.pixels_tested, ca.segments_generated);
-        }
-    }
 
     #[test]
     fn compress_table_packs_set_bits_in_order() {

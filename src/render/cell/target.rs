@@ -1,0 +1,177 @@
+//! Where a scan writes: the tile's segment lists, the integration batch
+//! and the scan's counters ([`ScanTarget`], [`ScanCounts`]). Below both scan
+//! kernels — the scalar one ([`super::scan`]) and the AVX2 box kernel
+//! ([`super::scan_box`]) — so that the two do not import each other.
+
+use super::integrate::{Batch, Integrator, PreparedTf, BATCH, NO_PIECE};
+use super::list::{Inserted, SegmentLists};
+use crate::base::{Rect, Segment};
+
+/// Counters of one scan.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ScanCounts {
+    /// Pixel centres found inside a tet: in orthographic views the covered
+    /// ones (the scalar span scan and the vectorised box scan test
+    /// different candidate sets but count alike, so the virtual clock does
+    /// not depend on the CPU), in perspective every one tested.
+    pub pixels_tested: u64,
+    /// Ray segments produced.
+    pub segments_generated: u64,
+    /// Merge operations by partial composition.
+    pub segments_merged: u64,
+    /// Pieces the exact integrator cut crossing segments into.
+    pub segment_pieces: u64,
+}
+
+impl ScanCounts {
+    /// Adds another scan's counts.
+    pub fn add(&mut self, o: &ScanCounts) {
+        self.pixels_tested += o.pixels_tested;
+        self.segments_generated += o.segments_generated;
+        self.segments_merged += o.segments_merged;
+        self.segment_pieces += o.segment_pieces;
+    }
+}
+
+/// Everything a scan needs besides the tet.
+pub struct ScanTarget<'a> {
+    /// The tile's lists.
+    pub lists: &'a mut SegmentLists,
+    /// The tile.
+    pub tile: Rect,
+    /// Transfer function.
+    pub tf: &'a PreparedTf,
+    /// Integrator.
+    pub integrator: Integrator,
+    /// Partial composition on insertion.
+    pub partial: bool,
+    /// Insert with [`crate::base::canonical::insert`] (merge order fixed by the
+    /// depths, exact joins) instead of [`super::list::insert_sorted`].
+    pub canonical: bool,
+    /// Counters.
+    pub counts: &'a mut ScanCounts,
+    /// Segments waiting to be integrated.
+    pub batch: Batch,
+    /// Their local pixel index.
+    pub pend_idx: [u32; BATCH],
+    /// Their `z_front`.
+    pub pend_zf: [f32; BATCH],
+    /// Their `z_back`.
+    pub pend_zb: [f32; BATCH],
+    /// Whether the CPU runs the vectorised box scan ([`super::scan_box`]).
+    pub simd: bool,
+    /// The transfer-function piece of the cell being scanned when its whole
+    /// scalar range lies in one piece ([`PreparedTf::single_piece`]), else
+    /// `NO_PIECE`: its segments then skip the per-segment piece look-up.
+    pub cell_piece: u16,
+}
+
+impl<'a> ScanTarget<'a> {
+    /// A target writing into `lists` (the lists of `tile`), with partial
+    /// composition if `partial`, in canonical form if `canonical`.
+    pub fn new(
+        lists: &'a mut SegmentLists,
+        tile: Rect,
+        tf: &'a PreparedTf,
+        integrator: Integrator,
+        partial: bool,
+        canonical: bool,
+        counts: &'a mut ScanCounts,
+    ) -> Self {
+        ScanTarget {
+            lists,
+            tile,
+            tf,
+            integrator,
+            partial,
+            canonical,
+            counts,
+            batch: Batch::default(),
+            pend_idx: [0; BATCH],
+            pend_zf: [0.0; BATCH],
+            pend_zb: [0.0; BATCH],
+            simd: simd_available(),
+            cell_piece: NO_PIECE,
+        }
+    }
+
+    /// Queues the segment of pixel `(i, j)`; integrates and inserts when the batch is full.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn emit(
+        &mut self,
+        i: u32,
+        j: u32,
+        z_in: f32,
+        z_out: f32,
+        s_in: f32,
+        s_out: f32,
+        length: f32,
+    ) {
+        let n = self.batch.n;
+        self.batch.s_in[n] = s_in;
+        self.batch.s_out[n] = s_out;
+        self.batch.len[n] = length;
+        self.batch.piece_hint[n] = self.cell_piece;
+        self.pend_idx[n] = (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0);
+        self.pend_zf[n] = z_in;
+        self.pend_zb[n] = z_out;
+        self.batch.n = n + 1;
+        if n + 1 == BATCH {
+            self.flush();
+        }
+    }
+
+    /// Integrates the queued segments and inserts them into their lists.
+    pub fn flush(&mut self) {
+        let n = self.batch.n;
+        if n == 0 {
+            return;
+        }
+        self.tf.integrate_batch(self.integrator, &mut self.batch);
+        self.counts.segments_generated += n as u64;
+        self.counts.segment_pieces += self.batch.pieces as u64;
+        if self.partial && !self.canonical {
+            let batch = &self.batch;
+            self.counts.segments_merged += self.lists.insert_partial_run(
+                &self.pend_idx[..n],
+                &self.pend_zf[..n],
+                &self.pend_zb[..n],
+                |l| batch.result(l),
+            );
+            self.batch.n = 0;
+            return;
+        }
+        for l in 0..n {
+            let idx = self.pend_idx[l];
+            let seg = Segment {
+                z_front: self.pend_zf[l],
+                z_back: self.pend_zb[l],
+                rgba: self.batch.result(l),
+            };
+            if self.canonical {
+                self.counts.segments_merged +=
+                    self.lists.insert_canonical(idx as usize, seg, self.partial) as u64;
+                continue;
+            }
+            match self.lists.insert(idx as usize, seg, self.partial) {
+                Inserted::New => {}
+                Inserted::Merged => self.counts.segments_merged += 1,
+                Inserted::MergedBoth => self.counts.segments_merged += 2,
+            }
+        }
+        self.batch.n = 0;
+    }
+}
+
+/// Whether this CPU can run [`super::scan_box`]'s AVX2 kernel.
+fn simd_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
