@@ -63,7 +63,7 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("cli", "bench", ""),
     ("cli", "job", ""),
     ("cli", "text", ""),
-    ("cli", "budget", "`generate`/`splat` size their output before writing (no job of their own)"),
+    ("cli", "budget", "`generate` and `splat` size their output before writing (no job of their own)"),
     ("cli", "cluster", "`worker` runs a remote worker; `cluster` prints the report's summary and timeline"),
     ("cli", "data", "`info`, `scene`, `generate`, `demo`, `splat` read and write datasets (no job of their own)"),
     ("cli", "image", "`cluster` and `splat` write the image a job returns"),
@@ -800,6 +800,71 @@ fn the_table_runs_downward_and_names_its_detours() {
             "{f} -> {t}: a frontend reaching past the job layer needs a reason, any other arrow none"
         );
     }
+}
+
+/// The rows of the markdown tables of `text` (cells trimmed), header and
+/// separator rows left out.
+fn table_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .filter(|l| l.starts_with('|') && !l.starts_with("|---"))
+        .map(|l| {
+            l.trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_string())
+                .collect()
+        })
+        .filter(|r: &Vec<String>| r[0] != "room" && r[0] != "arrow")
+        .collect()
+}
+
+#[test]
+fn the_document_shows_the_table() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/architecture.md"))
+            .unwrap();
+    let start = doc
+        .find("## The layer table")
+        .expect("docs/architecture.md: ## The layer table");
+    let end = doc[start..]
+        .find("### Circles left")
+        .map_or(doc.len(), |e| start + e);
+    let mut shown = BTreeSet::new();
+    let mut reasons = BTreeMap::new();
+    for r in table_rows(&doc[start..end]) {
+        if let Some((f, t)) = r[0].split_once(" -> ") {
+            reasons.insert((f.to_string(), t.to_string()), r[1].clone());
+            continue;
+        }
+        for from in r[0].split(", ") {
+            for to in r[1].replace("*named:*", "").split([',', ';']) {
+                let to = to.trim();
+                if !to.is_empty() && to != "—" {
+                    shown.insert((from.to_string(), to.to_string()));
+                }
+            }
+        }
+    }
+    let table: BTreeSet<(String, String)> = ARROWS
+        .iter()
+        .map(|(f, t, _)| (f.to_string(), t.to_string()))
+        .collect();
+    assert_eq!(
+        shown, table,
+        "docs/architecture.md's layer table differs from ARROWS"
+    );
+    let named: BTreeMap<(String, String), String> = ARROWS
+        .iter()
+        .filter(|(_, _, why)| !why.is_empty())
+        .map(|(f, t, why)| ((f.to_string(), t.to_string()), why.replace('`', "")))
+        .collect();
+    let reasons: BTreeMap<_, _> = reasons
+        .into_iter()
+        .map(|(k, v)| (k, v.replace('`', "")))
+        .collect();
+    assert_eq!(
+        reasons, named,
+        "docs/architecture.md's named frontend arrows differ from ARROWS' reasons"
+    );
 }
 
 /// A source from a module path (`a::b`) and its text.
