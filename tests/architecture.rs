@@ -334,6 +334,9 @@ fn ident_char(c: char) -> bool {
 
 // ---------------------------------------------------------------- paths
 
+/// A module path from the crate root (`["render", "cell", "scan"]`).
+type ModPath = Vec<String>;
+
 /// A tiny lexer over code: identifiers, `::` and single punctuation.
 fn tokens(code: &str) -> Vec<String> {
     let b: Vec<char> = code.chars().collect();
@@ -470,7 +473,7 @@ fn resolve(written: &[String], here: &[String]) -> Option<Vec<String>> {
 /// module). Inline `mod NAME { … }` blocks shift `self`/`super`; a bare
 /// `pub use child::x` (a child of the file's own module) counts as
 /// re-export only.
-fn paths_of(src: &Source) -> (Vec<Vec<String>>, Vec<(String, Vec<String>)>) {
+fn paths_of(src: &Source) -> (Vec<ModPath>, Vec<(String, ModPath)>) {
     let t = tokens(&src.code);
     let mut named = Vec::new();
     let mut reexports = Vec::new();

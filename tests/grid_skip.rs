@@ -13,7 +13,7 @@
 //!   off on both, within 1/255 of single-node slice3d (when the shared data
 //!   are present; the phantom always).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 use clap::Parser;

@@ -4,8 +4,6 @@
 //! when it is absent (the bundled excerpts in `tests/io_volume.rs` cover the
 //! readers without it).
 
-use std::path::{Path, PathBuf};
-
 use pvrsim::data::io::read_volume;
 use pvrsim::data::{Volume, VoxelType};
 

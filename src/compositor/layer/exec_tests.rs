@@ -6,7 +6,7 @@ use super::*;
 use crate::base::Rect;
 use crate::compositor::codec::layers::from_name as codec;
 use crate::compositor::layer::{composite, Depth};
-use crate::compositor::region::screen;
+use crate::compositor::region::{area, screen};
 use crate::compositor::strategy::{from_name, RadixK, Strategy};
 use proptest::prelude::{any, prop, prop_assert, prop_assert_eq, proptest, Just};
 use proptest::strategy::Strategy as _;
