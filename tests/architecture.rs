@@ -1,7 +1,8 @@
 //! The layers of `docs/architecture.md`, checked on the source.
 //!
 //! Every module path a file of `src/` names (`crate::…`, `super::…`,
-//! `self::…`, nested `super::super::…`, `use` groups, re-exports followed
+//! `self::…`, nested `super::super::…`, `use` groups, inline modules,
+//! `#[path]` test files as part of their declaring file, re-exports followed
 //! through `pub use`; comments and string literals left out) becomes an arrow
 //! between two *children of one folder*: between rooms (the top-level
 //! modules of `src/`) when the path leaves the file's room, between the files
@@ -218,20 +219,55 @@ fn module_of(rel: &Path) -> Option<Vec<String>> {
     Some(parts)
 }
 
+/// The files that `#[path = "FILE"] mod NAME;` declarations of `text` (the
+/// file at `rel`, module `module`) bring in, with the module each becomes:
+/// `exec.rs`'s `#[path = "exec_tests.rs"] mod tests;` makes
+/// `exec_tests.rs` the module `…::exec::tests`, part of `exec`.
+fn path_modules(rel: &Path, module: &[String], text: &str) -> Vec<(PathBuf, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut rest = text;
+    while let Some(i) = rest.find("#[path = \"") {
+        rest = &rest[i + "#[path = \"".len()..];
+        let Some(end) = rest.find('"') else { break };
+        let file = &rest[..end];
+        let after = rest[end..].trim_start_matches(['"', ']']).trim_start();
+        let after = after.strip_prefix("pub ").unwrap_or(after);
+        if let Some(decl) = after.strip_prefix("mod ") {
+            let name: String = decl.chars().take_while(|c| ident_char(*c)).collect();
+            let mut m = module.to_vec();
+            m.push(name);
+            out.push((rel.parent().unwrap().join(file), m));
+        }
+    }
+    out
+}
+
 /// The sources of `src/`.
 fn crate_sources() -> Vec<Source> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     rust_files(&src, &mut files);
     files.sort();
-    files
+    let texts: Vec<(PathBuf, String)> = files
         .iter()
-        .filter_map(|f| {
-            let module = module_of(f.strip_prefix(&src).unwrap())?;
-            let text = std::fs::read_to_string(f).unwrap();
+        .map(|f| {
+            let rel = f.strip_prefix(&src).unwrap().to_path_buf();
+            (rel, std::fs::read_to_string(f).unwrap())
+        })
+        .collect();
+    let mut moved = BTreeMap::new();
+    for (rel, text) in &texts {
+        if let Some(m) = module_of(rel) {
+            moved.extend(path_modules(rel, &m, text));
+        }
+    }
+    texts
+        .iter()
+        .filter_map(|(rel, text)| {
+            let module = moved.get(rel).cloned().or_else(|| module_of(rel))?;
             Some(Source {
                 module,
-                code: code(&text),
+                code: code(text),
             })
         })
         .collect()
@@ -948,6 +984,18 @@ fn the_checker_reads_every_form_of_path() {
     );
     assert!(violations(&a, &[("r", "q", "")]).is_empty());
     assert_eq!(violations(&a, &[]).len(), 1);
+    let moved = path_modules(
+        Path::new("r/a.rs"),
+        &["r".to_string(), "a".to_string()],
+        "#[cfg(test)]\n#[path = \"a_tests.rs\"]\nmod tests;",
+    );
+    assert_eq!(
+        moved,
+        [(
+            PathBuf::from("r/a_tests.rs"),
+            ["r", "a", "tests"].map(String::from).to_vec()
+        )]
+    );
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     g.insert("a".into(), ["b".to_string()].into());
     g.insert("b".into(), ["a".to_string()].into());
