@@ -169,18 +169,6 @@ const CIRCLES_LEFT: &[(&str, &str, &str, &str)] = &[
         "io",
         "io re-exports dataset::read_dataset, dataset calls io's readers",
     ),
-    (
-        "node",
-        "pixel_share",
-        "shard_map",
-        "shard_map names pixel_share::TILE, pixel_share the shard map",
-    ),
-    (
-        "render",
-        "slice2d",
-        "slice3d",
-        "only their tests: each compares with the other",
-    ),
 ];
 
 /// What is wrong with a crate's arrows against the table: arrows between

@@ -22,7 +22,9 @@
 //! (load balancing, the end of phase 1), so with `K = 1` the protocol is
 //! the unsharded one exactly.
 
-use super::pixel_share::TILE;
+/// Edge of the manager's log tiles, in pixels: a reply walks the logs of the
+/// tiles under the node's footprint only.
+pub const TILE: u32 = 16;
 
 /// The tile-to-shard map of a run. `K = 1`: one shard, the manager.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -17,9 +17,7 @@ pub fn lth_smallest(values: &mut [u16], levels: usize) -> u16 {
     *nth
 }
 
-/// Edge of the manager's log tiles, in pixels: a reply walks the logs of the
-/// tiles under the node's footprint only.
-pub const TILE: u32 = 16;
+pub use crate::node::shard_map::TILE;
 
 /// The manager's store for per-pixel level sharing: every node's latest
 /// codes per pixel, the certified depth per pixel, and a change log from

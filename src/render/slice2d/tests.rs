@@ -81,3 +81,14 @@ fn the_45_degree_axis_switch_jumps() {
         "{d_2d} vs {d_ref}, {d_3d}"
     );
 }
+
+#[test]
+fn slice2d_refuses_preint() {
+    let inp = blob(ORTHO);
+    let o = Slice2dOptions {
+        classify: Classify::Preint,
+        ..Default::default()
+    };
+    let e = render(&inp, &o).unwrap_err();
+    assert!(e.to_string().contains("preint"), "{e}");
+}

@@ -188,14 +188,3 @@ fn bad_options_are_refused() {
 
 // The pre-integration tests (constant field, steep TF) are in
 // tests/slice3d_preint.rs.
-
-#[test]
-fn slice2d_refuses_preint() {
-    let inp = blob(ORTHO);
-    let o = crate::render::slice2d::Slice2dOptions {
-        classify: Classify::Preint,
-        ..Default::default()
-    };
-    let e = crate::render::slice2d::render(&inp, &o).unwrap_err();
-    assert!(e.to_string().contains("preint"), "{e}");
-}
