@@ -97,6 +97,18 @@ impl TetMesh {
         Ok(())
     }
 
+    /// Bytes the mesh's arrays hold on the heap (allocated capacity of the
+    /// points, tetrahedra and field values; names and headers not counted).
+    pub fn heap_bytes(&self) -> usize {
+        self.points.capacity() * std::mem::size_of::<[f64; 3]>()
+            + self.tets.capacity() * std::mem::size_of::<[u32; 4]>()
+            + self
+                .fields
+                .iter()
+                .map(|f| f.values.capacity() * std::mem::size_of::<f64>())
+                .sum::<usize>()
+    }
+
     /// The per-vertex scalar to render: a 1-component field by name, or the
     /// magnitude of a vector field (an extension: `field = "velocity"`).
     pub fn scalar(&self, name: &str) -> Result<Vec<f64>> {
@@ -152,15 +164,22 @@ impl TetMesh {
     /// Face adjacency, built by sorting the `4 n` faces by their sorted vertex
     /// triples: O(n log n), no hashing.
     pub fn adjacency(&self) -> Adjacency {
-        let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(self.tets.len() * 4);
-        for (t, tet) in self.tets.iter().enumerate() {
-            for (f, slots) in FACE_VERTICES.iter().enumerate() {
-                let mut key = [tet[slots[0]], tet[slots[1]], tet[slots[2]]];
-                key.sort_unstable();
-                faces.push((key, (t as u32) << 2 | f as u32));
-            }
-        }
-        faces.sort_unstable();
+        use rayon::prelude::*;
+        // Every (key, slot) pair is distinct, so the parallel unstable sort
+        // gives one order whatever the thread count.
+        let mut faces: Vec<([u32; 3], u32)> = vec![([0; 3], 0); self.tets.len() * 4];
+        faces
+            .par_chunks_mut(4)
+            .zip(self.tets.par_iter())
+            .enumerate()
+            .for_each(|(t, (out, tet))| {
+                for (f, slots) in FACE_VERTICES.iter().enumerate() {
+                    let mut key = [tet[slots[0]], tet[slots[1]], tet[slots[2]]];
+                    key.sort_unstable();
+                    out[f] = (key, (t as u32) << 2 | f as u32);
+                }
+            });
+        faces.par_sort_unstable();
         let mut neighbors = vec![[NO_NEIGHBOR; 4]; self.tets.len()];
         let mut nonmanifold_faces = 0;
         let mut i = 0;

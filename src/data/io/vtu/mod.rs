@@ -27,14 +27,34 @@ mod decode;
 
 use super::decompose::{vtk_type_name, CellShape, TetBuilder};
 use super::numeric::NumType;
-use super::read_bytes;
+use super::mapped::FileBytes;
 use crate::data::{Field, TetMesh};
 use crate::error::{Error, Result};
 
 /// Reads a VTK XML unstructured grid from `path`.
 pub fn read(path: &Path) -> Result<TetMesh> {
-    let data = read_bytes(path)?;
+    let data = FileBytes::open(path)?;
     parse(&data, path)
+}
+
+/// Point-data arrays as a piece declares them: name, type, components.
+pub(crate) type Declared = Vec<(String, NumType, usize)>;
+
+/// Reads a `.vtu` like [`read`], with the points' type and the point-data
+/// arrays its first `<Piece>` declares (to check that the pieces of a
+/// `.pvtu` agree).
+pub(crate) fn read_declared(path: &Path) -> Result<(TetMesh, Option<NumType>, Declared)> {
+    let data = FileBytes::open(path)?;
+    let s = scan(&data, path, "UnstructuredGrid")?;
+    let first = s.pieces.first();
+    let points = first.and_then(|p| p.points.as_ref()).map(|a| a.ty);
+    let decl = first.map_or(Vec::new(), |p| {
+        p.point_data
+            .iter()
+            .map(|a| (a.name.clone(), a.ty, a.ncomp))
+            .collect()
+    });
+    Ok((assemble(&s.ctx, s.pieces)?, points, decl))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -446,11 +466,45 @@ fn place(a: ArrayDesc, stack: &[String], pieces: &mut [PieceDesc], path: &Path) 
     Ok(())
 }
 
+/// One piece's cells: types, end offsets, connectivity, and the index of
+/// its first point in the whole mesh.
+struct PieceCells {
+    types: Vec<i64>,
+    offs: Vec<i64>,
+    conn: Vec<i64>,
+    base: i64,
+}
+
+impl PieceCells {
+    /// The piece's cells as tetrahedra if all are 4-vertex tetrahedra with
+    /// indices inside the piece's `npoints` (checked on all cores).
+    fn all_tets(&self, npoints: usize) -> Option<Vec<[u32; 4]>> {
+        use rayon::prelude::*;
+        let ok = self.types.par_iter().all(|&t| t == 10)
+            && self.conn.len() == 4 * self.offs.len()
+            && self
+                .offs
+                .par_iter()
+                .enumerate()
+                .all(|(i, &e)| e == 4 * (i as i64 + 1))
+            && self
+                .conn
+                .par_iter()
+                .all(|&v| v >= 0 && (v as u64) < npoints as u64);
+        ok.then(|| {
+            self.conn
+                .par_chunks_exact(4)
+                .map(|c| [0, 1, 2, 3].map(|k| (c[k] + self.base) as u32))
+                .collect()
+        })
+    }
+}
+
 fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
     let path = ctx.path;
     let mut points: Vec<[f64; 3]> = Vec::new();
     let mut fields: Vec<Field> = Vec::new();
-    let mut cells: Vec<(i64, Vec<i64>)> = Vec::new();
+    let mut cells: Vec<(PieceCells, usize)> = Vec::new();
     for (pi, p) in pieces.iter().enumerate() {
         let where_ = |what: &str| format!("<Piece> {pi} <{what}>");
         let base = points.len() as i64;
@@ -495,18 +549,15 @@ fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
                 return Err(ctx.err(oa, "offsets must be non-negative and non-decreasing"));
             }
             let conn = ctx.i64s(ca, nconn as usize)?;
-            let mut s = 0usize;
-            for (&e, &t) in offs.iter().zip(&types) {
-                let e = e as usize;
-                cells.push((
-                    t,
-                    conn[s..e]
-                        .iter()
-                        .map(|&v| if v < 0 { v } else { v + base })
-                        .collect(),
-                ));
-                s = e;
-            }
+            cells.push((
+                PieceCells {
+                    types,
+                    offs,
+                    conn,
+                    base,
+                },
+                p.npoints,
+            ));
         }
     }
     if let Some(f) = fields
@@ -519,13 +570,33 @@ fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
             "the array is missing from some pieces",
         ));
     }
-    let mut b = TetBuilder::new(&points, cells.len());
-    for (c, (t, verts)) in cells.iter().enumerate() {
-        let shape = CellShape::from_vtk(*t).ok_or_else(|| {
-            Error::data(path, format!("cell {c}"), format!("cell type {t} ({}) is not supported; pvrsim reads tetrahedra, hexahedra, voxels, wedges and pyramids, and skips lower-dimensional cells", vtk_type_name(*t)))
-        })?;
-        b.add(shape, verts)
-            .map_err(|m| Error::data(path, format!("cell {c}"), m))?;
+    // Fast path: every piece all tetrahedra with indices in range.
+    let fast: Option<Vec<Vec<[u32; 4]>>> = cells.iter().map(|(c, np)| c.all_tets(*np)).collect();
+    if let Some(parts) = fast {
+        return Ok(TetMesh {
+            points,
+            tets: parts.concat(),
+            fields,
+        });
+    }
+    let total: usize = cells.iter().map(|(c, _)| c.types.len()).sum();
+    let mut b = TetBuilder::new(&points, total);
+    let mut c = 0usize;
+    let mut verts: Vec<i64> = Vec::new();
+    for (pc, _) in &cells {
+        let mut s = 0usize;
+        for (&e, &t) in pc.offs.iter().zip(&pc.types) {
+            let e = e as usize;
+            verts.clear();
+            verts.extend(pc.conn[s..e].iter().map(|&v| if v < 0 { v } else { v + pc.base }));
+            s = e;
+            let shape = CellShape::from_vtk(t).ok_or_else(|| {
+                Error::data(path, format!("cell {c}"), format!("cell type {t} ({}) is not supported; pvrsim reads tetrahedra, hexahedra, voxels, wedges and pyramids, and skips lower-dimensional cells", vtk_type_name(t)))
+            })?;
+            b.add(shape, &verts)
+                .map_err(|m| Error::data(path, format!("cell {c}"), m))?;
+            c += 1;
+        }
     }
     let tets = b.finish(path);
     Ok(TetMesh {
