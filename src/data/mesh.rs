@@ -46,27 +46,30 @@ impl TetMesh {
     /// Checks that every index is in range and every coordinate and field
     /// value is finite; `source` names the file for the error message.
     pub fn validate(&self, source: &std::path::Path) -> Result<()> {
+        use rayon::prelude::*;
         let n = self.points.len();
-        if let Some((i, p)) = self
+        if let Some(i) = self
             .points
-            .iter()
-            .enumerate()
-            .find(|(_, p)| p.iter().any(|v| !v.is_finite()))
+            .par_iter()
+            .position_first(|p| p.iter().any(|v| !v.is_finite()))
         {
             return Err(Error::data(
                 source,
                 format!("point {i}"),
-                format!("coordinate is not finite: {p:?}"),
+                format!("coordinate is not finite: {:?}", self.points[i]),
             ));
         }
-        for (t, tet) in self.tets.iter().enumerate() {
-            if let Some(&v) = tet.iter().find(|&&v| v as usize >= n) {
-                return Err(Error::data(
-                    source,
-                    format!("cell {t}"),
-                    format!("vertex index {v} is out of range (the mesh has {n} points)"),
-                ));
-            }
+        if let Some(t) = self
+            .tets
+            .par_iter()
+            .position_first(|tet| tet.iter().any(|&v| v as usize >= n))
+        {
+            let v = self.tets[t].iter().find(|&&v| v as usize >= n).copied().unwrap_or(0);
+            return Err(Error::data(
+                source,
+                format!("cell {t}"),
+                format!("vertex index {v} is out of range (the mesh has {n} points)"),
+            ));
         }
         for f in &self.fields {
             if f.values.len() != f.components * n {
@@ -82,7 +85,7 @@ impl TetMesh {
                     ),
                 ));
             }
-            if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
+            if let Some(i) = f.values.par_iter().position_first(|v| !v.is_finite()) {
                 return Err(Error::data(
                     source,
                     format!("field \"{}\"", f.name),
@@ -139,15 +142,29 @@ impl TetMesh {
 
     /// Axis-aligned bounds `(min, max)` of the points.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.points {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
+        use rayon::prelude::*;
+        let empty = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        self.points
+            .par_chunks(1 << 16)
+            .map(|c| {
+                let (mut lo, mut hi) = empty;
+                for p in c {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(p[k]);
+                        hi[k] = hi[k].max(p[k]);
+                    }
+                }
+                (lo, hi)
+            })
+            .reduce(
+                || empty,
+                |a, b| {
+                    (
+                        [0, 1, 2].map(|k| a.0[k].min(b.0[k])),
+                        [0, 1, 2].map(|k| a.1[k].max(b.1[k])),
+                    )
+                },
+            )
     }
 
     /// Signed volume of tetrahedron `t` (positive for the VTK orientation).

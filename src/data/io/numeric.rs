@@ -146,11 +146,29 @@ pub fn decode_i64_into(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [i
     true
 }
 
+/// A vector of `n` copies of `value` for a large decoded array, filled on
+/// all cores (so the first touch of its pages, the kernel's page faults and
+/// zeroing, is spread over the cores too).
+pub fn big_vec<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
+    use rayon::prelude::*;
+    let mut v: Vec<T> = Vec::with_capacity(n);
+    v.spare_capacity_mut()[..n]
+        .par_chunks_mut(CHUNK)
+        .for_each(|c| {
+            for x in c {
+                x.write(value);
+            }
+        });
+    // SAFETY: the first `n` elements were just written.
+    unsafe { v.set_len(n) };
+    v
+}
+
 /// Decodes `bytes` (whose length should be a multiple of `ty.size()`; a
 /// trailing partial value is ignored) as values of `ty` into `f64`, on all
 /// cores for large arrays.
 pub fn decode_f64(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<f64> {
-    let mut out = vec![0.0; bytes.len() / ty.size()];
+    let mut out = big_vec(bytes.len() / ty.size(), 0.0);
     decode_f64_into(bytes, ty, big_endian, &mut out);
     out
 }
@@ -159,14 +177,14 @@ pub fn decode_f64(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<f64> {
 /// `i64::MAX` wrap to negative numbers, which every caller rejects as an
 /// index). `None` for a floating-point `ty`.
 pub fn decode_i64(bytes: &[u8], ty: NumType, big_endian: bool) -> Option<Vec<i64>> {
-    let mut out = vec![0; bytes.len() / ty.size()];
+    let mut out = big_vec(bytes.len() / ty.size(), 0);
     decode_i64_into(bytes, ty, big_endian, &mut out).then_some(out)
 }
 
 /// Decodes `n` points of three coordinates of `ty` into `[x, y, z]`
 /// directly (no intermediate flat array).
 pub fn decode_points(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<[f64; 3]> {
-    let mut out = vec![[0.0; 3]; bytes.len() / ty.size() / 3];
+    let mut out = big_vec(bytes.len() / ty.size() / 3, [0.0; 3]);
     decode_f64_into(bytes, ty, big_endian, out.as_flattened_mut());
     out
 }
@@ -182,7 +200,7 @@ pub fn decode_tets(bytes: &[u8], ty: NumType, big_endian: bool, npoints: usize) 
     }
     let s = ty.size();
     let n = bytes.len() / s / 4;
-    let mut out = vec![[0u32; 4]; n];
+    let mut out = big_vec(n, [0u32; 4]);
     let ok = out
         .par_chunks_mut(CHUNK)
         .zip(bytes.par_chunks(CHUNK * 4 * s))
@@ -221,7 +239,7 @@ pub fn decode_counted_tets(
     }
     let s = ty.size();
     let n = bytes.len() / s / 5;
-    let mut out = vec![[0u32; 4]; n];
+    let mut out = big_vec(n, [0u32; 4]);
     let ok = out
         .par_chunks_mut(CHUNK)
         .zip(bytes.par_chunks(CHUNK * 5 * s))

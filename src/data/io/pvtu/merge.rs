@@ -92,7 +92,9 @@ pub fn merge_shared(mut mesh: TetMesh) -> TetMesh {
             .filter(keep)
             .flat_map(|v| f.values[v * c..(v + 1) * c].to_vec())
             .collect();
+        f.values.shrink_to_fit();
     }
+    mesh.points.shrink_to_fit();
     mesh
 }
 
