@@ -13,7 +13,9 @@ use pvrsim::data::partition::{partition, partition_points};
 use pvrsim::data::{Field, TetMesh};
 
 fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(p)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(p)
 }
 
 /// Each tetrahedron as its four sorted vertex positions (bits), sorted:
@@ -84,15 +86,20 @@ fn pvrsim(args: &[&str]) -> (bool, String) {
     (out.status.success(), err)
 }
 
-/// A copy of VTK's zlib pieces in a temporary folder, `edit`ed.
+/// A copy of VTK's zlib pieces (appended base64) in a temporary folder, `edit`ed.
 fn copy_pieces(edit: impl FnOnce(&Path)) -> tempfile::TempDir {
+    copy_encoded("zlib", edit)
+}
+
+/// A copy of VTK's `enc` (raw, zlib) pieces as `a.pvtu`, `edit`ed.
+fn copy_encoded(enc: &str, edit: impl FnOnce(&Path)) -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
     for k in 0..4 {
-        let n = format!("aorta-small-zlib_{k}.vtu");
+        let n = format!("aorta-small-{enc}_{k}.vtu");
         std::fs::copy(data(&format!("pieces/{n}")), d.path().join(&n)).unwrap();
     }
     std::fs::copy(
-        data("pieces/aorta-small-zlib.pvtu"),
+        data(&format!("pieces/aorta-small-{enc}.pvtu")),
         d.path().join("a.pvtu"),
     )
     .unwrap();
@@ -135,7 +142,11 @@ fn a_missing_piece_is_named() {
 #[test]
 fn a_piece_with_other_fields_is_named() {
     let d = copy_pieces(|d| {
-        replace_in(&d.join("aorta-small-zlib_1.vtu"), "Name=\"pressure\"", "Name=\"presure!\"");
+        replace_in(
+            &d.join("aorta-small-zlib_1.vtu"),
+            "Name=\"pressure\"",
+            "Name=\"presure!\"",
+        );
     });
     info_fails(d.path(), &["<Piece> 1", "presure!", "<PPointData>"]);
 }
@@ -143,7 +154,11 @@ fn a_piece_with_other_fields_is_named() {
 #[test]
 fn a_piece_with_another_type_is_named() {
     let d = copy_pieces(|d| {
-        replace_in(&d.join("a.pvtu"), "type=\"Float32\" Name=\"speed\"", "type=\"Float64\" Name=\"speed\"");
+        replace_in(
+            &d.join("a.pvtu"),
+            "type=\"Float32\" Name=\"speed\"",
+            "type=\"Float64\" Name=\"speed\"",
+        );
     });
     info_fails(d.path(), &["<Piece> 0", "speed", "F64"]);
 }
@@ -164,7 +179,10 @@ fn a_piece_outside_the_folder_is_refused_unless_allowed() {
     info_fails(&sub, &["<Piece> 0", "outside", "PVRSIM_DATA_FILE_ANYWHERE"]);
     let abs = std::fs::read_to_string(data("pieces/aorta-small-zlib.pvtu"))
         .unwrap()
-        .replace("Source=\"aorta", &format!("Source=\"{}/aorta", d.path().display()));
+        .replace(
+            "Source=\"aorta",
+            &format!("Source=\"{}/aorta", d.path().display()),
+        );
     std::fs::write(sub.join("a.pvtu"), &abs).unwrap();
     info_fails(&sub, &["<Piece> 0", "outside"]);
     let out = Command::new(env!("CARGO_BIN_EXE_pvrsim"))
@@ -172,17 +190,32 @@ fn a_piece_outside_the_folder_is_refused_unless_allowed() {
         .env("PVRSIM_DATA_FILE_ANYWHERE", "1")
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
 fn a_truncated_piece_is_named() {
+    // Raw appended data cut short.
+    let d = copy_encoded("raw", |d| {
+        let p = d.join("aorta-small-raw_3.vtu");
+        let b = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &b[..b.len() - 5000]).unwrap();
+    });
+    info_fails(
+        d.path(),
+        &["<Piece> 3", "aorta-small-raw_3.vtu", "truncated"],
+    );
+    // zlib blocks in base64 (as VTK writes them) cut short.
     let d = copy_pieces(|d| {
         let p = d.join("aorta-small-zlib_3.vtu");
         let b = std::fs::read(&p).unwrap();
         std::fs::write(&p, &b[..b.len() - 5000]).unwrap();
     });
-    info_fails(d.path(), &["<Piece> 3", "aorta-small-zlib_3.vtu", "truncated"]);
+    info_fails(d.path(), &["<Piece> 3", "aorta-small-zlib_3.vtu", "base64"]);
 }
 
 #[test]
@@ -222,14 +255,22 @@ fn a_pvtu_scene_renders_like_the_whole_mesh() {
     std::fs::copy(data("aorta-small.vtk"), d.path().join("aorta-small.vtk")).unwrap();
     std::fs::write(&whole_scene, &scene).unwrap();
     let whole = read_mesh(&data("aorta-small.vtk")).unwrap();
-    write_pvtu(&whole, &partition(&whole, 4), Encoding::Zlib, &d.path().join("p.pvtu")).unwrap();
+    write_pvtu(
+        &whole,
+        &partition(&whole, 4),
+        Encoding::Zlib,
+        &d.path().join("p.pvtu"),
+    )
+    .unwrap();
     let piece_scene = d.path().join("pieces.toml");
     std::fs::write(
         &piece_scene,
         scene.replace("path  = \"aorta-small.vtk\"", "path  = \"p.pvtu\""),
     )
     .unwrap();
-    assert!(std::fs::read_to_string(&piece_scene).unwrap().contains("p.pvtu"));
+    assert!(std::fs::read_to_string(&piece_scene)
+        .unwrap()
+        .contains("p.pvtu"));
     let render = |s: &Path, o: &str| {
         let (ok, err) = pvrsim(&[
             "render",
@@ -259,7 +300,11 @@ fn small_mesh(n: usize, seed: u64) -> TetMesh {
     let points: Vec<[f64; 3]> = (0..np)
         .map(|i| {
             let j = (rnd() % 1000) as f64 / 1000.0;
-            [(i % 7) as f64 + j, ((i / 7) % 5) as f64, (i / 35) as f64 * 0.5]
+            [
+                (i % 7) as f64 + j,
+                ((i / 7) % 5) as f64,
+                (i / 35) as f64 * 0.5,
+            ]
         })
         .collect();
     let tets = (0..n)

@@ -96,7 +96,11 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         cells_target: a.cells,
         ..Default::default()
     };
-    let data_name = if a.pieces > 0 { "demo.pvtu" } else { "demo.vtk" };
+    let data_name = if a.pieces > 0 {
+        "demo.pvtu"
+    } else {
+        "demo.vtk"
+    };
     let (mesh, scene_text) =
         super::with_threads(a.threads, || demo_mesh_and_scene(&params, data_name))?;
     let gen_s = t.elapsed().as_secs_f64();

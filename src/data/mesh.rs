@@ -64,7 +64,11 @@ impl TetMesh {
             .par_iter()
             .position_first(|tet| tet.iter().any(|&v| v as usize >= n))
         {
-            let v = self.tets[t].iter().find(|&&v| v as usize >= n).copied().unwrap_or(0);
+            let v = self.tets[t]
+                .iter()
+                .find(|&&v| v as usize >= n)
+                .copied()
+                .unwrap_or(0);
             return Err(Error::data(
                 source,
                 format!("cell {t}"),

@@ -103,7 +103,10 @@ pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
         .into_par_iter()
         .filter(|&t| keep[t])
         .collect();
-    let used: Vec<AtomicBool> = (0..nv).into_par_iter().map(|_| AtomicBool::new(false)).collect();
+    let used: Vec<AtomicBool> = (0..nv)
+        .into_par_iter()
+        .map(|_| AtomicBool::new(false))
+        .collect();
     lattice_tet.par_iter().for_each(|&t| {
         for v in lat.tet(t) {
             used[v as usize].store(true, Ordering::Relaxed);
@@ -152,7 +155,8 @@ fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
                             if [dx, dy, dz] == [0; 3] && m2 == m {
                                 continue;
                             }
-                            let corners = t2.map(|c| [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz]);
+                            let corners =
+                                t2.map(|c| [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz]);
                             if face.iter().all(|p| corners.contains(p)) {
                                 found = Some(([dx, dy, dz], m2));
                                 break 'search;
@@ -178,7 +182,11 @@ pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) ->
     // `keep` and the count of kept ones before each 64-bit word.
     let words: Vec<u64> = keep
         .par_chunks(64)
-        .map(|c| c.iter().enumerate().fold(0u64, |w, (i, &k)| w | (k as u64) << i))
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
+        })
         .collect();
     let mut before = Vec::with_capacity(words.len());
     let mut acc = 0u32;

@@ -152,7 +152,10 @@ fn spacing_for(geo: &Geometry, cells: usize) -> f64 {
 pub fn generate(p: &DemoParams) -> TetMesh {
     let clock = std::time::Instant::now();
     let phase = |what: &str| {
-        tracing::info!("demo generator: {what} done at {:.2} s", clock.elapsed().as_secs_f64())
+        tracing::info!(
+            "demo generator: {what} done at {:.2} s",
+            clock.elapsed().as_secs_f64()
+        )
     };
     // The volume estimate only needs the sign, which culling at a margin of
     // K_JUNCTION (> every smooth-min bulge, k / 4) preserves.

@@ -20,7 +20,10 @@ pub struct FileBytes {
 enum Inner {
     Owned(Vec<u8>),
     #[cfg(unix)]
-    Mapped { ptr: *mut libc::c_void, len: usize },
+    Mapped {
+        ptr: *mut libc::c_void,
+        len: usize,
+    },
 }
 
 // The mapping is read-only and owned by this value.

@@ -193,7 +193,12 @@ pub fn decode_points(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<[f64; 3
 /// parallel, checking each index against `npoints`; `None` if any index is
 /// negative or out of range (the caller then reports the first bad cell by
 /// its general path), or for a floating-point `ty`.
-pub fn decode_tets(bytes: &[u8], ty: NumType, big_endian: bool, npoints: usize) -> Option<Vec<[u32; 4]>> {
+pub fn decode_tets(
+    bytes: &[u8],
+    ty: NumType,
+    big_endian: bool,
+    npoints: usize,
+) -> Option<Vec<[u32; 4]>> {
     use rayon::prelude::*;
     if ty.is_float() {
         return None;
@@ -287,23 +292,20 @@ pub fn is_arithmetic(bytes: &[u8], ty: NumType, big_endian: bool, step: i64) -> 
         return false;
     }
     let s = ty.size();
-    bytes
-        .par_chunks(CHUNK * s)
-        .enumerate()
-        .all(|(ci, b)| {
-            let mut buf = [0i64; 1024];
-            let mut base = (ci * CHUNK) as i64;
-            b.chunks(1024 * s).all(|bc| {
-                let v = &mut buf[..bc.len() / s];
-                decode_i64_into_seq(bc, ty, big_endian, v);
-                let ok = v
-                    .iter()
-                    .enumerate()
-                    .all(|(i, &x)| x == (base + i as i64) * step);
-                base += v.len() as i64;
-                ok
-            })
+    bytes.par_chunks(CHUNK * s).enumerate().all(|(ci, b)| {
+        let mut buf = [0i64; 1024];
+        let mut base = (ci * CHUNK) as i64;
+        b.chunks(1024 * s).all(|bc| {
+            let v = &mut buf[..bc.len() / s];
+            decode_i64_into_seq(bc, ty, big_endian, v);
+            let ok = v
+                .iter()
+                .enumerate()
+                .all(|(i, &x)| x == (base + i as i64) * step);
+            base += v.len() as i64;
+            ok
         })
+    })
 }
 
 fn decode_i64_into_seq(b: &[u8], ty: NumType, big_endian: bool, o: &mut [i64]) {

@@ -53,9 +53,16 @@ fn encoded<T: Sync>(
     Ok(())
 }
 
-fn floats_slice(w: &mut impl Write, vals: &[f64], per_line: usize, binary: bool) -> std::io::Result<()> {
+fn floats_slice(
+    w: &mut impl Write,
+    vals: &[f64],
+    per_line: usize,
+    binary: bool,
+) -> std::io::Result<()> {
     if binary {
-        encoded(w, vals, |v, b| b.extend_from_slice(&(*v as f32).to_be_bytes()))?;
+        encoded(w, vals, |v, b| {
+            b.extend_from_slice(&(*v as f32).to_be_bytes())
+        })?;
         writeln!(w)
     } else {
         floats(w, vals.iter().copied(), per_line, binary)
@@ -115,7 +122,9 @@ pub fn write_to(mesh: &TetMesh, w: &mut impl Write, binary: bool) -> std::io::Re
         })?;
         writeln!(w)?;
         writeln!(w, "CELL_TYPES {n}")?;
-        encoded(w, &mesh.tets, |_, b| b.extend_from_slice(&10i32.to_be_bytes()))?;
+        encoded(w, &mesh.tets, |_, b| {
+            b.extend_from_slice(&10i32.to_be_bytes())
+        })?;
         writeln!(w)?;
     } else {
         let conn: Vec<i32> = mesh

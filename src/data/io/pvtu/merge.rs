@@ -26,8 +26,7 @@ pub fn concat(parts: Vec<TetMesh>) -> TetMesh {
     }
     for m in parts {
         let base = out.points.len() as u32;
-        out.tets
-            .extend(m.tets.iter().map(|t| t.map(|v| v + base)));
+        out.tets.extend(m.tets.iter().map(|t| t.map(|v| v + base)));
         out.points.extend_from_slice(&m.points);
         for (o, f) in out.fields.iter_mut().zip(&m.fields) {
             o.values.extend_from_slice(&f.values);

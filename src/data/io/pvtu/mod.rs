@@ -114,15 +114,18 @@ pub fn read_header(path: &Path) -> Result<PvtuHeader> {
                 })?;
                 let ncomp = match get(&attrs, "NumberOfComponents") {
                     None => 1,
-                    Some(c) => c.trim().parse::<usize>().ok().filter(|&c| c >= 1).ok_or_else(
-                        || {
+                    Some(c) => c
+                        .trim()
+                        .parse::<usize>()
+                        .ok()
+                        .filter(|&c| c >= 1)
+                        .ok_or_else(|| {
                             Error::data(
                                 path,
                                 loc(),
                                 format!("NumberOfComponents=\"{c}\" is not a positive integer"),
                             )
-                        },
-                    )?,
+                        })?,
                 };
                 match parent {
                     "PPoints" => head.points_type = Some(ty),

@@ -39,7 +39,10 @@ fn xml_escape(s: &str) -> String {
 
 /// `Float32` if every value is exactly a single-precision number.
 fn float_type(values: &[f64]) -> NumType {
-    if values.par_iter().all(|&v| (v as f32) as f64 == v || v.is_nan()) {
+    if values
+        .par_iter()
+        .all(|&v| (v as f32) as f64 == v || v.is_nan())
+    {
         NumType::F32
     } else {
         NumType::F64
@@ -130,7 +133,9 @@ impl ArrayTypes {
         ArrayTypes {
             points: float_type(mesh.points.as_flattened()),
             fields: mesh.fields.iter().map(|f| float_type(&f.values)).collect(),
-            index: if mesh.points.len() < i32::MAX as usize && 4 * mesh.tets.len() < i32::MAX as usize {
+            index: if mesh.points.len() < i32::MAX as usize
+                && 4 * mesh.tets.len() < i32::MAX as usize
+            {
                 NumType::I32
             } else {
                 NumType::I64
@@ -175,9 +180,11 @@ pub fn write_piece(
     for (f, &t) in mesh.fields.iter().zip(&types.fields) {
         let c = f.components;
         let bytes = floats_le(
-            verts
-                .iter()
-                .flat_map(|&v| f.values[v as usize * c..(v as usize + 1) * c].iter().copied()),
+            verts.iter().flat_map(|&v| {
+                f.values[v as usize * c..(v as usize + 1) * c]
+                    .iter()
+                    .copied()
+            }),
             t,
         );
         push(
@@ -271,7 +278,9 @@ pub fn write_pvtu(
         .and_then(|s| s.to_str())
         .ok_or_else(|| Error::data(out, "file name", "not a file name"))?;
     let dir = out.parent().unwrap_or(Path::new(""));
-    let names: Vec<String> = (0..pieces.len()).map(|k| format!("{stem}_{k}.vtu")).collect();
+    let names: Vec<String> = (0..pieces.len())
+        .map(|k| format!("{stem}_{k}.vtu"))
+        .collect();
     let paths: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
     let results: Vec<Result<()>> = pieces
         .par_iter()

@@ -96,9 +96,7 @@ impl<'a> Parser<'a> {
                 if expect == "CONNECTIVITY" {
                     let (ostart, oty) = raw[0];
                     let ob = &self.d[ostart..ostart + noff * oty.size()];
-                    if Some(nconn) == (noff - 1).checked_mul(4)
-                        && is_arithmetic(ob, oty, true, 4)
-                    {
+                    if Some(nconn) == (noff - 1).checked_mul(4) && is_arithmetic(ob, oty, true, 4) {
                         if let Some(t) = decode_tets(b, ty, true, np) {
                             self.release_from(ostart);
                             return Ok(Cells {

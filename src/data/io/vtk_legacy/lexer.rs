@@ -155,7 +155,11 @@ impl<'a> Parser<'a> {
     pub(super) fn points(&mut self, n: usize, ty: NumType) -> Result<Vec<[f64; 3]>> {
         if self.binary {
             let start = self.pos;
-            let p = decode_points(self.binary_block(n.saturating_mul(3), ty, "POINTS")?, ty, true);
+            let p = decode_points(
+                self.binary_block(n.saturating_mul(3), ty, "POINTS")?,
+                ty,
+                true,
+            );
             self.release_from(start);
             Ok(p)
         } else {

@@ -31,9 +31,9 @@
 use std::path::Path;
 
 use super::decompose::{vtk_type_name, CellShape, TetBuilder};
+use super::line_of;
 use super::mapped::FileBytes;
 use super::numeric::{decode_f64, decode_i64, decode_points, NumType};
-use super::line_of;
 use crate::data::{Field, TetMesh};
 use crate::error::{Error, Result};
 
@@ -232,10 +232,7 @@ impl<'a> Parser<'a> {
                         (points.as_ref().map(|p| p.0.len()), "points")
                     } else {
                         section = Section::Cell(n);
-                        (
-                            cells.as_ref().map(Cells::count),
-                            "cells",
-                        )
+                        (cells.as_ref().map(Cells::count), "cells")
                     };
                     if let Some(e) = expected.filter(|&e| e != n) {
                         return Err(self.at_line(

@@ -26,8 +26,8 @@ use std::path::Path;
 mod decode;
 
 use super::decompose::{vtk_type_name, CellShape, TetBuilder};
-use super::numeric::NumType;
 use super::mapped::FileBytes;
+use super::numeric::NumType;
 use crate::data::{Field, TetMesh};
 use crate::error::{Error, Result};
 
@@ -588,7 +588,11 @@ fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
         for (&e, &t) in pc.offs.iter().zip(&pc.types) {
             let e = e as usize;
             verts.clear();
-            verts.extend(pc.conn[s..e].iter().map(|&v| if v < 0 { v } else { v + pc.base }));
+            verts.extend(
+                pc.conn[s..e]
+                    .iter()
+                    .map(|&v| if v < 0 { v } else { v + pc.base }),
+            );
             s = e;
             let shape = CellShape::from_vtk(t).ok_or_else(|| {
                 Error::data(path, format!("cell {c}"), format!("cell type {t} ({}) is not supported; pvrsim reads tetrahedra, hexahedra, voxels, wedges and pyramids, and skips lower-dimensional cells", vtk_type_name(t)))
