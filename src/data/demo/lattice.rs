@@ -142,7 +142,7 @@ pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
 fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
     let mut out = [[([0i64; 3], 0usize); 4]; 6];
     for (m, tpl) in templates.iter().enumerate() {
-        for f in 0..4 {
+        for (f, slot) in out[m].iter_mut().enumerate() {
             let face: Vec<[i64; 3]> = (0..4)
                 .filter(|&i| i != f)
                 .map(|i| tpl[i].map(|c| c as i64))
@@ -166,7 +166,7 @@ fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
                 }
             }
             // The Kuhn subdivision is conforming: every face has a partner.
-            out[m][f] = found.unwrap_or(([i64::MAX; 3], 0));
+            *slot = found.unwrap_or(([i64::MAX; 3], 0));
         }
     }
     out

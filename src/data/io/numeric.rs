@@ -238,15 +238,25 @@ pub fn decode_counted_tets(
     big_endian: bool,
     npoints: usize,
 ) -> Option<Vec<[u32; 4]>> {
+    let mut out = big_vec(bytes.len() / ty.size() / 5, [0u32; 4]);
+    decode_counted_tets_into(bytes, ty, big_endian, npoints, &mut out).then_some(out)
+}
+
+/// [`decode_counted_tets`] into `out` (`out.len()` cells); `false` on a
+/// count other than 4, an index out of range, or a floating-point `ty`.
+pub fn decode_counted_tets_into(
+    bytes: &[u8],
+    ty: NumType,
+    big_endian: bool,
+    npoints: usize,
+    out: &mut [[u32; 4]],
+) -> bool {
     use rayon::prelude::*;
     if ty.is_float() {
-        return None;
+        return false;
     }
     let s = ty.size();
-    let n = bytes.len() / s / 5;
-    let mut out = big_vec(n, [0u32; 4]);
-    let ok = out
-        .par_chunks_mut(CHUNK)
+    out.par_chunks_mut(CHUNK)
         .zip(bytes.par_chunks(CHUNK * 5 * s))
         .all(|(o, b)| {
             let mut buf = [0i64; 1280];
@@ -263,8 +273,7 @@ pub fn decode_counted_tets(
                 }
             }
             good
-        });
-    ok.then_some(out)
+        })
 }
 
 /// Whether all `bytes` (integers of `ty`) equal `value`, checked in parallel.

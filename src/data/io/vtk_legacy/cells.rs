@@ -2,7 +2,7 @@
 //! and the assembly of points, cells and types into tetrahedra.
 
 use super::*;
-use crate::data::io::numeric::{decode_counted_tets, decode_tets, is_arithmetic};
+use crate::data::io::numeric::{big_vec, decode_counted_tets_into, decode_tets, is_arithmetic};
 
 impl<'a> Parser<'a> {
     pub(super) fn cells_classic(
@@ -18,7 +18,20 @@ impl<'a> Parser<'a> {
             // decoded on all cores; anything else takes the general path
             // below, which names the fault.
             let b = self.binary_block(size, NumType::I32, "CELLS")?;
-            if let Some(t) = decode_counted_tets(b, NumType::I32, true, np) {
+            // In slabs of 1 Mi cells, each slab's pages given back once
+            // decoded: the block is never wholly resident beside the tets.
+            const SLAB: usize = 1 << 20;
+            let mut t = big_vec(n, [0u32; 4]);
+            let ok = t.chunks_mut(SLAB).zip(b.chunks(SLAB * 20)).enumerate().all(
+                |(i, (o, bs))| {
+                    let good = decode_counted_tets_into(bs, NumType::I32, true, np, o);
+                    if let Some(f) = self.file {
+                        f.release(data_at + i * SLAB * 20, data_at + (i + 1) * SLAB * 20);
+                    }
+                    good
+                },
+            );
+            if ok {
                 self.release_from(data_at);
                 return Ok(Cells {
                     offsets: Vec::new(),
