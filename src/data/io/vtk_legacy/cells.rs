@@ -22,15 +22,17 @@ impl<'a> Parser<'a> {
             // decoded: the block is never wholly resident beside the tets.
             const SLAB: usize = 1 << 20;
             let mut t = big_vec(n, [0u32; 4]);
-            let ok = t.chunks_mut(SLAB).zip(b.chunks(SLAB * 20)).enumerate().all(
-                |(i, (o, bs))| {
+            let ok = t
+                .chunks_mut(SLAB)
+                .zip(b.chunks(SLAB * 20))
+                .enumerate()
+                .all(|(i, (o, bs))| {
                     let good = decode_counted_tets_into(bs, NumType::I32, true, np, o);
                     if let Some(f) = self.file {
                         f.release(data_at + i * SLAB * 20, data_at + (i + 1) * SLAB * 20);
                     }
                     good
-                },
-            );
+                });
             if ok {
                 self.release_from(data_at);
                 return Ok(Cells {
