@@ -32,6 +32,11 @@ pub struct DemoArgs {
     /// Nodes of the simulated cluster run; 0 skips it.
     #[arg(long, default_value_t = 8)]
     pub nodes: usize,
+    /// Write the mesh as demo.pvtu with this many spatially coherent
+    /// pieces (demo_0.vtu, ...; raw appended data, as `pvrsim partition`)
+    /// instead of demo.vtk; 0 writes demo.vtk.
+    #[arg(long, default_value_t = 0)]
+    pub pieces: usize,
 }
 
 /// Fewest tetrahedra `--cells` accepts: below this the vessel's lattice is
@@ -46,6 +51,12 @@ impl Validate for DemoArgs {
             (MIN_CELLS..=MAX_CELLS).contains(&self.cells),
             "--cells {}: must be between {MIN_CELLS} and {MAX_CELLS}",
             self.cells
+        );
+        anyhow::ensure!(
+            self.pieces <= super::partition::MAX_PIECES,
+            "--pieces {}: at most {}",
+            self.pieces,
+            super::partition::MAX_PIECES
         );
         Ok(())
     }
@@ -85,8 +96,13 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         cells_target: a.cells,
         ..Default::default()
     };
+    let data_name = if a.pieces > 0 {
+        "demo.pvtu"
+    } else {
+        "demo.vtk"
+    };
     let (mesh, scene_text) =
-        super::with_threads(a.threads, || demo_mesh_and_scene(&params, "demo.vtk"))?;
+        super::with_threads(a.threads, || demo_mesh_and_scene(&params, data_name))?;
     let gen_s = t.elapsed().as_secs_f64();
     anyhow::ensure!(
         !mesh.tets.is_empty(),
@@ -99,9 +115,29 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         mesh.points.len(),
         gen_s
     );
-    let vtk = a.out_dir.join("demo.vtk");
+    let vtk = a.out_dir.join(data_name);
     super::scene::ensure_finite_toml(&scene_text, &a.out_dir.join("demo.toml"))?;
-    crate::data::io::write_vtk_legacy(&mesh, &vtk, true)?;
+    if a.pieces > 0 {
+        anyhow::ensure!(
+            mesh.tets.len() >= a.pieces,
+            "--pieces {}: the mesh has only {} cells",
+            a.pieces,
+            mesh.tets.len()
+        );
+        let parts = super::with_threads(a.threads, || {
+            crate::data::partition::partition(&mesh, a.pieces)
+        })?;
+        super::with_threads(a.threads, || {
+            crate::data::io::pvtu::write::write_pvtu(
+                &mesh,
+                &parts,
+                crate::data::io::pvtu::write::Encoding::Raw,
+                &vtk,
+            )
+        })??;
+    } else {
+        crate::data::io::write_vtk_legacy(&mesh, &vtk, true)?;
+    }
     let scene_path = a.out_dir.join("demo.toml");
     std::fs::write(&scene_path, &scene_text)
         .with_context(|| format!("cannot write {}", scene_path.display()))?;

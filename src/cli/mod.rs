@@ -13,6 +13,7 @@ pub mod fidelity;
 pub mod generate;
 pub mod generate_mesh;
 pub mod info;
+pub mod partition;
 pub mod render;
 pub mod scene;
 pub mod splat;
@@ -62,6 +63,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Generate the built-in demo dataset, render it, write demo.png and a stats summary.
     Demo(demo::DemoArgs),
+    /// Split a mesh into spatially coherent pieces, written as a .pvtu with one .vtu per piece.
+    Partition(partition::PartitionArgs),
     /// Generate a test volume (hydrogen, marschner-lobb, resample, mesh-field, paper-*) as .nrrd with its scene .toml.
     Generate(generate::GenerateArgs),
     /// Time the renderers on the shared scenes (aorta meshes; --grids, --adaptive, --orderings, --lod-table).
@@ -87,6 +90,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cluster(a) => cluster::run(*a),
         Command::Info(a) => info::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Partition(a) => partition::run(a),
         Command::Generate(a) if a.kind == generate::Kind::MeshField => generate_mesh::run(a),
         Command::Generate(a) => generate::run(a),
         Command::Bench(a) => bench::run(a),

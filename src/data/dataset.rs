@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 /// A loaded dataset.
 #[derive(Debug, Clone)]
 pub enum Dataset {
-    /// Tetrahedra with point fields (`.vtk`, `.vtu`, `.inp`).
+    /// Tetrahedra with point fields (`.vtk`, `.vtu`, `.pvtu`, `.inp`).
     Mesh(TetMesh),
     /// A regular grid (`.nrrd`, `.nhdr`, `.nii`, `.nii.gz`, `.vti`, `.fld`).
     Volume(Volume),
@@ -38,7 +38,7 @@ pub fn is_mesh_file(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
-        .is_some_and(|e| matches!(e.as_str(), "vtk" | "vtu" | "inp"))
+        .is_some_and(|e| matches!(e.as_str(), "vtk" | "vtu" | "pvtu" | "inp"))
 }
 
 /// Reads a mesh or a volume, choosing by the file name. `field` is passed

@@ -46,27 +46,34 @@ impl TetMesh {
     /// Checks that every index is in range and every coordinate and field
     /// value is finite; `source` names the file for the error message.
     pub fn validate(&self, source: &std::path::Path) -> Result<()> {
+        use rayon::prelude::*;
         let n = self.points.len();
-        if let Some((i, p)) = self
+        if let Some(i) = self
             .points
-            .iter()
-            .enumerate()
-            .find(|(_, p)| p.iter().any(|v| !v.is_finite()))
+            .par_iter()
+            .position_first(|p| p.iter().any(|v| !v.is_finite()))
         {
             return Err(Error::data(
                 source,
                 format!("point {i}"),
-                format!("coordinate is not finite: {p:?}"),
+                format!("coordinate is not finite: {:?}", self.points[i]),
             ));
         }
-        for (t, tet) in self.tets.iter().enumerate() {
-            if let Some(&v) = tet.iter().find(|&&v| v as usize >= n) {
-                return Err(Error::data(
-                    source,
-                    format!("cell {t}"),
-                    format!("vertex index {v} is out of range (the mesh has {n} points)"),
-                ));
-            }
+        if let Some(t) = self
+            .tets
+            .par_iter()
+            .position_first(|tet| tet.iter().any(|&v| v as usize >= n))
+        {
+            let v = self.tets[t]
+                .iter()
+                .find(|&&v| v as usize >= n)
+                .copied()
+                .unwrap_or(0);
+            return Err(Error::data(
+                source,
+                format!("cell {t}"),
+                format!("vertex index {v} is out of range (the mesh has {n} points)"),
+            ));
         }
         for f in &self.fields {
             if f.values.len() != f.components * n {
@@ -82,7 +89,7 @@ impl TetMesh {
                     ),
                 ));
             }
-            if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
+            if let Some(i) = f.values.par_iter().position_first(|v| !v.is_finite()) {
                 return Err(Error::data(
                     source,
                     format!("field \"{}\"", f.name),
@@ -95,6 +102,18 @@ impl TetMesh {
             }
         }
         Ok(())
+    }
+
+    /// Bytes the mesh's arrays hold on the heap (allocated capacity of the
+    /// points, tetrahedra and field values; names and headers not counted).
+    pub fn heap_bytes(&self) -> usize {
+        self.points.capacity() * std::mem::size_of::<[f64; 3]>()
+            + self.tets.capacity() * std::mem::size_of::<[u32; 4]>()
+            + self
+                .fields
+                .iter()
+                .map(|f| f.values.capacity() * std::mem::size_of::<f64>())
+                .sum::<usize>()
     }
 
     /// The per-vertex scalar to render: a 1-component field by name, or the
@@ -127,15 +146,29 @@ impl TetMesh {
 
     /// Axis-aligned bounds `(min, max)` of the points.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.points {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
+        use rayon::prelude::*;
+        let empty = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        self.points
+            .par_chunks(1 << 16)
+            .map(|c| {
+                let (mut lo, mut hi) = empty;
+                for p in c {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(p[k]);
+                        hi[k] = hi[k].max(p[k]);
+                    }
+                }
+                (lo, hi)
+            })
+            .reduce(
+                || empty,
+                |a, b| {
+                    (
+                        [0, 1, 2].map(|k| a.0[k].min(b.0[k])),
+                        [0, 1, 2].map(|k| a.1[k].max(b.1[k])),
+                    )
+                },
+            )
     }
 
     /// Signed volume of tetrahedron `t` (positive for the VTK orientation).
@@ -152,15 +185,22 @@ impl TetMesh {
     /// Face adjacency, built by sorting the `4 n` faces by their sorted vertex
     /// triples: O(n log n), no hashing.
     pub fn adjacency(&self) -> Adjacency {
-        let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(self.tets.len() * 4);
-        for (t, tet) in self.tets.iter().enumerate() {
-            for (f, slots) in FACE_VERTICES.iter().enumerate() {
-                let mut key = [tet[slots[0]], tet[slots[1]], tet[slots[2]]];
-                key.sort_unstable();
-                faces.push((key, (t as u32) << 2 | f as u32));
-            }
-        }
-        faces.sort_unstable();
+        use rayon::prelude::*;
+        // Every (key, slot) pair is distinct, so the parallel unstable sort
+        // gives one order whatever the thread count.
+        let mut faces: Vec<([u32; 3], u32)> = vec![([0; 3], 0); self.tets.len() * 4];
+        faces
+            .par_chunks_mut(4)
+            .zip(self.tets.par_iter())
+            .enumerate()
+            .for_each(|(t, (out, tet))| {
+                for (f, slots) in FACE_VERTICES.iter().enumerate() {
+                    let mut key = [tet[slots[0]], tet[slots[1]], tet[slots[2]]];
+                    key.sort_unstable();
+                    out[f] = (key, (t as u32) << 2 | f as u32);
+                }
+            });
+        faces.par_sort_unstable();
         let mut neighbors = vec![[NO_NEIGHBOR; 4]; self.tets.len()];
         let mut nonmanifold_faces = 0;
         let mut i = 0;

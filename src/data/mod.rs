@@ -9,6 +9,7 @@ pub mod demo_volume;
 pub mod io;
 pub mod lattice;
 pub mod mesh;
+pub mod partition;
 pub mod quality;
 pub mod volume;
 

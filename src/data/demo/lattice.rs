@@ -97,27 +97,35 @@ pub(super) struct Extracted {
 }
 
 pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
+    use std::sync::atomic::{AtomicBool, Ordering};
     let nv = lat.n[0] * lat.n[1] * lat.n[2];
-    let lattice_tet: Vec<usize> = (0..keep.len()).filter(|&t| keep[t]).collect();
-    let mut used = vec![false; nv];
-    for &t in &lattice_tet {
+    let lattice_tet: Vec<usize> = (0..keep.len())
+        .into_par_iter()
+        .filter(|&t| keep[t])
+        .collect();
+    let used: Vec<AtomicBool> = (0..nv)
+        .into_par_iter()
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    lattice_tet.par_iter().for_each(|&t| {
         for v in lat.tet(t) {
-            used[v as usize] = true;
+            used[v as usize].store(true, Ordering::Relaxed);
         }
-    }
+    });
     let mut map = vec![u32::MAX; nv];
     let mut lattice_vertex = Vec::new();
     for v in 0..nv {
-        if used[v] {
+        if used[v].load(Ordering::Relaxed) {
             map[v] = lattice_vertex.len() as u32;
             lattice_vertex.push(v);
         }
     }
+    drop(used);
     let tets = lattice_tet
-        .iter()
+        .par_iter()
         .map(|&t| lat.tet(t).map(|v| map[v as usize]))
         .collect();
-    let points = lattice_vertex.iter().map(|&v| lat.pos(v)).collect();
+    let points = lattice_vertex.par_iter().map(|&v| lat.pos(v)).collect();
     Extracted {
         mesh: TetMesh {
             points,
@@ -126,5 +134,98 @@ pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
         },
         lattice_vertex,
         lattice_tet,
+    }
+}
+
+/// For lattice template `m` and its face `f` (opposite corner `f`): the
+/// cube offset and template of the other lattice tetrahedron with that face.
+fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
+    let mut out = [[([0i64; 3], 0usize); 4]; 6];
+    for (m, tpl) in templates.iter().enumerate() {
+        for (f, slot) in out[m].iter_mut().enumerate() {
+            let face: Vec<[i64; 3]> = (0..4)
+                .filter(|&i| i != f)
+                .map(|i| tpl[i].map(|c| c as i64))
+                .collect();
+            let mut found = None;
+            'search: for dz in -1..=1i64 {
+                for dy in -1..=1i64 {
+                    for dx in -1..=1i64 {
+                        for (m2, t2) in templates.iter().enumerate() {
+                            if [dx, dy, dz] == [0; 3] && m2 == m {
+                                continue;
+                            }
+                            let corners =
+                                t2.map(|c| [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz]);
+                            if face.iter().all(|p| corners.contains(p)) {
+                                found = Some(([dx, dy, dz], m2));
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            // The Kuhn subdivision is conforming: every face has a partner.
+            *slot = found.unwrap_or(([i64::MAX; 3], 0));
+        }
+    }
+    out
+}
+
+/// The face adjacency of an extracted mesh, from the lattice (the same as
+/// [`TetMesh::adjacency`], which sorts all faces, but in linear time): the
+/// neighbour across a face is the lattice tetrahedron on its other side if
+/// it is kept. A subset of a conforming lattice has no face shared by more
+/// than two tetrahedra.
+pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) -> Adjacency {
+    // Rank of a kept lattice tetrahedron = its mesh index: a bitset of
+    // `keep` and the count of kept ones before each 64-bit word.
+    let words: Vec<u64> = keep
+        .par_chunks(64)
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
+        })
+        .collect();
+    let mut before = Vec::with_capacity(words.len());
+    let mut acc = 0u32;
+    for w in &words {
+        before.push(acc);
+        acc += w.count_ones();
+    }
+    let rank = |t: usize| -> u32 {
+        let (w, b) = (t / 64, t % 64);
+        before[w] + (words[w] & ((1u64 << b) - 1)).count_ones()
+    };
+    let table = face_table(&lat.templates);
+    let c = lat.cubes();
+    let neighbors = ex
+        .lattice_tet
+        .par_iter()
+        .map(|&t| {
+            let cube = t / 6;
+            let ijk = [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])];
+            table[t % 6].map(|(d, m2)| {
+                let mut n = [0usize; 3];
+                for k in 0..3 {
+                    let v = ijk[k] as i64 + d[k];
+                    if v < 0 || v >= c[k] as i64 {
+                        return NO_NEIGHBOR;
+                    }
+                    n[k] = v as usize;
+                }
+                let nt = (n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2;
+                if keep[nt] {
+                    rank(nt)
+                } else {
+                    NO_NEIGHBOR
+                }
+            })
+        })
+        .collect();
+    Adjacency {
+        neighbors,
+        nonmanifold_faces: 0,
     }
 }

@@ -150,6 +150,13 @@ fn spacing_for(geo: &Geometry, cells: usize) -> f64 {
 
 /// Generates the demo mesh (see the module documentation).
 pub fn generate(p: &DemoParams) -> TetMesh {
+    let clock = std::time::Instant::now();
+    let phase = |what: &str| {
+        tracing::info!(
+            "demo generator: {what} done at {:.2} s",
+            clock.elapsed().as_secs_f64()
+        )
+    };
     // The volume estimate only needs the sign, which culling at a margin of
     // K_JUNCTION (> every smooth-min bulge, k / 4) preserves.
     let h = spacing_for(&Geometry::new(K_JUNCTION), p.cells_target);
@@ -175,6 +182,7 @@ pub fn generate(p: &DemoParams) -> TetMesh {
             (0..n[1]).flat_map(move |j| (0..n[0]).map(move |i| geo.phi(lat.pos(lat.vid(i, j, k)))))
         })
         .collect();
+    phase("level set");
 
     // Keep tetrahedra whose mean vertex value is inside.
     let c = lat.cubes();
@@ -187,7 +195,9 @@ pub fn generate(p: &DemoParams) -> TetMesh {
     // Repair pinches and keep the largest component; then peel off the
     // tetrahedra whose four vertices all lie on the boundary (they would be
     // flattened by snapping), and repair again.
+    phase("lattice selection");
     let (mut ex, mut adj) = clean(&lat, &mut keep);
+    phase("first clean-up");
     for _ in 0..3 {
         let mut on_boundary = vec![false; ex.mesh.points.len()];
         for tri in boundary_triangles(&ex.mesh, &adj) {
@@ -208,6 +218,7 @@ pub fn generate(p: &DemoParams) -> TetMesh {
             break;
         }
         (ex, adj) = clean(&lat, &mut keep);
+        phase("peel and clean-up");
     }
     let Extracted {
         mut mesh,
@@ -222,6 +233,7 @@ pub fn generate(p: &DemoParams) -> TetMesh {
             on_boundary[v as usize] = true;
         }
     }
+    phase("boundary");
     relax(
         &mut mesh,
         &geo,
@@ -231,7 +243,9 @@ pub fn generate(p: &DemoParams) -> TetMesh {
         &tris,
         p,
     );
+    phase("relaxation");
     mesh.fields = flow_fields(&mesh, &geo, &on_boundary, h);
+    phase("fields");
     mesh
 }
 
@@ -240,7 +254,7 @@ pub fn generate(p: &DemoParams) -> TetMesh {
 /// largest face-connected component; returns the extracted mesh.
 fn clean(lat: &Lattice, keep: &mut [bool]) -> (Extracted, Adjacency) {
     let mut ex = extract(lat, keep);
-    let mut adj = ex.mesh.adjacency();
+    let mut adj = lattice_adjacency(lat, keep, &ex);
     for _ in 0..50 {
         let (bad_e, bad_v) = boundary_defects(&ex.mesh, &adj);
         if bad_e.is_empty() && bad_v.is_empty() {
@@ -263,7 +277,7 @@ fn clean(lat: &Lattice, keep: &mut [bool]) -> (Extracted, Adjacency) {
             }
         }
         ex = extract(lat, keep);
-        adj = ex.mesh.adjacency();
+        adj = lattice_adjacency(lat, keep, &ex);
     }
     let (comp, ncomp) = components(&adj);
     if ncomp > 1 {
@@ -280,7 +294,7 @@ fn clean(lat: &Lattice, keep: &mut [bool]) -> (Extracted, Adjacency) {
             }
         }
         ex = extract(lat, keep);
-        adj = ex.mesh.adjacency();
+        adj = lattice_adjacency(lat, keep, &ex);
     }
     (ex, adj)
 }

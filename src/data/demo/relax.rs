@@ -63,15 +63,26 @@ pub(super) fn relax(
     let smooth_below = -35f64.to_radians().cos();
 
     // Applies one colour class's moves and refreshes the cached qualities.
+    // Two vertices of one class never share a tetrahedron, so each
+    // tetrahedron is refreshed at most once: in parallel, same result.
     let apply = |mesh: &mut TetMesh, quality: &mut Vec<f64>, moves: Vec<(usize, V3)>| {
         for &(v, q) in &moves {
             mesh.points[v] = q;
         }
-        for &(v, _) in &moves {
-            for &t in inc.of(v) {
-                quality[t as usize] =
-                    tet_quality(mesh.tets[t as usize].map(|w| mesh.points[w as usize]));
-            }
+        let m: &TetMesh = mesh;
+        let fresh: Vec<(u32, f64)> = moves
+            .par_iter()
+            .flat_map_iter(|&(v, _)| {
+                inc.of(v).iter().map(move |&t| {
+                    (
+                        t,
+                        tet_quality(m.tets[t as usize].map(|w| m.points[w as usize])),
+                    )
+                })
+            })
+            .collect();
+        for (t, q) in fresh {
+            quality[t as usize] = q;
         }
     };
     let worst_cached = |quality: &[f64], v: usize| {

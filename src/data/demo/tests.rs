@@ -306,3 +306,20 @@ fn print_statistics() {
         q.iter().filter(|&&a| a < 20.0).count()
     );
 }
+
+#[test]
+fn lattice_adjacency_equals_the_sorted_face_adjacency() {
+    let lat = Lattice {
+        origin: [0.0; 3],
+        h: 1.0,
+        n: [6, 5, 4],
+        templates: kuhn_templates(),
+    };
+    let c = lat.cubes();
+    let ntets = c[0] * c[1] * c[2] * 6;
+    // A deterministic, irregular subset of the lattice.
+    let keep: Vec<bool> = (0..ntets).map(|t| (t * 7919 % 13) < 9).collect();
+    let ex = extract(&lat, &keep);
+    assert!(ex.mesh.tets.len() > 100);
+    assert_eq!(lattice_adjacency(&lat, &keep, &ex), ex.mesh.adjacency());
+}

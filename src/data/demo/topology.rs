@@ -29,7 +29,7 @@ pub(super) fn boundary_defects(mesh: &TetMesh, adj: &Adjacency) -> (Vec<[u32; 2]
             edges.push([a.min(b), a.max(b)]);
         }
     }
-    edges.sort_unstable();
+    edges.par_sort_unstable();
     let mut bad_edges = Vec::new();
     let mut i = 0;
     while i < edges.len() {
@@ -49,7 +49,7 @@ pub(super) fn boundary_defects(mesh: &TetMesh, adj: &Adjacency) -> (Vec<[u32; 2]
         link.push((t[1], t[2], t[0]));
         link.push((t[2], t[0], t[1]));
     }
-    link.sort_unstable();
+    link.par_sort_unstable();
     let mut bad_vertices = Vec::new();
     let mut i = 0;
     while i < link.len() {

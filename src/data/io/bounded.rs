@@ -22,7 +22,7 @@ pub const ALLOW_ENV: &str = "PVRSIM_DATA_FILE_ANYWHERE";
 pub const SLACK: u64 = 1 << 20;
 
 /// Refuses what is not a regular file (checked on the opened file).
-fn open_regular(path: &Path) -> Result<(std::fs::File, u64)> {
+pub(crate) fn open_regular(path: &Path) -> Result<(std::fs::File, u64)> {
     // Checked before opening (opening a FIFO blocks until a writer comes)
     // and again on the opened file (the name may have changed between).
     let before = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;

@@ -9,6 +9,7 @@
 //! | `.vtk` | VTK legacy `UNSTRUCTURED_GRID`, ASCII or BINARY, classic and 5.1 cell layout | [`vtk_legacy`] |
 //! | `.vtu` | VTK XML `UnstructuredGrid`: ascii, inline base64, appended raw/base64, zlib | [`vtu`] |
 //! | `.inp` | AVS UCD ASCII | [`avs_ucd`] |
+//! | `.pvtu` | VTK XML `PUnstructuredGrid`: `.vtu` pieces, read in parallel and joined | [`pvtu`] |
 //!
 //! Every reader returns tetrahedra (other 3D linear cells are decomposed, see
 //! [`decompose`]) and point-data fields; cell data is skipped. Every error is
@@ -18,7 +19,9 @@
 pub mod avs_ucd;
 pub mod bounded;
 pub mod decompose;
+pub mod mapped;
 pub mod numeric;
+pub mod pvtu;
 pub mod volume;
 pub mod vtk_legacy;
 pub mod vtk_write;
@@ -35,7 +38,7 @@ pub use vtk_write::write_vtk_legacy;
 
 /// The extensions [`read_mesh`] understands, for messages.
 pub const SUPPORTED: &str =
-    ".vtk (VTK legacy), .vtu (VTK XML UnstructuredGrid), .inp (AVS UCD ASCII)";
+    ".vtk (VTK legacy), .vtu (VTK XML UnstructuredGrid), .pvtu (its partitioned form), .inp (AVS UCD ASCII)";
 
 /// Reads a tetrahedral mesh, choosing the format by the file's extension
 /// (case-insensitive), and validates it ([`TetMesh::validate`]: indices in
@@ -48,6 +51,7 @@ pub fn read_mesh(path: &Path) -> Result<TetMesh> {
     let mesh = match ext.as_deref() {
         Some("vtk") => vtk_legacy::read(path)?,
         Some("vtu") => vtu::read(path)?,
+        Some("pvtu") => pvtu::read(path)?,
         Some("inp") => avs_ucd::read(path)?,
         _ => {
             return Err(Error::data(

@@ -81,56 +81,254 @@ impl NumType {
     }
 }
 
-macro_rules! decode_as {
-    ($bytes:expr, $big:expr, $t:ty, $out:ty) => {{
+macro_rules! decode_into {
+    ($bytes:expr, $big:expr, $t:ty, $out:expr) => {{
         const N: usize = std::mem::size_of::<$t>();
-        $bytes
-            .chunks_exact(N)
-            .map(|c| {
-                let mut a = [0u8; N];
-                a.copy_from_slice(c);
-                (if $big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as $out
-            })
-            .collect()
+        for (o, c) in $out.iter_mut().zip($bytes.chunks_exact(N)) {
+            let mut a = [0u8; N];
+            a.copy_from_slice(c);
+            *o = (if $big {
+                <$t>::from_be_bytes(a)
+            } else {
+                <$t>::from_le_bytes(a)
+            }) as _;
+        }
     }};
 }
 
-/// Decodes `bytes` (whose length should be a multiple of `ty.size()`; a
-/// trailing partial value is ignored) as values of `ty` into `f64`.
-pub fn decode_f64(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<f64> {
-    match ty {
-        NumType::I8 => decode_as!(bytes, big_endian, i8, f64),
-        NumType::U8 => decode_as!(bytes, big_endian, u8, f64),
-        NumType::I16 => decode_as!(bytes, big_endian, i16, f64),
-        NumType::U16 => decode_as!(bytes, big_endian, u16, f64),
-        NumType::I32 => decode_as!(bytes, big_endian, i32, f64),
-        NumType::U32 => decode_as!(bytes, big_endian, u32, f64),
-        NumType::I64 => decode_as!(bytes, big_endian, i64, f64),
-        NumType::U64 => decode_as!(bytes, big_endian, u64, f64),
-        NumType::F32 => decode_as!(bytes, big_endian, f32, f64),
-        NumType::F64 => decode_as!(bytes, big_endian, f64, f64),
+/// Values decoded per parallel task (large arrays are split into chunks of
+/// this many values, decoded on all cores).
+const CHUNK: usize = 1 << 16;
+
+/// Decodes `bytes` (`out.len()` whole values of `ty`) into `out`, in
+/// parallel chunks.
+pub fn decode_f64_into(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [f64]) {
+    use rayon::prelude::*;
+    let s = ty.size();
+    out.par_chunks_mut(CHUNK)
+        .zip(bytes.par_chunks(CHUNK * s))
+        .for_each(|(o, b)| match ty {
+            NumType::I8 => decode_into!(b, big_endian, i8, o),
+            NumType::U8 => decode_into!(b, big_endian, u8, o),
+            NumType::I16 => decode_into!(b, big_endian, i16, o),
+            NumType::U16 => decode_into!(b, big_endian, u16, o),
+            NumType::I32 => decode_into!(b, big_endian, i32, o),
+            NumType::U32 => decode_into!(b, big_endian, u32, o),
+            NumType::I64 => decode_into!(b, big_endian, i64, o),
+            NumType::U64 => decode_into!(b, big_endian, u64, o),
+            NumType::F32 => decode_into!(b, big_endian, f32, o),
+            NumType::F64 => decode_into!(b, big_endian, f64, o),
+        });
+}
+
+/// Decodes `bytes` as integers of `ty` into `out` (`out.len()` whole
+/// values), in parallel chunks; `false` (and `out` unspecified) for a
+/// floating-point `ty`.
+pub fn decode_i64_into(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [i64]) -> bool {
+    use rayon::prelude::*;
+    if ty.is_float() {
+        return false;
     }
+    let s = ty.size();
+    out.par_chunks_mut(CHUNK)
+        .zip(bytes.par_chunks(CHUNK * s))
+        .for_each(|(o, b)| match ty {
+            NumType::I8 => decode_into!(b, big_endian, i8, o),
+            NumType::U8 => decode_into!(b, big_endian, u8, o),
+            NumType::I16 => decode_into!(b, big_endian, i16, o),
+            NumType::U16 => decode_into!(b, big_endian, u16, o),
+            NumType::I32 => decode_into!(b, big_endian, i32, o),
+            NumType::U32 => decode_into!(b, big_endian, u32, o),
+            NumType::I64 => decode_into!(b, big_endian, i64, o),
+            NumType::U64 => decode_into!(b, big_endian, u64, o),
+            NumType::F32 | NumType::F64 => {}
+        });
+    true
+}
+
+/// A vector of `n` copies of `value` for a large decoded array, filled on
+/// all cores (so the first touch of its pages, the kernel's page faults and
+/// zeroing, is spread over the cores too).
+pub fn big_vec<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
+    use rayon::prelude::*;
+    let mut v: Vec<T> = Vec::with_capacity(n);
+    v.spare_capacity_mut()[..n]
+        .par_chunks_mut(CHUNK)
+        .for_each(|c| {
+            for x in c {
+                x.write(value);
+            }
+        });
+    // SAFETY: the first `n` elements were just written.
+    unsafe { v.set_len(n) };
+    v
+}
+
+/// Decodes `bytes` (whose length should be a multiple of `ty.size()`; a
+/// trailing partial value is ignored) as values of `ty` into `f64`, on all
+/// cores for large arrays.
+pub fn decode_f64(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<f64> {
+    let mut out = big_vec(bytes.len() / ty.size(), 0.0);
+    decode_f64_into(bytes, ty, big_endian, &mut out);
+    out
 }
 
 /// Decodes `bytes` as integers of `ty` into `i64` (`u64` values above
 /// `i64::MAX` wrap to negative numbers, which every caller rejects as an
 /// index). `None` for a floating-point `ty`.
 pub fn decode_i64(bytes: &[u8], ty: NumType, big_endian: bool) -> Option<Vec<i64>> {
-    Some(match ty {
-        NumType::I8 => decode_as!(bytes, big_endian, i8, i64),
-        NumType::U8 => decode_as!(bytes, big_endian, u8, i64),
-        NumType::I16 => decode_as!(bytes, big_endian, i16, i64),
-        NumType::U16 => decode_as!(bytes, big_endian, u16, i64),
-        NumType::I32 => decode_as!(bytes, big_endian, i32, i64),
-        NumType::U32 => decode_as!(bytes, big_endian, u32, i64),
-        NumType::I64 => decode_as!(bytes, big_endian, i64, i64),
-        NumType::U64 => decode_as!(bytes, big_endian, u64, i64),
-        NumType::F32 | NumType::F64 => return None,
+    let mut out = big_vec(bytes.len() / ty.size(), 0);
+    decode_i64_into(bytes, ty, big_endian, &mut out).then_some(out)
+}
+
+/// Decodes `n` points of three coordinates of `ty` into `[x, y, z]`
+/// directly (no intermediate flat array).
+pub fn decode_points(bytes: &[u8], ty: NumType, big_endian: bool) -> Vec<[f64; 3]> {
+    let mut out = big_vec(bytes.len() / ty.size() / 3, [0.0; 3]);
+    decode_f64_into(bytes, ty, big_endian, out.as_flattened_mut());
+    out
+}
+
+/// Decodes `4 n` integer vertex indices of `ty` into tetrahedra, in
+/// parallel, checking each index against `npoints`; `None` if any index is
+/// negative or out of range (the caller then reports the first bad cell by
+/// its general path), or for a floating-point `ty`.
+pub fn decode_tets(
+    bytes: &[u8],
+    ty: NumType,
+    big_endian: bool,
+    npoints: usize,
+) -> Option<Vec<[u32; 4]>> {
+    use rayon::prelude::*;
+    if ty.is_float() {
+        return None;
+    }
+    let s = ty.size();
+    let n = bytes.len() / s / 4;
+    let mut out = big_vec(n, [0u32; 4]);
+    let ok = out
+        .par_chunks_mut(CHUNK)
+        .zip(bytes.par_chunks(CHUNK * 4 * s))
+        .all(|(o, b)| {
+            // Decoded through a small stack buffer, 256 cells at a time.
+            let mut buf = [0i64; 1024];
+            let mut good = true;
+            for (oc, bc) in o.chunks_mut(256).zip(b.chunks(1024 * s)) {
+                let v = &mut buf[..oc.len() * 4];
+                decode_i64_into_seq(bc, ty, big_endian, v);
+                for (t, c) in oc.iter_mut().zip(v.chunks_exact(4)) {
+                    for k in 0..4 {
+                        good &= c[k] >= 0 && (c[k] as u64) < npoints as u64;
+                        t[k] = c[k] as u32;
+                    }
+                }
+            }
+            good
+        });
+    ok.then_some(out)
+}
+
+/// Decodes cells written as `4 i0 i1 i2 i3` (a count, then four indices:
+/// the VTK legacy classic layout, all tetrahedra) into tetrahedra, in
+/// parallel; `None` if any count is not 4 or any index is negative or not
+/// below `npoints`, or for a floating-point `ty`.
+pub fn decode_counted_tets(
+    bytes: &[u8],
+    ty: NumType,
+    big_endian: bool,
+    npoints: usize,
+) -> Option<Vec<[u32; 4]>> {
+    let mut out = big_vec(bytes.len() / ty.size() / 5, [0u32; 4]);
+    decode_counted_tets_into(bytes, ty, big_endian, npoints, &mut out).then_some(out)
+}
+
+/// [`decode_counted_tets`] into `out` (`out.len()` cells); `false` on a
+/// count other than 4, an index out of range, or a floating-point `ty`.
+pub fn decode_counted_tets_into(
+    bytes: &[u8],
+    ty: NumType,
+    big_endian: bool,
+    npoints: usize,
+    out: &mut [[u32; 4]],
+) -> bool {
+    use rayon::prelude::*;
+    if ty.is_float() {
+        return false;
+    }
+    let s = ty.size();
+    out.par_chunks_mut(CHUNK)
+        .zip(bytes.par_chunks(CHUNK * 5 * s))
+        .all(|(o, b)| {
+            let mut buf = [0i64; 1280];
+            let mut good = true;
+            for (oc, bc) in o.chunks_mut(256).zip(b.chunks(1280 * s)) {
+                let v = &mut buf[..oc.len() * 5];
+                decode_i64_into_seq(bc, ty, big_endian, v);
+                for (t, c) in oc.iter_mut().zip(v.chunks_exact(5)) {
+                    good &= c[0] == 4;
+                    for k in 0..4 {
+                        good &= c[k + 1] >= 0 && (c[k + 1] as u64) < npoints as u64;
+                        t[k] = c[k + 1] as u32;
+                    }
+                }
+            }
+            good
+        })
+}
+
+/// Whether all `bytes` (integers of `ty`) equal `value`, checked in parallel.
+pub fn all_equal(bytes: &[u8], ty: NumType, big_endian: bool, value: i64) -> bool {
+    use rayon::prelude::*;
+    if ty.is_float() {
+        return false;
+    }
+    let s = ty.size();
+    bytes.par_chunks(CHUNK * s).all(|b| {
+        let mut buf = [0i64; 1024];
+        b.chunks(1024 * s).all(|bc| {
+            let v = &mut buf[..bc.len() / s];
+            decode_i64_into_seq(bc, ty, big_endian, v);
+            v.iter().all(|&x| x == value)
+        })
     })
+}
+
+/// Whether integers of `ty` in `bytes` are `0, step, 2 step, ...` (offsets
+/// of cells that all have `step` vertices), checked in parallel.
+pub fn is_arithmetic(bytes: &[u8], ty: NumType, big_endian: bool, step: i64) -> bool {
+    use rayon::prelude::*;
+    if ty.is_float() {
+        return false;
+    }
+    let s = ty.size();
+    bytes.par_chunks(CHUNK * s).enumerate().all(|(ci, b)| {
+        let mut buf = [0i64; 1024];
+        let mut base = (ci * CHUNK) as i64;
+        b.chunks(1024 * s).all(|bc| {
+            let v = &mut buf[..bc.len() / s];
+            decode_i64_into_seq(bc, ty, big_endian, v);
+            let ok = v
+                .iter()
+                .enumerate()
+                .all(|(i, &x)| x == (base + i as i64) * step);
+            base += v.len() as i64;
+            ok
+        })
+    })
+}
+
+fn decode_i64_into_seq(b: &[u8], ty: NumType, big_endian: bool, o: &mut [i64]) {
+    match ty {
+        NumType::I8 => decode_into!(b, big_endian, i8, o),
+        NumType::U8 => decode_into!(b, big_endian, u8, o),
+        NumType::I16 => decode_into!(b, big_endian, i16, o),
+        NumType::U16 => decode_into!(b, big_endian, u16, o),
+        NumType::I32 => decode_into!(b, big_endian, i32, o),
+        NumType::U32 => decode_into!(b, big_endian, u32, o),
+        NumType::I64 => decode_into!(b, big_endian, i64, o),
+        NumType::U64 => decode_into!(b, big_endian, u64, o),
+        NumType::F32 | NumType::F64 => {}
+    }
 }
 
 #[cfg(test)]

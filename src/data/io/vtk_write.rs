@@ -18,10 +18,55 @@ use crate::error::{Error, Result};
 /// Writes `mesh` to `path` as a VTK legacy file, `BINARY` if `binary`, else `ASCII`.
 pub fn write_vtk_legacy(mesh: &TetMesh, path: &Path, binary: bool) -> Result<()> {
     let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    let mut w = std::io::BufWriter::new(file);
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
     write_to(mesh, &mut w, binary)
         .and_then(|_| w.flush())
         .map_err(|e| Error::io(path, e))
+}
+
+/// Items encoded per parallel task of the binary writer.
+const CHUNK: usize = 1 << 16;
+
+/// Writes `items` encoded by `enc` (big-endian bytes of one item), the
+/// chunks encoded on all cores, a bounded number at a time.
+fn encoded<T: Sync>(
+    w: &mut impl Write,
+    items: &[T],
+    enc: impl Fn(&T, &mut Vec<u8>) + Sync,
+) -> std::io::Result<()> {
+    use rayon::prelude::*;
+    for group in items.chunks(CHUNK * 64) {
+        let bufs: Vec<Vec<u8>> = group
+            .par_chunks(CHUNK)
+            .map(|c| {
+                let mut b = Vec::with_capacity(c.len() * 20);
+                for x in c {
+                    enc(x, &mut b);
+                }
+                b
+            })
+            .collect();
+        for b in bufs {
+            w.write_all(&b)?;
+        }
+    }
+    Ok(())
+}
+
+fn floats_slice(
+    w: &mut impl Write,
+    vals: &[f64],
+    per_line: usize,
+    binary: bool,
+) -> std::io::Result<()> {
+    if binary {
+        encoded(w, vals, |v, b| {
+            b.extend_from_slice(&(*v as f32).to_be_bytes())
+        })?;
+        writeln!(w)
+    } else {
+        floats(w, vals.iter().copied(), per_line, binary)
+    }
 }
 
 fn floats(
@@ -65,17 +110,32 @@ pub fn write_to(mesh: &TetMesh, w: &mut impl Write, binary: bool) -> std::io::Re
     writeln!(w, "{}", if binary { "BINARY" } else { "ASCII" })?;
     writeln!(w, "DATASET UNSTRUCTURED_GRID")?;
     writeln!(w, "POINTS {} float", mesh.points.len())?;
-    floats(w, mesh.points.iter().flatten().copied(), 3, binary)?;
+    floats_slice(w, mesh.points.as_flattened(), 3, binary)?;
     let n = mesh.tets.len();
     writeln!(w, "CELLS {n} {}", 5 * n)?;
-    let conn: Vec<i32> = mesh
-        .tets
-        .iter()
-        .flat_map(|t| [4, t[0] as i32, t[1] as i32, t[2] as i32, t[3] as i32])
-        .collect();
-    ints(w, &conn, binary)?;
-    writeln!(w, "CELL_TYPES {n}")?;
-    ints(w, &vec![10; n], binary)?;
+    if binary {
+        encoded(w, &mesh.tets, |t, b| {
+            b.extend_from_slice(&4i32.to_be_bytes());
+            for v in t {
+                b.extend_from_slice(&(*v as i32).to_be_bytes());
+            }
+        })?;
+        writeln!(w)?;
+        writeln!(w, "CELL_TYPES {n}")?;
+        encoded(w, &mesh.tets, |_, b| {
+            b.extend_from_slice(&10i32.to_be_bytes())
+        })?;
+        writeln!(w)?;
+    } else {
+        let conn: Vec<i32> = mesh
+            .tets
+            .iter()
+            .flat_map(|t| [4, t[0] as i32, t[1] as i32, t[2] as i32, t[3] as i32])
+            .collect();
+        ints(w, &conn, binary)?;
+        writeln!(w, "CELL_TYPES {n}")?;
+        ints(w, &vec![10; n], binary)?;
+    }
     if mesh.fields.is_empty() {
         return Ok(());
     }
@@ -91,7 +151,7 @@ pub fn write_to(mesh: &TetMesh, w: &mut impl Write, binary: bool) -> std::io::Re
                 mesh.points.len()
             )?,
         }
-        floats(w, f.values.iter().copied(), f.components.max(1), binary)?;
+        floats_slice(w, &f.values, f.components.max(1), binary)?;
     }
     Ok(())
 }

@@ -142,9 +142,53 @@ impl<'a> Parser<'a> {
         Ok(out)
     }
 
+    /// Gives back the mapped pages of the binary block `start..self.pos`
+    /// (decoded).
+    pub(super) fn release_from(&self, start: usize) {
+        if let Some(f) = self.file {
+            f.release(start, self.pos);
+        }
+    }
+
+    /// `n` points of `ty` (binary: decoded on all cores straight into
+    /// `[x, y, z]`).
+    pub(super) fn points(&mut self, n: usize, ty: NumType) -> Result<Vec<[f64; 3]>> {
+        if self.binary {
+            let start = self.pos;
+            let p = decode_points(
+                self.binary_block(n.saturating_mul(3), ty, "POINTS")?,
+                ty,
+                true,
+            );
+            self.release_from(start);
+            Ok(p)
+        } else {
+            let v = self.floats(n.saturating_mul(3), ty, "POINTS")?;
+            Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        }
+    }
+
+    /// `CELL_TYPES n`: binary blocks of type 10 only are checked in
+    /// parallel and not stored.
+    pub(super) fn cell_types(&mut self, n: usize) -> Result<TypeList> {
+        if self.binary {
+            let start = self.pos;
+            let b = self.binary_block(n, NumType::I32, "CELL_TYPES")?;
+            if super::super::numeric::all_equal(b, NumType::I32, true, 10) {
+                self.release_from(start);
+                return Ok(TypeList::AllTetra(n));
+            }
+            self.pos = start;
+        }
+        Ok(TypeList::Codes(self.ints(n, NumType::I32, "CELL_TYPES")?))
+    }
+
     pub(super) fn floats(&mut self, n: usize, ty: NumType, what: &str) -> Result<Vec<f64>> {
         if self.binary {
-            Ok(decode_f64(self.binary_block(n, ty, what)?, ty, true))
+            let start = self.pos;
+            let v = decode_f64(self.binary_block(n, ty, what)?, ty, true);
+            self.release_from(start);
+            Ok(v)
         } else {
             let v: Vec<f64> = self.ascii_values(n, "number", what)?;
             // A `float` array holds single-precision values, as in VTK.
@@ -158,13 +202,16 @@ impl<'a> Parser<'a> {
 
     pub(super) fn ints(&mut self, n: usize, ty: NumType, what: &str) -> Result<Vec<i64>> {
         if self.binary {
+            let start = self.pos;
             let b = self.binary_block(n, ty, what)?;
-            Ok(decode_i64(b, ty, true).unwrap_or_else(|| {
+            let v = decode_i64(b, ty, true).unwrap_or_else(|| {
                 decode_f64(b, ty, true)
                     .into_iter()
                     .map(|v| v as i64)
                     .collect()
-            }))
+            });
+            self.release_from(start);
+            Ok(v)
         } else {
             self.ascii_values(n, "integer", what)
         }

@@ -31,8 +31,9 @@
 use std::path::Path;
 
 use super::decompose::{vtk_type_name, CellShape, TetBuilder};
-use super::numeric::{decode_f64, decode_i64, NumType};
-use super::{line_of, read_bytes};
+use super::line_of;
+use super::mapped::FileBytes;
+use super::numeric::{decode_f64, decode_i64, decode_points, NumType};
 use crate::data::{Field, TetMesh};
 use crate::error::{Error, Result};
 
@@ -40,9 +41,20 @@ mod cells;
 mod lexer;
 
 /// Reads a VTK legacy unstructured grid from `path`.
+///
+/// The file is memory-mapped and binary blocks are decoded on all cores;
+/// the pages of each block are given back once it is decoded, so the
+/// file's bytes and the mesh are not both resident.
 pub fn read(path: &Path) -> Result<TetMesh> {
-    let data = read_bytes(path)?;
-    parse(&data, path)
+    let data = FileBytes::open(path)?;
+    Parser {
+        d: &data,
+        pos: 0,
+        path,
+        binary: false,
+        file: Some(&data),
+    }
+    .run()
 }
 
 /// Parses the bytes of a VTK legacy file; `path` is only used in errors.
@@ -52,6 +64,7 @@ pub fn parse(data: &[u8], path: &Path) -> Result<TetMesh> {
         pos: 0,
         path,
         binary: false,
+        file: None,
     }
     .run()
 }
@@ -69,13 +82,34 @@ struct Parser<'a> {
     pos: usize,
     path: &'a Path,
     binary: bool,
+    /// The mapped file, whose decoded blocks are released.
+    file: Option<&'a FileBytes>,
 }
 
-/// Cells as CSR: `offsets` has one more entry than there are cells.
+/// Cells as CSR: `offsets` has one more entry than there are cells; or,
+/// when every cell of a binary file is a 4-vertex cell, the checked
+/// tetrahedra themselves (`tets`, with `offsets` and `conn` empty).
 struct Cells {
     offsets: Vec<i64>,
     conn: Vec<i64>,
     line: usize,
+    /// 4-vertex cells, every index checked below `tets.1` points.
+    tets: Option<(Vec<[u32; 4]>, usize)>,
+}
+
+impl Cells {
+    fn count(&self) -> usize {
+        match &self.tets {
+            Some((t, _)) => t.len(),
+            None => self.offsets.len().saturating_sub(1),
+        }
+    }
+}
+
+/// `CELL_TYPES`: the codes, or (binary fast path) `n` cells all of type 10.
+enum TypeList {
+    Codes(Vec<i64>),
+    AllTetra(usize),
 }
 
 fn short(s: &str) -> String {
@@ -164,7 +198,7 @@ impl<'a> Parser<'a> {
         self.header()?;
         let mut points: Option<(Vec<[f64; 3]>, usize)> = None;
         let mut cells: Option<Cells> = None;
-        let mut types: Option<(Vec<i64>, usize)> = None;
+        let mut types: Option<(TypeList, usize)> = None;
         let mut section = Section::None;
         let mut fields: Vec<Field> = Vec::new();
 
@@ -175,21 +209,21 @@ impl<'a> Parser<'a> {
                 "POINTS" => {
                     let n = self.count(at, w.next(), "POINTS count")?;
                     let ty = self.num_type(at, w.next().unwrap_or("float"))?;
-                    let v = self.floats(n.saturating_mul(3), ty, "POINTS")?;
-                    points = Some((v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(), at));
+                    points = Some((self.points(n, ty)?, at));
                 }
                 "CELLS" => {
                     let a = self.count(at, w.next(), "CELLS count")?;
                     let b = self.count(at, w.next(), "CELLS size")?;
+                    let np = points.as_ref().map(|p| p.0.len());
                     cells = Some(if self.peek_keyword().as_deref() == Some("OFFSETS") {
-                        self.cells_51(at, a, b)?
+                        self.cells_51(at, a, b, np)?
                     } else {
-                        self.cells_classic(at, a, b)?
+                        self.cells_classic(at, a, b, np)?
                     });
                 }
                 "CELL_TYPES" => {
                     let n = self.count(at, w.next(), "CELL_TYPES count")?;
-                    types = Some((self.ints(n, NumType::I32, "CELL_TYPES")?, at));
+                    types = Some((self.cell_types(n)?, at));
                 }
                 "POINT_DATA" | "CELL_DATA" => {
                     let n = self.count(at, w.next(), &format!("{kw} count"))?;
@@ -198,10 +232,7 @@ impl<'a> Parser<'a> {
                         (points.as_ref().map(|p| p.0.len()), "points")
                     } else {
                         section = Section::Cell(n);
-                        (
-                            cells.as_ref().map(|c| c.offsets.len().saturating_sub(1)),
-                            "cells",
-                        )
+                        (cells.as_ref().map(Cells::count), "cells")
                     };
                     if let Some(e) = expected.filter(|&e| e != n) {
                         return Err(self.at_line(

@@ -130,29 +130,69 @@ impl Ctx<'_> {
                 format!("compression header claims {expected_total} bytes of data"),
             ));
         }
-        let mut out = Vec::with_capacity(expected_total.min(raw.len() as u128 * 8) as usize);
+        let mut starts = Vec::with_capacity(sizes.len());
         let mut p = head as usize;
-        for (k, &cs) in sizes.iter().enumerate() {
-            let want = if k + 1 == sizes.len() && last != 0 {
+        for &cs in &sizes {
+            starts.push(p);
+            p += cs as usize;
+        }
+        let want = |k: usize| {
+            if k + 1 == sizes.len() && last != 0 {
                 last
             } else {
                 bs
-            };
-            let block = &raw[p..p + cs as usize];
-            p += cs as usize;
+            }
+        };
+        let short = |k: usize, got: usize| {
+            self.err(
+                a,
+                format!(
+                    "zlib block {k} of {nblocks} inflates to {got} bytes, the header says {}",
+                    want(k)
+                ),
+            )
+        };
+        if expected_total <= raw.len() as u128 * 8 && bs > 0 && last <= bs {
+            // Blocks inflated on all cores, each into its own slice.
+            use rayon::prelude::*;
+            let mut out = vec![0u8; expected_total as usize];
+            let firsts: Vec<(usize, std::result::Result<usize, String>)> = out
+                .par_chunks_mut(bs as usize)
+                .enumerate()
+                .map(|(k, dst)| {
+                    let block = &raw[starts[k]..starts[k] + sizes[k] as usize];
+                    let mut d = flate2::read::ZlibDecoder::new(block);
+                    let mut got = 0;
+                    while got < dst.len() {
+                        match d.read(&mut dst[got..]) {
+                            Ok(0) => break,
+                            Ok(n) => got += n,
+                            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                            Err(e) => return (k, Err(e.to_string())),
+                        }
+                    }
+                    (k, Ok(got))
+                })
+                .collect();
+            for (k, r) in firsts {
+                match r {
+                    Err(e) => return Err(self.err(a, format!("zlib block {k} of {nblocks}: {e}"))),
+                    Ok(got) if got as u64 != want(k) => return Err(short(k, got)),
+                    Ok(_) => {}
+                }
+            }
+            return Ok(out);
+        }
+        let mut out = Vec::with_capacity(expected_total.min(raw.len() as u128 * 8) as usize);
+        for (k, &start) in starts.iter().enumerate() {
+            let block = &raw[start..start + sizes[k] as usize];
             let before = out.len();
             flate2::read::ZlibDecoder::new(block)
-                .take(want)
+                .take(want(k))
                 .read_to_end(&mut out)
                 .map_err(|e| self.err(a, format!("zlib block {k} of {nblocks}: {e}")))?;
-            if (out.len() - before) as u64 != want {
-                return Err(self.err(
-                    a,
-                    format!(
-                        "zlib block {k} of {nblocks} inflates to {} bytes, the header says {want}",
-                        out.len() - before
-                    ),
-                ));
+            if (out.len() - before) as u64 != want(k) {
+                return Err(short(k, out.len() - before));
             }
         }
         Ok(out)

@@ -23,18 +23,41 @@
 
 use std::path::Path;
 
+mod assemble;
 mod decode;
 
+use assemble::assemble;
+
 use super::decompose::{vtk_type_name, CellShape, TetBuilder};
+use super::mapped::FileBytes;
 use super::numeric::NumType;
-use super::read_bytes;
 use crate::data::{Field, TetMesh};
 use crate::error::{Error, Result};
 
 /// Reads a VTK XML unstructured grid from `path`.
 pub fn read(path: &Path) -> Result<TetMesh> {
-    let data = read_bytes(path)?;
+    let data = FileBytes::open(path)?;
     parse(&data, path)
+}
+
+/// Point-data arrays as a piece declares them: name, type, components.
+pub(crate) type Declared = Vec<(String, NumType, usize)>;
+
+/// Reads a `.vtu` like [`read`], with the points' type and the point-data
+/// arrays its first `<Piece>` declares (to check that the pieces of a
+/// `.pvtu` agree).
+pub(crate) fn read_declared(path: &Path) -> Result<(TetMesh, Option<NumType>, Declared)> {
+    let data = FileBytes::open(path)?;
+    let s = scan(&data, path, "UnstructuredGrid")?;
+    let first = s.pieces.first();
+    let points = first.and_then(|p| p.points.as_ref()).map(|a| a.ty);
+    let decl = first.map_or(Vec::new(), |p| {
+        p.point_data
+            .iter()
+            .map(|a| (a.name.clone(), a.ty, a.ncomp))
+            .collect()
+    });
+    Ok((assemble(&s.ctx, s.pieces)?, points, decl))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -444,93 +467,4 @@ fn place(a: ArrayDesc, stack: &[String], pieces: &mut [PieceDesc], path: &Path) 
         _ => {}
     }
     Ok(())
-}
-
-fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
-    let path = ctx.path;
-    let mut points: Vec<[f64; 3]> = Vec::new();
-    let mut fields: Vec<Field> = Vec::new();
-    let mut cells: Vec<(i64, Vec<i64>)> = Vec::new();
-    for (pi, p) in pieces.iter().enumerate() {
-        let where_ = |what: &str| format!("<Piece> {pi} <{what}>");
-        let base = points.len() as i64;
-        if p.npoints > 0 {
-            let pa = p
-                .points
-                .as_ref()
-                .ok_or_else(|| Error::data(path, where_("Points"), "no points array"))?;
-            if pa.ncomp != 3 {
-                return Err(ctx.err(
-                    pa,
-                    format!("points need NumberOfComponents=\"3\", found {}", pa.ncomp),
-                ));
-            }
-            let v = ctx.f64s(pa, p.npoints.saturating_mul(3))?;
-            points.extend(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
-        }
-        for a in &p.point_data {
-            let v = ctx.f64s(a, p.npoints.saturating_mul(a.ncomp))?;
-            if pi == 0 {
-                fields.push(Field {
-                    name: a.name.clone(),
-                    components: a.ncomp,
-                    values: v,
-                });
-            } else if let Some(f) = fields
-                .iter_mut()
-                .find(|f| f.name == a.name && f.components == a.ncomp)
-            {
-                f.values.extend(v);
-            }
-        }
-        if p.ncells > 0 {
-            let missing = |n: &str| Error::data(path, where_("Cells"), format!("no \"{n}\" array"));
-            let oa = p.offsets.as_ref().ok_or_else(|| missing("offsets"))?;
-            let ta = p.types.as_ref().ok_or_else(|| missing("types"))?;
-            let ca = p.conn.as_ref().ok_or_else(|| missing("connectivity"))?;
-            let offs = ctx.i64s(oa, p.ncells)?;
-            let types = ctx.i64s(ta, p.ncells)?;
-            let nconn = *offs.last().unwrap_or(&0);
-            if nconn < 0 || offs.windows(2).any(|w| w[1] < w[0]) || offs[0] < 0 {
-                return Err(ctx.err(oa, "offsets must be non-negative and non-decreasing"));
-            }
-            let conn = ctx.i64s(ca, nconn as usize)?;
-            let mut s = 0usize;
-            for (&e, &t) in offs.iter().zip(&types) {
-                let e = e as usize;
-                cells.push((
-                    t,
-                    conn[s..e]
-                        .iter()
-                        .map(|&v| if v < 0 { v } else { v + base })
-                        .collect(),
-                ));
-                s = e;
-            }
-        }
-    }
-    if let Some(f) = fields
-        .iter()
-        .find(|f| f.values.len() != f.components * points.len())
-    {
-        return Err(Error::data(
-            path,
-            format!("<DataArray Name=\"{}\"> in <PointData>", f.name),
-            "the array is missing from some pieces",
-        ));
-    }
-    let mut b = TetBuilder::new(&points, cells.len());
-    for (c, (t, verts)) in cells.iter().enumerate() {
-        let shape = CellShape::from_vtk(*t).ok_or_else(|| {
-            Error::data(path, format!("cell {c}"), format!("cell type {t} ({}) is not supported; pvrsim reads tetrahedra, hexahedra, voxels, wedges and pyramids, and skips lower-dimensional cells", vtk_type_name(*t)))
-        })?;
-        b.add(shape, verts)
-            .map_err(|m| Error::data(path, format!("cell {c}"), m))?;
-    }
-    let tets = b.finish(path);
-    Ok(TetMesh {
-        points,
-        tets,
-        fields,
-    })
 }
