@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use super::phase1::{drive, ClockKind};
 use super::phase2::{replay, RoundPlan};
-use crate::compositor::codec::layers::{self as layer_codec, LayerCodec};
+use crate::compositor::codec::layers::LayerCodec;
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::Layer;
 use crate::compositor::region::screen;
@@ -45,10 +45,10 @@ pub struct GridConfig {
     pub master: bool,
     /// Brick placement.
     pub placement: BrickPlacement,
-    /// Compositing strategy name.
-    pub compositor: String,
-    /// Layer codec name.
-    pub codec: String,
+    /// Compositing strategy.
+    pub compositor: crate::compositor::strategy::Compositing,
+    /// Layer codec.
+    pub codec: crate::compositor::codec::LayerCodecKind,
     /// Slicer options (ERT, slices, classification).
     pub slice: Slice3dOptions,
     /// The brick renderer.
@@ -216,9 +216,8 @@ pub fn prepare(input: &VolumeInput, cfg: &GridConfig) -> anyhow::Result<Prepared
         check(&cfg.profile, &cfg.profile_name)?;
     }
     cfg.renderer.check(&cfg.slice)?;
-    let strategy =
-        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
-    let codec = layer_codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = cfg.compositor.build();
+    let codec = cfg.codec.build();
     let d = cfg.subvolumes;
     let bricks = split(input.volume.dims, d)?;
     anyhow::ensure!(
