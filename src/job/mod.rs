@@ -29,6 +29,8 @@
 //! - [`sweep`]: [`SweepJob`], a sweep as a typed job (fixed and varying
 //!   options by flag name, every point validated before the first runs,
 //!   typed rows); the config-file sweep frontend runs its points here.
+//! - [`scene_fit`]: a scene fitted to a data file (the data read as a
+//!   [`crate::scene::fit::SceneSource`], the fitting [`crate::scene::fit`]'s).
 //! - [`options`]: options by flag name, the one mapping that job files,
 //!   and sweeps share.
 //!
@@ -50,16 +52,20 @@ pub mod render_grid;
 pub mod render_mesh;
 pub mod render_splat;
 pub mod run;
+pub mod scene_fit;
 pub mod sweep;
 pub mod transport_args;
 pub mod validate;
+
+#[cfg(test)]
+mod one_path_tests;
 
 pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
 pub use cluster_job::LoadedCluster;
 pub use render::RenderOutcome;
-pub use validate::Valid;
 pub use sweep::{SweepCommand, SweepJob, SweepRow};
+pub use validate::Valid;
 
 /// The text `main` prints for an error: `error: MSG` and one `caused by:`
 /// line per cause, leaving out a cause whose text the line above already

@@ -7,6 +7,7 @@
 //! every value and names the key of the first one that is impossible.
 
 pub mod camera;
+pub mod fit;
 pub mod transfer;
 
 use std::path::{Path, PathBuf};

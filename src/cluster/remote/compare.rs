@@ -146,8 +146,7 @@ fn model(
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
     let model2 = {
         let strategy = cfg.compositor.build();
-        let list_codec =
-            cfg.codec.build();
+        let list_codec = cfg.codec.build();
         let lists = sim
             .nodes
             .iter()

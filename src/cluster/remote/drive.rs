@@ -338,10 +338,8 @@ fn phase2<T: RemoteTransport>(
     measured: &mut Measured,
 ) -> anyhow::Result<(Phase2, Vec<RankLog>)> {
     let n = cfg.phase1.nodes;
-    let strategy =
-        cfg.compositor.build();
-    let list_codec =
-        cfg.codec.build();
+    let strategy = cfg.compositor.build();
+    let list_codec = cfg.codec.build();
     let scene = &input.scene;
     let schedule = strategy.schedule(
         n,

@@ -128,7 +128,9 @@ impl FromStr for Compositing {
             "radix-k" | "radixk" => Ok(Compositing::RadixK(None)),
             _ if name.starts_with("radix-k:") => {
                 let k = &name["radix-k:".len()..];
-                let k = k.parse::<GroupSize>().map_err(|e| format!("`{name}`: {e}"))?;
+                let k = k
+                    .parse::<GroupSize>()
+                    .map_err(|e| format!("`{name}`: {e}"))?;
                 Ok(Compositing::RadixK(Some(k)))
             }
             _ => Err(format!(
@@ -165,7 +167,13 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_bad_ones_are_refused() {
-        for name in ["direct-send", "binary-swap", "master", "radix-k", "radix-k:3"] {
+        for name in [
+            "direct-send",
+            "binary-swap",
+            "master",
+            "radix-k",
+            "radix-k:3",
+        ] {
             let c: Compositing = name.parse().unwrap();
             assert_eq!(c.to_string(), name);
             let bytes = bincode::serialize(&c).unwrap();
@@ -176,14 +184,25 @@ mod tests {
         assert_eq!(Compositing::RadixK(None).build().label(), "radix-k:8");
         let k = GroupSize::new(4).unwrap();
         assert_eq!(
-            Compositing::RadixK(None).with_group_size(k).unwrap().build().label(),
+            Compositing::RadixK(None)
+                .with_group_size(k)
+                .unwrap()
+                .build()
+                .label(),
             "radix-k:4"
         );
         let e = Compositing::Master.with_group_size(k).unwrap_err();
         assert!(e.contains("--compositor master"), "{e}");
-        assert!("radix-k:4".parse::<Compositing>().unwrap().with_group_size(k).is_err());
+        assert!("radix-k:4"
+            .parse::<Compositing>()
+            .unwrap()
+            .with_group_size(k)
+            .is_err());
         let bad = bincode::serialize(&"nope".to_string()).unwrap();
         assert!(bincode::deserialize::<Compositing>(&bad).is_err());
-        assert!("1".parse::<GroupSize>().unwrap_err().contains("from 2 to 4096"));
+        assert!("1"
+            .parse::<GroupSize>()
+            .unwrap_err()
+            .contains("from 2 to 4096"));
     }
 }

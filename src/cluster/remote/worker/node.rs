@@ -250,8 +250,7 @@ fn phase2<T: RemoteTransport>(
     timeout: Duration,
 ) -> anyhow::Result<crate::cluster::remote::phase2::RankLog> {
     let strategy = setup.compositor.build();
-    let codec =
-        setup.list_codec.build();
+    let codec = setup.list_codec.build();
     let schedule = strategy.schedule(
         setup.nodes as usize,
         crate::compositor::region::screen(scene.image.width, scene.image.height),

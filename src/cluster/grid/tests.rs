@@ -2,8 +2,14 @@
 //! the default codec's 1/255, adaptive bricks, determinism, refusals.
 
 use super::*;
+use crate::cluster::ClockKind;
 use crate::compositor::codec::layers as layer_codec;
+use crate::net::NetworkModel;
+use crate::node::grid::bricks::BrickPlacement;
+use crate::node::grid::render::RendererKind;
 use crate::node::grid::tests::{seam_input, OBLIQUE, PERSP};
+use crate::node::CostProfile;
+use crate::render::slice3d::Slice3dOptions;
 
 fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
     GridConfig {
@@ -229,7 +235,9 @@ fn adaptive_bricks_join_without_seams_and_report_their_size() {
 fn bad_combinations_are_refused() {
     let inp = seam_input(OBLIQUE, 16);
     // A codec name layers do not have is refused when parsed.
-    let e = "rle".parse::<crate::compositor::codec::LayerCodecKind>().unwrap_err();
+    let e = "rle"
+        .parse::<crate::compositor::codec::LayerCodecKind>()
+        .unwrap_err();
     assert!(e.contains("rle-paper"), "{e}");
     let mut c = cfg("master", "raw", true);
     c.subvolumes = 1;
