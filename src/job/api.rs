@@ -190,7 +190,10 @@ mod tests {
             toml::from_str("scene = \"s.toml\"\nert = 0.9\ncompare = true\nert_table = 20\n")
                 .unwrap();
         assert_eq!(job.scene, PathBuf::from("s.toml"));
-        assert_eq!((job.ert, job.compare, job.ert_table), (0.9, true, Some(20)));
+        assert_eq!(
+            (job.ert.threshold, job.compare, job.ert_table),
+            (0.9, true, Some(20))
+        );
         let defaults = RenderJob::new("s.toml");
         assert_eq!(defaults.output, PathBuf::from("out.png"));
         assert!(!defaults.compare);

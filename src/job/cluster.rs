@@ -80,23 +80,17 @@ impl CodecChoice {
 
 /// Options of `pvrsim cluster`.
 #[derive(Debug, Clone, Args)]
+#[command(mut_arg("ert", |a| a.help(super::shared_args::CLUSTER_ERT_HELP)))]
 pub struct ClusterArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
     /// Number of rendering nodes (the manager is one more rank).
     #[arg(long, default_value_t = 8)]
     pub nodes: usize,
-    /// Early ray termination threshold, in (0, 1]. Default 0.99, as in the
-    /// scene contract and `pvrsim render`; the paper's experiments use 0.9
-    /// (`--ert 0.9`); 1.0 turns ERT off (the `Base` and `DLB` rows of the
-    /// paper's Table 2). Sharing (`--share`, `--sharing`) needs ERT on.
-    #[arg(
-        long = "ert",
-        value_name = "THRESHOLD",
-        default_value_t = 0.99,
-        allow_negative_numbers = true
-    )]
-    pub ert: f32,
+    /// Early termination threshold (declared once: [`super::shared_args::ErtArg`];
+    /// the help this command shows is `CLUSTER_ERT_HELP`).
+    #[command(flatten)]
+    pub ert: super::shared_args::ErtArg,
     /// ERT table of D x D entries over the whole image (the paper's best: 20).
     #[arg(long, value_name = "D", default_value_t = 20)]
     pub ert_table: u32,
@@ -151,7 +145,7 @@ pub struct ClusterArgs {
     /// means it there), `raw16`, `sparse16` (IceT's active runs), or the
     /// paper's 8-bit `raw`, `rle-paper`, `sparse` (up to 1.4/255 off the
     /// single-node image at d = 2).
-    #[arg(long, value_enum, default_value_t = CodecChoice::Rle)]
+    #[arg(long, value_enum, default_value_t = CodecChoice::Rle, hide_possible_values = true)]
     pub codec: CodecChoice,
     /// Network model: a preset (gbe, fast-ethernet, 10gbe, infiniband,
     /// ideal) or a TOML file (see configs/network/). Default: gbe. Only the
@@ -318,7 +312,7 @@ impl ClusterArgs {
 
 impl Validate for ClusterArgs {
     fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        let ert = validate::ert_mode(self.ert)?;
+        let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--nodes", self.nodes, 1)?;
         anyhow::ensure!(
             self.nodes <= 65_536,
@@ -420,7 +414,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 partial_composition: !a.no_partial_composition,
                 cell_order: CellOrder::FrontToBack,
                 ert: NodeErt {
-                    threshold: a.ert,
+                    threshold: a.ert.threshold,
                     divisions: a.ert_table,
                     update_c: a.ert_update,
                     span: a.ert_span,
@@ -452,7 +446,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             manager_shards: a.ert_mode.manager_shards,
             schedule_waves: a.ert_mode.schedule_waves.unwrap_or(
                 if !paper
-                    && a.ert < 1.0
+                    && a.ert.threshold < 1.0
                     && a.sharing_mode() == Sharing::Manager
                     && a.dlb
                     && mode.structure == crate::render::cell::ert::ErtStructure::Pyramid

@@ -96,7 +96,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         compositor,
         codec,
         slice: Slice3dOptions {
-            ert: a.ert,
+            ert: a.ert.threshold,
             ..Default::default()
         },
         renderer,

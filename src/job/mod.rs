@@ -31,6 +31,8 @@
 //!   typed rows); the config-file sweep frontend runs its points here.
 //! - [`scene_fit`]: a scene fitted to a data file (the data read as a
 //!   [`crate::scene::fit::SceneSource`], the fitting [`crate::scene::fit`]'s).
+//! - [`shared_args`]: options several commands share, declared once
+//!   (`--ert`).
 //! - [`options`]: options by flag name, the one mapping that job files,
 //!   and sweeps share.
 //!
@@ -53,6 +55,7 @@ pub mod render_mesh;
 pub mod render_splat;
 pub mod run;
 pub mod scene_fit;
+pub mod shared_args;
 pub mod sweep;
 pub mod transport_args;
 pub mod validate;

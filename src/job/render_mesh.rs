@@ -53,7 +53,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         tile_size: a.tile,
         cell_order: a.cell_order,
         ert: ErtOptions {
-            threshold: a.ert,
+            threshold: a.ert.threshold,
             entry: a
                 .ert_entry_px
                 .map(EntrySize::Pixels)
