@@ -31,8 +31,9 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             prepare_output(flag, p, kind)?;
         }
     }
-    match job.load()?.run()? {
-        ClusterResult::Grid(outs) => write_grid(&a, outs),
+    let result = job.load()?.run()?;
+    match &result {
+        ClusterResult::Grid(outs) => write_grid(&a, outs)?,
         ClusterResult::Mesh(out) => {
             output::warn_if_empty(
                 &out.image,
@@ -43,14 +44,14 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                 ),
             );
             write_outputs(&a, &out.image, &out.report, &out.trace, out.report.n_nodes)?;
-            print!("{}", crate::cluster::report::summary(&out.report));
-            Ok(())
         }
     }
+    print!("{}", result.summary());
+    Ok(())
 }
 
 /// Writes the outputs `pvrsim cluster` names for the frames of a grid scene.
-fn write_grid(a: &ClusterArgs, mut outs: Vec<GridOutcome>) -> anyhow::Result<()> {
+fn write_grid(a: &ClusterArgs, outs: &[GridOutcome]) -> anyhow::Result<()> {
     if outs.len() > 1 {
         let walls: Vec<f64> = outs.iter().map(|o| o.report.wall_s).collect();
         let cached: Vec<u64> = outs.iter().map(|o| o.report.textures_cached).collect();
@@ -66,16 +67,14 @@ fn write_grid(a: &ClusterArgs, mut outs: Vec<GridOutcome>) -> anyhow::Result<()>
             cached
         );
     }
-    let out = outs.pop().expect("at least one frame");
+    let out = outs.last().expect("at least one frame");
     write_outputs(
         a,
         &out.image,
         &out.report,
         &out.trace,
         out.report.nodes.len(),
-    )?;
-    print!("{}", crate::cluster::grid::summary(&out.report));
-    Ok(())
+    )
 }
 
 /// Writes the image (-o), the report (--report), the trace (--trace) and the

@@ -199,14 +199,12 @@ impl GridSetup {
         if self.nodes == 0 || self.rank >= self.nodes {
             return Err(format!("rank {} of {} nodes", self.rank, self.nodes));
         }
-        if !self.peers.is_empty() {
-            if self.peers.len() != self.nodes as usize {
-                return Err(format!(
-                    "{} peer addresses for {} nodes",
-                    self.peers.len(),
-                    self.nodes
-                ));
-            }
+        if !self.peers.is_empty() && self.peers.len() != self.nodes as usize {
+            return Err(format!(
+                "{} peer addresses for {} nodes",
+                self.peers.len(),
+                self.nodes
+            ));
         }
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("receive timeout {} s", self.recv_timeout_s));
