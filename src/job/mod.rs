@@ -60,9 +60,6 @@ pub mod sweep;
 pub mod transport_args;
 pub mod validate;
 
-#[cfg(test)]
-mod one_path_tests;
-
 pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
 pub use cluster_job::LoadedCluster;

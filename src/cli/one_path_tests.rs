@@ -1,9 +1,10 @@
 //! Each command reads its scene once and validates its options once,
-//! through the job API and through the command line, for mesh and grid
+//! through the job API and through the command line (here, since the job
+//! layer names no frontend), for mesh and grid
 //! scenes (counted on this thread by `Scene::load` and `validate::check`).
 
-use super::{validate, ClusterJob, ClusterResult, RenderJob};
 use crate::data::builtin::BuiltIn;
+use crate::job::{validate, ClusterJob, ClusterResult, RenderJob};
 
 /// `f`'s value, and the scene reads and validations it did.
 fn counted<T>(f: impl FnOnce() -> T) -> (T, [usize; 2]) {
