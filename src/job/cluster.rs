@@ -314,11 +314,6 @@ impl Validate for ClusterArgs {
     fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
         let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--nodes", self.nodes, 1)?;
-        anyhow::ensure!(
-            self.nodes <= 65_536,
-            "--nodes {} is more than this simulator supports (65536)",
-            self.nodes
-        );
         at_least("--ert-table", self.ert_table, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
         at_least("--chunk", self.chunk, 1)?;
@@ -515,6 +510,12 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         FrameKind::Cluster { nodes: a.nodes },
         crate::budget::available_bytes(),
     )?;
+    // After the memory check, whose message says what a huge count costs.
+    anyhow::ensure!(
+        a.nodes <= 65_536,
+        "--nodes {} is more than this simulator supports (65536)",
+        a.nodes
+    );
     let remote = a.net.apply(&mut cfg)?;
     if remote.is_some() {
         anyhow::ensure!(
