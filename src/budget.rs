@@ -51,6 +51,11 @@ pub fn cores() -> usize {
 /// `MemAvailable` of `/proc/meminfo`, bytes (`None` where not readable).
 pub fn available_bytes() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    parse_mem_available(&text)
+}
+
+/// `MemAvailable` of a `/proc/meminfo` text, bytes.
+fn parse_mem_available(text: &str) -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb.saturating_mul(1024))
@@ -224,6 +229,13 @@ fn footprint_within(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parses_meminfo() {
+        let t = "MemTotal:  8000 kB\nMemFree: 100 kB\nMemAvailable:    2048 kB\n";
+        assert_eq!(parse_mem_available(t), Some(2048 * 1024));
+        assert_eq!(parse_mem_available("MemTotal: 1 kB\n"), None);
+    }
 
     #[test]
     fn limits_name_the_option_the_estimate_and_the_limit() {

@@ -292,7 +292,9 @@ fn item10_nits() {
     let pvrsim::cli::Command::Cluster(a) = cli.command else {
         panic!("not a cluster command")
     };
-    let out = pvrsim::cli::cluster::execute(&a).unwrap();
+    let pvrsim::job::ClusterResult::Mesh(out) = a.run().unwrap() else {
+        panic!("a mesh scene")
+    };
     let kinds = pvrsim::cluster::timeline::kinds_shown(&out.trace);
     assert!(kinds.contains(&pvrsim::net::TraceKind::Scan));
     assert!(

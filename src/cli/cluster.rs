@@ -1,23 +1,26 @@
 //! `pvrsim cluster`: a scene on a simulated (or real) PC cluster. The options
 //! and the work are the job layer's ([`crate::job::cluster`], re-exported
-//! here); this file checks the outputs, runs the job and writes its files.
+//! here; its one path is [`crate::job::cluster_job`]); this file checks the
+//! outputs, runs the job and writes its files.
 
 use anyhow::Context;
 
+use crate::cluster::grid::GridOutcome;
 use crate::image::Image;
 pub use crate::job::cluster::*;
 use crate::job::output::{self, prepare_output, OutputKind};
-use crate::job::{cluster_grid, grid_args, validate};
+use crate::job::{ClusterResult, Valid};
 use crate::net::SimTrace;
-use crate::scene::Scene;
 
-/// Runs `pvrsim cluster`: checks the options and every output path first.
+/// Runs `pvrsim cluster`: validates the options and checks every output
+/// path first, then loads the scene once and runs it.
 pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
     // Under mpirun, ranks other than 0 serve a node and write nothing.
     if a.net.serve_mpi_worker(a.nodes)? {
         return Ok(());
     }
-    validate::apply(&a)?;
+    let job = Valid::new(&a)?;
+    job.print_warnings();
     prepare_output("-o", &a.output, OutputKind::Png)?;
     for (flag, path, kind) in [
         ("--report", &a.report, OutputKind::Json),
@@ -28,29 +31,27 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             prepare_output(flag, p, kind)?;
         }
     }
-    let scene = crate::scene::Scene::load(&a.scene)
-        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
-    if crate::job::render_grid::is_grid_scene(&scene) {
-        return run_grid(&a, scene);
+    let result = job.load()?.run()?;
+    match &result {
+        ClusterResult::Grid(outs) => write_grid(&a, outs)?,
+        ClusterResult::Mesh(out) => {
+            output::warn_if_empty(
+                &out.image,
+                &format!(
+                    "{} of {} cells culled on arrival",
+                    out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
+                    out.report.cells_total
+                ),
+            );
+            write_outputs(&a, &out.image, &out.report, &out.trace, out.report.n_nodes)?;
+        }
     }
-    grid_args::refuse_on_mesh(&a.grid)?;
-    let out = execute(&a)?;
-    output::warn_if_empty(
-        &out.image,
-        &format!(
-            "{} of {} cells culled on arrival",
-            out.report.nodes.iter().map(|x| x.cells_culled).sum::<u64>(),
-            out.report.cells_total
-        ),
-    );
-    write_outputs(&a, &out.image, &out.report, &out.trace, out.report.n_nodes)?;
-    print!("{}", crate::cluster::report::summary(&out.report));
+    print!("{}", result.summary());
     Ok(())
 }
 
-/// Runs a grid scene and writes the outputs `pvrsim cluster` names.
-fn run_grid(a: &ClusterArgs, scene: Scene) -> anyhow::Result<()> {
-    let mut outs = cluster_grid::execute_frames(a, scene)?;
+/// Writes the outputs `pvrsim cluster` names for the frames of a grid scene.
+fn write_grid(a: &ClusterArgs, outs: &[GridOutcome]) -> anyhow::Result<()> {
     if outs.len() > 1 {
         let walls: Vec<f64> = outs.iter().map(|o| o.report.wall_s).collect();
         let cached: Vec<u64> = outs.iter().map(|o| o.report.textures_cached).collect();
@@ -66,16 +67,14 @@ fn run_grid(a: &ClusterArgs, scene: Scene) -> anyhow::Result<()> {
             cached
         );
     }
-    let out = outs.pop().expect("at least one frame");
+    let out = outs.last().expect("at least one frame");
     write_outputs(
         a,
         &out.image,
         &out.report,
         &out.trace,
         out.report.nodes.len(),
-    )?;
-    print!("{}", crate::cluster::grid::summary(&out.report));
-    Ok(())
+    )
 }
 
 /// Writes the image (-o), the report (--report), the trace (--trace) and the

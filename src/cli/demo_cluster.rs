@@ -53,7 +53,8 @@ pub fn run_cluster(
         "--share".into(),
         "--dlb".into(),
     ])?;
-    let cfg = super::cluster::config(&line.args)?;
+    let job = crate::job::Valid::new(&line.args)?;
+    let cfg = super::cluster::config(job.args())?;
     let t = std::time::Instant::now();
     let out = super::with_threads(threads, || cluster::run(input, &cfg))??;
     let host_s = t.elapsed().as_secs_f64();

@@ -20,6 +20,9 @@ pub mod splat;
 pub mod sweep;
 pub mod worker;
 
+#[cfg(test)]
+mod one_path_tests;
+
 use clap::{Parser, Subcommand};
 
 use crate::bench::{self, calibrate, splat_experiments};

@@ -7,12 +7,13 @@ use anyhow::Context;
 use crate::job::output::{self, prepare_output, OutputKind};
 pub use crate::job::render::*;
 pub use crate::job::run::render as execute;
-use crate::job::validate;
+use crate::job::Valid;
 
-/// Runs `pvrsim render`: checks the options and every output path, renders,
-/// warns when the image is empty, writes.
+/// Runs `pvrsim render`: validates the options once and checks every output
+/// path, renders, warns when the image is empty, writes.
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    validate::apply(&a)?;
+    let job = Valid::new(&a)?;
+    job.print_warnings();
     prepare_output("-o", &a.output, OutputKind::Png)?;
     if let Some(p) = &a.stats {
         prepare_output("--stats", p, OutputKind::Json)?;
@@ -20,7 +21,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
         prepare_output("--compare", &compare_path(&a.output), OutputKind::Png)?;
     }
-    let out = execute(&a, false)?;
+    let out = job.run(false)?;
     for line in &out.summary {
         println!("{line}");
     }

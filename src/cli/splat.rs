@@ -50,6 +50,7 @@ impl OrderArg {
 
 /// Options of `pvrsim splat`.
 #[derive(Debug, Args)]
+#[command(mut_arg("ert", |a| a.help(crate::job::shared_args::SPLAT_ERT_HELP)))]
 pub struct SplatArgs {
     /// Scene file (TOML) whose data is a regular grid (.nhdr/.nrrd).
     pub scene: PathBuf,
@@ -92,17 +93,10 @@ pub struct SplatArgs {
     /// thread) instead of the transparency pre-pass and sparse walk.
     #[arg(long)]
     pub full_walk: bool,
-    /// Early splat elimination threshold in (0, 1]: splats are composited
-    /// front to back and skipped where the 8x8 tiles under them have reached
-    /// this alpha (per-channel error bound (1 - THRESHOLD) x max(radiance,
-    /// background), in the stats). 1 turns it off (back to front, exact).
-    #[arg(
-        long = "ert",
-        value_name = "THRESHOLD",
-        default_value_t = 0.99,
-        allow_negative_numbers = true
-    )]
-    pub ert: f32,
+    /// Early termination threshold (declared once: [`crate::job::shared_args::ErtArg`];
+    /// the help this command shows is `SPLAT_ERT_HELP`).
+    #[command(flatten)]
+    pub ert: crate::job::shared_args::ErtArg,
     /// Also print the modelled one-thread frame time under this cost
     /// profile (`calibrated`, `pentium4`, `radeon9700` or a TOML file; its
     /// `per_splat_voxel`, `per_splat`, `per_splat_piece`, fitted by `pvrsim
@@ -138,7 +132,7 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         input.scene.image.width.into(),
         input.scene.image.height.into(),
     )?;
-    super::validate::ert_mode(a.ert)?;
+    super::validate::ert_mode(a.ert.threshold)?;
     anyhow::ensure!(
         !(a.exact_footprints && a.table_phases.is_some_and(|p| p > 0)),
         "--exact-footprints and --table-phases {} exclude each other (the table overrides \
@@ -149,7 +143,7 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
         .table_phases
         .unwrap_or(if a.exact_footprints { 0 } else { 32 });
     let opts = SplatOptions {
-        ert: a.ert,
+        ert: a.ert.threshold,
         order: a.order.order(),
         sigma: a.sigma,
         sparse: !a.full_walk,

@@ -39,10 +39,10 @@ pub struct ClusterConfig {
     pub phase1: Phase1Config,
     /// Initial placement of cells.
     pub placement: PlacementMethod,
-    /// Compositing strategy name (`binary-swap`, `direct-send`).
-    pub compositor: String,
-    /// List/pixel codec name (`rle`, `raw`).
-    pub codec: String,
+    /// Compositing strategy.
+    pub compositor: crate::compositor::strategy::Compositing,
+    /// List/pixel codec.
+    pub codec: crate::compositor::codec::ListCodecKind,
     /// Network model (and its name for the report).
     pub network: NetworkModel,
     /// Name of the network model.
@@ -97,15 +97,6 @@ pub fn sequential_reference(
 /// Runs one cluster configuration on `input`.
 pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOutcome> {
     let p1 = &cfg.phase1;
-    anyhow::ensure!(p1.nodes >= 1, "--nodes must be at least 1");
-    anyhow::ensure!(
-        p1.nodes <= 65_536,
-        "--nodes {} is more than this simulator supports (65536)",
-        p1.nodes
-    );
-    // Fail on a bad name before the run, not after it.
-    crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
-    crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
     let codec = Codec::default();
     let placement = Placement::new(
         &input.mesh,
@@ -239,10 +230,8 @@ pub fn finish(
     refs: Option<report::References>,
 ) -> anyhow::Result<ClusterOutcome> {
     let p1 = &cfg.phase1;
-    let strategy =
-        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
-    let list_codec =
-        crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = cfg.compositor.build();
+    let list_codec = cfg.codec.build();
     let partial = p1.node.partial_composition;
     let t2 = std::time::Instant::now();
     let ph2 = phase2::run(

@@ -6,7 +6,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use serde::de::{Deserialize, Deserializer};
 
 use super::cluster::ClusterArgs;
@@ -75,8 +74,8 @@ impl RenderArgs {
     /// Renders, writing no file and printing nothing: the image and every
     /// statistic (as `--stats` writes them).
     pub fn run(&self) -> Result<RenderOutcome, JobError> {
-        self.check()?;
-        super::run::render(self, true).map_err(JobError::Failed)
+        let job = validate::Valid::new(self).map_err(JobError::Invalid)?;
+        job.run(true).map_err(JobError::Failed)
     }
 }
 
@@ -153,21 +152,10 @@ impl ClusterArgs {
 
     /// Runs the frame(s), writing no file: images, reports, timelines.
     pub fn run(&self) -> Result<ClusterResult, JobError> {
-        self.check()?;
-        let run = || -> anyhow::Result<ClusterResult> {
-            let scene = crate::scene::Scene::load(&self.scene)
-                .with_context(|| format!("cannot load scene {}", self.scene.display()))?;
-            if super::render_grid::is_grid_scene(&scene) {
-                return Ok(ClusterResult::Grid(super::cluster_grid::execute_frames(
-                    self, scene,
-                )?));
-            }
-            super::grid_args::refuse_on_mesh(&self.grid)?;
-            Ok(ClusterResult::Mesh(Box::new(super::cluster::execute(
-                self,
-            )?)))
-        };
-        run().map_err(JobError::Failed)
+        let job = validate::Valid::new(self).map_err(JobError::Invalid)?;
+        job.load()
+            .and_then(|loaded| loaded.run())
+            .map_err(JobError::Failed)
     }
 }
 
@@ -202,7 +190,10 @@ mod tests {
             toml::from_str("scene = \"s.toml\"\nert = 0.9\ncompare = true\nert_table = 20\n")
                 .unwrap();
         assert_eq!(job.scene, PathBuf::from("s.toml"));
-        assert_eq!((job.ert, job.compare, job.ert_table), (0.9, true, Some(20)));
+        assert_eq!(
+            (job.ert.threshold, job.compare, job.ert_table),
+            (0.9, true, Some(20))
+        );
         let defaults = RenderJob::new("s.toml");
         assert_eq!(defaults.output, PathBuf::from("out.png"));
         assert!(!defaults.compare);

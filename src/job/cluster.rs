@@ -12,6 +12,8 @@ use super::memory::{self, FrameKind};
 
 use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::{self, ClockKind, ClusterConfig, ClusterOutcome, Phase1Config};
+use crate::compositor::codec::{LayerCodecKind, ListCodecKind};
+use crate::compositor::strategy::Compositing;
 use crate::net::NetworkModel;
 use crate::node::renderer::NodeErt;
 use crate::node::{CostProfile, DataMode, NodeOptions, NodePolicy, PlacementMethod};
@@ -29,25 +31,66 @@ pub enum Sharing {
     Overlap,
 }
 
+/// `--codec`: a list codec (mesh frames: `rle`, `raw`) or an RGBA layer
+/// codec (grid frames; there `rle` means `rle16`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CodecChoice {
+    /// Empty runs collapsed (lists), the paper's RLE at 16 bits (layers).
+    Rle,
+    /// No compression.
+    Raw,
+    /// Layers: the paper's RLE at 16 bits a channel.
+    Rle16,
+    /// Layers: RGBA16.
+    Raw16,
+    /// Layers: IceT's active runs at 16 bits.
+    Sparse16,
+    /// Layers: the paper's RLE of RGBA8.
+    RlePaper,
+    /// Layers: IceT's active runs of RGBA8.
+    Sparse,
+}
+
+impl CodecChoice {
+    /// The list codec of a mesh frame; a layer-only codec is refused.
+    pub fn list(self) -> anyhow::Result<ListCodecKind> {
+        match self {
+            CodecChoice::Rle => Ok(ListCodecKind::Rle),
+            CodecChoice::Raw => Ok(ListCodecKind::Raw),
+            c => anyhow::bail!(
+                "--codec {}: a codec of RGBA layers (grid scenes); a mesh frame's segment \
+                 lists take rle or raw",
+                c.layers().name()
+            ),
+        }
+    }
+
+    /// The layer codec of a grid frame (`rle` is `rle16`).
+    pub fn layers(self) -> LayerCodecKind {
+        match self {
+            CodecChoice::Rle | CodecChoice::Rle16 => LayerCodecKind::Rle16,
+            CodecChoice::Raw => LayerCodecKind::Raw,
+            CodecChoice::Raw16 => LayerCodecKind::Raw16,
+            CodecChoice::Sparse16 => LayerCodecKind::Sparse16,
+            CodecChoice::RlePaper => LayerCodecKind::RlePaper,
+            CodecChoice::Sparse => LayerCodecKind::Sparse,
+        }
+    }
+}
+
 /// Options of `pvrsim cluster`.
 #[derive(Debug, Clone, Args)]
+#[command(mut_arg("ert", |a| a.help(super::shared_args::CLUSTER_ERT_HELP)))]
 pub struct ClusterArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
     /// Number of rendering nodes (the manager is one more rank).
     #[arg(long, default_value_t = 8)]
     pub nodes: usize,
-    /// Early ray termination threshold, in (0, 1]. Default 0.99, as in the
-    /// scene contract and `pvrsim render`; the paper's experiments use 0.9
-    /// (`--ert 0.9`); 1.0 turns ERT off (the `Base` and `DLB` rows of the
-    /// paper's Table 2). Sharing (`--share`, `--sharing`) needs ERT on.
-    #[arg(
-        long = "ert",
-        value_name = "THRESHOLD",
-        default_value_t = 0.99,
-        allow_negative_numbers = true
-    )]
-    pub ert: f32,
+    /// Early termination threshold (declared once: [`super::shared_args::ErtArg`];
+    /// the help this command shows is `CLUSTER_ERT_HELP`).
+    #[command(flatten)]
+    pub ert: super::shared_args::ErtArg,
     /// ERT table of D x D entries over the whole image (the paper's best: 20).
     #[arg(long, value_name = "D", default_value_t = 20)]
     pub ert_table: u32,
@@ -96,14 +139,14 @@ pub struct ClusterArgs {
     /// `radix-k` (k from `--radix-k`) or `master` (everything to rank 0).
     /// Default `binary-swap` (`master` with `--master`).
     #[arg(long)]
-    pub compositor: Option<String>,
+    pub compositor: Option<Compositing>,
     /// Codec of phase-2 messages: `rle` (empty runs collapsed) or `raw`;
     /// grid scenes: `rle16` (the paper's RLE at 16 bits a channel; `rle`
     /// means it there), `raw16`, `sparse16` (IceT's active runs), or the
     /// paper's 8-bit `raw`, `rle-paper`, `sparse` (up to 1.4/255 off the
     /// single-node image at d = 2).
-    #[arg(long, default_value = "rle")]
-    pub codec: String,
+    #[arg(long, value_enum, default_value_t = CodecChoice::Rle, hide_possible_values = true)]
+    pub codec: CodecChoice,
     /// Network model: a preset (gbe, fast-ethernet, 10gbe, infiniband,
     /// ideal) or a TOML file (see configs/network/). Default: gbe. Only the
     /// virtual clock models time; with `--clock wall` it has no effect.
@@ -246,6 +289,17 @@ pub(crate) fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
 }
 
 impl ClusterArgs {
+    /// The compositing strategy `--compositor` and `--radix-k` name
+    /// (default binary swap); `--radix-k` without `--compositor radix-k`
+    /// is refused rather than ignored.
+    pub fn compositing(&self) -> anyhow::Result<Compositing> {
+        let c = self.compositor.unwrap_or_default();
+        match self.grid.radix_k {
+            None => Ok(c),
+            Some(k) => c.with_group_size(k).map_err(|e| anyhow::anyhow!(e)),
+        }
+    }
+
     /// Whether ERT tables are shared (through the manager or by overlap).
     fn sharing_mode(&self) -> Sharing {
         if self.share {
@@ -258,7 +312,7 @@ impl ClusterArgs {
 
 impl Validate for ClusterArgs {
     fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        let ert = validate::ert_mode(self.ert)?;
+        let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--nodes", self.nodes, 1)?;
         at_least("--ert-table", self.ert_table, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
@@ -340,9 +394,9 @@ impl Validate for ClusterArgs {
     }
 }
 
-/// The configuration the arguments describe.
+/// The configuration of a mesh frame that validated options describe
+/// (the validation layer ran before: [`super::cluster_job`]).
 pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
-    validate::check(a)?;
     let network = a.network.as_deref().unwrap_or("gbe");
     let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("pentium4"))?;
     let mode = a.ert_mode.resolve(a.share_levels)?;
@@ -355,7 +409,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 partial_composition: !a.no_partial_composition,
                 cell_order: CellOrder::FrontToBack,
                 ert: NodeErt {
-                    threshold: a.ert,
+                    threshold: a.ert.threshold,
                     divisions: a.ert_table,
                     update_c: a.ert_update,
                     span: a.ert_span,
@@ -387,7 +441,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             manager_shards: a.ert_mode.manager_shards,
             schedule_waves: a.ert_mode.schedule_waves.unwrap_or(
                 if !paper
-                    && a.ert < 1.0
+                    && a.ert.threshold < 1.0
                     && a.sharing_mode() == Sharing::Manager
                     && a.dlb
                     && mode.structure == crate::render::cell::ert::ErtStructure::Pyramid
@@ -415,11 +469,8 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             record_trace: true,
         },
         placement: a.placement,
-        compositor: super::grid_args::compositor_name(
-            a.compositor.as_deref().unwrap_or("binary-swap"),
-            a.grid.radix_k,
-        )?,
-        codec: a.codec.clone(),
+        compositor: a.compositing()?,
+        codec: a.codec.list()?,
         network: load_network(network)?,
         network_name: network.to_string(),
         profile,
@@ -428,11 +479,26 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
     })
 }
 
-/// Loads the scene and runs the cluster, writing nothing.
-pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
-    validate::check(a)?;
-    let (mut input, _) = RenderInput::load(&a.scene)
-        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+/// A mesh frame ready to run: the scene and its mesh (each read once),
+/// the configuration, and where it runs (`None`: this process).
+pub struct MeshFrame {
+    /// The scene with its mesh.
+    pub input: RenderInput,
+    /// The configuration.
+    pub cfg: ClusterConfig,
+    remote: Option<super::transport_args::TransportKind>,
+}
+
+/// Prepares a mesh frame of validated options on `scene` (read once, by
+/// the caller): refuses grid-only options, reads the mesh, builds the
+/// configuration and checks memory and the transport's set-up.
+pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
+    super::grid_args::refuse_on_mesh(&a.grid)?;
+    let load = || -> anyhow::Result<RenderInput> {
+        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
+        Ok(RenderInput::new(scene, std::sync::Arc::new(mesh))?)
+    };
+    let mut input = load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
@@ -442,37 +508,52 @@ pub fn execute(a: &ClusterArgs) -> anyhow::Result<ClusterOutcome> {
         input.scene.image.width,
         input.scene.image.height,
         FrameKind::Cluster { nodes: a.nodes },
-        memory::available_bytes(),
+        crate::budget::available_bytes(),
     )?;
-    match a.net.apply(&mut cfg)? {
+    // After the memory check, whose message says what a huge count costs.
+    anyhow::ensure!(
+        a.nodes <= 65_536,
+        "--nodes {} is more than this simulator supports (65536)",
+        a.nodes
+    );
+    let remote = a.net.apply(&mut cfg)?;
+    if remote.is_some() {
+        anyhow::ensure!(
+            a.ert_mode.manager_shards.is_none_or(|k| k == 1),
+            "--manager-shards runs on the simulated cluster (or --transport threads) only: \
+             remote workers talk to one manager"
+        );
+        if a.ert_mode.manager_shards.is_none() && a.nodes > 16 {
+            eprintln!(
+                "note: remote workers talk to one manager: 1 manager shard (the simulated \
+                 cluster's default for {} nodes would be {})",
+                a.nodes,
+                a.nodes.div_ceil(crate::node::shard_map::NODES_PER_SHARD)
+            );
+        }
+        if cfg.phase1.data == DataMode::Replicated {
+            anyhow::ensure!(
+                a.data.is_none(),
+                "--data replicated runs on the simulated cluster only: remote workers receive their part of the mesh, not all of it; give --data partitioned"
+            );
+            eprintln!("note: remote workers hold their part of the mesh only: --data partitioned (cells move with their vertices)");
+            cfg.phase1.data = DataMode::Partitioned;
+            anyhow::ensure!(
+                a.ert_mode.schedule_waves.is_none_or(|w| w <= 1),
+                "--schedule-waves needs replicated data, which runs on the simulated cluster only"
+            );
+            cfg.phase1.schedule_waves = 0;
+        }
+    }
+    Ok(MeshFrame { input, cfg, remote })
+}
+
+/// Runs a prepared mesh frame (on the transport `a` names), writing nothing.
+pub fn run_mesh(a: &ClusterArgs, f: MeshFrame) -> anyhow::Result<ClusterOutcome> {
+    let MeshFrame { input, cfg, remote } = f;
+    match remote {
         None => cluster::run(&input, &cfg),
         Some(kind) => {
-            anyhow::ensure!(
-                a.ert_mode.manager_shards.is_none_or(|k| k == 1),
-                "--manager-shards runs on the simulated cluster (or --transport threads) only: \
-                 remote workers talk to one manager"
-            );
-            if a.ert_mode.manager_shards.is_none() && a.nodes > 16 {
-                eprintln!(
-                    "note: remote workers talk to one manager: 1 manager shard (the simulated \
-                     cluster's default for {} nodes would be {})",
-                    a.nodes,
-                    a.nodes.div_ceil(crate::node::shard_map::NODES_PER_SHARD)
-                );
-            }
-            if cfg.phase1.data == DataMode::Replicated {
-                anyhow::ensure!(
-                    a.data.is_none(),
-                    "--data replicated runs on the simulated cluster only: remote workers receive their part of the mesh, not all of it; give --data partitioned"
-                );
-                eprintln!("note: remote workers hold their part of the mesh only: --data partitioned (cells move with their vertices)");
-                cfg.phase1.data = DataMode::Partitioned;
-                anyhow::ensure!(
-                    a.ert_mode.schedule_waves.is_none_or(|w| w <= 1),
-                    "--schedule-waves needs replicated data, which runs on the simulated cluster only"
-                );
-                cfg.phase1.schedule_waves = 0;
-            }
             let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
             out.report.transport = Some(crate::cluster::remote::transport_section(
                 &input, &cfg, &out, measured,

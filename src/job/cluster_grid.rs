@@ -9,11 +9,12 @@ use std::time::Duration;
 use anyhow::Context;
 
 use super::cluster::{load_profile, ClusterArgs};
-use super::grid_args::{compositor_name, GridArgs};
+use super::grid_args::GridArgs;
 use super::transport_args::TransportArgs;
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
 use crate::cluster::remote::grid::GridRemote;
 use crate::cluster::ClockKind;
+use crate::compositor::strategy::Compositing;
 use crate::net::tcp::Token;
 use crate::node::grid::render::RendererKind;
 use crate::node::grid::BrickPlacement;
@@ -64,21 +65,17 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
             "--radix-k sets radix-k's group size; --master composites every subimage at the \
              master (drop one of them)"
         );
-        anyhow::ensure!(
-            matches!(a.compositor.as_deref(), None | Some("master")),
-            "--master composites every subimage at the master; it cannot be combined with --compositor {}",
-            a.compositor.as_deref().unwrap_or_default()
-        );
-        "master".to_string()
+        if let Some(c) = a.compositor.filter(|c| *c != Compositing::Master) {
+            anyhow::bail!(
+                "--master composites every subimage at the master; it cannot be combined with --compositor {c}"
+            );
+        }
+        Compositing::Master
     } else {
-        compositor_name(a.compositor.as_deref().unwrap_or("binary-swap"), g.radix_k)?
+        a.compositing()?
     };
     // `rle` (the default) means the paper's RLE at 16 bits for layers.
-    let codec = match a.codec.as_str() {
-        "rle" => crate::compositor::codec::layers::DEFAULT.to_string(),
-        c => c.to_string(),
-    };
-    crate::compositor::codec::layers::from_name(&codec).map_err(|e| anyhow::anyhow!(e))?;
+    let codec = a.codec.layers();
     let network = a.network.as_deref().unwrap_or("gbe");
     let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("radeon9700"))?;
     let renderer = match (g.blocks, g.tolerance) {
@@ -99,7 +96,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         compositor,
         codec,
         slice: Slice3dOptions {
-            ert: a.ert,
+            ert: a.ert.threshold,
             ..Default::default()
         },
         renderer,
@@ -115,12 +112,6 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         record_trace: true,
         texture_cache: !g.no_texture_cache,
     })
-}
-
-/// Loads the volume and runs the grid cluster; the last frame's outcome.
-pub fn execute(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridOutcome> {
-    let mut outs = execute_frames(a, scene)?;
-    Ok(outs.pop().expect("at least one frame"))
 }
 
 /// The cameras `--frames` and `--turn` ask for (checked).
@@ -143,8 +134,21 @@ fn cameras(g: &GridArgs, cam: &crate::scene::Camera) -> anyhow::Result<Vec<crate
     Ok(grid::orbit(cam, frames, turn))
 }
 
-/// Loads the volume and runs every frame of `--frames` on the same nodes.
-pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridOutcome>> {
+/// Grid frames ready to run: the scene and its volume (each read once),
+/// the configuration and one camera per frame.
+pub struct GridFrames {
+    /// The scene with its volume.
+    pub input: VolumeInput,
+    /// The configuration.
+    pub cfg: GridConfig,
+    /// One camera per frame (`--frames`, `--turn`).
+    pub cams: Vec<crate::scene::Camera>,
+}
+
+/// Prepares the frames of validated options on a grid `scene` (read once,
+/// by the caller): refuses mesh-only options, builds the configuration and
+/// the cameras, reads the volume.
+pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
     let cfg = config(a)?;
     let cams = cameras(&a.grid, &scene.camera)?;
     let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
@@ -153,6 +157,12 @@ pub fn execute_frames(a: &ClusterArgs, scene: Scene) -> anyhow::Result<Vec<GridO
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
+    Ok(GridFrames { input, cfg, cams })
+}
+
+/// Runs every frame on the same nodes (on the transport `a` names).
+pub fn run(a: &ClusterArgs, f: GridFrames) -> anyhow::Result<Vec<GridOutcome>> {
+    let GridFrames { input, cfg, cams } = f;
     use super::transport_args::TransportKind;
     let t = &a.net;
     match t.transport {

@@ -1,5 +1,5 @@
 //! The options of `pvrsim cluster` that only grid scenes take
-//! ([`GridArgs`]), the `--compositor`/`--radix-k` name check, and their
+//! ([`GridArgs`], with `--radix-k`, which both kinds take), and their
 //! refusal on mesh scenes.
 
 use clap::Args;
@@ -33,7 +33,7 @@ pub struct GridArgs {
     /// (default 8, IceT's; rounds' sizes multiply to the rank count, a
     /// prime factor above k gets a round of its own).
     #[arg(long, value_name = "K")]
-    pub radix_k: Option<usize>,
+    pub radix_k: Option<crate::compositor::strategy::GroupSize>,
     /// Grid scenes: render N frames on the same nodes, the camera turning
     /// `--turn` degrees about the scene's up axis between frames (the
     /// nodes keep their bricks' textures); the outputs are the last
@@ -48,25 +48,6 @@ pub struct GridArgs {
     /// across frames; for measuring what the cache saves).
     #[arg(long)]
     pub no_texture_cache: bool,
-}
-
-/// The compositor name `--compositor` and `--radix-k` describe (`radix-k:K`
-/// when k is given), checked: `--radix-k` without `--compositor radix-k`
-/// is refused rather than ignored.
-pub fn compositor_name(compositor: &str, radix_k: Option<usize>) -> anyhow::Result<String> {
-    let name = match radix_k {
-        None => compositor.to_string(),
-        Some(k) => {
-            anyhow::ensure!(
-                matches!(compositor, "radix-k" | "radixk"),
-                "--radix-k {k} sets radix-k's group size; it needs --compositor radix-k \
-                 (got --compositor {compositor})"
-            );
-            format!("radix-k:{k}")
-        }
-    };
-    crate::compositor::strategy::from_name(&name).map_err(|e| anyhow::anyhow!(e))?;
-    Ok(name)
 }
 
 /// Refuses grid-only options on a mesh scene.

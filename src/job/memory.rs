@@ -1,4 +1,5 @@
-//! Memory a frame needs, checked before anything is allocated, so that a
+//! Memory a frame needs (the bytes helpers, `MemAvailable` and
+//! [`crate::budget::human`], are the budget's), checked before anything is allocated, so that a
 //! huge `--width`/`--height` (or a huge cluster) is refused with a message
 //! instead of aborting the process on a failed allocation.
 //!
@@ -63,30 +64,6 @@ pub fn frame_bytes(width: u32, height: u32, kind: FrameKind) -> u64 {
     }
 }
 
-/// `MemAvailable` of `/proc/meminfo`, in bytes (`None` where not readable).
-pub fn available_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    parse_mem_available(&text)
-}
-
-fn parse_mem_available(text: &str) -> Option<u64> {
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
-/// Human-readable bytes (GiB, MiB or KiB, one decimal).
-pub fn human(bytes: u64) -> String {
-    let b = bytes as f64;
-    if b >= 1024.0 * 1024.0 * 1024.0 {
-        format!("{:.1} GiB", b / (1024.0 * 1024.0 * 1024.0))
-    } else if b >= 1024.0 * 1024.0 {
-        format!("{:.1} MiB", b / (1024.0 * 1024.0))
-    } else {
-        format!("{:.1} KiB", b / 1024.0)
-    }
-}
-
 /// Refuses a frame whose lower-bound size exceeds `available` bytes.
 pub fn check_fits(
     width: u32,
@@ -99,12 +76,12 @@ pub fn check_fits(
         anyhow::ensure!(
             need <= avail,
             "a {width}x{height} frame needs at least {} of memory (image buffers and per-pixel lists{}), but this machine has {} available (MemAvailable in /proc/meminfo); use a smaller --width/--height{}",
-            human(need),
+            crate::budget::human(need),
             match kind {
                 FrameKind::Cluster { nodes } => format!(", {nodes} nodes each holding full-screen lists"),
                 FrameKind::Render { .. } => String::new(),
             },
-            human(avail),
+            crate::budget::human(avail),
             match kind {
                 FrameKind::Cluster { .. } => " or fewer --nodes",
                 FrameKind::Render { .. } => "",
@@ -117,13 +94,6 @@ pub fn check_fits(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn parses_meminfo() {
-        let t = "MemTotal:  8000 kB\nMemFree: 100 kB\nMemAvailable:    2048 kB\n";
-        assert_eq!(parse_mem_available(t), Some(2048 * 1024));
-        assert_eq!(parse_mem_available("MemTotal: 1 kB\n"), None);
-    }
 
     #[test]
     fn huge_frames_are_refused_small_ones_pass() {

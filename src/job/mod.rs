@@ -6,14 +6,16 @@
 //! stderr, and the command line's own path (`run::render(.., quiet =
 //! false)`) also writes `--compare`'s strip.
 //!
-//! - [`render`]: a render's options and outcome; [`run`] loads the scene
-//!   and hands it to [`render_mesh`] (cell projection, the f64 reference)
+//! - [`render`]: a render's options and outcome; [`run`] validates them
+//!   once ([`Valid`]), loads the scene once and hands it to [`render_mesh`] (cell projection, the f64 reference)
 //!   or [`render_grid`] (slicing, adaptive, [`render_splat`], the grid
 //!   reference); [`grid_order`] is `--order`; [`compare`] is `--compare`'s
 //!   verdict and strip.
 //! - [`cluster`]: a cluster frame (or series of frames, [`cluster_grid`], whose
 //!   options are [`grid_args`]) on
-//!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]).
+//!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]);
+//!   [`cluster_job`] is its one path: validated once, the scene read once
+//!   and its mesh or volume loaded ([`LoadedCluster`]), then run.
 //! - [`validate`]: the one validation layer. Each job implements
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
 //!   are decided there (errors say what to do, warnings what will happen);
@@ -27,6 +29,10 @@
 //! - [`sweep`]: [`SweepJob`], a sweep as a typed job (fixed and varying
 //!   options by flag name, every point validated before the first runs,
 //!   typed rows); the config-file sweep frontend runs its points here.
+//! - [`scene_fit`]: a scene fitted to a data file (the data read as a
+//!   [`crate::scene::fit::SceneSource`], the fitting [`crate::scene::fit`]'s).
+//! - [`shared_args`]: options several commands share, declared once
+//!   (`--ert`).
 //! - [`options`]: options by flag name, the one mapping that job files,
 //!   and sweeps share.
 //!
@@ -36,6 +42,7 @@ pub mod api;
 pub mod cluster;
 pub mod cluster_ert;
 pub mod cluster_grid;
+pub mod cluster_job;
 pub mod compare;
 pub mod grid_args;
 pub mod grid_order;
@@ -47,14 +54,18 @@ pub mod render_grid;
 pub mod render_mesh;
 pub mod render_splat;
 pub mod run;
+pub mod scene_fit;
+pub mod shared_args;
 pub mod sweep;
 pub mod transport_args;
 pub mod validate;
 
 pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
+pub use cluster_job::LoadedCluster;
 pub use render::RenderOutcome;
 pub use sweep::{SweepCommand, SweepJob, SweepRow};
+pub use validate::Valid;
 
 /// The text `main` prints for an error: `error: MSG` and one `caused by:`
 /// line per cause, leaving out a cause whose text the line above already
@@ -84,6 +95,12 @@ pub fn warn_field(input: &crate::render::RenderInput) {
             ));
         }
     }
+}
+
+/// Reads a scene file (the one read of a job's scene), saying which.
+pub fn load_scene(path: &std::path::Path) -> anyhow::Result<crate::scene::Scene> {
+    use anyhow::Context;
+    crate::scene::Scene::load(path).with_context(|| format!("cannot load scene {}", path.display()))
 }
 
 /// Runs `f` in a rayon pool of `threads` threads (0: all cores).

@@ -36,6 +36,7 @@ pub enum RendererKind {
 
 /// Options of `pvrsim render`.
 #[derive(Debug, Clone, Args)]
+#[command(mut_arg("ert", |a| a.help(super::shared_args::RENDER_ERT_HELP)))]
 pub struct RenderArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
@@ -106,18 +107,10 @@ pub struct RenderArgs {
     /// change with it (within the ERT error bound). Never with the thread count.
     #[arg(long, default_value_t = 32)]
     pub tile: u32,
-    /// Early ray termination threshold, in (0, 1]: a pixel terminates where
-    /// the alpha of the segments known in front reaches it. 1.0 turns ERT off
-    /// (no test, no update). Default 0.99 as in the scene contract (and
-    /// `pvrsim cluster`); the paper's experiments use 0.9. The per-pixel
-    /// error bound (1 - THRESHOLD) x max emitted radiance is in the stats.
-    #[arg(
-        long = "ert",
-        value_name = "THRESHOLD",
-        default_value_t = 0.99,
-        allow_negative_numbers = true
-    )]
-    pub ert: f32,
+    /// Early termination threshold (declared once: [`super::shared_args::ErtArg`];
+    /// the help this command shows is `RENDER_ERT_HELP`).
+    #[command(flatten)]
+    pub ert: super::shared_args::ErtArg,
     /// ERT table of D x D entries (flat structure; entries of ceil(W/D) x
     /// ceil(H/D) pixels; for the pyramid: its level-0 blocks). Default: 20 for
     /// `flat` (the paper's best), 1-pixel blocks for `pyramid`.
@@ -178,7 +171,7 @@ pub struct RenderOutcome {
 
 impl Validate for RenderArgs {
     fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        let ert = validate::ert_mode(self.ert)?;
+        let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--tile", self.tile, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
         if let Some(d) = self.ert_table {

@@ -89,7 +89,7 @@ fn slice3d_options(a: &RenderArgs) -> anyhow::Result<Slice3dOptions> {
     Ok(Slice3dOptions {
         classify: a.classify.unwrap_or(Slice3dOptions::default().classify),
         order: GridOrder::compositing(a.order)?,
-        ert: a.ert,
+        ert: a.ert.threshold,
         slices: slice_count(a),
         empty_skip: !a.no_empty_skip,
         brick: None,
@@ -109,7 +109,7 @@ fn slice2d_options(a: &RenderArgs) -> anyhow::Result<Slice2dOptions> {
     Ok(Slice2dOptions {
         classify: a.classify.unwrap_or(Classify::Post),
         order: GridOrder::compositing(a.order)?,
-        ert: a.ert,
+        ert: a.ert.threshold,
         lod: a.lod,
         empty_skip: !a.no_empty_skip,
     })
@@ -134,7 +134,7 @@ fn slicer_options_given(a: &RenderArgs) -> bool {
 /// several times lower than the warp's.
 pub fn default_renderer(a: &RenderArgs, input: &VolumeInput) -> RendererKind {
     let sw = ShearWarpOptions {
-        ert: a.ert,
+        ert: a.ert.threshold,
         empty_skip: !a.no_empty_skip,
     };
     if slicer_options_given(a)
@@ -285,7 +285,7 @@ pub fn render_with(
                      (post-classified, front to back)"
                 );
                 let o = ShearWarpOptions {
-                    ert: a.ert,
+                    ert: a.ert.threshold,
                     empty_skip: !a.no_empty_skip,
                 };
                 super::with_threads(a.threads, || shearwarp::render(input, &o))??

@@ -9,14 +9,21 @@ use super::render::{compare_path, RenderArgs, RenderOutcome, RendererKind};
 use crate::render::cell::ert::EntrySize;
 use crate::render::cell::{self, CellOptions, ErtOptions};
 use crate::render::{reference, RenderInput};
+use crate::scene::Scene;
 
-/// Renders a mesh scene (cell projection or the f64 reference), without
-/// writing files or warning (when `quiet`); [`super::run::render`] hands
-/// mesh scenes here.
-pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
+/// Renders a mesh scene (cell projection or the f64 reference; `scene`
+/// read once by the caller, the mesh read here), without writing files or
+/// warning (when `quiet`); [`super::run`] hands mesh scenes here.
+pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
     refuse_grid_options(a)?;
-    let (mut input, load_s) = RenderInput::load(&a.scene)
-        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    let load = || -> anyhow::Result<(RenderInput, f64)> {
+        let t = std::time::Instant::now();
+        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
+        let load_s = t.elapsed().as_secs_f64();
+        Ok((RenderInput::new(scene, std::sync::Arc::new(mesh))?, load_s))
+    };
+    let (mut input, load_s) =
+        load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
@@ -34,7 +41,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         input.scene.image.width,
         input.scene.image.height,
         kind,
-        memory::available_bytes(),
+        crate::budget::available_bytes(),
     )?;
     if !quiet {
         super::warn_field(&input);
@@ -46,7 +53,7 @@ pub fn execute(a: &RenderArgs, quiet: bool) -> anyhow::Result<RenderOutcome> {
         tile_size: a.tile,
         cell_order: a.cell_order,
         ert: ErtOptions {
-            threshold: a.ert,
+            threshold: a.ert.threshold,
             entry: a
                 .ert_entry_px
                 .map(EntrySize::Pixels)

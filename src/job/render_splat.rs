@@ -42,11 +42,11 @@ pub fn render(
     say: &mut Vec<String>,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     refuse_slicer_options(a)?;
-    super::validate::ert_mode(a.ert)?;
+    super::validate::ert_mode(a.ert.threshold)?;
     let opts = SplatOptions {
         order: GridOrder::splat(a.order)?,
         // Early splat elimination at the common ERT threshold (1: off).
-        ert: a.ert,
+        ert: a.ert.threshold,
         ..Default::default()
     };
     let (img, st) = super::with_threads(a.threads, || render_splat(input, &opts))??;

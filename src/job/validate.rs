@@ -58,11 +58,63 @@ pub trait Validate {
     fn validate(&self, c: &mut Checks) -> anyhow::Result<()>;
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Validations run on this thread (tests count them per command).
+    static CHECKS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many times [`check`] ran on this thread (tests: a command
+/// validates its options once).
+#[cfg(test)]
+pub(crate) fn checks_on_this_thread() -> usize {
+    CHECKS.with(|c| c.get())
+}
+
 /// Validates `args`; returns the warnings.
 pub fn check<T: Validate + ?Sized>(args: &T) -> anyhow::Result<Vec<String>> {
+    #[cfg(test)]
+    CHECKS.with(|c| c.set(c.get() + 1));
     let mut c = Checks::new();
     args.validate(&mut c)?;
     Ok(c.warnings)
+}
+
+/// Options that passed the validation layer, with its warnings: what a
+/// job runs from (`Valid<RenderArgs>::run`, `Valid<ClusterArgs>::load`),
+/// so that every run validates its options exactly once and nothing below
+/// checks them again.
+#[derive(Debug)]
+pub struct Valid<'a, T: ?Sized> {
+    args: &'a T,
+    warnings: Vec<String>,
+}
+
+impl<'a, T: Validate + ?Sized> Valid<'a, T> {
+    /// Validates `args`: the error, or the options with the warnings.
+    pub fn new(args: &'a T) -> anyhow::Result<Self> {
+        let warnings = check(args)?;
+        Ok(Valid { args, warnings })
+    }
+}
+
+impl<'a, T: ?Sized> Valid<'a, T> {
+    /// The options.
+    pub fn args(&self) -> &'a T {
+        self.args
+    }
+
+    /// The warnings, in the order found.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Prints the warnings on stderr (`warning: ...`).
+    pub fn print_warnings(&self) {
+        for w in &self.warnings {
+            super::output::warn(w.clone());
+        }
+    }
 }
 
 /// Validates `args` and prints the warnings on stderr.

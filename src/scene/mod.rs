@@ -7,6 +7,7 @@
 //! every value and names the key of the first one that is impossible.
 
 pub mod camera;
+pub mod fit;
 pub mod transfer;
 
 use std::path::{Path, PathBuf};
@@ -113,9 +114,24 @@ struct RawTransfer {
     points: Vec<Vec<f64>>,
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Scene files read on this thread (tests count them per command).
+    static LOADS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many scene files [`Scene::load`] read on this thread (tests: a
+/// command reads its scene once).
+#[cfg(test)]
+pub(crate) fn loads_on_this_thread() -> usize {
+    LOADS.with(|n| n.get())
+}
+
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
+        #[cfg(test)]
+        LOADS.with(|n| n.set(n.get() + 1));
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         Scene::parse(&text, path)
     }

@@ -145,10 +145,8 @@ fn model(
     let nodes = phase1::build_nodes(input, placement, &p1, &cfg.profile, codec)?;
     let sim = phase1::run(nodes, &p1, &cfg.network, &cfg.profile, codec)?;
     let model2 = {
-        let strategy = crate::compositor::strategy::from_name(&cfg.compositor)
-            .map_err(|e| anyhow::anyhow!(e))?;
-        let list_codec =
-            crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let strategy = cfg.compositor.build();
+        let list_codec = cfg.codec.build();
         let lists = sim
             .nodes
             .iter()

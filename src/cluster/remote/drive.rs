@@ -75,8 +75,8 @@ pub(super) fn worker_setups(
             policy: p1.policy.into(),
             overlap_peers: peers,
             profile: cfg.profile,
-            list_codec: cfg.codec.clone(),
-            compositor: cfg.compositor.clone(),
+            list_codec: cfg.codec,
+            compositor: cfg.compositor,
             max_message_bytes: codec.max_message_bytes,
             cells_initial: part.len() as u64,
             cells_sha256: sha256(&cells),
@@ -338,10 +338,8 @@ fn phase2<T: RemoteTransport>(
     measured: &mut Measured,
 ) -> anyhow::Result<(Phase2, Vec<RankLog>)> {
     let n = cfg.phase1.nodes;
-    let strategy =
-        crate::compositor::strategy::from_name(&cfg.compositor).map_err(|e| anyhow::anyhow!(e))?;
-    let list_codec =
-        crate::compositor::codec::from_name(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = cfg.compositor.build();
+    let list_codec = cfg.codec.build();
     let scene = &input.scene;
     let schedule = strategy.schedule(
         n,

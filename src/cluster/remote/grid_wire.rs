@@ -162,8 +162,9 @@ pub struct GridSetup {
     pub slice: WireSlice,
     /// The brick renderer.
     pub renderer: crate::node::grid::render::RendererKind,
-    /// The layer codec (its depth is the layers' depth).
-    pub codec: String,
+    /// The layer codec (its depth is the layers' depth; travels as its
+    /// name, and an unknown name fails decoding).
+    pub codec: crate::compositor::codec::LayerCodecKind,
     /// The cost profile (charged as a model beside the measured times).
     pub profile: crate::node::CostProfile,
     /// This worker's bricks, in the order of the brick bytes.
@@ -179,8 +180,8 @@ pub struct GridSetup {
     /// at `peers[k]`), the workers forming a mesh; empty: the layers go to
     /// the coordinator, the master (`--master`).
     pub peers: Vec<String>,
-    /// The compositing strategy's name (with `peers`).
-    pub compositor: String,
+    /// The compositing strategy (with `peers`; travels as its name).
+    pub compositor: crate::compositor::strategy::Compositing,
     /// Bricks in all, `d^3` (visibility ranks are below it).
     pub bricks_total: u32,
     /// Longest wait for a peer's message in phase 2, seconds.
@@ -192,21 +193,18 @@ pub struct GridSetup {
 
 impl GridSetup {
     /// Checks what a worker cannot take on trust (brick boxes inside the
-    /// whole, a known codec, valid options).
+    /// whole, valid options; the codec and the strategy are known once
+    /// decoded).
     pub fn validate(&self) -> Result<(), String> {
         if self.nodes == 0 || self.rank >= self.nodes {
             return Err(format!("rank {} of {} nodes", self.rank, self.nodes));
         }
-        crate::compositor::codec::layers::from_name(&self.codec)?;
-        if !self.peers.is_empty() {
-            if self.peers.len() != self.nodes as usize {
-                return Err(format!(
-                    "{} peer addresses for {} nodes",
-                    self.peers.len(),
-                    self.nodes
-                ));
-            }
-            crate::compositor::strategy::from_name(&self.compositor)?;
+        if !self.peers.is_empty() && self.peers.len() != self.nodes as usize {
+            return Err(format!(
+                "{} peer addresses for {} nodes",
+                self.peers.len(),
+                self.nodes
+            ));
         }
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("receive timeout {} s", self.recv_timeout_s));

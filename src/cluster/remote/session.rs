@@ -214,10 +214,12 @@ pub struct WorkerSetup {
     pub overlap_peers: Vec<u32>,
     /// Compute cost profile (charged as in the thread driver: not slept).
     pub profile: CostProfile,
-    /// List codec of phase 2 (`rle`, `raw`).
-    pub list_codec: String,
-    /// Compositing strategy of phase 2 (`binary-swap`, `direct-send`).
-    pub compositor: String,
+    /// List codec of phase 2 (travels as its name, `rle` or `raw`; an
+    /// unknown name fails decoding).
+    pub list_codec: crate::compositor::codec::ListCodecKind,
+    /// Compositing strategy of phase 2 (travels as its name, e.g.
+    /// `binary-swap`, `radix-k:4`).
+    pub compositor: crate::compositor::strategy::Compositing,
     /// Payload limit of frames.
     pub max_message_bytes: u64,
     /// Cells placed on this node.
@@ -263,8 +265,6 @@ impl WorkerSetup {
         if let Some(p) = self.overlap_peers.iter().find(|&&p| p >= self.nodes) {
             return Err(format!("overlap peer {p} is not a node"));
         }
-        crate::compositor::codec::from_name(&self.list_codec)?;
-        crate::compositor::strategy::from_name(&self.compositor)?;
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("recv timeout {} s", self.recv_timeout_s));
         }

@@ -227,8 +227,8 @@ pub fn build(i: Inputs) -> ClusterReport {
         placement: clap::ValueEnum::to_possible_value(&cfg.placement)
             .map(|v| v.get_name().to_string())
             .unwrap_or_default(),
-        compositor: cfg.compositor.clone(),
-        codec: cfg.codec.clone(),
+        compositor: cfg.compositor.to_string(),
+        codec: cfg.codec.to_string(),
         ert_threshold: p1.node.ert.threshold,
         ert_table: p1.node.ert.divisions,
         ert_update: p1.node.ert.update_c,

@@ -15,11 +15,13 @@
 //! kind: 'L' lists, 'P' pixels; codec: 'r' raw, 'R' rle; version 1
 //! ```
 
+mod kind;
 pub mod layers;
 mod raw;
 mod rle;
 pub(crate) mod wire;
 
+pub use kind::{LayerCodecKind, ListCodecKind};
 pub use raw::Raw;
 pub use rle::Rle;
 pub use wire::{DecodeError, Limits};
@@ -58,13 +60,9 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
     ]
 }
 
-/// The codec called `name`.
+/// The codec called `name` (a [`ListCodecKind`]'s name).
 pub fn from_name(name: &str) -> Result<Box<dyn Codec>, String> {
-    match name {
-        "raw" => Ok(Box::new(Raw)),
-        "rle" => Ok(Box::new(Rle)),
-        _ => Err(format!("unknown codec `{name}`; choose one of: raw, rle")),
-    }
+    Ok(name.parse::<ListCodecKind>()?.build())
 }
 
 /// Size of `lists` under the raw codec: the "uncompressed" reference.

@@ -1,13 +1,16 @@
-//! Compositing strategies behind one interface, selected in one place
-//! ([`from_name`], [`list`]). A strategy only *describes* the exchange as a
-//! [`Schedule`]; running it is the executor's job.
+//! Compositing strategies behind one interface, chosen as a typed value
+//! ([`Compositing`], parsed once; [`from_name`] parses and builds, [`list`]
+//! describes). A strategy only *describes* the exchange as a [`Schedule`];
+//! running it is the executor's job.
 
 mod binary_swap;
+mod choice;
 mod direct_send;
 mod master;
 mod radix_k;
 
 pub use binary_swap::BinarySwap;
+pub use choice::{Compositing, GroupSize};
 pub use direct_send::DirectSend;
 pub use master::Master;
 pub use radix_k::{factors as radix_factors, RadixK, DEFAULT_K as RADIX_K_DEFAULT};
@@ -63,31 +66,9 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
     ]
 }
 
-/// The strategy called `name`, with default parameters.
+/// The strategy called `name` (a [`Compositing`]'s text form).
 pub fn from_name(name: &str) -> Result<Box<dyn Strategy>, String> {
-    match name {
-        "direct-send" | "direct" => Ok(Box::new(DirectSend::default())),
-        "binary-swap" | "bswap" => Ok(Box::new(BinarySwap)),
-        "master" => Ok(Box::new(Master)),
-        "radix-k" | "radixk" => Ok(Box::new(RadixK::default())),
-        _ if name.starts_with("radix-k:") => {
-            let k = &name["radix-k:".len()..];
-            match k.parse::<usize>() {
-                Ok(k) if (2..=4096).contains(&k) => Ok(Box::new(RadixK { k })),
-                _ => Err(format!(
-                    "`{name}`: radix-k's k must be a whole number from 2 to 4096 (got `{k}`)"
-                )),
-            }
-        }
-        _ => Err(format!(
-            "unknown compositing strategy `{name}`; choose one of: {}",
-            list()
-                .iter()
-                .map(|(n, _)| *n)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )),
-    }
+    Ok(name.parse::<Compositing>()?.build())
 }
 
 /// The gather round shared by all strategies: every non-root node that

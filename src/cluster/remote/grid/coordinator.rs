@@ -16,7 +16,6 @@ use crate::cluster::remote::phase2::{decode_message, RankLog};
 use crate::cluster::remote::reassign::{endings_wait, lost_on, with_reassign};
 use crate::cluster::remote::session::{new_session_id, sha256, Session};
 use crate::cluster::ClockKind;
-use crate::compositor::codec::layers::from_name as layer_codec;
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::LayerGather;
 use crate::compositor::region::screen;
@@ -41,7 +40,7 @@ impl GridRemote {
         cfg: &GridConfig,
     ) -> anyhow::Result<(GridOutcome, GridMeasured)> {
         anyhow::ensure!(
-            !cfg.master || cfg.compositor == "master",
+            !cfg.master || cfg.compositor == crate::compositor::strategy::Compositing::Master,
             "--master composites every subimage at the master; it cannot be combined with \
              --compositor {}",
             cfg.compositor
@@ -118,7 +117,7 @@ impl GridRemote {
                 planes: wire_planes(prep.planes),
                 slice,
                 renderer: cfg.renderer,
-                codec: cfg.codec.clone(),
+                codec: cfg.codec,
                 profile: cfg.profile,
                 bricks: held.iter().map(|h| WireBrick::new(&h.0, h.2)).collect(),
                 bricks_sha256: sha256(&bytes),
@@ -129,7 +128,7 @@ impl GridRemote {
                 } else {
                     Vec::new()
                 },
-                compositor: cfg.compositor.clone(),
+                compositor: cfg.compositor,
                 bricks_total: prep.bricks.len() as u32,
                 recv_timeout_s: self.recv_timeout.as_secs_f64(),
                 session_id,
@@ -199,7 +198,7 @@ impl GridRemote {
         for k in 0..n {
             t.set_essential(NodeId::from(k + off), true);
         }
-        let lc = layer_codec(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let lc = cfg.codec.build();
         let mut stats = vec![GridNodeStats::default(); prep.total];
         let mut layers = vec![Vec::new(); prep.total];
         let mut ends = vec![0.0; prep.total];
@@ -285,7 +284,7 @@ impl GridRemote {
             .strategy
             .schedule(prep.total, screen(s.image.width, s.image.height));
         sched.validate().map_err(|e| anyhow::anyhow!(e))?;
-        let lc = layer_codec(&cfg.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let lc = cfg.codec.build();
         let mut gather = LayerGather::new(lc.as_ref(), sched.image);
         let mut stats: Vec<Option<GridNodeStats>> = vec![None; n];
         let mut logs: Vec<Option<RankLog>> = vec![None; n];

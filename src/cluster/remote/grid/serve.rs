@@ -16,7 +16,6 @@ use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
 use crate::cluster::remote::worker::{kill_self, Hooks};
-use crate::compositor::codec::layers::from_name as layer_codec;
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::LayerRank;
 use crate::compositor::layer::Layer;
@@ -174,7 +173,7 @@ fn serve_master(
             "{} unexpected message(s) from the coordinator while rendering",
             early.len()
         );
-        let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+        let lc = setup.codec.build();
         let (layers, _) = layer_exec::encode(lc.as_ref(), &layers);
         Ok(GridResult { stats, layers })
     });
@@ -285,14 +284,13 @@ fn frame_p2p(
         std::path::Path::new("(scene from the coordinator)"),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = setup.compositor.build();
     let sched = strategy.schedule(
         setup.nodes as usize,
         screen(scene.image.width, scene.image.height),
     );
     sched.validate().map_err(|e| anyhow::anyhow!(e))?;
-    let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let lc = setup.codec.build();
     if hooks.kill_in_phase2 {
         // The stats above go out on the link's writer task; give it a
         // moment (the message is small) so that the coordinator has them
@@ -370,7 +368,7 @@ fn render(
         volume: Arc::new(whole_shape(setup)),
         range: setup.range,
     });
-    let lc = layer_codec(&setup.codec).map_err(|e| anyhow::anyhow!(e))?;
+    let lc = setup.codec.build();
     let opts = setup.slice.options().map_err(|e| anyhow::anyhow!(e))?;
     setup.renderer.check(&opts)?;
     let held = setup

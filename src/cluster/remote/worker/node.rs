@@ -249,10 +249,8 @@ fn phase2<T: RemoteTransport>(
     early: Vec<crate::net::Envelope>,
     timeout: Duration,
 ) -> anyhow::Result<crate::cluster::remote::phase2::RankLog> {
-    let strategy = crate::compositor::strategy::from_name(&setup.compositor)
-        .map_err(|e| anyhow::anyhow!(e))?;
-    let codec =
-        crate::compositor::codec::from_name(&setup.list_codec).map_err(|e| anyhow::anyhow!(e))?;
+    let strategy = setup.compositor.build();
+    let codec = setup.list_codec.build();
     let schedule = strategy.schedule(
         setup.nodes as usize,
         crate::compositor::region::screen(scene.image.width, scene.image.height),

@@ -56,7 +56,7 @@ pub const LAYER_HEADER_BYTES: usize = super::HEADER_BYTES + 8;
 /// The message kind byte of layers.
 pub const KIND: u8 = b'Y';
 /// The layer codec grid runs use unless told otherwise.
-pub const DEFAULT: &str = "rle16";
+pub const DEFAULT: super::LayerCodecKind = super::LayerCodecKind::Rle16;
 
 /// A wire encoding of RGBA layers.
 pub trait LayerCodec: Send + Sync {
@@ -94,20 +94,9 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
     ]
 }
 
-/// The layer codec called `name`.
+/// The layer codec called `name` (a [`super::LayerCodecKind`]'s name).
 pub fn from_name(name: &str) -> Result<Box<dyn LayerCodec>, String> {
-    match name {
-        "raw" => Ok(Box::new(Raw(Depth::U8))),
-        "rle-paper" => Ok(Box::new(Rle(Depth::U8))),
-        "sparse" => Ok(Box::new(Sparse(Depth::U8))),
-        "raw16" => Ok(Box::new(Raw(Depth::U16))),
-        "rle16" => Ok(Box::new(Rle(Depth::U16))),
-        "sparse16" => Ok(Box::new(Sparse(Depth::U16))),
-        _ => Err(format!(
-            "unknown codec `{name}` for RGBA layers (grid scenes); choose one of: {}",
-            list().iter().map(|c| c.0).collect::<Vec<_>>().join(", ")
-        )),
-    }
+    Ok(name.parse::<super::LayerCodecKind>()?.build())
 }
 
 /// Size of `layer` under the raw codec of its depth: the reference of

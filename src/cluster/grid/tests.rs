@@ -2,7 +2,14 @@
 //! the default codec's 1/255, adaptive bricks, determinism, refusals.
 
 use super::*;
+use crate::cluster::ClockKind;
+use crate::compositor::codec::layers as layer_codec;
+use crate::net::NetworkModel;
+use crate::node::grid::bricks::BrickPlacement;
+use crate::node::grid::render::RendererKind;
 use crate::node::grid::tests::{seam_input, OBLIQUE, PERSP};
+use crate::node::CostProfile;
+use crate::render::slice3d::Slice3dOptions;
 
 fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
     GridConfig {
@@ -10,8 +17,8 @@ fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
         subvolumes: 2,
         master,
         placement: BrickPlacement::RoundRobin,
-        compositor: compositor.into(),
-        codec: codec.into(),
+        compositor: compositor.parse().unwrap(),
+        codec: codec.parse().unwrap(),
         slice: Slice3dOptions {
             ert: 1.0,
             ..Default::default()
@@ -116,12 +123,12 @@ fn radix_k_matches_the_master_within_the_layer_roundings() {
     let inp = seam_input(OBLIQUE, 48);
     for d in [2u32, 3] {
         for (nodes, k, rounds) in [(4usize, 2usize, 2usize), (4, 8, 1), (6, 2, 2), (5, 4, 1)] {
-            let mut m = cfg("master", layer_codec::DEFAULT, false);
+            let mut m = cfg("master", layer_codec::DEFAULT.name(), false);
             m.nodes = nodes;
             m.subvolumes = d;
             let master = run(&inp, &m).unwrap();
             let mut r = m.clone();
-            r.compositor = format!("radix-k:{k}");
+            r.compositor = format!("radix-k:{k}").parse().unwrap();
             let out = run(&inp, &r).unwrap();
             let e = out.image.error_against(&master.image);
             let bound = (d.pow(3) + 1) as f64 * 0.5 * 255.0 / 65535.0 + 1e-3;
@@ -162,11 +169,11 @@ fn the_default_codec_meets_one_255th_of_single_node_slice3d() {
         for d in [2, 3] {
             for master in [true, false] {
                 let comp = if master { "master" } else { "binary-swap" };
-                let mut c = cfg(comp, layer_codec::DEFAULT, master);
+                let mut c = cfg(comp, layer_codec::DEFAULT.name(), master);
                 c.subvolumes = d;
                 let e = run(&inp, &c).unwrap().image.error_against(&one);
                 assert!(e.max_abs <= 1.0, "{cam} d={d} {comp} default codec: {e}");
-                c.codec = "rle-paper".into();
+                c.codec = crate::compositor::codec::LayerCodecKind::RlePaper;
                 let p = run(&inp, &c).unwrap().image.error_against(&one);
                 eprintln!(
                     "{} d={d} {comp}: {} {e} | rle-paper {p}",
@@ -192,7 +199,7 @@ fn adaptive_bricks_join_without_seams_and_report_their_size() {
             ..Default::default()
         };
         let (one, _) = crate::render::slice3d::render(&inp, &opts).unwrap();
-        let mut c = cfg("master", layer_codec::DEFAULT, true);
+        let mut c = cfg("master", layer_codec::DEFAULT.name(), true);
         c.renderer = RendererKind::Adaptive {
             blocks: 3,
             tolerance: 0.0,
@@ -227,9 +234,12 @@ fn adaptive_bricks_join_without_seams_and_report_their_size() {
 #[test]
 fn bad_combinations_are_refused() {
     let inp = seam_input(OBLIQUE, 16);
-    let mut c = cfg("master", "rle", true);
-    assert!(run(&inp, &c).unwrap_err().to_string().contains("rle-paper"));
-    c.codec = "raw".into();
+    // A codec name layers do not have is refused when parsed.
+    let e = "rle"
+        .parse::<crate::compositor::codec::LayerCodecKind>()
+        .unwrap_err();
+    assert!(e.contains("rle-paper"), "{e}");
+    let mut c = cfg("master", "raw", true);
     c.subvolumes = 1;
     assert!(run(&inp, &c)
         .unwrap_err()

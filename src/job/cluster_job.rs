@@ -1,0 +1,43 @@
+//! A cluster job's one path: options validated once
+//! ([`Valid<ClusterArgs>`](super::validate::Valid)), the scene read once and,
+//! by what its data is, its mesh or volume loaded with the frame's
+//! configuration ([`LoadedCluster`]), then run into a [`ClusterResult`].
+//! The command line and [`super::ClusterJob::run`] both take it; nothing
+//! on it checks the options or reads the scene again.
+
+use super::api::ClusterResult;
+use super::cluster::{self, ClusterArgs, MeshFrame};
+use super::cluster_grid::{self, GridFrames};
+use super::validate::Valid;
+
+/// A cluster job with its scene and data loaded, ready to run.
+pub enum LoadedCluster<'a> {
+    /// A mesh frame.
+    Mesh(&'a ClusterArgs, Box<MeshFrame>),
+    /// The frames of a grid scene.
+    Grid(&'a ClusterArgs, Box<GridFrames>),
+}
+
+impl<'a> Valid<'a, ClusterArgs> {
+    /// Reads the scene and prepares a mesh frame or grid frames, by what
+    /// the scene's data is (the one place that decides it).
+    pub fn load(&self) -> anyhow::Result<LoadedCluster<'a>> {
+        let a = self.args();
+        let scene = super::load_scene(&a.scene)?;
+        Ok(if super::render_grid::is_grid_scene(&scene) {
+            LoadedCluster::Grid(a, Box::new(cluster_grid::load(a, scene)?))
+        } else {
+            LoadedCluster::Mesh(a, Box::new(cluster::load_mesh(a, scene)?))
+        })
+    }
+}
+
+impl LoadedCluster<'_> {
+    /// Runs the frame(s), writing nothing.
+    pub fn run(self) -> anyhow::Result<ClusterResult> {
+        Ok(match self {
+            LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(Box::new(cluster::run_mesh(a, *f)?)),
+            LoadedCluster::Grid(a, f) => ClusterResult::Grid(cluster_grid::run(a, *f)?),
+        })
+    }
+}
