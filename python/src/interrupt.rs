@@ -25,6 +25,13 @@ const GRACE: Duration = Duration::from_millis(900);
 /// Jobs started by this module that have not ended yet.
 static RUNNING: AtomicUsize = AtomicUsize::new(0);
 
+/// Jobs started by this module that have not ended (a cancelled job
+/// counts until it has unwound): the tests check that Ctrl-C stops a job.
+#[pyfunction]
+pub fn jobs_running() -> usize {
+    RUNNING.load(Ordering::SeqCst)
+}
+
 /// What the job thread hands back.
 type Outcome<T> = std::thread::Result<T>;
 

@@ -135,7 +135,11 @@ fn trace_of(r: &ClusterResult) -> (&SimTrace, usize) {
 }
 
 /// Writes `-o`, `--report`, `--trace`, `--timeline` when the caller named them.
-fn write_cluster_outputs(job: &ClusterJob, r: &ClusterResult, given: &[String]) -> Result<(), JobError> {
+fn write_cluster_outputs(
+    job: &ClusterJob,
+    r: &ClusterResult,
+    given: &[String],
+) -> Result<(), JobError> {
     let has = |k: &str| given.iter().any(|g| g == k);
     let w = || -> anyhow::Result<()> {
         if has("output") {
@@ -173,9 +177,19 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
         &opts,
         &[
             ("output", "-o", Some(&job.output), OutputKind::Png),
-            ("report", "--report", job.report.as_deref(), OutputKind::Json),
+            (
+                "report",
+                "--report",
+                job.report.as_deref(),
+                OutputKind::Json,
+            ),
             ("trace", "--trace", job.trace.as_deref(), OutputKind::Json),
-            ("timeline", "--timeline", job.timeline.as_deref(), OutputKind::Png),
+            (
+                "timeline",
+                "--timeline",
+                job.timeline.as_deref(),
+                OutputKind::Png,
+            ),
         ],
     )
     .map_err(err)?;
@@ -295,10 +309,8 @@ pub fn sweep_name(py: Python<'_>, config: PathBuf) -> PyResult<String> {
 /// A JSON object (a sweep config given as a dict) as TOML text.
 #[pyfunction]
 pub fn toml_from_json(py: Python<'_>, text: &str) -> PyResult<String> {
-    let v: toml::Value = serde_json::from_str(text).map_err(|e| {
-        crate::errors::raise(py, "OptionError", format!("sweep config: {e}"), &[])
-    })?;
-    toml::to_string(&v).map_err(|e| {
-        crate::errors::raise(py, "OptionError", format!("sweep config: {e}"), &[])
-    })
+    let v: toml::Value = serde_json::from_str(text)
+        .map_err(|e| crate::errors::raise(py, "OptionError", format!("sweep config: {e}"), &[]))?;
+    toml::to_string(&v)
+        .map_err(|e| crate::errors::raise(py, "OptionError", format!("sweep config: {e}"), &[]))
 }

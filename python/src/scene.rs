@@ -35,7 +35,12 @@ pub fn check_scene<'py>(
 /// Scene `text` (at `path`) written again in the contract's format with
 /// `data_path` as its data path (comments are not kept).
 #[pyfunction]
-pub fn rewrite_scene(py: Python<'_>, text: &str, path: PathBuf, data_path: &str) -> PyResult<String> {
+pub fn rewrite_scene(
+    py: Python<'_>,
+    text: &str,
+    path: PathBuf,
+    data_path: &str,
+) -> PyResult<String> {
     Ok(parse(py, text, &path)?.to_toml(data_path))
 }
 

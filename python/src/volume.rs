@@ -22,14 +22,13 @@ fn samples<T: Element + Copy>(a: &Bound<'_, PyAny>) -> PyResult<(Vec<T>, [u64; 3
     let a: PyReadonlyArray3<'_, T> = a.extract()?;
     let v = a.as_array();
     let (nz, ny, nx) = v.dim();
-    Ok((v.iter().copied().collect(), [nx as u64, ny as u64, nz as u64]))
+    Ok((
+        v.iter().copied().collect(),
+        [nx as u64, ny as u64, nz as u64],
+    ))
 }
 
-fn to_array<'py, T: Element + Copy>(
-    py: Python<'py>,
-    v: &[T],
-    dims: [u64; 3],
-) -> Bound<'py, PyAny> {
+fn to_array<'py, T: Element + Copy>(py: Python<'py>, v: &[T], dims: [u64; 3]) -> Bound<'py, PyAny> {
     let shape = (dims[2] as usize, dims[1] as usize, dims[0] as usize);
     Array3::from_shape_vec(shape, v.to_vec())
         .expect("dims match the samples")
@@ -124,7 +123,12 @@ impl NativeVolume {
     fn write_nrrd(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let v = self.volume.clone();
         py.allow_threads(move || {
-            pvrsim::data::io::volume::write_nrrd(&v, &path, false, "written by the pvrsim Python module")
+            pvrsim::data::io::volume::write_nrrd(
+                &v,
+                &path,
+                false,
+                "written by the pvrsim Python module",
+            )
         })
         .map_err(|e| crate::errors::library_error(py, e.into()))
     }

@@ -64,6 +64,11 @@ class FileError(Error, OSError):
     ``filename`` is the file; the message names the line or field.
     """
 
+    def __str__(self) -> str:
+        # The message as given (OSError would print "[Errno None] None: FILE"
+        # once ``filename`` is set).
+        return str(self.args[0]) if self.args else ""
+
 
 class RunError(Error, RuntimeError):
     """A job failed for a reason that is neither an option nor a file."""
