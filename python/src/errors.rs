@@ -142,3 +142,28 @@ pub fn job_error(py: Python<'_>, e: JobError, options: &[(String, ParamValue)]) 
         .unwrap_or_default();
     raise(py, class, full, &attrs)
 }
+
+/// Runs `f`, turning a panic into `RunError` (the quick calls that do not
+/// go through [`crate::interrupt::run`]).
+pub fn guard<T>(py: Python<'_>, f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(p) => Err(raise(
+            py,
+            "RunError",
+            format!(
+                "internal error: pvrsim panicked: {} (please report it)",
+                panic_text(p.as_ref())
+            ),
+            &[],
+        )),
+    }
+}
+
+/// A panic payload's message.
+pub fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<String>()
+        .cloned()
+        .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "(no message)".into())
+}

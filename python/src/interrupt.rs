@@ -104,18 +104,14 @@ fn outcome<T>(py: Python<'_>, r: Outcome<T>) -> PyResult<T> {
         Err(p) if cancel::is_cancelled(p.as_ref()) => Err(
             pyo3::exceptions::PyKeyboardInterrupt::new_err("the job was cancelled"),
         ),
-        Err(p) => {
-            let what = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "(no message)".into());
-            Err(crate::errors::raise(
-                py,
-                "RunError",
-                format!("internal error: the job panicked: {what} (please report it)"),
-                &[],
-            ))
-        }
+        Err(p) => Err(crate::errors::raise(
+            py,
+            "RunError",
+            format!(
+                "internal error: the job panicked: {} (please report it)",
+                crate::errors::panic_text(p.as_ref())
+            ),
+            &[],
+        )),
     }
 }

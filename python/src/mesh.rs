@@ -26,8 +26,7 @@ impl NativeMesh {
     /// Reads a mesh file (.vtk, .vtu, .inp), as the command line does.
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let p = path.clone();
-        let r = py.allow_threads(move || pvrsim::data::io::read_mesh(&p));
+        let r = crate::interrupt::run(py, None, move || pvrsim::data::io::read_mesh(&path))?;
         match r {
             Ok(mesh) => Ok(NativeMesh {
                 mesh: Arc::new(mesh),
@@ -45,49 +44,7 @@ impl NativeMesh {
         tets: PyReadonlyArray2<'_, i64>,
         fields: Vec<(String, PyReadonlyArray2<'_, f64>)>,
     ) -> PyResult<Self> {
-        let pts: Vec<[f64; 3]> = points
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|r| [r[0], r[1], r[2]])
-            .collect();
-        let mut cells = Vec::with_capacity(tets.as_array().nrows());
-        for (t, r) in tets.as_array().rows().into_iter().enumerate() {
-            let mut c = [0u32; 4];
-            for (k, &v) in r.iter().enumerate() {
-                c[k] = u32::try_from(v).map_err(|_| {
-                    crate::errors::data_error(
-                        py,
-                        format!(
-                            "{ARRAYS}: cell {t}: vertex index {v} is out of range (the mesh has {} points)",
-                            pts.len()
-                        ),
-                    )
-                })?;
-            }
-            cells.push(c);
-        }
-        let fields = fields
-            .into_iter()
-            .map(|(name, a)| {
-                let a = a.as_array();
-                Field {
-                    name,
-                    components: a.ncols(),
-                    values: a.iter().copied().collect(),
-                }
-            })
-            .collect();
-        let mesh = TetMesh {
-            points: pts,
-            tets: cells,
-            fields,
-        };
-        mesh.validate(Path::new(ARRAYS))
-            .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
-        Ok(NativeMesh {
-            mesh: Arc::new(mesh),
-        })
+        crate::errors::guard(py, || build(py, points, tets, fields))
     }
 
     /// The points, (N, 3) float64.
@@ -123,12 +80,66 @@ impl NativeMesh {
     /// Writes the mesh as binary legacy VTK (the crate's writer).
     fn write_vtk(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let m = self.mesh.clone();
-        py.allow_threads(move || pvrsim::data::io::write_vtk_legacy(&m, &path, true))
-            .map_err(|e| crate::errors::library_error(py, e.into()))
+        crate::interrupt::run(py, None, move || {
+            pvrsim::data::io::write_vtk_legacy(&m, &path, true)
+        })?
+        .map_err(|e| crate::errors::library_error(py, e.into()))
     }
 
     /// Points and tetrahedra, for `repr`.
     fn counts(&self) -> (usize, usize) {
         (self.mesh.points.len(), self.mesh.tets.len())
     }
+}
+
+/// [`NativeMesh::from_arrays`]: the mesh, validated.
+fn build(
+    py: Python<'_>,
+    points: PyReadonlyArray2<'_, f64>,
+    tets: PyReadonlyArray2<'_, i64>,
+    fields: Vec<(String, PyReadonlyArray2<'_, f64>)>,
+) -> PyResult<NativeMesh> {
+    let pts: Vec<[f64; 3]> = points
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect();
+    let mut cells = Vec::with_capacity(tets.as_array().nrows());
+    for (t, r) in tets.as_array().rows().into_iter().enumerate() {
+        let mut c = [0u32; 4];
+        for (k, &v) in r.iter().enumerate() {
+            c[k] = u32::try_from(v).map_err(|_| {
+                crate::errors::data_error(
+                    py,
+                    format!(
+                        "{ARRAYS}: cell {t}: vertex index {v} is out of range (the mesh has {} points)",
+                        pts.len()
+                    ),
+                )
+            })?;
+        }
+        cells.push(c);
+    }
+    let fields = fields
+        .into_iter()
+        .map(|(name, a)| {
+            let a = a.as_array();
+            Field {
+                name,
+                components: a.ncols(),
+                values: a.iter().copied().collect(),
+            }
+        })
+        .collect();
+    let mesh = TetMesh {
+        points: pts,
+        tets: cells,
+        fields,
+    };
+    mesh.validate(Path::new(ARRAYS))
+        .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
+    Ok(NativeMesh {
+        mesh: Arc::new(mesh),
+    })
 }

@@ -11,7 +11,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 fn parse(py: Python<'_>, text: &str, path: &Path) -> PyResult<Scene> {
-    Scene::parse(text, path).map_err(|e| crate::errors::library_error(py, e.into()))
+    crate::errors::guard(py, || {
+        Scene::parse(text, path).map_err(|e| crate::errors::library_error(py, e.into()))
+    })
 }
 
 /// Checks scene `text` (read from, or to be written at, `path`): a dict of
@@ -84,18 +86,16 @@ pub fn fit_scene(
         crate::errors::job_error(py, pvrsim::job::JobError::Invalid(e), &options)
     };
     pvrsim::job::validate::check(&args).map_err(invalid)?;
-    let text = if let Ok(m) = data.downcast::<crate::mesh::NativeMesh>() {
-        let src: &dyn SceneSource = m.get().mesh.as_ref();
-        scene_text(&args, src)
+    let src: &dyn SceneSource = if let Ok(m) = data.downcast::<crate::mesh::NativeMesh>() {
+        m.get().mesh.as_ref()
     } else if let Ok(v) = data.downcast::<crate::volume::NativeVolume>() {
-        let src: &dyn SceneSource = v.get().volume.as_ref();
-        scene_text(&args, src)
+        v.get().volume.as_ref()
     } else {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "Scene.fit takes a pvrsim.Mesh or a pvrsim.Volume",
         ));
-    }
-    .map_err(invalid)?;
+    };
+    let text = crate::errors::guard(py, || scene_text(&args, src).map_err(invalid))?;
     // The scene must parse as the renderers will read it.
     parse(py, &text, Path::new("scene.toml"))?;
     Ok(text)

@@ -42,7 +42,9 @@ impl NativeVolume {
     /// picks the array of a file that holds several ("" for the only one).
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf, field: String) -> PyResult<Self> {
-        let r = py.allow_threads(move || pvrsim::data::io::read_volume(&path, &field));
+        let r = crate::interrupt::run(py, None, move || {
+            pvrsim::data::io::read_volume(&path, &field)
+        })?;
         match r {
             Ok(v) => Ok(NativeVolume {
                 volume: Arc::new(v),
@@ -62,30 +64,7 @@ impl NativeVolume {
         origin: [f64; 3],
         field: String,
     ) -> PyResult<Self> {
-        let (voxels, dims) = match kind {
-            "uint8" => samples::<u8>(a).map(|(v, d)| (Voxels::U8(v), d))?,
-            "uint16" => samples::<u16>(a).map(|(v, d)| (Voxels::U16(v), d))?,
-            "int16" => samples::<i16>(a).map(|(v, d)| (Voxels::I16(v), d))?,
-            "float32" => samples::<f32>(a).map(|(v, d)| (Voxels::F32(v), d))?,
-            other => {
-                return Err(crate::errors::data_error(
-                    py,
-                    format!("array: dtype {other} is not a voxel type"),
-                ))
-            }
-        };
-        let v = Volume::new(
-            Path::new(crate::mesh::ARRAYS),
-            dims,
-            spacing,
-            origin,
-            field,
-            voxels,
-        )
-        .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
-        Ok(NativeVolume {
-            volume: Arc::new(v),
-        })
+        crate::errors::guard(py, || build(py, a, kind, spacing, origin, field))
     }
 
     /// The samples as `a[z, y, x]` in their own dtype.
@@ -132,4 +111,39 @@ impl NativeVolume {
         })
         .map_err(|e| crate::errors::library_error(py, e.into()))
     }
+}
+
+/// [`NativeVolume::from_array`]: the grid, validated.
+fn build(
+    py: Python<'_>,
+    a: &Bound<'_, PyAny>,
+    kind: &str,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    field: String,
+) -> PyResult<NativeVolume> {
+    let (voxels, dims) = match kind {
+        "uint8" => samples::<u8>(a).map(|(v, d)| (Voxels::U8(v), d))?,
+        "uint16" => samples::<u16>(a).map(|(v, d)| (Voxels::U16(v), d))?,
+        "int16" => samples::<i16>(a).map(|(v, d)| (Voxels::I16(v), d))?,
+        "float32" => samples::<f32>(a).map(|(v, d)| (Voxels::F32(v), d))?,
+        other => {
+            return Err(crate::errors::data_error(
+                py,
+                format!("array: dtype {other} is not a voxel type"),
+            ))
+        }
+    };
+    let v = Volume::new(
+        Path::new(crate::mesh::ARRAYS),
+        dims,
+        spacing,
+        origin,
+        field,
+        voxels,
+    )
+    .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
+    Ok(NativeVolume {
+        volume: Arc::new(v),
+    })
 }

@@ -28,7 +28,11 @@ pub fn requested() -> bool {
 
 /// Unwinds with [`Cancelled`] when the flag is up; otherwise returns.
 pub fn checkpoint() {
-    if requested() {
+    checkpoint_on(&CANCEL);
+}
+
+fn checkpoint_on(flag: &AtomicBool) {
+    if flag.load(Ordering::Relaxed) {
         std::panic::resume_unwind(Box::new(Cancelled));
     }
 }
@@ -42,13 +46,17 @@ pub fn is_cancelled(payload: &(dyn std::any::Any + Send)) -> bool {
 mod tests {
     use super::*;
 
+    // A flag of the test's own: raising the process-wide one would cancel
+    // the renders of tests running beside this one.
     #[test]
     fn a_checkpoint_unwinds_only_while_the_flag_is_up() {
-        checkpoint();
-        set(true);
-        let r = std::panic::catch_unwind(checkpoint);
-        set(false);
+        let flag = AtomicBool::new(false);
+        checkpoint_on(&flag);
+        flag.store(true, Ordering::SeqCst);
+        let r = std::panic::catch_unwind(|| checkpoint_on(&flag));
         assert!(is_cancelled(r.expect_err("cancelled").as_ref()));
-        checkpoint();
+        flag.store(false, Ordering::SeqCst);
+        checkpoint_on(&flag);
+        assert!(!requested());
     }
 }

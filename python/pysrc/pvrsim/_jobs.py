@@ -168,6 +168,14 @@ class _Progress:
         self.stamp: Tuple[int, int] = (-1, -1)
 
     def __call__(self) -> None:
+        # Progress must never stop the sweep: a row that cannot be read now
+        # is printed at the next call.
+        try:
+            self._print_new_rows()
+        except Exception:
+            pass
+
+    def _print_new_rows(self) -> None:
         try:
             st = os.stat(self.path)
         except OSError:
