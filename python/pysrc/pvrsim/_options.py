@@ -19,6 +19,10 @@ from ._errors import OptionError, UnknownOptionError
 
 Options = List[Tuple[str, Any]]
 
+#: File options: the module returns what they hold, and writes the file
+#: only when the keyword is given (the command line always writes ``-o``).
+_WRITTEN_WHEN_GIVEN = ("output",)
+
 
 @functools.lru_cache(maxsize=None)
 def table(command: str) -> Dict[str, Dict[str, Any]]:
@@ -95,7 +99,9 @@ def doc(command: str) -> str:
             head += "=" + "|".join(repr(c) for c in o["choices"])
         elif o["value_name"]:
             head += f"={o['value_name']}"
-        if o["default"] is not None and not o["flag_only"]:
+        if name in _WRITTEN_WHEN_GIVEN:
+            head += "  [written only when given]"
+        elif o["default"] is not None and not o["flag_only"]:
             head += f"  [default: {o['default']}]"
         lines.append("    " + head)
         text = " ".join(o["help"].split())
