@@ -6,6 +6,7 @@
 //! Nothing here imports another room: renderers produce these values, the
 //! compositor and the cluster exchange and combine them.
 
+pub mod cancel;
 pub mod canonical;
 pub mod rect;
 pub mod segment;

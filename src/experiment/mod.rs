@@ -249,7 +249,10 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
     let t0 = std::time::Instant::now();
     for (k, (p, rep)) in todo.iter().enumerate() {
         pb.set_message(format!("{} rep {rep}", describe(p, n_varied)));
+        crate::base::cancel::checkpoint();
         let r = run::run_point(plan.executor, &plan.base_dir, p);
+        // A run cut short by cancellation is not a failed run: stop here.
+        crate::base::cancel::checkpoint();
         if let Err(e) = &r.outcome {
             report.runs_failed += 1;
             pb.suspend(|| eprintln!("run failed ({} rep {rep}): {e}", describe(p, n_varied)));

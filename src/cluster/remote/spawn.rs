@@ -13,6 +13,33 @@ use anyhow::Context;
 
 use crate::net::tcp::Token;
 
+/// The program (and its first arguments) that starts a worker process in
+/// place of the `exe` callers pass, when an embedding sets one: under the
+/// Python module `current_exe()` is the Python interpreter, so the module
+/// sets `[python, -m, pvrsim]` (see `python/` and docs/python.md). Unset
+/// (the command line): `exe` itself.
+static WORKER_PROGRAM: std::sync::OnceLock<Vec<std::ffi::OsString>> = std::sync::OnceLock::new();
+
+/// Sets the worker program once per process (later calls are ignored); the
+/// first element is the executable, the rest its leading arguments.
+pub fn set_worker_program(argv: Vec<std::ffi::OsString>) {
+    if !argv.is_empty() {
+        let _ = WORKER_PROGRAM.set(argv);
+    }
+}
+
+/// `exe`, or the program an embedding set ([`set_worker_program`]).
+fn worker_command(exe: &Path) -> Command {
+    match WORKER_PROGRAM.get() {
+        Some(argv) => {
+            let mut c = Command::new(&argv[0]);
+            c.args(&argv[1..]);
+            c
+        }
+        None => Command::new(exe),
+    }
+}
+
 /// Running local workers. Dropping it kills and reaps them.
 pub struct LocalWorkers {
     children: Vec<Child>,
@@ -86,7 +113,7 @@ impl LocalWorkers {
         let accept_timeout = (wait.as_secs_f64() * 4.0).max(30.0);
         let (tx, rx) = crossbeam_channel::unbounded();
         for k in 0..n {
-            let mut c = Command::new(exe)
+            let mut c = worker_command(exe)
                 .arg("worker")
                 .args(["--listen", "127.0.0.1:0"])
                 .args(once.then_some("--once"))

@@ -268,6 +268,7 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
         opts.cell_order,
     );
     let t1 = Instant::now();
+    crate::base::cancel::checkpoint();
 
     let persp = pv.perspective.then(|| pv.rays());
     // Tiles go to the threads heaviest first, each idle thread taking the
@@ -282,6 +283,7 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
         .into_iter()
         .par_bridge()
         .map_init(Vec::new, |cells, t| {
+            crate::base::cancel::checkpoint();
             let rect = binning.tiles[t];
             binning.records(t, &pv, cells);
             if ert_on {

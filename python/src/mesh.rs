@@ -1,0 +1,145 @@
+//! Tetrahedral meshes in memory: read with the crate's readers, built from
+//! numpy arrays and checked by the crate's own validation
+//! ([`TetMesh::validate`]: indices in range, coordinates and values
+//! finite), written with its legacy VTK writer when a job needs a file.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use pvrsim::data::{Field, TetMesh};
+use pyo3::prelude::*;
+
+/// The name the validation's messages give to arrays from Python.
+pub const ARRAYS: &str = "<arrays>";
+
+/// A mesh held by the Rust side (see `pvrsim.Mesh`).
+#[pyclass(module = "pvrsim._native", frozen)]
+pub struct NativeMesh {
+    /// The mesh.
+    pub mesh: Arc<TetMesh>,
+}
+
+#[pymethods]
+impl NativeMesh {
+    /// Reads a mesh file (.vtk, .vtu, .inp), as the command line does.
+    #[staticmethod]
+    fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let r = crate::interrupt::run(py, None, move || pvrsim::data::io::read_mesh(&path))?;
+        match r {
+            Ok(mesh) => Ok(NativeMesh {
+                mesh: Arc::new(mesh),
+            }),
+            Err(e) => Err(crate::errors::library_error(py, e.into())),
+        }
+    }
+
+    /// Builds a mesh from C-contiguous arrays: points (N, 3) float64, tets
+    /// (M, 4) int64, fields as (name, (N, k) float64) pairs; validated.
+    #[staticmethod]
+    fn from_arrays(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        tets: PyReadonlyArray2<'_, i64>,
+        fields: Vec<(String, PyReadonlyArray2<'_, f64>)>,
+    ) -> PyResult<Self> {
+        crate::errors::guard(py, || build(py, points, tets, fields))
+    }
+
+    /// The points, (N, 3) float64.
+    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let flat: Vec<f64> = self.mesh.points.iter().flatten().copied().collect();
+        Array2::from_shape_vec((self.mesh.points.len(), 3), flat)
+            .expect("N x 3")
+            .into_pyarray(py)
+    }
+
+    /// The tetrahedra, (M, 4) int64.
+    fn tets<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
+        let flat: Vec<i64> = self.mesh.tets.iter().flatten().map(|&v| v as i64).collect();
+        Array2::from_shape_vec((self.mesh.tets.len(), 4), flat)
+            .expect("M x 4")
+            .into_pyarray(py)
+    }
+
+    /// The point-data fields: (name, (N, components) float64) pairs.
+    fn fields<'py>(&self, py: Python<'py>) -> Vec<(String, Bound<'py, PyArray2<f64>>)> {
+        self.mesh
+            .fields
+            .iter()
+            .map(|f| {
+                let n = f.values.len() / f.components.max(1);
+                let a = Array2::from_shape_vec((n, f.components), f.values.clone())
+                    .expect("N x components");
+                (f.name.clone(), a.into_pyarray(py))
+            })
+            .collect()
+    }
+
+    /// Writes the mesh as binary legacy VTK (the crate's writer).
+    fn write_vtk(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let m = self.mesh.clone();
+        crate::interrupt::run(py, None, move || {
+            pvrsim::data::io::write_vtk_legacy(&m, &path, true)
+        })?
+        .map_err(|e| crate::errors::library_error(py, e.into()))
+    }
+
+    /// Points and tetrahedra, for `repr`.
+    fn counts(&self) -> (usize, usize) {
+        (self.mesh.points.len(), self.mesh.tets.len())
+    }
+}
+
+/// [`NativeMesh::from_arrays`]: the mesh, validated.
+fn build(
+    py: Python<'_>,
+    points: PyReadonlyArray2<'_, f64>,
+    tets: PyReadonlyArray2<'_, i64>,
+    fields: Vec<(String, PyReadonlyArray2<'_, f64>)>,
+) -> PyResult<NativeMesh> {
+    let pts: Vec<[f64; 3]> = points
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect();
+    let mut cells = Vec::with_capacity(tets.as_array().nrows());
+    for (t, r) in tets.as_array().rows().into_iter().enumerate() {
+        let mut c = [0u32; 4];
+        for (k, &v) in r.iter().enumerate() {
+            c[k] = u32::try_from(v).map_err(|_| {
+                crate::errors::data_error(
+                    py,
+                    format!(
+                        "{ARRAYS}: cell {t}: vertex index {v} is out of range (the mesh has {} points)",
+                        pts.len()
+                    ),
+                )
+            })?;
+        }
+        cells.push(c);
+    }
+    let fields = fields
+        .into_iter()
+        .map(|(name, a)| {
+            let a = a.as_array();
+            Field {
+                name,
+                components: a.ncols(),
+                values: a.iter().copied().collect(),
+            }
+        })
+        .collect();
+    let mesh = TetMesh {
+        points: pts,
+        tets: cells,
+        fields,
+    };
+    mesh.validate(Path::new(ARRAYS))
+        .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
+    Ok(NativeMesh {
+        mesh: Arc::new(mesh),
+    })
+}
