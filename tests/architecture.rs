@@ -76,6 +76,7 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("cli", "scene", "`scene`, `generate`, `demo`, `cluster` read or write scene files"),
     ("experiment", "job", ""),
     ("experiment", "text", ""),
+    ("experiment", "base", ""),
     ("experiment", "data", "the fidelity sweep generates built-in datasets; the estimate reads a mesh's size"),
     ("experiment", "scene", "the estimate reads a scene's image size"),
     ("bench", "job", ""),

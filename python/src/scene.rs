@@ -1,10 +1,11 @@
 //! Scenes: checked by the scene contract's parser ([`Scene::parse`]),
 //! written back by [`Scene::to_toml`], fitted to data in memory by the
-//! code of `pvrsim scene` (`pvrsim::cli::scene::scene_text`).
+//! code of `pvrsim scene` (`pvrsim::scene::fit::scene_text`).
 
 use std::path::{Path, PathBuf};
 
-use pvrsim::cli::scene::{scene_text, SceneArgs, SceneSource};
+use pvrsim::cli::scene::SceneArgs;
+use pvrsim::scene::fit::{scene_text, FitSpec, SceneSource};
 use pvrsim::job::options::ParamValue;
 use pvrsim::scene::Scene;
 use pyo3::prelude::*;
@@ -95,7 +96,15 @@ pub fn fit_scene(
             "Scene.fit takes a pvrsim.Mesh or a pvrsim.Volume",
         ));
     };
-    let text = crate::errors::guard(py, || scene_text(&args, src).map_err(invalid))?;
+    let spec = FitSpec {
+        data: args.data.clone(),
+        output: args.output.clone(),
+        field: args.field.clone(),
+        view: args.view.clone(),
+        size: (width, height),
+        perspective: args.perspective,
+    };
+    let text = crate::errors::guard(py, || scene_text(&spec, src).map_err(invalid))?;
     // The scene must parse as the renderers will read it.
     parse(py, &text, Path::new("scene.toml"))?;
     Ok(text)
