@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use pvrsim::cli::scene::SceneArgs;
-use pvrsim::scene::fit::{scene_text, FitSpec, SceneSource};
 use pvrsim::job::options::ParamValue;
+use pvrsim::scene::fit::{scene_text, FitSpec, SceneSource};
 use pvrsim::scene::Scene;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
