@@ -163,12 +163,6 @@ const CIRCLES_LEFT: &[(&str, &str, &str, &str)] = &[
         "layer",
         "codec/layers names layer::Layer, layer/exec the layer codec",
     ),
-    (
-        "data",
-        "dataset",
-        "io",
-        "io re-exports dataset::read_dataset, dataset calls io's readers",
-    ),
 ];
 
 /// What is wrong with a crate's arrows against the table: arrows between
