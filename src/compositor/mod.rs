@@ -20,6 +20,7 @@
 pub mod codec;
 pub mod exec;
 pub mod layer;
+pub mod layer_types;
 pub mod lists;
 pub mod partial;
 pub mod region;
