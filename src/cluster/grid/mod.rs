@@ -26,7 +26,7 @@ pub use config::GridConfig;
 pub use driver::{finish, prepare, run, run_frames, Phase1Out, Prepared};
 pub use orbit::orbit;
 pub use summary::summary;
-pub use types::{GridNodeReport, GridOutcome, GridReport};
+pub use types::{GridMeasured, GridNodeReport, GridOutcome, GridReport};
 
 #[cfg(test)]
 mod tests;

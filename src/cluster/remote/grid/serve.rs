@@ -15,7 +15,7 @@ use crate::cluster::remote::guard::{close_failed, given_up_while_stopped};
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
 use crate::cluster::remote::session::{sha256, Session};
-use crate::cluster::remote::worker::{kill_self, Hooks};
+use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::compositor::layer::exec as layer_exec;
 use crate::compositor::layer::rank::LayerRank;
 use crate::compositor::layer::Layer;
