@@ -1,7 +1,8 @@
 //! The report of a grid frame: phase 2's rounds replayed on the modelled
 //! network, per-rank numbers, totals ([`report`]).
 
-use super::{GridConfig, GridNodeReport, GridOutcome, GridReport, Phase1Out, Prepared};
+use super::prepared::{Phase1Out, Prepared};
+use super::{GridConfig, GridNodeReport, GridOutcome, GridReport};
 use std::collections::BTreeMap;
 
 use crate::cluster::phase1::ClockKind;

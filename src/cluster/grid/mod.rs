@@ -18,13 +18,15 @@ mod build;
 mod config;
 mod driver;
 mod orbit;
+mod prepared;
 mod summary;
 mod types;
 
 pub use build::report;
 pub use config::GridConfig;
-pub use driver::{finish, prepare, run, run_frames, Phase1Out, Prepared};
+pub use driver::{finish, run, run_frames};
 pub use orbit::orbit;
+pub use prepared::{prepare, Phase1Out, Prepared};
 pub use summary::summary;
 pub use types::{GridMeasured, GridNodeReport, GridOutcome, GridReport};
 

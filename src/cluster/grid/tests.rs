@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::cluster::ClockKind;
-use crate::compositor::codec::layers as layer_codec;
+use crate::compositor::codec::LayerCodecKind;
 use crate::net::NetworkModel;
 use crate::node::grid::bricks::BrickPlacement;
 use crate::node::grid::render::RendererKind;
@@ -123,7 +123,7 @@ fn radix_k_matches_the_master_within_the_layer_roundings() {
     let inp = seam_input(OBLIQUE, 48);
     for d in [2u32, 3] {
         for (nodes, k, rounds) in [(4usize, 2usize, 2usize), (4, 8, 1), (6, 2, 2), (5, 4, 1)] {
-            let mut m = cfg("master", layer_codec::DEFAULT.name(), false);
+            let mut m = cfg("master", LayerCodecKind::DEFAULT.name(), false);
             m.nodes = nodes;
             m.subvolumes = d;
             let master = run(&inp, &m).unwrap();
@@ -169,7 +169,7 @@ fn the_default_codec_meets_one_255th_of_single_node_slice3d() {
         for d in [2, 3] {
             for master in [true, false] {
                 let comp = if master { "master" } else { "binary-swap" };
-                let mut c = cfg(comp, layer_codec::DEFAULT.name(), master);
+                let mut c = cfg(comp, LayerCodecKind::DEFAULT.name(), master);
                 c.subvolumes = d;
                 let e = run(&inp, &c).unwrap().image.error_against(&one);
                 assert!(e.max_abs <= 1.0, "{cam} d={d} {comp} default codec: {e}");
@@ -178,7 +178,7 @@ fn the_default_codec_meets_one_255th_of_single_node_slice3d() {
                 eprintln!(
                     "{} d={d} {comp}: {} {e} | rle-paper {p}",
                     cam.lines().last().unwrap(),
-                    layer_codec::DEFAULT
+                    LayerCodecKind::DEFAULT
                 );
             }
         }
@@ -199,7 +199,7 @@ fn adaptive_bricks_join_without_seams_and_report_their_size() {
             ..Default::default()
         };
         let (one, _) = crate::render::slice3d::render(&inp, &opts).unwrap();
-        let mut c = cfg("master", layer_codec::DEFAULT.name(), true);
+        let mut c = cfg("master", LayerCodecKind::DEFAULT.name(), true);
         c.renderer = RendererKind::Adaptive {
             blocks: 3,
             tolerance: 0.0,

@@ -74,6 +74,9 @@ pub enum LayerCodecKind {
 }
 
 impl LayerCodecKind {
+    /// The layer codec grid runs use unless told otherwise.
+    pub const DEFAULT: LayerCodecKind = LayerCodecKind::Rle16;
+
     /// Every layer codec, in [`super::layers::list`]'s order.
     pub const ALL: [LayerCodecKind; 6] = [
         LayerCodecKind::Raw,

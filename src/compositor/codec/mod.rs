@@ -65,6 +65,11 @@ pub fn from_name(name: &str) -> Result<Box<dyn Codec>, String> {
     Ok(name.parse::<ListCodecKind>()?.build())
 }
 
+/// The layer codec called `name` (a [`LayerCodecKind`]'s name).
+pub fn layer_codec(name: &str) -> Result<Box<dyn layers::LayerCodec>, String> {
+    Ok(name.parse::<LayerCodecKind>()?.build())
+}
+
 /// Size of `lists` under the raw codec: the "uncompressed" reference.
 pub fn raw_lists_bytes(lists: &RegionLists) -> u64 {
     (HEADER_BYTES + 4 * lists.pixels() + SEGMENT_BYTES * lists.segments().len()) as u64

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::base::Rect;
-use crate::compositor::codec::layers::from_name as codec;
+use crate::compositor::codec::layer_codec as codec;
 use crate::compositor::layer::{composite, Depth};
 use crate::compositor::region::{area, screen};
 use crate::compositor::strategy::{from_name, RadixK, Strategy};

@@ -55,12 +55,10 @@ use crate::compositor::region::area;
 pub const LAYER_HEADER_BYTES: usize = super::HEADER_BYTES + 8;
 /// The message kind byte of layers.
 pub const KIND: u8 = b'Y';
-/// The layer codec grid runs use unless told otherwise.
-pub const DEFAULT: super::LayerCodecKind = super::LayerCodecKind::Rle16;
 
 /// A wire encoding of RGBA layers.
 pub trait LayerCodec: Send + Sync {
-    /// The name [`from_name`] knows it by.
+    /// The name `--codec` knows it by (`compositor::codec::LayerCodecKind`).
     fn name(&self) -> &'static str;
     /// The depth of the pixels it carries.
     fn depth(&self) -> Depth;
@@ -92,11 +90,6 @@ pub fn list() -> &'static [(&'static str, &'static str)] {
             "IceT's active-pixel runs of RGBA16, raw16 when that is smaller",
         ),
     ]
-}
-
-/// The layer codec called `name` (a [`super::LayerCodecKind`]'s name).
-pub fn from_name(name: &str) -> Result<Box<dyn LayerCodec>, String> {
-    Ok(name.parse::<super::LayerCodecKind>()?.build())
 }
 
 /// Size of `layer` under the raw codec of its depth: the reference of

@@ -4,6 +4,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::compositor::codec::layer_codec as from_name;
 use crate::compositor::codec::HEADER_BYTES;
 
 /// A premultiplied pixel at `depth`: `A = 0` (transparent) or `RGB <= A`.
