@@ -17,7 +17,6 @@
 
 use std::collections::BTreeMap;
 
-
 use super::measured::Measured;
 use crate::cluster::{phase1, ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::{Codec, Counter, MessageKind};

@@ -19,10 +19,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::measured::Measured;
 use super::drive::{drive, worker_setups, DriveOptions};
-use super::session::{sha256, Session, WorkerSetup};
 use super::hooks::Hooks;
+use super::measured::Measured;
+use super::session::{sha256, Session, WorkerSetup};
 use super::worker::run_node;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::mpi::MpiTransport;

@@ -172,7 +172,9 @@ impl Worker {
             Session::Grid(g) => match *g {
                 crate::cluster::remote::grid_wire::GridMsg::Setup(s) => {
                     if self.kill_at_setup {
-                        crate::cluster::remote::hooks::kill_self("at set-up (--test-kill-at-setup)");
+                        crate::cluster::remote::hooks::kill_self(
+                            "at set-up (--test-kill-at-setup)",
+                        );
                     }
                     self.door.set_rank(s.rank);
                     return crate::cluster::remote::grid::serve(

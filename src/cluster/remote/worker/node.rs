@@ -6,8 +6,8 @@
 use std::path::Path;
 use std::time::Duration;
 
-use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::cluster::remote::guard::{close_failed, given_up_while_stopped, SessionGuard};
+use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::{
