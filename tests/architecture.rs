@@ -140,37 +140,7 @@ const ARROWS: &[(&str, &str, &str)] = &[
 /// The circle check ignores these two arrows and nothing else; a pair that
 /// no longer names each other fails `every_circle_left_is_still_there`, so
 /// the list only shrinks.
-const CIRCLES_LEFT: &[(&str, &str, &str, &str)] = &[
-    ("cluster/remote", "coordinator", "drive", "issue 39 part A"),
-    (
-        "cluster/remote",
-        "coordinator",
-        "reassign",
-        "issue 39 part A",
-    ),
-    ("cluster/remote", "grid", "session", "issue 39 part A"),
-    ("cluster/remote", "grid", "worker", "issue 39 part A"),
-    ("cluster/remote", "mesh", "worker", "issue 39 part A"),
-    (
-        "cluster",
-        "grid",
-        "remote",
-        "issue 39 part A (cluster/grid.rs split)",
-    ),
-    ("cluster", "remote", "report", "issue 39 part A"),
-    (
-        "compositor",
-        "codec",
-        "layer",
-        "codec/layers names layer::Layer, layer/exec the layer codec",
-    ),
-    (
-        "data",
-        "dataset",
-        "io",
-        "io re-exports dataset::read_dataset, dataset calls io's readers",
-    ),
-];
+const CIRCLES_LEFT: &[(&str, &str, &str, &str)] = &[];
 
 /// What is wrong with a crate's arrows against the table: arrows between
 /// rooms not in `table`, and circles inside folders. Empty when it holds.

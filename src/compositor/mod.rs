@@ -11,6 +11,8 @@
 //!   `binary-swap`), selected by name.
 //! - [`schedule`]: the schedule data type and its validity check.
 //! - [`exec`]: runs a schedule in-process, round by round, with real bytes.
+//! - [`layer`]: visibility-ordered RGBA layers (grid frames), with their
+//!   types in [`layer_types`] (shared with the layer codecs).
 //! - [`partial`]: one rank's side of a schedule for either partial kind
 //!   (lists, layers), what phase 2 worker to worker runs.
 //!
@@ -20,6 +22,7 @@
 pub mod codec;
 pub mod exec;
 pub mod layer;
+pub mod layer_types;
 pub mod lists;
 pub mod partial;
 pub mod region;

@@ -28,7 +28,7 @@ pub use driver::{finish, run, run_frames};
 pub use orbit::orbit;
 pub use prepared::{prepare, Phase1Out, Prepared};
 pub use summary::summary;
-pub use types::{GridNodeReport, GridOutcome, GridReport};
+pub use types::{GridMeasured, GridNodeReport, GridOutcome, GridReport};
 
 #[cfg(test)]
 mod tests;

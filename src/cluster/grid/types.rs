@@ -90,7 +90,7 @@ pub struct GridReport {
     pub textures_cached: u64,
     /// What the transport measured (`--transport processes|tcp`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub transport: Option<crate::cluster::remote::grid::GridMeasured>,
+    pub transport: Option<GridMeasured>,
 }
 
 /// What a grid run produced.
@@ -102,4 +102,35 @@ pub struct GridOutcome {
     pub report: GridReport,
     /// Phase 1 and 2 timeline.
     pub trace: SimTrace,
+}
+
+/// What the transport measured, beside the report.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct GridMeasured {
+    /// `processes` or `tcp`.
+    pub transport: String,
+    /// Bytes of brick samples sent (0 when every worker had them cached).
+    pub bricks_bytes_sent: u64,
+    /// Workers that had their bricks cached.
+    pub bricks_cached: usize,
+    /// Layer message bytes the workers sent (the subimages, encoded).
+    pub layer_bytes: u64,
+    /// Session payload bytes of the results (layers plus stats).
+    pub result_payload_bytes: u64,
+    /// Seconds to connect and send set-ups and bricks.
+    pub setup_s: f64,
+    /// Seconds from the last set-up sent to the last result in.
+    pub collect_s: f64,
+    /// Seconds of the master's compositing.
+    pub composite_s: f64,
+    /// Worker to worker: per rank, its phase-2 wall and thread CPU seconds
+    /// (from its log; empty with a master).
+    pub phase2_ranks: Vec<(f64, f64)>,
+    /// Worker to worker: seconds from the last worker's render result to
+    /// the last pixels in (phase 2 once every node has rendered; 0 with a
+    /// master).
+    pub phase2_after_renders_s: f64,
+    /// Set when `--on-failure reassign` moved lost workers' bricks to the
+    /// survivors (who, when, in which phase, the cost).
+    pub reassigned: Option<crate::cluster::report::transport::Reassigned>,
 }

@@ -12,11 +12,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::drive::{drive, worker_setups, DriveOptions};
-use super::reassign::LostWorkers;
+use super::measured::Measured;
+use super::reassign::{endings_wait, lost_on, with_reassign, LostWorkers};
 use super::session::Session;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
-use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token, WireStats};
-use crate::net::{Codec, NodeId};
+use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
+use crate::net::{Codec, NodeId, RemoteTransport};
 use crate::node::Placement;
 use crate::render::RenderInput;
 
@@ -35,37 +36,6 @@ pub struct Coordinator {
     /// again on the survivors with the dead workers' cells split among them
     /// (the workers must serve more than one session: not `--once`).
     pub reassign: bool,
-}
-
-/// What the transport measured, beside the report.
-#[derive(Debug, Clone, Default, serde::Serialize)]
-pub struct Measured {
-    /// Phase 1, all ranks: bytes on the wire and payload per kind.
-    pub phase1: WireStats,
-    /// Set-up: bytes of cells sent (0 when every worker had them cached).
-    pub cells_bytes_sent: u64,
-    /// Workers that had their cells cached.
-    pub cells_cached: usize,
-    /// Seconds to connect, set up and mesh.
-    pub setup_s: f64,
-    /// Seconds to collect the results.
-    pub collect_s: f64,
-    /// Phase 2, all workers: bytes on the wire and payload per kind, as
-    /// their transports counted them (lists worker to worker, pixels to the
-    /// coordinator).
-    pub phase2: WireStats,
-    /// Codec bytes of the root's own pixels handed to the coordinator (not
-    /// a message of the schedule, which ends at the root).
-    pub phase2_handoff_bytes: u64,
-    /// Messages of that hand-off.
-    pub phase2_handoff_messages: u64,
-    /// Seconds from the start of phase 2 to the last pixels in.
-    pub phase2_s: f64,
-    /// Per worker (rank order): its phase-2 wall and thread CPU seconds
-    /// (from its log).
-    pub phase2_ranks: Vec<(f64, f64)>,
-    /// Set when `--on-failure reassign` re-ran the frame on survivors.
-    pub reassigned: Option<super::reassign::Reassigned>,
 }
 
 impl Coordinator {
@@ -134,6 +104,65 @@ impl Coordinator {
         drive(&t, d, input, &cfg, t_setup, measured, |t, e, phase| {
             self.lost_workers(t, n, e, phase)
         })
+    }
+}
+
+impl Coordinator {
+    /// Runs one frame on the workers; with [`Coordinator::reassign`], again
+    /// on the survivors whenever workers are lost (at any phase).
+    pub fn run(
+        &self,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let n = cfg.phase1.nodes;
+        anyhow::ensure!(
+            self.workers.len() == n,
+            "{} worker addresses for --nodes {n}: give one worker per node",
+            self.workers.len()
+        );
+        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
+        let ((out, mut m), r) = with_reassign(
+            n,
+            placement.parts,
+            self.tcp.deadline,
+            self.reassign,
+            "cells",
+            |alive, parts| {
+                let c = Coordinator {
+                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
+                    ..self.clone()
+                };
+                let mut cfg = cfg.clone();
+                cfg.phase1.nodes = alive.len();
+                let p = Placement {
+                    parts: parts.to_vec(),
+                };
+                let wait = busy_wait(alive.len() < n, self.tcp.deadline);
+                c.run_placed(input, &cfg, &p, wait)
+            },
+        )?;
+        m.reassigned = r;
+        Ok((out, m))
+    }
+
+    /// The workers whose links ended without `Goodbye`, as an error
+    /// context for the phase the frame was in (see [`lost_on`]).
+    pub(super) fn lost_workers(
+        &self,
+        t: &impl RemoteTransport,
+        n: usize,
+        e: anyhow::Error,
+        phase: &str,
+    ) -> anyhow::Error {
+        lost_on(
+            t,
+            0,
+            n,
+            endings_wait(self.reassign, self.tcp.deadline),
+            e,
+            phase,
+        )
     }
 }
 

@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::coordinator::Measured;
 use super::guard::SessionGuard;
+use super::measured::Measured;
 use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
 use super::session::{sha256, NodeResult, Session, WorkerSetup};
 use crate::cluster::phase2::Phase2;

@@ -17,8 +17,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::cluster::remote::phase2::RankLog;
 use crate::data::{Volume, Voxels};
-use crate::node::grid::Brick;
+use crate::node::grid::{Brick, GridNodeStats};
 use crate::render::slice3d::planes::{Planes, SliceCount};
 use crate::render::slice3d::Slice3dOptions;
 use crate::render::slicing::{Classify, Order};
@@ -383,6 +384,28 @@ pub fn decode_bricks(bytes: &[u8], field: &str) -> Result<Vec<Volume>, String> {
         ));
     }
     Ok(out)
+}
+
+/// The grid messages inside [`Session::Grid`](super::session::Session::Grid).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub enum GridMsg {
+    /// The worker's frame.
+    Setup(Box<GridSetup>),
+    /// What the worker rendered.
+    Result(Box<GridResult>),
+    /// Phase 2 worker to worker: the rank's log, after its last send.
+    Done(Box<RankLog>),
+}
+
+/// A worker's frame result.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GridResult {
+    /// Its numbers (`host_s` is its measured render time).
+    pub stats: GridNodeStats,
+    /// Its layers cropped to the screen, empty ones dropped, as one
+    /// [`encode`](crate::compositor::layer::exec::encode) message under the setup's codec (empty when
+    /// the workers composite among themselves).
+    pub layers: Vec<u8>,
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ pub struct Mesh<'a> {
     pub rt: &'a Arc<Runtime>,
     /// Its door (peers of higher rank dial it; the door authenticates
     /// them and hands them over).
-    pub door: &'a super::worker::Door,
+    pub door: &'a super::accept::Door,
     /// The shared token.
     pub token: &'a Token,
     /// Link timing.
@@ -154,7 +154,7 @@ async fn watch_coordinator(s: &mut TcpStream, name: &str, heartbeat: Duration) -
 /// with another id (a link left over from an earlier frame, or one for a
 /// later frame) is closed and not counted.
 pub(super) async fn mesh(
-    door: &super::worker::Door,
+    door: &super::accept::Door,
     token: &Token,
     opts: &TcpOptions,
     me: u32,
@@ -192,7 +192,7 @@ pub(super) async fn mesh(
         let all = async {
             while links.len() < want {
                 match door.next_peer().await {
-                    Some(super::worker::Accepted {
+                    Some(super::accept::Accepted {
                         stream: mut s,
                         hello: h,
                         from,

@@ -6,6 +6,8 @@
 //!
 //! | file | job |
 //! |---|---|
+//! | [`accept`] | a worker's door: authenticated sessions and peers |
+//! | [`hooks`] | a worker's test hooks (kill or stop itself mid-frame) |
 //! | [`session`] | set-up and result messages, wire forms of the options |
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the TCP coordinator: connect, set-up, cells |
@@ -14,6 +16,7 @@
 //! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
+//! | [`measured`] | what a real transport measured beside the report |
 //! | [`mesh`] | a worker joins the mesh of its peers; its transport with the coordinator's link |
 //! | [`worker`] | `pvrsim worker`: sessions, one node |
 //! | `mpi` | (feature `mpi`) `--transport mpi`: the coordinator on MPI rank 0, the workers' set-up over MPI |
@@ -21,12 +24,15 @@
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
 //! | [`probe`] | the echo service for `pvrsim calibrate --network` |
 
+pub mod accept;
 pub mod compare;
 pub mod coordinator;
 pub mod drive;
 pub mod grid;
 pub mod grid_wire;
 pub mod guard;
+pub mod hooks;
+pub mod measured;
 pub mod mesh;
 #[cfg(feature = "mpi")]
 pub mod mpi;
@@ -38,6 +44,7 @@ pub mod spawn;
 pub mod worker;
 
 pub use compare::{transport_section, TransportSection};
-pub use coordinator::{Coordinator, Measured};
+pub use coordinator::Coordinator;
+pub use measured::Measured;
 pub use spawn::LocalWorkers;
 pub use worker::Worker;

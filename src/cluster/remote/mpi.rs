@@ -19,10 +19,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::coordinator::Measured;
 use super::drive::{drive, worker_setups, DriveOptions};
+use super::hooks::Hooks;
+use super::measured::Measured;
 use super::session::{sha256, Session, WorkerSetup};
-use super::worker::{run_node, Hooks};
+use super::worker::run_node;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::mpi::MpiTransport;
 use crate::net::{Codec, MessageKind, NodeId, RemoteTransport, Transport};

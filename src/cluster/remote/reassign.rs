@@ -24,11 +24,8 @@
 
 use std::time::{Duration, Instant};
 
-use super::coordinator::{Coordinator, Measured};
-use crate::cluster::{ClusterConfig, ClusterOutcome};
+pub use crate::cluster::report::transport::{LossEvent, Reassigned};
 use crate::net::{NodeId, RemoteTransport};
-use crate::node::Placement;
-use crate::render::RenderInput;
 
 /// Workers lost in a frame (their set-up failed, or their links ended
 /// without `Goodbye`), attached to the error of a failed frame.
@@ -47,45 +44,6 @@ impl std::fmt::Display for LostWorkers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}: lost {}", self.phase, self.names.join(", "))
     }
-}
-
-/// One loss and what was done about it.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct LossEvent {
-    /// The phase the frame was in.
-    pub phase: String,
-    /// The workers lost, by name.
-    pub workers: Vec<String>,
-    /// Cells (mesh frames) or bricks (grid frames) moved to the survivors.
-    pub moved: u64,
-    /// Survivors that took them.
-    pub survivors: usize,
-    /// Seconds from the start of the frame (the first attempt) until the
-    /// loss was known and the retry began.
-    pub detected_at_s: f64,
-    /// Wall seconds of the failed attempt (from its start to the retry):
-    /// the measured cost of the loss.
-    pub attempt_s: f64,
-    /// The error that ended the attempt.
-    pub error: String,
-}
-
-/// What `--on-failure reassign` did.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct Reassigned {
-    /// The workers lost, by name.
-    pub lost: Vec<String>,
-    /// Their cells (or bricks), given to the survivors.
-    pub cells: u64,
-    /// The error that ended the first attempt.
-    pub first_error: String,
-    /// Every loss in order.
-    pub events: Vec<LossEvent>,
-    /// Measured recovery cost: wall seconds of the failed attempts.
-    pub recovery_s: f64,
-    /// The placement of the run that completed (survivors by new rank).
-    #[serde(skip)]
-    pub parts: Vec<Vec<u32>>,
 }
 
 /// The placement after losing `lost`: each survivor keeps its share and
@@ -207,65 +165,6 @@ fn context(e: anyhow::Error, done: &Reassigned) -> anyhow::Error {
             "the frame on the survivors (--on-failure reassign, after losing {})",
             done.lost.join(", ")
         ))
-    }
-}
-
-impl Coordinator {
-    /// Runs one frame on the workers; with [`Coordinator::reassign`], again
-    /// on the survivors whenever workers are lost (at any phase).
-    pub fn run(
-        &self,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let n = cfg.phase1.nodes;
-        anyhow::ensure!(
-            self.workers.len() == n,
-            "{} worker addresses for --nodes {n}: give one worker per node",
-            self.workers.len()
-        );
-        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
-        let ((out, mut m), r) = with_reassign(
-            n,
-            placement.parts,
-            self.tcp.deadline,
-            self.reassign,
-            "cells",
-            |alive, parts| {
-                let c = Coordinator {
-                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
-                    ..self.clone()
-                };
-                let mut cfg = cfg.clone();
-                cfg.phase1.nodes = alive.len();
-                let p = Placement {
-                    parts: parts.to_vec(),
-                };
-                let wait = super::coordinator::busy_wait(alive.len() < n, self.tcp.deadline);
-                c.run_placed(input, &cfg, &p, wait)
-            },
-        )?;
-        m.reassigned = r;
-        Ok((out, m))
-    }
-
-    /// The workers whose links ended without `Goodbye`, as an error
-    /// context for the phase the frame was in (see [`lost_on`]).
-    pub(super) fn lost_workers(
-        &self,
-        t: &impl RemoteTransport,
-        n: usize,
-        e: anyhow::Error,
-        phase: &str,
-    ) -> anyhow::Error {
-        lost_on(
-            t,
-            0,
-            n,
-            endings_wait(self.reassign, self.tcp.deadline),
-            e,
-            phase,
-        )
     }
 }
 

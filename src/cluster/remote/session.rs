@@ -55,7 +55,7 @@ pub enum Session {
     /// transport counted in phase 2.
     Phase2Done(Box<(super::phase2::RankLog, WireStats)>),
     /// A grid scene's session (bricks instead of cells, see [`super::grid`]).
-    Grid(Box<super::grid::GridMsg>),
+    Grid(Box<super::grid_wire::GridMsg>),
 }
 
 impl Message for Session {

@@ -33,6 +33,7 @@
 mod build;
 pub mod cpu;
 mod summary;
+pub mod transport;
 mod types;
 
 pub use build::{build, Inputs};

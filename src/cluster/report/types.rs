@@ -277,7 +277,7 @@ pub struct ClusterReport {
     /// messages measured at the transport beside the virtual model's
     /// prediction for the same frame.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub transport: Option<crate::cluster::remote::TransportSection>,
+    pub transport: Option<super::transport::TransportSection>,
     /// Real transports: per rank and activity, modelled compute beside the
     /// measured thread CPU and wall seconds ([`super::cpu`]).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -12,7 +12,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::layers::LayerCodec;
 use super::Codec;
-use crate::compositor::layer::Depth;
+use crate::compositor::layer_types::Depth;
 
 /// A list/pixel codec (`--codec` of a mesh frame).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

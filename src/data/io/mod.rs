@@ -1,6 +1,6 @@
 //! Mesh readers, one file per format, and the legacy VTK writer; volume
 //! readers and writers are in [`volume`] ([`read_volume`]), and
-//! [`read_dataset`] reads either kind.
+//! [`read_dataset`](crate::data::read_dataset) reads either kind.
 //!
 //! [`read_mesh`] picks the reader by file extension:
 //!
@@ -32,7 +32,6 @@ use std::path::Path;
 use crate::data::TetMesh;
 use crate::error::{Error, Result};
 
-pub use crate::data::dataset::read_dataset;
 pub use volume::read_volume;
 pub use vtk_write::write_vtk_legacy;
 

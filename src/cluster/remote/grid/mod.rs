@@ -20,7 +20,8 @@
 //! master compositor runs here (the workers send to the master, as in the
 //! paper); binary swap and direct send between grid workers are refused.
 //!
-//! Files: this one holds the messages and the coordinator's options,
+//! Files: this one holds the coordinator's options (the messages are in
+//! [`super::grid_wire`], below the session they travel in),
 //! `coordinator.rs` runs a frame from the coordinator's side (set-ups,
 //! results, the master's or the workers' compositing), `serve.rs` is the
 //! worker's side of a grid session. Joining the mesh of peers is
@@ -34,65 +35,9 @@ pub use serve::GridWorkerCache;
 
 use std::time::Duration;
 
-use serde::{Deserialize, Serialize};
-
-use crate::cluster::remote::grid_wire::GridSetup;
-use crate::cluster::remote::phase2::RankLog;
+pub use crate::cluster::grid::GridMeasured;
+pub use crate::cluster::remote::grid_wire::{GridMsg, GridResult};
 use crate::net::tcp::{TcpOptions, Token};
-use crate::node::grid::GridNodeStats;
-
-/// The grid messages inside [`Session::Grid`](super::session::Session::Grid).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub enum GridMsg {
-    /// The worker's frame.
-    Setup(Box<GridSetup>),
-    /// What the worker rendered.
-    Result(Box<GridResult>),
-    /// Phase 2 worker to worker: the rank's log, after its last send.
-    Done(Box<RankLog>),
-}
-
-/// A worker's frame result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct GridResult {
-    /// Its numbers (`host_s` is its measured render time).
-    pub stats: GridNodeStats,
-    /// Its layers cropped to the screen, empty ones dropped, as one
-    /// [`encode`](crate::compositor::layer::exec::encode) message under the setup's codec (empty when
-    /// the workers composite among themselves).
-    pub layers: Vec<u8>,
-}
-
-/// What the transport measured, beside the report.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct GridMeasured {
-    /// `processes` or `tcp`.
-    pub transport: String,
-    /// Bytes of brick samples sent (0 when every worker had them cached).
-    pub bricks_bytes_sent: u64,
-    /// Workers that had their bricks cached.
-    pub bricks_cached: usize,
-    /// Layer message bytes the workers sent (the subimages, encoded).
-    pub layer_bytes: u64,
-    /// Session payload bytes of the results (layers plus stats).
-    pub result_payload_bytes: u64,
-    /// Seconds to connect and send set-ups and bricks.
-    pub setup_s: f64,
-    /// Seconds from the last set-up sent to the last result in.
-    pub collect_s: f64,
-    /// Seconds of the master's compositing.
-    pub composite_s: f64,
-    /// Worker to worker: per rank, its phase-2 wall and thread CPU seconds
-    /// (from its log; empty with a master).
-    pub phase2_ranks: Vec<(f64, f64)>,
-    /// Worker to worker: seconds from the last worker's render result to
-    /// the last pixels in (phase 2 once every node has rendered; 0 with a
-    /// master).
-    pub phase2_after_renders_s: f64,
-    /// Set when `--on-failure reassign` moved lost workers' bricks to the
-    /// survivors (who, when, in which phase, the cost).
-    pub reassigned: Option<crate::cluster::remote::reassign::Reassigned>,
-}
 
 /// How the coordinator reaches its grid workers.
 #[derive(Debug, Clone)]

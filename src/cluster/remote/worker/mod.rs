@@ -10,12 +10,11 @@
 //! cells' cache); `node.rs` runs one node's frame over any transport (TCP
 //! and MPI workers both end there).
 
-mod accept;
 mod node;
 
-pub use accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};
-pub(in crate::cluster::remote) use node::kill_self;
-pub use node::{build_node, run_node, Hooks};
+pub use crate::cluster::remote::accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};
+pub use crate::cluster::remote::hooks::Hooks;
+pub use node::{build_node, run_node};
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -39,7 +38,7 @@ const CACHE_ENTRIES: usize = 4;
 /// A bound worker, ready to serve.
 pub struct Worker {
     rt: Arc<Runtime>,
-    door: accept::Door,
+    door: Door,
     token: Token,
     opts: TcpOptions,
     cache: VecDeque<([u8; 32], Vec<u8>)>,
@@ -63,7 +62,7 @@ pub struct Worker {
 /// SIGSTOP instead (a stalled worker at a known point; it runs on when
 /// sent SIGCONT). Process-wide.
 pub fn hooks_stop_instead() {
-    node::HOOK_STOPS.store(true, std::sync::atomic::Ordering::SeqCst);
+    crate::cluster::remote::hooks::HOOK_STOPS.store(true, std::sync::atomic::Ordering::SeqCst);
 }
 
 impl Worker {
@@ -83,7 +82,7 @@ impl Worker {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let local = listener.local_addr()?;
         tcp::check_exposure(&local, &token, "listening on")?;
-        let door = accept::Door::open(&rt, listener, token.clone(), opts);
+        let door = Door::open(&rt, listener, token.clone(), opts);
         Ok(Worker {
             rt,
             door,
@@ -125,7 +124,7 @@ impl Worker {
                     ),
                 },
             };
-            let Some(accept::Accepted {
+            let Some(Accepted {
                 stream,
                 hello,
                 from,
@@ -171,9 +170,11 @@ impl Worker {
         let setup = match setup {
             Session::Setup(s) => s,
             Session::Grid(g) => match *g {
-                crate::cluster::remote::grid::GridMsg::Setup(s) => {
+                crate::cluster::remote::grid_wire::GridMsg::Setup(s) => {
                     if self.kill_at_setup {
-                        node::kill_self("at set-up (--test-kill-at-setup)");
+                        crate::cluster::remote::hooks::kill_self(
+                            "at set-up (--test-kill-at-setup)",
+                        );
                     }
                     self.door.set_rank(s.rank);
                     return crate::cluster::remote::grid::serve(
@@ -210,7 +211,7 @@ impl Worker {
             setup.nodes
         );
         if self.kill_at_setup {
-            node::kill_self("at set-up (--test-kill-at-setup)");
+            crate::cluster::remote::hooks::kill_self("at set-up (--test-kill-at-setup)");
         }
         let me = NodeId(setup.rank);
         self.door.set_rank(setup.rank);

@@ -1,13 +1,13 @@
 //! One node's frame on a worker, transport independent ([`run_node`]):
 //! build the node from the set-up, phase 1 with the thread driver loop,
-//! the result, phase 2 worker to worker; and the test hooks that kill the
+//! the result, phase 2 worker to worker, with the test hooks that kill the
 //! process mid-frame ([`Hooks`]).
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use crate::cluster::remote::guard::{close_failed, given_up_while_stopped, SessionGuard};
+use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
 use crate::net::{
@@ -17,37 +17,6 @@ use crate::net::{
 use crate::node::{NodeActor, NodeConfig, NodeRenderer, WorkUnit};
 use crate::render::cell::PreparedTf;
 use crate::scene::Scene;
-
-/// Set by the hidden `--test-stop`: the hooks stop the process (SIGSTOP,
-/// as `kill -STOP` would) instead of killing it.
-pub(super) static HOOK_STOPS: AtomicBool = AtomicBool::new(false);
-/// A hook fires once per process (a stopped worker, continued, then
-/// serves clean frames).
-static HOOK_FIRED: AtomicBool = AtomicBool::new(false);
-
-/// The test hooks' way to fail: SIGKILL, as `kill -9` would, or with
-/// `--test-stop` SIGSTOP (the process continues when sent SIGCONT). Only
-/// the first hook of a process fires.
-pub(in crate::cluster::remote) fn kill_self(why: &str) {
-    if HOOK_FIRED.swap(true, Ordering::SeqCst) {
-        return;
-    }
-    let stop = HOOK_STOPS.load(Ordering::SeqCst);
-    let (sig, what) = if stop {
-        (libc::SIGSTOP, "stopping")
-    } else {
-        (libc::SIGKILL, "killing")
-    };
-    eprintln!("pvrsim worker: {what} itself {why}");
-    // SAFETY: getpid and kill have no preconditions; this is a test hook
-    // that stops or ends the process on purpose.
-    unsafe {
-        libc::kill(libc::getpid(), sig);
-    }
-    if stop {
-        eprintln!("pvrsim worker: continued after stopping {why}");
-    }
-}
 
 /// The node actor, counting its chunks (`Start` and every `Wake`) for
 /// [`super::Worker::kill_after_chunks`].
@@ -70,15 +39,6 @@ impl crate::net::Actor for Chunks<'_> {
         }
         self.node.handle(now, event)
     }
-}
-
-/// The worker's test hooks (see [`super::Worker`]).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Hooks {
-    /// SIGKILL when the node starts chunk `K + 1` of phase 1.
-    pub kill_after_chunks: Option<u64>,
-    /// SIGKILL when phase 2 starts.
-    pub kill_in_phase2: bool,
 }
 
 /// One node's frame over `t` (rank `setup.rank`; the coordinator is rank

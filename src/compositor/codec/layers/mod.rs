@@ -48,7 +48,7 @@ pub use sparse::Sparse;
 
 use super::wire::{put_header, DecodeError, Limits, Reader};
 use crate::base::Rect;
-use crate::compositor::layer::{Depth, Layer};
+use crate::compositor::layer_types::{Depth, Layer};
 use crate::compositor::region::area;
 
 /// Header bytes of a layer message: magic, rectangle, rank range.

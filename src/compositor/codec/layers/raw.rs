@@ -4,7 +4,7 @@ use super::{
     at_depth, put_layer_header, put_pixel, read_layer_header, read_raw_pixels, LayerCodec,
 };
 use crate::compositor::codec::wire::{DecodeError, Limits, Reader};
-use crate::compositor::layer::{Depth, Layer};
+use crate::compositor::layer_types::{Depth, Layer};
 
 /// Codec byte of raw layers at `depth`.
 pub(super) fn byte(depth: Depth) -> u8 {

@@ -7,7 +7,7 @@ use super::{
     LayerCodec,
 };
 use crate::compositor::codec::wire::{DecodeError, Limits, Reader};
-use crate::compositor::layer::{Depth, Layer};
+use crate::compositor::layer_types::{Depth, Layer};
 use crate::compositor::region::area;
 
 /// The paper's RLE at a depth.

@@ -7,7 +7,7 @@ use super::{
     LAYER_HEADER_BYTES,
 };
 use crate::compositor::codec::wire::{put_u32, DecodeError, Limits, Reader};
-use crate::compositor::layer::{Depth, Layer};
+use crate::compositor::layer_types::{Depth, Layer};
 use crate::compositor::region::area;
 
 /// IceT-style sparse layers with a raw fallback, at a depth.
