@@ -8,19 +8,7 @@ use clap::Parser;
 fn main() {
     pvrsim::job::output::install_broken_pipe_handler();
     let cli = pvrsim::cli::Cli::parse();
-    let level = match cli.verbose {
-        0 => "warn",
-        1 => "info",
-        2 => "debug",
-        _ => "trace",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .init();
+    pvrsim::cli::init_logging(cli.verbose);
     if let Err(e) = pvrsim::cli::run(cli) {
         if pvrsim::job::output::is_broken_pipe(&e) {
             std::process::exit(0);

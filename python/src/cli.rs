@@ -23,19 +23,7 @@ pub fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
                 return e.exit_code();
             }
         };
-        let level = match cli.verbose {
-            0 => "warn",
-            1 => "info",
-            2 => "debug",
-            _ => "trace",
-        };
-        let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-            .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-        let _ = tracing_subscriber::fmt()
-            .with_env_filter(filter)
-            .with_writer(std::io::stderr)
-            .with_target(false)
-            .try_init();
+        pvrsim::cli::init_logging(cli.verbose);
         match pvrsim::cli::run(cli) {
             Ok(()) => 0,
             Err(e) if pvrsim::job::output::is_broken_pipe(&e) => 0,

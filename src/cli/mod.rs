@@ -84,6 +84,25 @@ pub enum Command {
     Worker(worker::WorkerArgs),
 }
 
+/// Logs to stderr at the level `-v` counts (warn, info, debug, trace;
+/// `RUST_LOG` overrides). A second call in one process (the Python module
+/// running the command line again) keeps the first subscriber.
+pub fn init_logging(verbose: u8) {
+    let level = match verbose {
+        0 => "warn",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}
+
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
