@@ -33,10 +33,10 @@ fn main() -> anyhow::Result<()> {
     let line = Line::try_parse_from([
         "cluster", &scene, "--nodes", &nodes, "--ert", "0.9", "--share", "--dlb",
     ])?;
-    let ClusterResult::Mesh(out) = line.args.run()? else {
+    let ClusterResult::Mesh(mut frames) = line.args.run()? else {
         anyhow::bail!("{scene}: not a mesh scene");
     };
-    let r = out.report;
+    let r = frames.pop().expect("a frame").report;
     let over = r.base_tsc_max_s.unwrap_or(f64::NAN) / r.tsc_max_s;
     println!(
         "{scene}, {nodes} nodes: skipped {} (share efficiency {:.3}), tsc_max {:.3} s, Base {:.3} s, {over:.3}x over Base, imbalance {:.2} %, schedule {} (stacking {:?}), {} cells dealt",

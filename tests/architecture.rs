@@ -100,6 +100,7 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("job", "net", ""),
     ("job", "budget", ""),
     ("job", "text", ""),
+    ("job", "base", ""),
     // ---- engine
     ("cluster", "manager", ""),
     ("cluster", "node", ""),

@@ -292,9 +292,10 @@ fn item10_nits() {
     let pvrsim::cli::Command::Cluster(a) = cli.command else {
         panic!("not a cluster command")
     };
-    let pvrsim::job::ClusterResult::Mesh(out) = a.run().unwrap() else {
+    let pvrsim::job::ClusterResult::Mesh(frames) = a.run().unwrap() else {
         panic!("a mesh scene")
     };
+    let out = &frames[0];
     let kinds = pvrsim::cluster::timeline::kinds_shown(&out.trace);
     assert!(kinds.contains(&pvrsim::net::TraceKind::Scan));
     assert!(

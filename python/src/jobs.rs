@@ -126,7 +126,10 @@ struct ClusterOut {
 /// The trace of the (last) frame and its rank count.
 fn trace_of(r: &ClusterResult) -> (&SimTrace, usize) {
     match r {
-        ClusterResult::Mesh(o) => (&o.trace, o.report.n_nodes),
+        ClusterResult::Mesh(f) => {
+            let o = f.last().expect("a frame");
+            (&o.trace, o.report.n_nodes)
+        }
         ClusterResult::Grid(f) => {
             let o = f.last().expect("a frame");
             (&o.trace, o.report.nodes.len())

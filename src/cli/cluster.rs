@@ -31,10 +31,23 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             prepare_output(flag, p, kind)?;
         }
     }
-    let result = job.load()?.run()?;
+    if let Some(p) = &a.series.series_csv {
+        prepare_output("--series-csv", p, OutputKind::Csv)?;
+    }
+    let started = std::time::Instant::now();
+    let result = job.load()?.run_with_progress(|k, n| {
+        if n > 1 {
+            eprintln!(
+                "frame {}/{n} done ({:.1} s)",
+                k + 1,
+                started.elapsed().as_secs_f64()
+            );
+        }
+    })?;
     match &result {
         ClusterResult::Grid(outs) => write_grid(&a, outs)?,
-        ClusterResult::Mesh(out) => {
+        ClusterResult::Mesh(outs) => {
+            let out = outs.last().expect("at least one frame");
             output::warn_if_empty(
                 &out.image,
                 &format!(
@@ -43,10 +56,55 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                     out.report.cells_total
                 ),
             );
-            write_outputs(&a, &out.image, &out.report, &out.trace, out.report.n_nodes)?;
+            write_frames(&a, outs.iter().map(|o| &o.image))?;
+            let trace = if outs.len() > 1 {
+                crate::cluster::series::joined_trace(outs)
+            } else {
+                out.trace.clone()
+            };
+            write_outputs(&a, &out.report, &trace, out.report.n_nodes)?;
+            if let (Some(p), Some(series)) = (&a.series.series_csv, &out.report.series) {
+                std::fs::write(p, series.csv())
+                    .with_context(|| format!("cannot write {}", p.display()))?;
+                println!("wrote {}", p.display());
+            }
         }
     }
     print!("{}", result.summary());
+    Ok(())
+}
+
+/// Writes the frames' images: every frame when `-o` has a `%d` pattern
+/// (`out-%04d.png`), else the last one to `-o` (saying so when there were
+/// more).
+fn write_frames<'a>(
+    a: &ClusterArgs,
+    images: impl ExactSizeIterator<Item = &'a Image>,
+) -> anyhow::Result<()> {
+    let n = images.len();
+    if crate::job::series_args::frame_path(&a.output, 0).is_some() {
+        for (k, img) in images.enumerate() {
+            let p = crate::job::series_args::frame_path(&a.output, k).expect("a pattern");
+            img.save_png(&p)?;
+            if k == 0 || k + 1 == n {
+                println!("wrote {}", p.display());
+            }
+        }
+        if n > 2 {
+            println!("({n} frames written)");
+        }
+        return Ok(());
+    }
+    let last = images.last().expect("at least one frame");
+    last.save_png(&a.output)?;
+    if n > 1 {
+        println!(
+            "wrote {} (the last of {n} frames; -o out-%04d.png writes every frame)",
+            a.output.display()
+        );
+    } else {
+        println!("wrote {}", a.output.display());
+    }
     Ok(())
 }
 
@@ -68,26 +126,18 @@ fn write_grid(a: &ClusterArgs, outs: &[GridOutcome]) -> anyhow::Result<()> {
         );
     }
     let out = outs.last().expect("at least one frame");
-    write_outputs(
-        a,
-        &out.image,
-        &out.report,
-        &out.trace,
-        out.report.nodes.len(),
-    )
+    write_frames(a, outs.iter().map(|o| &o.image))?;
+    write_outputs(a, &out.report, &out.trace, out.report.nodes.len())
 }
 
-/// Writes the image (-o), the report (--report), the trace (--trace) and the
-/// timeline (--timeline) of a frame with `ranks` ranks, saying each.
+/// Writes the report (--report), the trace (--trace) and the timeline
+/// (--timeline) of `ranks` ranks, saying each.
 fn write_outputs<R: serde::Serialize>(
     a: &ClusterArgs,
-    image: &Image,
     report: &R,
     trace: &SimTrace,
     ranks: usize,
 ) -> anyhow::Result<()> {
-    image.save_png(&a.output)?;
-    println!("wrote {}", a.output.display());
     if let Some(p) = &a.report {
         std::fs::write(p, serde_json::to_string_pretty(report)?)
             .with_context(|| format!("cannot write {}", p.display()))?;

@@ -19,6 +19,7 @@ pub mod phase1;
 pub mod phase2;
 pub mod remote;
 pub mod report;
+pub mod series;
 pub mod timeline;
 
 use crate::compositor::ExecOptions;
@@ -96,15 +97,31 @@ pub fn sequential_reference(
 
 /// Runs one cluster configuration on `input`.
 pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOutcome> {
-    let p1 = &cfg.phase1;
-    let codec = Codec::default();
-    let placement = Placement::new(
+    let placement = place(input, cfg);
+    run_placed(input, cfg, &placement, &phase1::NodeData::default())
+}
+
+/// The initial placement of `cfg` for `input`'s camera.
+pub fn place(input: &RenderInput, cfg: &ClusterConfig) -> Placement {
+    Placement::new(
         &input.mesh,
-        p1.nodes,
+        cfg.phase1.nodes,
         cfg.placement,
         Some(&input.scene.view()),
-    );
-    let nodes = phase1::build_nodes(input, &placement, p1, &cfg.profile, codec)?;
+    )
+}
+
+/// [`run`] with the placement and the nodes' data given (a series keeps
+/// them from frame to frame: [`series`]).
+pub fn run_placed(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    placement: &Placement,
+    data: &phase1::NodeData,
+) -> anyhow::Result<ClusterOutcome> {
+    let p1 = &cfg.phase1;
+    let codec = Codec::default();
+    let nodes = phase1::build_nodes_from(input, placement, data, p1, &cfg.profile, codec)?;
     let ph1 = phase1::run(nodes, p1, &cfg.network, &cfg.profile, codec)?;
 
     // References for the ratios.
@@ -131,7 +148,8 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
         let base_tsc = if base_cfg == *p1 {
             None
         } else {
-            let nodes = phase1::build_nodes(input, &placement, &base_cfg, &cfg.profile, codec)?;
+            let nodes =
+                phase1::build_nodes_from(input, placement, data, &base_cfg, &cfg.profile, codec)?;
             let b = phase1::run(nodes, &base_cfg, &cfg.network, &cfg.profile, codec)?;
             Some(
                 b.nodes

@@ -113,13 +113,71 @@ impl Actor for Rank<'_> {
     }
 }
 
-/// Builds the nodes of a run: placement, one work unit per node (encoded and
-/// decoded, as on the wire), each loaded into its renderer; with replicated
-/// data every node also gets the whole mesh (its distribution is a one-time
+/// What a mesh frame's nodes hold that does not depend on the camera,
+/// kept across the frames of a series: each placement part's cells with
+/// their vertices (encoded and decoded once, as on the wire) and, with
+/// replicated data, the shared replica. A frame whose parts differ from the
+/// placement's (a global wave schedule, which depends on the view) builds
+/// its units anew.
+#[derive(Debug, Clone, Default)]
+pub struct NodeData {
+    /// Per placement part, its cells and their vertex data.
+    pub units: Vec<WorkUnit>,
+    /// With replicated data: the mesh every node reads.
+    pub replica: Option<std::sync::Arc<Replica>>,
+}
+
+impl NodeData {
+    /// Builds the units of `placement`'s parts (in parallel).
+    pub fn new(
+        input: &RenderInput,
+        placement: &Placement,
+        cfg: &Phase1Config,
+    ) -> anyhow::Result<NodeData> {
+        use rayon::prelude::*;
+        let units = placement
+            .parts
+            .par_iter()
+            .map(|part| unit_of(input, part))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let replica = (cfg.data == DataMode::Replicated)
+            .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
+        Ok(NodeData { units, replica })
+    }
+}
+
+/// A part's cells with their vertices, through the wire form.
+fn unit_of(input: &RenderInput, part: &[u32]) -> anyhow::Result<WorkUnit> {
+    let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
+    Ok(WorkUnit::decode(&unit.encode())?)
+}
+
+/// The nodes of a frame: each node's cells (with their vertex data, encoded
+/// and decoded, as on the wire), each loaded into its renderer; with replicated
+/// data every node also reads the one shared mesh (its memory and one-time
 /// cost per dataset, reported apart: [`crate::node::replica`]).
 pub fn build_nodes(
     input: &RenderInput,
     placement: &Placement,
+    cfg: &Phase1Config,
+    profile: &CostProfile,
+    codec: Codec,
+) -> anyhow::Result<Vec<NodeActor>> {
+    build_nodes_from(
+        input,
+        placement,
+        &NodeData::default(),
+        cfg,
+        profile,
+        codec,
+    )
+}
+
+/// [`build_nodes`] over node data built before (kept across a series).
+pub fn build_nodes_from(
+    input: &RenderInput,
+    placement: &Placement,
+    data: &NodeData,
     cfg: &Phase1Config,
     profile: &CostProfile,
     codec: Codec,
@@ -133,8 +191,14 @@ pub fn build_nodes(
     } else {
         Vec::new()
     };
-    let replica = (cfg.data == DataMode::Replicated)
-        .then(|| std::sync::Arc::new(Replica::new(input.mesh.clone(), &input.s_norm)));
+    let replica = match (&data.replica, cfg.data) {
+        (Some(r), DataMode::Replicated) => Some(r.clone()),
+        (None, DataMode::Replicated) => Some(std::sync::Arc::new(Replica::new(
+            input.mesh.clone(),
+            &input.s_norm,
+        ))),
+        _ => None,
+    };
     let waves = (effective_waves(cfg, input.mesh.tets.len()) > 1).then(|| {
         wave_schedule(
             input,
@@ -146,9 +210,9 @@ pub fn build_nodes(
     });
     let applied = waves.as_ref().is_some_and(|w| w.1);
     let waves = waves.map(|w| w.0);
-    let parts = match &waves {
-        Some(w) if applied => &w.parts,
-        _ => &placement.parts,
+    let (parts, kept) = match &waves {
+        Some(w) if applied => (&w.parts, false),
+        _ => (&placement.parts, data.units.len() == placement.parts.len()),
     };
     parts
         .iter()
@@ -162,9 +226,11 @@ pub fn build_nodes(
                 r.enable_level_sharing();
                 r.enable_pixel_sharing(depth_quant(input));
             }
-            let unit = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part);
-            let unit = WorkUnit::decode(&unit.encode())?;
-            r.add_work(&unit)?;
+            if kept {
+                r.add_work(&data.units[k])?;
+            } else {
+                r.add_work(&unit_of(input, part)?)?;
+            }
             let nc = NodeConfig {
                 rank: k,
                 manager: n,

@@ -20,8 +20,8 @@ use crate::image::Image;
 /// `pvrsim render`'s (same names, defaults and checks).
 pub type RenderJob = RenderArgs;
 
-/// A cluster job: a scene on N nodes (a frame, or `grid.frames` frames of a
-/// grid), on a transport (`net.transport`: simulated by default, threads,
+/// A cluster job: a scene on N nodes (a frame, or a series of
+/// `series.frames` frames), on a transport (`net.transport`: simulated by default, threads,
 /// processes, TCP, MPI), exactly `pvrsim cluster`'s options.
 pub type ClusterJob = ClusterArgs;
 
@@ -81,9 +81,10 @@ impl RenderArgs {
 
 /// What a cluster job produced.
 pub enum ClusterResult {
-    /// A mesh frame: image, report, timeline.
-    Mesh(Box<ClusterOutcome>),
-    /// The frames of a grid scene (one unless `grid.frames`), in order.
+    /// The frames of a mesh scene (one unless `series.frames`), in order;
+    /// with several, the last frame's report has the `series` section.
+    Mesh(Vec<ClusterOutcome>),
+    /// The frames of a grid scene (one unless `series.frames`), in order.
     Grid(Vec<GridOutcome>),
 }
 
@@ -91,25 +92,32 @@ impl ClusterResult {
     /// The (last) frame's image.
     pub fn image(&self) -> &Image {
         match self {
-            ClusterResult::Mesh(o) => &o.image,
+            ClusterResult::Mesh(f) => &f.last().expect("at least one frame").image,
             ClusterResult::Grid(f) => &f.last().expect("at least one frame").image,
+        }
+    }
+
+    /// Every frame's image, in order.
+    pub fn images(&self) -> Vec<&Image> {
+        match self {
+            ClusterResult::Mesh(f) => f.iter().map(|o| &o.image).collect(),
+            ClusterResult::Grid(f) => f.iter().map(|o| &o.image).collect(),
         }
     }
 
     /// The (last) frame's report as `--report` writes it.
     pub fn report_json(&self) -> serde_json::Value {
         match self {
-            ClusterResult::Mesh(o) => serde_json::to_value(&o.report),
+            ClusterResult::Mesh(f) => serde_json::to_value(&f.last().expect("a frame").report),
             ClusterResult::Grid(f) => serde_json::to_value(&f.last().expect("a frame").report),
         }
         .expect("reports serialize")
     }
 
-    /// Every frame's report as `--report` writes it, in order (a mesh job
-    /// has one frame).
+    /// Every frame's report as `--report` writes it, in order.
     pub fn frame_reports_json(&self) -> Vec<serde_json::Value> {
         match self {
-            ClusterResult::Mesh(o) => vec![serde_json::to_value(&o.report)],
+            ClusterResult::Mesh(f) => f.iter().map(|o| serde_json::to_value(&o.report)).collect::<Vec<_>>(),
             ClusterResult::Grid(f) => f.iter().map(|o| serde_json::to_value(&o.report)).collect(),
         }
         .into_iter()
@@ -120,7 +128,15 @@ impl ClusterResult {
     /// The (last) frame's report as text, as `pvrsim cluster` prints it.
     pub fn summary(&self) -> String {
         match self {
-            ClusterResult::Mesh(o) => crate::cluster::report::summary(&o.report),
+            ClusterResult::Mesh(f) => {
+                let r = &f.last().expect("a frame").report;
+                let mut s = crate::cluster::report::summary(r);
+                if let Some(series) = &r.series {
+                    s.push_str(&series.line());
+                    s.push('\n');
+                }
+                s
+            }
             ClusterResult::Grid(f) => {
                 crate::cluster::grid::summary(&f.last().expect("a frame").report)
             }

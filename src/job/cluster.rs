@@ -232,6 +232,9 @@ pub struct ClusterArgs {
     /// Grid scenes (sort-last bricks).
     #[command(flatten)]
     pub grid: super::grid_args::GridArgs,
+    /// A frame series (`--frames`, `--turn`, `--series-csv`).
+    #[command(flatten)]
+    pub series: super::series_args::SeriesArgs,
     /// Where the nodes run (`--transport`, `--workers`, ...).
     #[command(flatten)]
     pub net: super::transport_args::TransportArgs,
@@ -325,6 +328,7 @@ impl Validate for ClusterArgs {
         at_least("--min-grant", self.min_grant, 1)?;
         at_least("--progress-every", self.progress_every, 1)?;
         validate::image_size(self.width, self.height)?;
+        self.series.check()?;
         let mode = self.sharing_mode();
         let ert_how = "early ray termination: give --ert < 1 (e.g. 0.9); --ert 1 turns it off";
         needs("--share", self.share, ert.is_on(), ert_how)?;
@@ -479,13 +483,15 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
     })
 }
 
-/// A mesh frame ready to run: the scene and its mesh (each read once),
-/// the configuration, and where it runs (`None`: this process).
+/// Mesh frames ready to run: the scene and its mesh (each read once),
+/// the configuration, the cameras, and where they run (`None`: this process).
 pub struct MeshFrame {
     /// The scene with its mesh.
     pub input: RenderInput,
     /// The configuration.
     pub cfg: ClusterConfig,
+    /// One camera per frame (`--frames`, `--turn`; one without them).
+    pub cams: Vec<crate::scene::Camera>,
     remote: Option<super::transport_args::TransportKind>,
 }
 
@@ -517,6 +523,15 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         a.nodes
     );
     let remote = a.net.apply(&mut cfg)?;
+    let cams = a.series.cameras(&input.scene.camera)?;
+    if cams.len() > 1 {
+        anyhow::ensure!(
+            remote != Some(super::transport_args::TransportKind::Mpi),
+            "--frames {} with --transport mpi: an MPI job renders one frame (its ranks serve \
+             one session); run a series on processes, tcp or threads",
+            cams.len()
+        );
+    }
     if remote.is_some() {
         anyhow::ensure!(
             a.ert_mode.manager_shards.is_none_or(|k| k == 1),
@@ -545,20 +560,59 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
             cfg.phase1.schedule_waves = 0;
         }
     }
-    Ok(MeshFrame { input, cfg, remote })
+    Ok(MeshFrame {
+        input,
+        cfg,
+        cams,
+        remote,
+    })
 }
 
-/// Runs a prepared mesh frame (on the transport `a` names), writing nothing.
-pub fn run_mesh(a: &ClusterArgs, f: MeshFrame) -> anyhow::Result<ClusterOutcome> {
-    let MeshFrame { input, cfg, remote } = f;
-    match remote {
-        None => cluster::run(&input, &cfg),
+/// Runs prepared mesh frames (on the transport `a` names), writing
+/// nothing: one outcome per camera, in order; with more than one frame the
+/// last frame's report carries the series section
+/// ([`crate::cluster::series`]). `progress` hears of each frame as it ends.
+pub fn run_mesh(
+    a: &ClusterArgs,
+    f: MeshFrame,
+    mut progress: impl FnMut(usize, usize),
+) -> anyhow::Result<Vec<ClusterOutcome>> {
+    let MeshFrame {
+        input,
+        cfg,
+        cams,
+        remote,
+    } = f;
+    let n = cams.len();
+    let (mut outs, measured) = match remote {
+        None => (
+            cluster::series::run(&input, &cfg, &cams, |k, _| progress(k, n))?,
+            None,
+        ),
         Some(kind) => {
-            let (mut out, measured) = a.net.run(kind, &input, &cfg)?;
-            out.report.transport = Some(crate::cluster::remote::transport_section(
-                &input, &cfg, &out, measured,
-            )?);
-            Ok(out)
+            let frames = a.net.run_series(kind, &input, &cfg, &cams, |k| progress(k, n))?;
+            let mut outs = Vec::with_capacity(n);
+            let mut rows = Vec::with_capacity(n);
+            for (cam, (mut out, m, wall_s)) in cams.iter().zip(frames) {
+                let mut frame_input = input.clone();
+                frame_input.scene.camera = *cam;
+                rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
+                out.report.transport = Some(crate::cluster::remote::transport_section(
+                    &frame_input,
+                    &cfg,
+                    &out,
+                    m,
+                )?);
+                outs.push(out);
+            }
+            (outs, Some(rows))
+        }
+    };
+    if n > 1 {
+        let series = cluster::series::report(&outs, &cams, measured.as_deref());
+        if let Some(last) = outs.last_mut() {
+            last.report.series = Some(series);
         }
     }
+    Ok(outs)
 }

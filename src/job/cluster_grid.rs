@@ -9,7 +9,6 @@ use std::time::Duration;
 use anyhow::Context;
 
 use super::cluster::{load_profile, ClusterArgs};
-use super::grid_args::GridArgs;
 use super::transport_args::TransportArgs;
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
 use crate::cluster::remote::grid::GridRemote;
@@ -114,26 +113,6 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     })
 }
 
-/// The cameras `--frames` and `--turn` ask for (checked).
-fn cameras(g: &GridArgs, cam: &crate::scene::Camera) -> anyhow::Result<Vec<crate::scene::Camera>> {
-    let frames = g.frames.unwrap_or(1);
-    anyhow::ensure!(frames >= 1, "--frames must be at least 1");
-    anyhow::ensure!(
-        frames <= 100_000,
-        "--frames {frames}: at most 100000 frames in one run"
-    );
-    let turn = g.turn.unwrap_or(0.0);
-    anyhow::ensure!(
-        turn.is_finite(),
-        "--turn must be a finite angle in degrees, got {turn}"
-    );
-    anyhow::ensure!(
-        g.turn.is_none() || g.frames.is_some(),
-        "--turn turns the camera between frames; give --frames N with it"
-    );
-    Ok(grid::orbit(cam, frames, turn))
-}
-
 /// Grid frames ready to run: the scene and its volume (each read once),
 /// the configuration and one camera per frame.
 pub struct GridFrames {
@@ -150,7 +129,12 @@ pub struct GridFrames {
 /// the cameras, reads the volume.
 pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
     let cfg = config(a)?;
-    let cams = cameras(&a.grid, &scene.camera)?;
+    anyhow::ensure!(
+        a.series.series_csv.is_none(),
+        "--series-csv writes the rows of a mesh series; a grid series prints every frame's \
+         wall time and its --report holds each frame's (drop --series-csv)"
+    );
+    let cams = a.series.cameras(&scene.camera)?;
     let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
         .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
     let mut input = VolumeInput::new(scene, Arc::new(vol))?;

@@ -12,7 +12,7 @@ use super::validate::Valid;
 
 /// A cluster job with its scene and data loaded, ready to run.
 pub enum LoadedCluster<'a> {
-    /// A mesh frame.
+    /// The frames of a mesh scene.
     Mesh(&'a ClusterArgs, Box<MeshFrame>),
     /// The frames of a grid scene.
     Grid(&'a ClusterArgs, Box<GridFrames>),
@@ -35,8 +35,17 @@ impl<'a> Valid<'a, ClusterArgs> {
 impl LoadedCluster<'_> {
     /// Runs the frame(s), writing nothing.
     pub fn run(self) -> anyhow::Result<ClusterResult> {
+        self.run_with_progress(|_, _| {})
+    }
+
+    /// [`Self::run`], calling `progress(frame, frames)` as each frame of
+    /// a mesh series ends.
+    pub fn run_with_progress(
+        self,
+        progress: impl FnMut(usize, usize),
+    ) -> anyhow::Result<ClusterResult> {
         Ok(match self {
-            LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(Box::new(cluster::run_mesh(a, *f)?)),
+            LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(cluster::run_mesh(a, *f, progress)?),
             LoadedCluster::Grid(a, f) => ClusterResult::Grid(cluster_grid::run(a, *f)?),
         })
     }

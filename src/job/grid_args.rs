@@ -34,16 +34,6 @@ pub struct GridArgs {
     /// prime factor above k gets a round of its own).
     #[arg(long, value_name = "K")]
     pub radix_k: Option<crate::compositor::strategy::GroupSize>,
-    /// Grid scenes: render N frames on the same nodes, the camera turning
-    /// `--turn` degrees about the scene's up axis between frames (the
-    /// nodes keep their bricks' textures); the outputs are the last
-    /// frame's, and every frame's wall time is printed.
-    #[arg(long, value_name = "N")]
-    pub frames: Option<u32>,
-    /// Grid scenes with --frames: degrees the eye turns about the target
-    /// (around the camera's up vector) from one frame to the next (default 0).
-    #[arg(long, value_name = "DEG")]
-    pub turn: Option<f64>,
     /// Grid scenes: prepare every brick's texture every frame (no cache
     /// across frames; for measuring what the cache saves).
     #[arg(long)]
@@ -67,12 +57,6 @@ pub fn refuse_on_mesh(g: &GridArgs) -> anyhow::Result<()> {
     }
     if g.tolerance.is_some() {
         bad.push("--tolerance");
-    }
-    if g.frames.is_some() {
-        bad.push("--frames");
-    }
-    if g.turn.is_some() {
-        bad.push("--turn");
     }
     if g.no_texture_cache {
         bad.push("--no-texture-cache");

@@ -29,6 +29,8 @@ pub enum OutputKind {
     Json,
     /// TOML (`.toml`).
     Toml,
+    /// CSV (`.csv`).
+    Csv,
 }
 
 impl OutputKind {
@@ -38,6 +40,7 @@ impl OutputKind {
             OutputKind::Png => &["png"],
             OutputKind::Json => &["json"],
             OutputKind::Toml => &["toml"],
+            OutputKind::Csv => &["csv"],
         }
     }
 
@@ -46,6 +49,7 @@ impl OutputKind {
             OutputKind::Png => "a PNG image",
             OutputKind::Json => "JSON",
             OutputKind::Toml => "TOML",
+            OutputKind::Csv => "CSV",
         }
     }
 }

@@ -230,6 +230,10 @@ pub fn flat_report(out: &ClusterResult) -> serde_json::Value {
         if let Some(t) = o.get_mut("t_share").and_then(|t| t.as_object_mut()) {
             t.remove("per_exchange_s");
         }
+        // A series keeps its totals (`series.fps`, ...), not its rows.
+        if let Some(s) = o.get_mut("series").and_then(|s| s.as_object_mut()) {
+            s.remove("frames");
+        }
     }
     v
 }

@@ -246,6 +246,59 @@ impl TransportArgs {
         r
     }
 
+    /// A series of mesh frames, one per camera, on the same workers:
+    /// worker processes are started once and serve one session a frame
+    /// (they keep the cells from the first frame: later set-ups carry a
+    /// camera, not cells); TCP workers serve sessions anyway. Per frame:
+    /// its outcome, what the transport measured and the wall seconds from
+    /// the session's start to the image. `done` hears of each frame.
+    pub fn run_series(
+        &self,
+        kind: TransportKind,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+        cams: &[crate::scene::Camera],
+        mut done: impl FnMut(usize),
+    ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
+        let mut input = input.clone();
+        let mut frame = |f: usize,
+                         input: &mut RenderInput,
+                         run: &mut dyn FnMut(&RenderInput) -> anyhow::Result<(ClusterOutcome, Measured)>|
+         -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
+            crate::base::cancel::checkpoint();
+            input.scene.camera = cams[f];
+            let t = std::time::Instant::now();
+            let (out, m) = run(input).with_context(|| format!("frame {f} of {}", cams.len()))?;
+            let wall = t.elapsed().as_secs_f64();
+            done(f);
+            Ok((out, m, wall))
+        };
+        if cams.len() == 1 {
+            return Ok(vec![frame(0, &mut input, &mut |i| self.run(kind, i, cfg))?]);
+        }
+        match kind {
+            TransportKind::Processes => {
+                let exe = std::env::current_exe().context("cannot find this program's path")?;
+                // Workers that serve a session a frame; killed and reaped
+                // on drop, after the series or on any error.
+                let workers = self.spawn_processes(&exe, cfg.phase1.nodes, true)?;
+                let c = Coordinator {
+                    workers: workers.addrs.clone(),
+                    token: workers.token().clone(),
+                    tcp: self.tcp_options(),
+                    recv_timeout: Duration::from_secs_f64(self.recv_timeout),
+                    reassign: self.on_failure == OnFailure::Reassign,
+                };
+                (0..cams.len())
+                    .map(|f| frame(f, &mut input, &mut |i| c.run(i, cfg)))
+                    .collect()
+            }
+            _ => (0..cams.len())
+                .map(|f| frame(f, &mut input, &mut |i| self.run(kind, i, cfg)))
+                .collect(),
+        }
+    }
+
     /// Link timing from these options: the heartbeat deadline, and a
     /// connect + handshake limit no longer than it (between 1 and 5 s), so
     /// that a stalled worker at set-up is noticed within the deadline too.

@@ -8,6 +8,7 @@
 
 pub mod camera;
 pub mod fit;
+pub mod orbit;
 pub mod transfer;
 
 use std::path::{Path, PathBuf};
@@ -15,6 +16,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 pub use camera::{Camera, Projection, View};
+pub use orbit::orbit;
 pub use transfer::{ControlPoint, TransferFunction};
 
 use crate::error::{Error, Result};

@@ -11,13 +11,12 @@
 //!
 //! Split as the mesh side is: [`config`] (settings), [`types`] (report
 //! and outcome), [`driver`] (bricks, phase 1, phase 2), [`build`] (the
-//! report), [`summary`] (the terminal text), [`orbit`] (`--frames`'
-//! cameras).
+//! report), [`summary`] (the terminal text); a series' cameras are
+//! [`crate::scene::orbit`]'s.
 
 mod build;
 mod config;
 mod driver;
-mod orbit;
 mod prepared;
 mod summary;
 mod types;
@@ -25,7 +24,6 @@ mod types;
 pub use build::report;
 pub use config::GridConfig;
 pub use driver::{finish, run, run_frames};
-pub use orbit::orbit;
 pub use prepared::{prepare, Phase1Out, Prepared};
 pub use summary::summary;
 pub use types::{GridMeasured, GridNodeReport, GridOutcome, GridReport};

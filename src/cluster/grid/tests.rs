@@ -10,6 +10,7 @@ use crate::node::grid::render::RendererKind;
 use crate::node::grid::tests::{seam_input, OBLIQUE, PERSP};
 use crate::node::CostProfile;
 use crate::render::slice3d::Slice3dOptions;
+use crate::scene::orbit;
 
 fn cfg(compositor: &str, codec: &str, master: bool) -> GridConfig {
     GridConfig {

@@ -35,3 +35,15 @@ pub struct Measured {
     /// Set when `--on-failure reassign` re-ran the frame on survivors.
     pub reassigned: Option<Reassigned>,
 }
+
+impl Measured {
+    /// Every byte of the frame the transport wrote: both phases' wire
+    /// bytes (frames, heartbeats, goodbyes), the root's hand-off and the
+    /// cells sent at set-up.
+    pub fn frame_bytes(&self) -> u64 {
+        self.phase1.wire_bytes_sent
+            + self.phase2.wire_bytes_sent
+            + self.phase2_handoff_bytes
+            + self.cells_bytes_sent
+    }
+}

@@ -315,5 +315,6 @@ pub fn build(i: Inputs) -> ClusterReport {
         },
         transport: None,
         cpu: super::cpu::cpu_section(i.trace1, &i.stopped_at),
+        series: None,
     }
 }

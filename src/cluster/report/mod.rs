@@ -28,10 +28,12 @@
 //!
 //! Files: `types.rs` holds the report's records ([`ClusterReport`],
 //! [`NodeReport`], the raw per-node numbers, replication cost), `build.rs`
-//! computes a report from a run's pieces, `summary.rs` prints it.
+//! computes a report from a run's pieces, `summary.rs` prints it,
+//! `series.rs` holds a frame series' section.
 
 mod build;
 pub mod cpu;
+pub mod series;
 mod summary;
 pub mod transport;
 mod types;

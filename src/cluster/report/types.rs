@@ -282,6 +282,10 @@ pub struct ClusterReport {
     /// measured thread CPU and wall seconds ([`super::cpu`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cpu: Option<Vec<super::cpu::CpuRank>>,
+    /// A series of frames (`--frames N`, on the last frame's report): frames
+    /// per second and one row per frame ([`super::series`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub series: Option<super::series::SeriesReport>,
 }
 
 /// The one-time cost of replicated data ([`crate::node::replica`]).

@@ -1,9 +1,10 @@
-//! The cameras of `--frames N --turn DEG` ([`orbit`]).
+//! The cameras of a series' orbit (`pvrsim cluster --frames N --turn DEG`,
+//! mesh and grid scenes alike: [`orbit`]).
 
 /// The cameras of `--frames N --turn DEG`: the scene's camera, then the
 /// eye turned `k DEG` degrees about the target around the camera's up
 /// vector (`eye' = target + R_up(k DEG) (eye - target)`).
-pub fn orbit(cam: &crate::scene::Camera, frames: u32, turn_deg: f64) -> Vec<crate::scene::Camera> {
+pub fn orbit(cam: &super::Camera, frames: u32, turn_deg: f64) -> Vec<super::Camera> {
     use glam::{DQuat, DVec3};
     let target = DVec3::from(cam.target);
     let axis = DVec3::from(cam.up).normalize_or_zero();

@@ -1,0 +1,249 @@
+//! Frame series of a mesh scene (`pvrsim cluster --frames N --turn DEG`):
+//! every frame equals the one-off frame at its camera (virtual clock with
+//! ERT, sharing and DLB; threads and worker processes with ERT off and
+//! `--canonical`); the report's `series` section; worker processes receive
+//! the cells once; bad series options are refused before any frame runs.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use pvrsim::job::{ClusterJob, ClusterResult};
+
+const EXE: &str = env!("CARGO_BIN_EXE_pvrsim");
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// The aorta-small view-B scene with its eye moved to `eye`, written into
+/// `dir` (the mesh path made absolute).
+fn scene_with_eye(dir: &Path, eye: [f64; 3]) -> PathBuf {
+    let text = std::fs::read_to_string(data("aorta-small-view-b.toml")).unwrap();
+    let mesh = data("aorta-small.vtk");
+    let text = text
+        .replace(
+            "path  = \"aorta-small.vtk\"",
+            &format!("path  = {:?}", mesh.display().to_string()),
+        )
+        .replace(
+            "eye        = [-2.5, 0, 232.7]",
+            &format!("eye        = [{:?}, {:?}, {:?}]", eye[0], eye[1], eye[2]),
+        );
+    assert!(text.contains("eye        = ["), "scene changed");
+    let p = dir.join(format!("eye-{:.3}-{:.3}.toml", eye[0], eye[2]));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn job(scene: &Path, opts: &[(&str, &str)]) -> ClusterJob {
+    let options: Vec<(String, pvrsim::job::options::ParamValue)> =
+        std::iter::once(("scene".to_string(), scene.display().to_string().into()))
+            .chain(opts.iter().map(|(k, v)| (k.to_string(), value(v))))
+            .collect();
+    ClusterJob::from_options(&options).unwrap()
+}
+
+/// An option's value as a job file would type it.
+fn value(v: &str) -> pvrsim::job::options::ParamValue {
+    if v == "true" {
+        true.into()
+    } else if let Ok(i) = v.parse::<i64>() {
+        i.into()
+    } else if let Ok(f) = v.parse::<f64>() {
+        f.into()
+    } else {
+        v.into()
+    }
+}
+
+fn frames(r: ClusterResult) -> Vec<pvrsim::cluster::ClusterOutcome> {
+    match r {
+        ClusterResult::Mesh(f) => f,
+        ClusterResult::Grid(_) => panic!("a mesh scene"),
+    }
+}
+
+fn bits(img: &pvrsim::image::Image) -> Vec<u32> {
+    img.pixels
+        .iter()
+        .flat_map(|p| p.iter().map(|c| c.to_bits()))
+        .collect()
+}
+
+/// Each frame of a series equals the one-off frame at that camera.
+fn frames_equal_one_offs(opts: &[(&str, &str)]) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut series_opts = opts.to_vec();
+    series_opts.extend([("frames", "3"), ("turn", "40")]);
+    let series = frames(job(&data("aorta-small-view-b.toml"), &series_opts).run().unwrap());
+    assert_eq!(series.len(), 3);
+    let s = series[2].report.series.as_ref().expect("a series section");
+    assert_eq!(s.frames.len(), 3);
+    for (k, out) in series.iter().enumerate() {
+        let eye = s.frames[k].eye;
+        let one = frames(job(&scene_with_eye(dir.path(), eye), opts).run().unwrap());
+        assert_eq!(one.len(), 1);
+        assert!(one[0].report.series.is_none());
+        assert_eq!(
+            bits(&out.image),
+            bits(&one[0].image),
+            "frame {k} differs from the one-off frame ({opts:?})"
+        );
+        assert!(out.image.pixels.iter().any(|p| p[3] > 0.0), "frame {k} empty");
+    }
+    // The frames differ from each other (the camera turned).
+    assert_ne!(bits(&series[0].image), bits(&series[1].image));
+}
+
+#[test]
+fn virtual_clock_frames_equal_one_offs_with_ert_sharing_and_dlb() {
+    frames_equal_one_offs(&[
+        ("nodes", "4"),
+        ("ert", "0.9"),
+        ("share", "true"),
+        ("dlb", "true"),
+        ("no-baselines", "true"),
+    ]);
+}
+
+#[test]
+fn thread_frames_equal_one_offs_canonical() {
+    frames_equal_one_offs(&[
+        ("nodes", "3"),
+        ("ert", "1"),
+        ("canonical", "true"),
+        ("transport", "threads"),
+        ("no-baselines", "true"),
+    ]);
+}
+
+#[test]
+fn the_series_section_has_fps_and_a_row_per_frame() {
+    let out = frames(
+        job(
+            &data("aorta-small-view-b.toml"),
+            &[
+                ("nodes", "4"),
+                ("frames", "4"),
+                ("turn", "10"),
+                ("no-baselines", "true"),
+            ],
+        )
+        .run()
+        .unwrap(),
+    );
+    let r = serde_json::to_value(&out[3].report).unwrap();
+    let s = &r["series"];
+    let rows = s["frames"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    let total: f64 = rows.iter().map(|f| f["frame_s"].as_f64().unwrap()).sum();
+    assert!(total > 0.0);
+    let fps = s["fps"].as_f64().unwrap();
+    assert!((fps - 4.0 / total).abs() < 1e-9 * fps, "{fps} vs {total}");
+    for (k, f) in rows.iter().enumerate() {
+        assert_eq!(f["frame"].as_u64(), Some(k as u64));
+        assert!(f["bytes"].as_u64().unwrap() > 0);
+        // Each row is that frame's own report.
+        assert_eq!(f["frame_s"].as_f64(), Some(out[k].report.frame_s));
+    }
+    assert_eq!(s["clock"], "virtual");
+    // Earlier frames' reports carry no series section.
+    assert!(serde_json::to_value(&out[0].report).unwrap()["series"].is_null());
+}
+
+#[test]
+fn worker_processes_receive_the_cells_once_and_frames_match() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("r.json");
+    let csv = dir.path().join("s.csv");
+    let pattern = dir.path().join("f-%02d.png");
+    let st = Command::new(EXE)
+        .args(["cluster"])
+        .arg(data("aorta-small-view-b.toml"))
+        .args([
+            "--nodes",
+            "3",
+            "--ert",
+            "1",
+            "--canonical",
+            "--transport",
+            "processes",
+            "--heartbeat-timeout",
+            "30",
+            "--frames",
+            "3",
+            "--turn",
+            "25",
+            "--no-baselines",
+        ])
+        .arg("-o")
+        .arg(&pattern)
+        .arg("--report")
+        .arg(&report)
+        .arg("--series-csv")
+        .arg(&csv)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let rows = r["series"]["frames"].as_array().unwrap().clone();
+    assert_eq!(rows.len(), 3);
+    assert_eq!(r["series"]["clock"], "wall");
+    assert!(rows[0]["cells_bytes"].as_u64().unwrap() > 0);
+    for f in &rows[1..] {
+        assert_eq!(f["cells_bytes"].as_u64(), Some(0), "cells sent again: {f}");
+        assert!(f["bytes"].as_u64().unwrap() < rows[0]["bytes"].as_u64().unwrap());
+    }
+    let lines = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(lines.lines().count(), 4, "{lines}");
+    assert!(lines.starts_with("frame,eye_x,eye_y,eye_z,frame_s,"));
+    // Every frame written, and each equals the one-off frame in this
+    // process (canonical, ERT off: bit for bit).
+    for (k, f) in rows.iter().enumerate() {
+        let png = dir.path().join(format!("f-{k:02}.png"));
+        let got = image::open(&png).unwrap().to_rgba8();
+        let eye: Vec<f64> = f["eye"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let one_png = dir.path().join(format!("one-{k}.png"));
+        let st = Command::new(EXE)
+            .args(["cluster"])
+            .arg(scene_with_eye(dir.path(), [eye[0], eye[1], eye[2]]))
+            .args(["--nodes", "3", "--ert", "1", "--canonical", "--no-baselines"])
+            .arg("-o")
+            .arg(&one_png)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        let want = image::open(&one_png).unwrap().to_rgba8();
+        assert_eq!(got.as_raw(), want.as_raw(), "frame {k}");
+    }
+}
+
+fn refused(args: &[&str], needle: &str) {
+    let out = Command::new(EXE)
+        .arg("cluster")
+        .arg(data("aorta-small-view-b.toml"))
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} accepted");
+    assert!(err.contains(needle), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn bad_series_options_are_refused_before_any_frame() {
+    refused(&["--turn", "10"], "give --frames N");
+    refused(&["--frames", "0"], "--frames must be at least 1");
+    refused(&["--frames", "2", "--turn", "inf"], "finite");
+    refused(&["--series-csv", "x.csv"], "give --frames N");
+    refused(&["--frames", "2", "--series-csv", "x.txt"], "--series-csv");
+}
