@@ -17,33 +17,57 @@ use crate::node::PlacementMethod;
 use crate::render::RenderInput;
 use crate::scene::Camera;
 
-/// Runs one frame per camera on nodes that keep their cells across the
-/// frames (in this process: the virtual clock, or threads). `progress` is
-/// called after each frame with its index.
+/// What one frame of a series renders: which of the series' data states
+/// (mesh and field: one per time step), from which camera, with which
+/// transfer function.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// Index into the series' inputs.
+    pub data: usize,
+    /// The camera.
+    pub camera: Camera,
+    /// The transfer function.
+    pub transfer: crate::scene::TransferFunction,
+}
+
+impl Step {
+    /// The frame's input: `inputs[self.data]` seen from this step's camera
+    /// through its transfer function.
+    pub fn input(&self, inputs: &[RenderInput]) -> RenderInput {
+        let mut i = inputs[self.data].clone();
+        i.scene.camera = self.camera;
+        i.scene.transfer = self.transfer.clone();
+        i
+    }
+}
+
+/// Runs one frame per step on nodes that keep their cells across the
+/// frames (in this process: the virtual clock, or threads): the placement
+/// and the nodes' data are built once per data state (a time step
+/// rebuilds them). `progress` is called after each frame with its index.
 pub fn run(
-    input: &RenderInput,
+    inputs: &[RenderInput],
+    steps: &[Step],
     cfg: &ClusterConfig,
-    cams: &[Camera],
     mut progress: impl FnMut(usize, &ClusterOutcome),
 ) -> anyhow::Result<Vec<ClusterOutcome>> {
-    let mut input = input.clone();
     // A view-aligned placement follows the camera; the others, and the
-    // nodes' data with them, are the same for every frame.
+    // nodes' data with them, are the same for every frame of a data state.
     let per_view = cfg.placement == PlacementMethod::RcbView;
-    let mut kept = None;
-    let mut outs = Vec::with_capacity(cams.len());
-    for (f, cam) in cams.iter().enumerate() {
+    let mut kept: Option<(usize, crate::node::Placement, phase1::NodeData)> = None;
+    let mut outs = Vec::with_capacity(steps.len());
+    for (f, step) in steps.iter().enumerate() {
         crate::base::cancel::checkpoint();
-        input.scene.camera = *cam;
+        let input = step.input(inputs);
         let out = if per_view {
             super::run(&input, cfg)?
         } else {
-            if kept.is_none() {
+            if kept.as_ref().is_none_or(|k| k.0 != step.data) {
                 let placement = place(&input, cfg);
                 let data = phase1::NodeData::new(&input, &placement, &cfg.phase1)?;
-                kept = Some((placement, data));
+                kept = Some((step.data, placement, data));
             }
-            let (placement, data) = kept.as_ref().expect("built above");
+            let (_, placement, data) = kept.as_ref().expect("built above");
             run_placed(&input, cfg, placement, data)?
         };
         progress(f, &out);
@@ -52,18 +76,18 @@ pub fn run(
     Ok(outs)
 }
 
-/// The series section of `outs` (one outcome per camera of `cams`).
+/// The series section of `outs` (one outcome per step of `steps`).
 /// `measured[i]`: frame i's measured wall seconds, wire bytes and
 /// cell bytes on a real transport (`None`: the report's own times and
 /// modelled bytes).
 pub fn report(
     outs: &[ClusterOutcome],
-    cams: &[Camera],
+    steps: &[Step],
     measured: Option<&[(f64, u64, u64)]>,
 ) -> SeriesReport {
     let frames: Vec<SeriesFrame> = outs
         .iter()
-        .zip(cams)
+        .zip(steps)
         .enumerate()
         .map(|(f, (o, c))| {
             let r = &o.report;
@@ -73,7 +97,8 @@ pub fn report(
             };
             SeriesFrame {
                 frame: f,
-                eye: c.eye,
+                data: c.data,
+                eye: c.camera.eye,
                 frame_s,
                 phase1_s: r.phase1_s,
                 composite_s: r.composite_s,

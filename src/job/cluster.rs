@@ -486,12 +486,12 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
 /// Mesh frames ready to run: the scene and its mesh (each read once),
 /// the configuration, the cameras, and where they run (`None`: this process).
 pub struct MeshFrame {
-    /// The scene with its mesh.
-    pub input: RenderInput,
+    /// The scene with its mesh, then each other time step of a series.
+    pub inputs: Vec<RenderInput>,
     /// The configuration.
     pub cfg: ClusterConfig,
-    /// One camera per frame (`--frames`, `--turn`; one without them).
-    pub cams: Vec<crate::scene::Camera>,
+    /// One step per frame (`--frames`, `--turn`, `--series`; one without them).
+    pub steps: Vec<crate::cluster::series::Step>,
     remote: Option<super::transport_args::TransportKind>,
 }
 
@@ -523,13 +523,11 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         a.nodes
     );
     let remote = a.net.apply(&mut cfg)?;
-    let cams = a.series.cameras(&input.scene.camera)?;
-    if cams.len() > 1 {
+    if a.series.is_series() {
         anyhow::ensure!(
             remote != Some(super::transport_args::TransportKind::Mpi),
-            "--frames {} with --transport mpi: an MPI job renders one frame (its ranks serve \
-             one session); run a series on processes, tcp or threads",
-            cams.len()
+            "--frames/--series with --transport mpi: an MPI job renders one frame (its ranks \
+             serve one session); run a series on processes, tcp or threads"
         );
     }
     if remote.is_some() {
@@ -560,10 +558,11 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
             cfg.phase1.schedule_waves = 0;
         }
     }
+    let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
     Ok(MeshFrame {
-        input,
+        inputs,
         cfg,
-        cams,
+        steps,
         remote,
     })
 }
@@ -578,27 +577,27 @@ pub fn run_mesh(
     mut progress: impl FnMut(usize, usize),
 ) -> anyhow::Result<Vec<ClusterOutcome>> {
     let MeshFrame {
-        input,
+        inputs,
         cfg,
-        cams,
+        steps,
         remote,
     } = f;
-    let n = cams.len();
+    let n = steps.len();
     let (mut outs, measured) = match remote {
         None => (
-            cluster::series::run(&input, &cfg, &cams, |k, _| progress(k, n))?,
+            cluster::series::run(&inputs, &steps, &cfg, |k, _| progress(k, n))?,
             None,
         ),
         Some(kind) => {
-            let frames = a.net.run_series(kind, &input, &cfg, &cams, |k| progress(k, n))?;
+            let frames = a
+                .net
+                .run_series(kind, &inputs, &steps, &cfg, |k| progress(k, n))?;
             let mut outs = Vec::with_capacity(n);
             let mut rows = Vec::with_capacity(n);
-            for (cam, (mut out, m, wall_s)) in cams.iter().zip(frames) {
-                let mut frame_input = input.clone();
-                frame_input.scene.camera = *cam;
+            for (step, (mut out, m, wall_s)) in steps.iter().zip(frames) {
                 rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
                 out.report.transport = Some(crate::cluster::remote::transport_section(
-                    &frame_input,
+                    &step.input(&inputs),
                     &cfg,
                     &out,
                     m,
@@ -608,8 +607,8 @@ pub fn run_mesh(
             (outs, Some(rows))
         }
     };
-    if n > 1 {
-        let series = cluster::series::report(&outs, &cams, measured.as_deref());
+    if a.series.is_series() {
+        let series = cluster::series::report(&outs, &steps, measured.as_deref());
         if let Some(last) = outs.last_mut() {
             last.report.series = Some(series);
         }

@@ -130,6 +130,11 @@ pub struct GridFrames {
 pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
     let cfg = config(a)?;
     anyhow::ensure!(
+        a.series.series.is_none(),
+        "--series replays a session of a mesh scene; a grid scene's series is an orbit \
+         (--frames N --turn DEG)"
+    );
+    anyhow::ensure!(
         a.series.series_csv.is_none(),
         "--series-csv writes the rows of a mesh series; a grid series prints every frame's \
          wall time and its --report holds each frame's (drop --series-csv)"

@@ -22,12 +22,20 @@ pub struct SeriesArgs {
     /// a `%d` pattern (e.g. `-o out-%04d.png`) every frame is written,
     /// otherwise the last; `--report` adds a `series` section (frames per
     /// second, per-frame times and bytes).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", conflicts_with = "series")]
     pub frames: Option<u32>,
     /// With --frames: degrees the eye turns about the target from one frame
     /// to the next (default 0).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", conflicts_with = "series")]
     pub turn: Option<f64>,
+    /// Mesh scenes: replay a session from a series file, one `[[frame]]`
+    /// per frame, each changing the camera (`eye`, `target`, `up`, `turn`),
+    /// the transfer function (`transfer`), the field (`field`) or the time
+    /// step (`mesh`: a mesh of the same topology) and keeping the rest
+    /// (format: docs/experiments/interactive.md, `src/scene/series.rs`).
+    /// Checked whole, time steps loaded, before the first frame runs.
+    #[arg(long, value_name = "FILE.toml")]
+    pub series: Option<PathBuf>,
     /// With --frames: write one CSV row per frame here (frame, eye,
     /// frame_s, phase1_s, composite_s, bytes, cells_bytes,
     /// cells_skipped_ert, cells_moved; times modelled on the virtual
@@ -37,9 +45,14 @@ pub struct SeriesArgs {
 }
 
 impl SeriesArgs {
-    /// Frames asked for (1 without `--frames`).
+    /// Frames of the orbit asked for (1 without `--frames`).
     pub fn frames(&self) -> u32 {
         self.frames.unwrap_or(1)
+    }
+
+    /// Whether a series (more than one frame, or a series file) is asked for.
+    pub fn is_series(&self) -> bool {
+        self.frames.is_some() || self.series.is_some()
     }
 
     /// Checks the options (before anything loads).
@@ -61,8 +74,8 @@ impl SeriesArgs {
             );
         }
         anyhow::ensure!(
-            self.series_csv.is_none() || self.frames.is_some(),
-            "--series-csv writes one row per frame of a series; give --frames N with it"
+            self.series_csv.is_none() || self.is_series(),
+            "--series-csv writes one row per frame of a series; give --frames N (or --series FILE) with it"
         );
         Ok(())
     }

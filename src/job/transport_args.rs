@@ -246,7 +246,7 @@ impl TransportArgs {
         r
     }
 
-    /// A series of mesh frames, one per camera, on the same workers:
+    /// A series of mesh frames, one per step, on the same workers:
     /// worker processes are started once and serve one session a frame
     /// (they keep the cells from the first frame: later set-ups carry a
     /// camera, not cells); TCP workers serve sessions anyway. Per frame:
@@ -255,26 +255,27 @@ impl TransportArgs {
     pub fn run_series(
         &self,
         kind: TransportKind,
-        input: &RenderInput,
+        inputs: &[RenderInput],
+        steps: &[crate::cluster::series::Step],
         cfg: &ClusterConfig,
-        cams: &[crate::scene::Camera],
         mut done: impl FnMut(usize),
     ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
-        let mut input = input.clone();
+        let n = steps.len();
         let mut frame = |f: usize,
-                         input: &mut RenderInput,
-                         run: &mut dyn FnMut(&RenderInput) -> anyhow::Result<(ClusterOutcome, Measured)>|
+                         run: &mut dyn FnMut(
+            &RenderInput,
+        ) -> anyhow::Result<(ClusterOutcome, Measured)>|
          -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
             crate::base::cancel::checkpoint();
-            input.scene.camera = cams[f];
+            let input = steps[f].input(inputs);
             let t = std::time::Instant::now();
-            let (out, m) = run(input).with_context(|| format!("frame {f} of {}", cams.len()))?;
+            let (out, m) = run(&input).with_context(|| format!("frame {f} of {n}"))?;
             let wall = t.elapsed().as_secs_f64();
             done(f);
             Ok((out, m, wall))
         };
-        if cams.len() == 1 {
-            return Ok(vec![frame(0, &mut input, &mut |i| self.run(kind, i, cfg))?]);
+        if n == 1 {
+            return Ok(vec![frame(0, &mut |i| self.run(kind, i, cfg))?]);
         }
         match kind {
             TransportKind::Processes => {
@@ -289,12 +290,10 @@ impl TransportArgs {
                     recv_timeout: Duration::from_secs_f64(self.recv_timeout),
                     reassign: self.on_failure == OnFailure::Reassign,
                 };
-                (0..cams.len())
-                    .map(|f| frame(f, &mut input, &mut |i| c.run(i, cfg)))
-                    .collect()
+                (0..n).map(|f| frame(f, &mut |i| c.run(i, cfg))).collect()
             }
-            _ => (0..cams.len())
-                .map(|f| frame(f, &mut input, &mut |i| self.run(kind, i, cfg)))
+            _ => (0..n)
+                .map(|f| frame(f, &mut |i| self.run(kind, i, cfg)))
                 .collect(),
         }
     }

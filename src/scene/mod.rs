@@ -9,6 +9,7 @@
 pub mod camera;
 pub mod fit;
 pub mod orbit;
+pub mod series;
 pub mod transfer;
 
 use std::path::{Path, PathBuf};
@@ -237,55 +238,8 @@ impl Scene {
         }
 
         // [transfer]
-        let ud = raw.transfer.unit_distance;
-        if !(ud > 0.0 && ud.is_finite()) {
-            return Err(err(
-                "transfer.unit_distance",
-                format!("must be a finite number > 0, got {ud}"),
-            ));
-        }
-        if raw.transfer.points.is_empty() {
-            return Err(err(
-                "transfer.points",
-                "needs at least one control point".into(),
-            ));
-        }
-        let mut points = Vec::with_capacity(raw.transfer.points.len());
-        for (i, p) in raw.transfer.points.iter().enumerate() {
-            let key = format!("transfer.points[{i}]");
-            if p.len() != 5 {
-                return Err(err(
-                    &key,
-                    format!("must be [s, r, g, b, opacity], got {} numbers", p.len()),
-                ));
-            }
-            if p.iter().any(|v| !v.is_finite()) {
-                return Err(err(&key, "must hold finite numbers".into()));
-            }
-            if !(0.0..=1.0).contains(&p[0]) {
-                return Err(err(&key, format!("s = {} is outside [0, 1]", p[0])));
-            }
-            if p[1..4].iter().any(|c| !(0.0..=1.0).contains(c)) {
-                return Err(err(
-                    &key,
-                    format!("colour {:?} has a component outside [0, 1]", &p[1..4]),
-                ));
-            }
-            if !(0.0..=1.0).contains(&p[4]) {
-                return Err(err(&key, format!("opacity {} is outside [0, 1]", p[4])));
-            }
-            if let Some(prev) = points.last() {
-                let prev: &ControlPoint = prev;
-                if p[0] < prev.s {
-                    return Err(err(&key, format!("s = {} is less than the previous point's s = {}: control points must be in ascending order", p[0], prev.s)));
-                }
-            }
-            points.push(ControlPoint {
-                s: p[0],
-                rgb: [p[1], p[2], p[3]],
-                opacity: p[4],
-            });
-        }
+        let transfer = transfer_from_rows(&raw.transfer.points, raw.transfer.unit_distance)
+            .map_err(|(k, m)| err(&format!("transfer.{k}"), m))?;
 
         Ok(Scene {
             data: DataSpec {
@@ -299,10 +253,7 @@ impl Scene {
                 height,
                 background,
             },
-            transfer: TransferFunction {
-                points,
-                unit_distance: ud,
-            },
+            transfer,
         })
     }
 
@@ -352,6 +303,67 @@ impl Scene {
         s += "]\n";
         s
     }
+}
+
+
+/// A transfer function from rows `[s, r, g, b, opacity]` and its unit
+/// distance, checked as the scene contract's `[transfer]` table is; an
+/// error names the key under the table (`points[3]`, `unit_distance`).
+pub fn transfer_from_rows(
+    points_in: &[Vec<f64>],
+    unit_distance: f64,
+) -> std::result::Result<TransferFunction, (String, String)> {
+let ud = unit_distance;
+    if !(ud > 0.0 && ud.is_finite()) {
+        return Err((
+            "unit_distance".into(),
+            format!("must be a finite number > 0, got {ud}"),
+        ));
+    }
+    if points_in.is_empty() {
+        return Err(("points".into(), "needs at least one control point".into()));
+    }
+    let mut points = Vec::with_capacity(points_in.len());
+    for (i, p) in points_in.iter().enumerate() {
+        let key = format!("points[{i}]");
+        if p.len() != 5 {
+            return Err((
+                key,
+                format!("must be [s, r, g, b, opacity], got {} numbers", p.len()),
+            ));
+        }
+        if p.iter().any(|v| !v.is_finite()) {
+            return Err((key, "must hold finite numbers".into()));
+        }
+        if !(0.0..=1.0).contains(&p[0]) {
+            return Err((key, format!("s = {} is outside [0, 1]", p[0])));
+        }
+        if p[1..4].iter().any(|c| !(0.0..=1.0).contains(c)) {
+            return Err((
+                key,
+                format!("colour {:?} has a component outside [0, 1]", &p[1..4]),
+            ));
+        }
+        if !(0.0..=1.0).contains(&p[4]) {
+            return Err((key, format!("opacity {} is outside [0, 1]", p[4])));
+        }
+        if let Some(prev) = points.last() {
+            let prev: &ControlPoint = prev;
+            if p[0] < prev.s {
+                return Err((key, format!("s = {} is less than the previous point's s = {}: control points must be in ascending order", p[0], prev.s)));
+            }
+        }
+        points.push(ControlPoint {
+            s: p[0],
+            rgb: [p[1], p[2], p[3]],
+            opacity: p[4],
+        });
+    }
+
+    Ok(TransferFunction {
+        points,
+        unit_distance: ud,
+    })
 }
 
 #[cfg(test)]

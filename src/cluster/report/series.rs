@@ -11,6 +11,8 @@ use crate::cluster::ClockKind;
 pub struct SeriesFrame {
     /// Frame index, from 0.
     pub frame: usize,
+    /// The frame's data state (time step) of the series, from 0.
+    pub data: usize,
     /// The eye of the frame's camera.
     pub eye: [f64; 3],
     /// Seconds of the frame: modelled on the virtual clock, measured on
@@ -56,12 +58,13 @@ impl SeriesReport {
     /// The per-frame rows as CSV (a header line, then one line a frame).
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "frame,eye_x,eye_y,eye_z,frame_s,phase1_s,composite_s,bytes,cells_bytes,cells_skipped_ert,cells_moved\n",
+            "frame,data,eye_x,eye_y,eye_z,frame_s,phase1_s,composite_s,bytes,cells_bytes,cells_skipped_ert,cells_moved\n",
         );
         for f in &self.frames {
             s.push_str(&format!(
-                "{},{},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 f.frame,
+                f.data,
                 f.eye[0],
                 f.eye[1],
                 f.eye[2],
