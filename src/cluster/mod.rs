@@ -67,6 +67,10 @@ pub struct ClusterOutcome {
     /// The whole timeline: phase 1 (nodes and manager) and phase 2 (nodes),
     /// phase 2 shifted to start at the end of phase 1.
     pub trace: SimTrace,
+    /// Per node, the cells it processed in phase 1 (its own and those DLB
+    /// gave it; ascending). In-process runs only (empty from worker
+    /// transports): a series' coherence starts the next frame from it.
+    pub processed: Vec<Vec<u32>>,
 }
 
 /// The sequential reference: one node with every cell, same options, no
@@ -178,11 +182,15 @@ pub fn run_placed(
     } = ph1;
     let mut node_stats = Vec::with_capacity(nodes.len());
     let mut lists = Vec::with_capacity(nodes.len());
+    let mut processed = Vec::with_capacity(nodes.len());
     for a in nodes {
         node_stats.push(report::NodeRaw::from_actor(&a));
         lists.push(node_lists(a.renderer(), input, p1.node));
+        let mut cells: Vec<u32> = a.renderer().processed_cells().collect();
+        cells.sort_unstable();
+        processed.push(cells);
     }
-    finish(
+    let mut out = finish(
         input,
         cfg,
         Phase1Parts {
@@ -196,7 +204,9 @@ pub fn run_placed(
             host_s,
         },
         refs,
-    )
+    )?;
+    out.processed = processed;
+    Ok(out)
 }
 
 /// A node's lists over the whole screen in canonical form, as phase 2
@@ -330,5 +340,6 @@ pub fn finish_with(
         image: ph2.image,
         report,
         trace,
+        processed: Vec::new(),
     })
 }

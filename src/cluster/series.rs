@@ -10,10 +10,10 @@
 //! reports by [`report`], whatever ran the frames (this
 //! process, or worker processes).
 
-pub use super::report::series::{SeriesFrame, SeriesReport};
+pub use super::report::series::{Coherence, SeriesFrame, SeriesReport};
 use super::{phase1, place, run_placed, ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::SimTrace;
-use crate::node::PlacementMethod;
+use crate::node::{Placement, PlacementMethod};
 use crate::render::RenderInput;
 use crate::scene::Camera;
 
@@ -44,17 +44,19 @@ impl Step {
 /// Runs one frame per step on nodes that keep their cells across the
 /// frames (in this process: the virtual clock, or threads): the placement
 /// and the nodes' data are built once per data state (a time step
-/// rebuilds them). `progress` is called after each frame with its index.
+/// rebuilds them) and, with [`Coherence::Placement`], again when the last
+/// frame moved cells. `progress` is called after each frame with its index.
 pub fn run(
     inputs: &[RenderInput],
     steps: &[Step],
     cfg: &ClusterConfig,
+    coherence: Coherence,
     mut progress: impl FnMut(usize, &ClusterOutcome),
 ) -> anyhow::Result<Vec<ClusterOutcome>> {
     // A view-aligned placement follows the camera; the others, and the
     // nodes' data with them, are the same for every frame of a data state.
     let per_view = cfg.placement == PlacementMethod::RcbView;
-    let mut kept: Option<(usize, crate::node::Placement, phase1::NodeData)> = None;
+    let mut kept: Option<(usize, Placement, phase1::NodeData)> = None;
     let mut outs = Vec::with_capacity(steps.len());
     for (f, step) in steps.iter().enumerate() {
         crate::base::cancel::checkpoint();
@@ -68,12 +70,52 @@ pub fn run(
                 kept = Some((step.data, placement, data));
             }
             let (_, placement, data) = kept.as_ref().expect("built above");
-            run_placed(&input, cfg, placement, data)?
+            let out = run_placed(&input, cfg, placement, data)?;
+            if coherence == Coherence::Placement && out.report.cells_moved > 0 {
+                if let Some(next) = carried(placement, &out.processed) {
+                    let data = phase1::NodeData::new(&input, &next, &cfg.phase1)?;
+                    kept = Some((step.data, next, data));
+                }
+            }
+            out
         };
         progress(f, &out);
         outs.push(out);
     }
     Ok(outs)
+}
+
+/// The placement a frame ended with: each cell on the node that processed
+/// it, the others (culled) where `placement` put them. `None` when nothing
+/// moved.
+pub fn carried(placement: &Placement, processed: &[Vec<u32>]) -> Option<Placement> {
+    if processed.len() != placement.parts.len() {
+        return None;
+    }
+    let cells: usize = placement.parts.iter().map(Vec::len).sum();
+    let mut owner = vec![0u32; cells];
+    for (k, part) in placement.parts.iter().enumerate() {
+        for &c in part {
+            owner[c as usize] = k as u32;
+        }
+    }
+    let mut moved = false;
+    for (k, cells) in processed.iter().enumerate() {
+        for &c in cells {
+            if let Some(o) = owner.get_mut(c as usize) {
+                moved |= *o != k as u32;
+                *o = k as u32;
+            }
+        }
+    }
+    if !moved {
+        return None;
+    }
+    let mut parts = vec![Vec::new(); placement.parts.len()];
+    for (c, &k) in owner.iter().enumerate() {
+        parts[k as usize].push(c as u32);
+    }
+    Some(Placement { parts })
 }
 
 /// The series section of `outs` (one outcome per step of `steps`).
@@ -84,6 +126,7 @@ pub fn report(
     outs: &[ClusterOutcome],
     steps: &[Step],
     measured: Option<&[(f64, u64, u64)]>,
+    coherence: Coherence,
 ) -> SeriesReport {
     let frames: Vec<SeriesFrame> = outs
         .iter()
@@ -114,6 +157,7 @@ pub fn report(
     let later: f64 = frames.iter().skip(1).map(|f| f.frame_s).sum();
     SeriesReport {
         n_frames: frames.len(),
+        coherence,
         clock: if measured.is_some() {
             ClockKind::Wall
         } else {

@@ -375,6 +375,20 @@ impl Validate for ClusterArgs {
             );
         }
         use super::transport_args::TransportKind;
+        if let Some(coh) = self.series.coherence {
+            if !self.series.is_series() {
+                c.ignored(
+                    "--coherence",
+                    "it carries placement from frame to frame of a series (--frames or --series)",
+                );
+            }
+            anyhow::ensure!(
+                coh == crate::cluster::series::Coherence::Off
+                    || matches!(self.net.transport, None | Some(TransportKind::Threads)),
+                "--coherence placement runs in this process (the simulated cluster or \
+                 --transport threads); worker processes keep the cells the set-up gave them"
+            );
+        }
         let threads = self.net.transport == Some(TransportKind::Threads);
         let local = match self.net.transport {
             Some(TransportKind::Threads) => Some("--transport threads"),
@@ -583,9 +597,19 @@ pub fn run_mesh(
         remote,
     } = f;
     let n = steps.len();
+    let coherence = match (remote, a.series.coherence) {
+        (Some(_), _) => cluster::series::Coherence::Off,
+        (None, Some(c)) => c,
+        (None, None) if cfg.phase1.data == DataMode::Partitioned => {
+            cluster::series::Coherence::Placement
+        }
+        (None, None) => cluster::series::Coherence::Off,
+    };
     let (mut outs, measured) = match remote {
         None => (
-            cluster::series::run(&inputs, &steps, &cfg, |k, _| progress(k, n))?,
+            cluster::series::run(&inputs, &steps, &cfg, coherence, |k, _| {
+                progress(k, n)
+            })?,
             None,
         ),
         Some(kind) => {
@@ -608,7 +632,7 @@ pub fn run_mesh(
         }
     };
     if a.series.is_series() {
-        let series = cluster::series::report(&outs, &steps, measured.as_deref());
+        let series = cluster::series::report(&outs, &steps, measured.as_deref(), coherence);
         if let Some(last) = outs.last_mut() {
             last.report.series = Some(series);
         }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::cluster::series::Coherence;
 use crate::scene::Camera;
 
 /// Most frames in one run.
@@ -36,6 +37,17 @@ pub struct SeriesArgs {
     /// Checked whole, time steps loaded, before the first frame runs.
     #[arg(long, value_name = "FILE.toml")]
     pub series: Option<PathBuf>,
+    /// Mesh series in this process (virtual clock, threads): `placement`
+    /// starts each frame with every cell on the node that processed it in
+    /// the frame before (DLB's moves kept; same images: bit for bit with
+    /// --canonical and ERT off), `off` starts every frame from the initial
+    /// placement. Default: `placement` with partitioned data (cells move
+    /// with their vertices: 36-frame aorta orbit, 8 nodes, 1.07x the
+    /// modelled fps), `off` with replicated data (where it measured 0.92x:
+    /// docs/experiments/interactive.md). Worker transports keep the
+    /// set-up's placement (`off`).
+    #[arg(long, value_enum)]
+    pub coherence: Option<Coherence>,
     /// With --frames: write one CSV row per frame here (frame, eye,
     /// frame_s, phase1_s, composite_s, bytes, cells_bytes,
     /// cells_skipped_ert, cells_moved; times modelled on the virtual

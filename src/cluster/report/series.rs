@@ -6,6 +6,19 @@ use serde::Serialize;
 
 use crate::cluster::ClockKind;
 
+/// What a series carries from one frame to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Coherence {
+    /// Every frame starts from the initial placement.
+    Off,
+    /// Each frame starts from where the last one's cells ended: a cell
+    /// that DLB moved stays on the node that processed it (culled cells
+    /// stay where they were). The frame computes the same image (bit for
+    /// bit with `--canonical` and ERT off; with ERT, within its bound).
+    Placement,
+}
+
 /// One frame's row of a series.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct SeriesFrame {
@@ -41,6 +54,9 @@ pub struct SeriesFrame {
 pub struct SeriesReport {
     /// Frames rendered.
     pub n_frames: usize,
+    /// What each frame carried over from the one before (`--coherence`;
+    /// worker transports: `off`, their cells stay where the set-up put them).
+    pub coherence: Coherence,
     /// The clock of the times: `virtual` (modelled) or `wall` (measured).
     pub clock: ClockKind,
     /// Frames per second over the whole series: `n_frames / total_s`.
