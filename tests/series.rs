@@ -387,3 +387,46 @@ fn bad_series_files_are_refused_before_any_frame_runs() {
         assert!(!dir.path().join("f-0.png").exists(), "a frame was written");
     }
 }
+
+/// `--movie` runs ffmpeg on PATH over the frames; a stand-in script
+/// records its arguments and writes the file (whether ffmpeg is installed
+/// or not, the plumbing is tested).
+#[cfg(unix)]
+#[test]
+fn movie_runs_ffmpeg_over_every_frame() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    let log = dir.path().join("args.txt");
+    let fake = bin.join("ffmpeg");
+    std::fs::write(
+        &fake,
+        format!(
+            "#!/bin/sh\n[ \"$1\" = -version ] && exit 0\necho \"$@\" > {}\nfor a in \"$@\"; do last=$a; done\nls $(dirname \"$7\") | wc -l >> {}\necho movie > \"$last\"\n",
+            log.display(),
+            log.display()
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let movie = dir.path().join("orbit.gif");
+    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap_or_default());
+    let out = Command::new(EXE)
+        .env("PATH", path)
+        .arg("cluster")
+        .arg(data("aorta-small-view-b.toml"))
+        .args(["--nodes", "2", "--no-baselines", "--frames", "4", "--turn", "15"])
+        .args(["--movie-fps", "24", "--movie"])
+        .arg(&movie)
+        .arg("-o")
+        .arg(dir.path().join("last.png"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read_to_string(&movie).unwrap(), "movie\n");
+    let args = std::fs::read_to_string(&log).unwrap();
+    assert!(args.contains("-framerate 24"), "{args}");
+    // The stand-in counted the frames in the folder it was given.
+    assert_eq!(args.lines().nth(1).map(str::trim), Some("4"), "{args}");
+}

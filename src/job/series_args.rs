@@ -54,6 +54,15 @@ pub struct SeriesArgs {
     /// clock, measured on a real transport).
     #[arg(long, value_name = "FILE")]
     pub series_csv: Option<PathBuf>,
+    /// With a series: make a movie of the frames (`.mp4` or animated
+    /// `.gif`) with `ffmpeg`, which must be on PATH (checked before any
+    /// frame runs; without it, write the frames with `-o out-%04d.png`
+    /// and run `ffmpeg -framerate 10 -i out-%04d.png out.mp4` elsewhere).
+    #[arg(long, value_name = "FILE.mp4|FILE.gif")]
+    pub movie: Option<PathBuf>,
+    /// Frames per second of `--movie` (default 10).
+    #[arg(long, value_name = "FPS", requires = "movie")]
+    pub movie_fps: Option<u32>,
 }
 
 impl SeriesArgs {
@@ -89,6 +98,33 @@ impl SeriesArgs {
             self.series_csv.is_none() || self.is_series(),
             "--series-csv writes one row per frame of a series; give --frames N (or --series FILE) with it"
         );
+        if let Some(m) = &self.movie {
+            anyhow::ensure!(
+                self.is_series(),
+                "--movie makes a movie of a series' frames; give --frames N (or --series FILE) with it"
+            );
+            let ext = m
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            anyhow::ensure!(
+                matches!(ext.as_deref(), Some("mp4" | "gif")),
+                "--movie {}: the file must end in .mp4 or .gif",
+                m.display()
+            );
+            anyhow::ensure!(
+                ffmpeg_found(),
+                "--movie {}: ffmpeg is not on PATH (this machine cannot make a movie); write \
+                 the frames with -o out-%04d.png and run `ffmpeg -framerate 10 -i \
+                 out-%04d.png {}` where ffmpeg is installed",
+                m.display(),
+                m.display()
+            );
+        }
+        anyhow::ensure!(
+            self.movie_fps.is_none_or(|f| (1..=240).contains(&f)),
+            "--movie-fps must be between 1 and 240"
+        );
         Ok(())
     }
 
@@ -98,6 +134,16 @@ impl SeriesArgs {
         self.check()?;
         Ok(crate::scene::orbit(cam, self.frames(), self.turn.unwrap_or(0.0)))
     }
+}
+
+/// Whether `ffmpeg` is on PATH (it answers `-version`).
+pub fn ffmpeg_found() -> bool {
+    std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
 }
 
 /// The path of frame `k` for an output path with a printf-style `%d`
