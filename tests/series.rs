@@ -77,7 +77,11 @@ fn frames_equal_one_offs(opts: &[(&str, &str)]) {
     let dir = tempfile::tempdir().unwrap();
     let mut series_opts = opts.to_vec();
     series_opts.extend([("frames", "3"), ("turn", "40")]);
-    let series = frames(job(&data("aorta-small-view-b.toml"), &series_opts).run().unwrap());
+    let series = frames(
+        job(&data("aorta-small-view-b.toml"), &series_opts)
+            .run()
+            .unwrap(),
+    );
     assert_eq!(series.len(), 3);
     let s = series[2].report.series.as_ref().expect("a series section");
     assert_eq!(s.frames.len(), 3);
@@ -91,7 +95,10 @@ fn frames_equal_one_offs(opts: &[(&str, &str)]) {
             bits(&one[0].image),
             "frame {k} differs from the one-off frame ({opts:?})"
         );
-        assert!(out.image.pixels.iter().any(|p| p[3] > 0.0), "frame {k} empty");
+        assert!(
+            out.image.pixels.iter().any(|p| p[3] > 0.0),
+            "frame {k} empty"
+        );
     }
     // The frames differ from each other (the camera turned).
     assert_ne!(bits(&series[0].image), bits(&series[1].image));
@@ -137,18 +144,26 @@ fn carried_placement_keeps_canonical_frames_bit_for_bit() {
     with.push(("coherence", "off"));
     let b = frames(job(&data("aorta-small-view-b.toml"), &with).run().unwrap());
     let s = a[2].report.series.as_ref().unwrap();
-    assert_eq!(
-        s.coherence,
-        pvrsim::cluster::series::Coherence::Placement
+    assert_eq!(s.coherence, pvrsim::cluster::series::Coherence::Placement);
+    assert!(
+        a[0].report.cells_moved > 0,
+        "DLB moved nothing: the test tests nothing"
     );
-    assert!(a[0].report.cells_moved > 0, "DLB moved nothing: the test tests nothing");
     for k in 0..3 {
         assert_eq!(bits(&a[k].image), bits(&b[k].image), "frame {k}");
     }
     // The second frame started elsewhere: its counts differ.
     assert_ne!(
-        a[1].report.nodes.iter().map(|n| n.cells_initial).collect::<Vec<_>>(),
-        b[1].report.nodes.iter().map(|n| n.cells_initial).collect::<Vec<_>>()
+        a[1].report
+            .nodes
+            .iter()
+            .map(|n| n.cells_initial)
+            .collect::<Vec<_>>(),
+        b[1].report
+            .nodes
+            .iter()
+            .map(|n| n.cells_initial)
+            .collect::<Vec<_>>()
     );
 }
 
@@ -248,7 +263,14 @@ fn worker_processes_receive_the_cells_once_and_frames_match() {
         let st = Command::new(EXE)
             .args(["cluster"])
             .arg(scene_with_eye(dir.path(), [eye[0], eye[1], eye[2]]))
-            .args(["--nodes", "3", "--ert", "1", "--canonical", "--no-baselines"])
+            .args([
+                "--nodes",
+                "3",
+                "--ert",
+                "1",
+                "--canonical",
+                "--no-baselines",
+            ])
             .arg("-o")
             .arg(&one_png)
             .status()
@@ -280,7 +302,14 @@ fn bad_series_options_are_refused_before_any_frame() {
     refused(&["--series-csv", "x.csv"], "give --frames N");
     refused(&["--frames", "2", "--series-csv", "x.txt"], "--series-csv");
     refused(
-        &["--frames", "2", "--coherence", "placement", "--transport", "processes"],
+        &[
+            "--frames",
+            "2",
+            "--coherence",
+            "placement",
+            "--transport",
+            "processes",
+        ],
         "--coherence placement runs in this process",
     );
     refused(&["--frames", "2", "--series", "s.toml"], "--series");
@@ -358,7 +387,10 @@ fn bad_series_files_are_refused_before_any_frame_runs() {
     )
     .unwrap();
     for (series, needles) in [
-        ("[[frame]]\nzoom = 2\n", &["session.toml", "line 2", "zoom"][..]),
+        (
+            "[[frame]]\nzoom = 2\n",
+            &["session.toml", "line 2", "zoom"][..],
+        ),
         (
             "[[frame]]\n[[frame]]\neye = [-2.5, 0, 0]\n",
             &["frame[1].eye", "same point"][..],
@@ -411,19 +443,35 @@ fn movie_runs_ffmpeg_over_every_frame() {
     .unwrap();
     std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let movie = dir.path().join("orbit.gif");
-    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap_or_default());
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
     let out = Command::new(EXE)
         .env("PATH", path)
         .arg("cluster")
         .arg(data("aorta-small-view-b.toml"))
-        .args(["--nodes", "2", "--no-baselines", "--frames", "4", "--turn", "15"])
+        .args([
+            "--nodes",
+            "2",
+            "--no-baselines",
+            "--frames",
+            "4",
+            "--turn",
+            "15",
+        ])
         .args(["--movie-fps", "24", "--movie"])
         .arg(&movie)
         .arg("-o")
         .arg(dir.path().join("last.png"))
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(std::fs::read_to_string(&movie).unwrap(), "movie\n");
     let args = std::fs::read_to_string(&log).unwrap();
     assert!(args.contains("-framerate 24"), "{args}");

@@ -153,10 +153,8 @@ fn make_movie<'a>(
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
-    let dir = Frames(std::env::temp_dir().join(format!(
-        "pvrsim-movie-{}-{nanos}",
-        std::process::id()
-    )));
+    let dir =
+        Frames(std::env::temp_dir().join(format!("pvrsim-movie-{}-{nanos}", std::process::id())));
     std::fs::create_dir(&dir.0)
         .with_context(|| format!("cannot make {} for the movie's frames", dir.0.display()))?;
     for (k, img) in images.enumerate() {
@@ -166,15 +164,27 @@ fn make_movie<'a>(
     let mut cmd = std::process::Command::new("ffmpeg");
     cmd.args(["-loglevel", "error", "-y", "-framerate", &fps, "-i"])
         .arg(dir.0.join("f%06d.png"));
-    if movie.extension().is_some_and(|e| e.eq_ignore_ascii_case("mp4")) {
+    if movie
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mp4"))
+    {
         // H.264 needs even sizes and a planar 4:2:0 format to play anywhere.
-        cmd.args(["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]);
+        cmd.args([
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "-pix_fmt",
+            "yuv420p",
+        ]);
     }
     let st = cmd
         .arg(movie)
         .status()
         .context("cannot run ffmpeg for --movie")?;
-    anyhow::ensure!(st.success(), "ffmpeg failed making {} ({st})", movie.display());
+    anyhow::ensure!(
+        st.success(),
+        "ffmpeg failed making {} ({st})",
+        movie.display()
+    );
     println!("wrote {}", movie.display());
     Ok(())
 }

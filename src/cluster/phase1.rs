@@ -163,14 +163,7 @@ pub fn build_nodes(
     profile: &CostProfile,
     codec: Codec,
 ) -> anyhow::Result<Vec<NodeActor>> {
-    build_nodes_from(
-        input,
-        placement,
-        &NodeData::default(),
-        cfg,
-        profile,
-        codec,
-    )
+    build_nodes_from(input, placement, &NodeData::default(), cfg, profile, codec)
 }
 
 /// [`build_nodes`] over node data built before (kept across a series).

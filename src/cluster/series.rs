@@ -172,7 +172,6 @@ pub fn report(
     }
 }
 
-
 /// One timeline over the whole series: each frame's events shifted to
 /// start where the previous frame ended.
 pub fn joined_trace(outs: &[ClusterOutcome]) -> SimTrace {

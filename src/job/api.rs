@@ -117,7 +117,10 @@ impl ClusterResult {
     /// Every frame's report as `--report` writes it, in order.
     pub fn frame_reports_json(&self) -> Vec<serde_json::Value> {
         match self {
-            ClusterResult::Mesh(f) => f.iter().map(|o| serde_json::to_value(&o.report)).collect::<Vec<_>>(),
+            ClusterResult::Mesh(f) => f
+                .iter()
+                .map(|o| serde_json::to_value(&o.report))
+                .collect::<Vec<_>>(),
             ClusterResult::Grid(f) => f.iter().map(|o| serde_json::to_value(&o.report)).collect(),
         }
         .into_iter()

@@ -607,9 +607,7 @@ pub fn run_mesh(
     };
     let (mut outs, measured) = match remote {
         None => (
-            cluster::series::run(&inputs, &steps, &cfg, coherence, |k, _| {
-                progress(k, n)
-            })?,
+            cluster::series::run(&inputs, &steps, &cfg, coherence, |k, _| progress(k, n))?,
             None,
         ),
         Some(kind) => {

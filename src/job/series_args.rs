@@ -132,7 +132,11 @@ impl SeriesArgs {
     /// degrees a frame ([`crate::scene::orbit`]).
     pub fn cameras(&self, cam: &Camera) -> anyhow::Result<Vec<Camera>> {
         self.check()?;
-        Ok(crate::scene::orbit(cam, self.frames(), self.turn.unwrap_or(0.0)))
+        Ok(crate::scene::orbit(
+            cam,
+            self.frames(),
+            self.turn.unwrap_or(0.0),
+        ))
     }
 }
 

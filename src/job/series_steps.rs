@@ -31,8 +31,10 @@ pub fn mesh_steps(
     };
     let specs = crate::scene::series::load(path, &input.scene)?;
     let base = input.mesh.clone();
-    let mut keys: Vec<(PathBuf, String)> =
-        vec![(input.scene.data.path.clone(), input.scene.data.field.clone())];
+    let mut keys: Vec<(PathBuf, String)> = vec![(
+        input.scene.data.path.clone(),
+        input.scene.data.field.clone(),
+    )];
     let mut meshes: Vec<(PathBuf, Arc<crate::data::TetMesh>)> =
         vec![(input.scene.data.path.clone(), base.clone())];
     let mut inputs = vec![input];

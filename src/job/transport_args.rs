@@ -261,19 +261,18 @@ impl TransportArgs {
         mut done: impl FnMut(usize),
     ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
         let n = steps.len();
-        let mut frame = |f: usize,
-                         run: &mut dyn FnMut(
-            &RenderInput,
-        ) -> anyhow::Result<(ClusterOutcome, Measured)>|
-         -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
-            crate::base::cancel::checkpoint();
-            let input = steps[f].input(inputs);
-            let t = std::time::Instant::now();
-            let (out, m) = run(&input).with_context(|| format!("frame {f} of {n}"))?;
-            let wall = t.elapsed().as_secs_f64();
-            done(f);
-            Ok((out, m, wall))
-        };
+        let mut frame =
+            |f: usize,
+             run: &mut dyn FnMut(&RenderInput) -> anyhow::Result<(ClusterOutcome, Measured)>|
+             -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
+                crate::base::cancel::checkpoint();
+                let input = steps[f].input(inputs);
+                let t = std::time::Instant::now();
+                let (out, m) = run(&input).with_context(|| format!("frame {f} of {n}"))?;
+                let wall = t.elapsed().as_secs_f64();
+                done(f);
+                Ok((out, m, wall))
+            };
         if n == 1 {
             return Ok(vec![frame(0, &mut |i| self.run(kind, i, cfg))?]);
         }

@@ -305,7 +305,6 @@ impl Scene {
     }
 }
 
-
 /// A transfer function from rows `[s, r, g, b, opacity]` and its unit
 /// distance, checked as the scene contract's `[transfer]` table is; an
 /// error names the key under the table (`points[3]`, `unit_distance`).
@@ -313,7 +312,7 @@ pub fn transfer_from_rows(
     points_in: &[Vec<f64>],
     unit_distance: f64,
 ) -> std::result::Result<TransferFunction, (String, String)> {
-let ud = unit_distance;
+    let ud = unit_distance;
     if !(ud > 0.0 && ud.is_finite()) {
         return Err((
             "unit_distance".into(),

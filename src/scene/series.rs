@@ -137,7 +137,10 @@ pub fn parse(text: &str, path: &Path, scene: &Scene) -> Result<Vec<FrameSpec>> {
         cur.camera.up = xyz("up", &f.up, cur.camera.up)?;
         if let Some(t) = f.turn {
             if !t.is_finite() {
-                return Err(err("turn", format!("must be a finite angle in degrees, got {t}")));
+                return Err(err(
+                    "turn",
+                    format!("must be a finite angle in degrees, got {t}"),
+                ));
             }
             cur.camera = super::orbit(&cur.camera, 2, t)[1];
         }
@@ -234,7 +237,10 @@ points = [[0, 0, 0, 0, 0], [1, 1, 1, 1, 1]]
     #[test]
     fn bad_series_files_name_the_line_or_the_frame() {
         bad("[[frame]]\nzoom = 2\n", &["line 2", "zoom"]);
-        bad("[[frame]]\n[[frame]]\neye = [0, 0, 0]\n", &["frame[1].eye", "same point"]);
+        bad(
+            "[[frame]]\n[[frame]]\neye = [0, 0, 0]\n",
+            &["frame[1].eye", "same point"],
+        );
         bad("[[frame]]\neye = [1, 2]\n", &["frame[0].eye", "3 numbers"]);
         bad(
             "[[frame]]\ntransfer = { unit_distance = 1, points = [[0.5, 0, 0, 0, 0], [0.1, 0, 0, 0, 0]] }\n",
