@@ -380,7 +380,13 @@ mod tests {
                 for big in [false, true] {
                     let bytes: Vec<u8> = vals
                         .iter()
-                        .flat_map(|v| if big { v.to_be_bytes() } else { v.to_le_bytes() })
+                        .flat_map(|v| {
+                            if big {
+                                v.to_be_bytes()
+                            } else {
+                                v.to_le_bytes()
+                            }
+                        })
                         .collect();
                     let f: Vec<f64> = vals.iter().map(|&v| v as f64).collect();
                     assert_eq!(decode_f64(&bytes, $ty, big), f, "{:?}", $ty);
