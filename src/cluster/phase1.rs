@@ -154,6 +154,7 @@ pub fn build_nodes(
         .iter()
         .enumerate()
         .map(|(k, part)| {
+            crate::base::cancel::checkpoint();
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
             if let Some(rep) = &replica {
                 r.set_replica(rep.clone());
