@@ -107,6 +107,21 @@ fn copy_encoded(enc: &str, edit: impl FnOnce(&Path)) -> tempfile::TempDir {
     d
 }
 
+/// A copy of VTK's zlib pieces with the first `from` in file `name` (a
+/// piece or `a.pvtu`) replaced by `to`.
+fn with_replaced(name: &str, from: &str, to: &str) -> tempfile::TempDir {
+    copy_pieces(|d| replace_in(&d.join(name), from, to))
+}
+
+/// A copy of VTK's `enc` pieces with piece `k`'s file cut 5000 bytes short.
+fn with_truncated(enc: &str, k: usize) -> tempfile::TempDir {
+    copy_encoded(enc, |d| {
+        let p = d.join(format!("aorta-small-{enc}_{k}.vtu"));
+        let b = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &b[..b.len() - 5000]).unwrap();
+    })
+}
+
 fn replace_in(p: &Path, from: &str, to: &str) {
     let s = std::fs::read(p).unwrap();
     let f = from.as_bytes();
@@ -141,37 +156,30 @@ fn a_missing_piece_is_named() {
 
 #[test]
 fn a_piece_with_other_fields_is_named() {
-    let d = copy_pieces(|d| {
-        replace_in(
-            &d.join("aorta-small-zlib_1.vtu"),
-            "Name=\"pressure\"",
-            "Name=\"presure!\"",
-        );
-    });
+    let d = with_replaced(
+        "aorta-small-zlib_1.vtu",
+        "Name=\"pressure\"",
+        "Name=\"presure!\"",
+    );
     info_fails(d.path(), &["<Piece> 1", "presure!", "<PPointData>"]);
 }
 
 #[test]
 fn a_piece_with_another_type_is_named() {
-    let d = copy_pieces(|d| {
-        replace_in(
-            &d.join("a.pvtu"),
-            "type=\"Float32\" Name=\"speed\"",
-            "type=\"Float64\" Name=\"speed\"",
-        );
-    });
+    let d = with_replaced(
+        "a.pvtu",
+        "type=\"Float32\" Name=\"speed\"",
+        "type=\"Float64\" Name=\"speed\"",
+    );
     info_fails(d.path(), &["<Piece> 0", "speed", "F64"]);
 }
 
 #[test]
 fn a_piece_outside_the_folder_is_refused_unless_allowed() {
-    let d = tempfile::tempdir().unwrap();
+    // The pieces in `d`, the .pvtu naming them in `d/sub`.
+    let d = copy_pieces(|_| {});
     let sub = d.path().join("sub");
     std::fs::create_dir(&sub).unwrap();
-    for k in 0..4 {
-        let n = format!("aorta-small-zlib_{k}.vtu");
-        std::fs::copy(data(&format!("pieces/{n}")), d.path().join(&n)).unwrap();
-    }
     let text = std::fs::read_to_string(data("pieces/aorta-small-zlib.pvtu"))
         .unwrap()
         .replace("Source=\"aorta", "Source=\"../aorta");
@@ -200,21 +208,13 @@ fn a_piece_outside_the_folder_is_refused_unless_allowed() {
 #[test]
 fn a_truncated_piece_is_named() {
     // Raw appended data cut short.
-    let d = copy_encoded("raw", |d| {
-        let p = d.join("aorta-small-raw_3.vtu");
-        let b = std::fs::read(&p).unwrap();
-        std::fs::write(&p, &b[..b.len() - 5000]).unwrap();
-    });
+    let d = with_truncated("raw", 3);
     info_fails(
         d.path(),
         &["<Piece> 3", "aorta-small-raw_3.vtu", "truncated"],
     );
     // zlib blocks in base64 (as VTK writes them) cut short.
-    let d = copy_pieces(|d| {
-        let p = d.join("aorta-small-zlib_3.vtu");
-        let b = std::fs::read(&p).unwrap();
-        std::fs::write(&p, &b[..b.len() - 5000]).unwrap();
-    });
+    let d = with_truncated("zlib", 3);
     info_fails(d.path(), &["<Piece> 3", "aorta-small-zlib_3.vtu", "base64"]);
 }
 

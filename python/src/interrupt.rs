@@ -5,11 +5,13 @@
 //! run Python's signal handlers (`Python::check_signals`). When a handler
 //! raises (Ctrl-C: `KeyboardInterrupt`), the cancellation flag
 //! ([`pvrsim::base::cancel`]) goes up, the job unwinds at its next
-//! checkpoint (each tile of a mesh render, each run of a sweep), and the
-//! exception is raised once the job has stopped, or after [`GRACE`] if it
-//! has not (a job without checkpoints, e.g. a cluster frame, then finishes
-//! in the background; the next job waits for it). A panic never reaches
-//! Python: it becomes `RunError`.
+//! checkpoint (each tile of a mesh render, each row or band of a grid
+//! render, each event of a simulated cluster frame and each phase-2 round,
+//! each frame of a grid series, each run of a sweep), and the exception is
+//! raised once the job has stopped, or after [`GRACE`] if it has not (a
+//! stretch without checkpoints, e.g. a wall-clock cluster phase, which
+//! stops at its end, then finishes in the background; the next job waits
+//! for it). A panic never reaches Python: it becomes `RunError`.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;

@@ -12,6 +12,7 @@
 //! - [`interrupt`]: running a job off the GIL, interruptible;
 //! - [`values`]: Python values to [`pvrsim::job::options::ParamValue`],
 //!   and the option tables that `help()` shows;
+//! - [`arrays`]: numpy arrays to and from flat vectors;
 //! - [`mesh`], [`volume`]: data in memory, read with the crate's readers,
 //!   validated by the crate's checks, written with its writers;
 //! - [`scene`]: loading, checking and fitting scenes;
@@ -21,6 +22,7 @@
 
 use pyo3::prelude::*;
 
+mod arrays;
 mod cli;
 mod errors;
 mod interrupt;

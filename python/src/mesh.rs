@@ -6,10 +6,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use numpy::{PyArray2, PyReadonlyArray2};
 use pvrsim::data::{Field, TetMesh};
 use pyo3::prelude::*;
+
+use crate::arrays::{from_numpy, to_numpy};
 
 /// The name the validation's messages give to arrays from Python.
 pub const ARRAYS: &str = "<arrays>";
@@ -50,17 +51,13 @@ impl NativeMesh {
     /// The points, (N, 3) float64.
     fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         let flat: Vec<f64> = self.mesh.points.iter().flatten().copied().collect();
-        Array2::from_shape_vec((self.mesh.points.len(), 3), flat)
-            .expect("N x 3")
-            .into_pyarray(py)
+        to_numpy(py, [self.mesh.points.len(), 3], flat)
     }
 
     /// The tetrahedra, (M, 4) int64.
     fn tets<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
         let flat: Vec<i64> = self.mesh.tets.iter().flatten().map(|&v| v as i64).collect();
-        Array2::from_shape_vec((self.mesh.tets.len(), 4), flat)
-            .expect("M x 4")
-            .into_pyarray(py)
+        to_numpy(py, [self.mesh.tets.len(), 4], flat)
     }
 
     /// The point-data fields: (name, (N, components) float64) pairs.
@@ -70,9 +67,8 @@ impl NativeMesh {
             .iter()
             .map(|f| {
                 let n = f.values.len() / f.components.max(1);
-                let a = Array2::from_shape_vec((n, f.components), f.values.clone())
-                    .expect("N x components");
-                (f.name.clone(), a.into_pyarray(py))
+                let a = to_numpy(py, [n, f.components], f.values.clone());
+                (f.name.clone(), a)
             })
             .collect()
     }
@@ -124,11 +120,11 @@ fn build(
     let fields = fields
         .into_iter()
         .map(|(name, a)| {
-            let a = a.as_array();
+            let (values, (_, components)) = from_numpy(&a);
             Field {
                 name,
-                components: a.ncols(),
-                values: a.iter().copied().collect(),
+                components,
+                values,
             }
         })
         .collect();

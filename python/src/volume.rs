@@ -6,8 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use numpy::ndarray::Array3;
-use numpy::{Element, IntoPyArray, PyReadonlyArray3};
+use numpy::{Element, PyReadonlyArray3};
 use pvrsim::data::{Volume, Voxels};
 use pyo3::prelude::*;
 
@@ -18,22 +17,17 @@ pub struct NativeVolume {
     pub volume: Arc<Volume>,
 }
 
+/// The samples of `a[z, y, x]` and the dims along x, y, z.
 fn samples<T: Element + Copy>(a: &Bound<'_, PyAny>) -> PyResult<(Vec<T>, [u64; 3])> {
     let a: PyReadonlyArray3<'_, T> = a.extract()?;
-    let v = a.as_array();
-    let (nz, ny, nx) = v.dim();
-    Ok((
-        v.iter().copied().collect(),
-        [nx as u64, ny as u64, nz as u64],
-    ))
+    let (v, (nz, ny, nx)) = crate::arrays::from_numpy(&a);
+    Ok((v, [nx as u64, ny as u64, nz as u64]))
 }
 
+/// The samples `v` (dims along x, y, z) as `a[z, y, x]`.
 fn to_array<'py, T: Element + Copy>(py: Python<'py>, v: &[T], dims: [u64; 3]) -> Bound<'py, PyAny> {
-    let shape = (dims[2] as usize, dims[1] as usize, dims[0] as usize);
-    Array3::from_shape_vec(shape, v.to_vec())
-        .expect("dims match the samples")
-        .into_pyarray(py)
-        .into_any()
+    let shape = [dims[2] as usize, dims[1] as usize, dims[0] as usize];
+    crate::arrays::to_numpy(py, shape, v.to_vec()).into_any()
 }
 
 #[pymethods]

@@ -6,6 +6,7 @@ import _thread
 import threading
 import time
 
+import numpy as np
 import pvrsim
 import pytest
 
@@ -60,3 +61,40 @@ def test_an_interrupted_sweep_raises_keyboard_interrupt_and_stops(big_scene, tmp
     # The cut run is not recorded as a failed one.
     csv = tmp / "long" / "results.csv"
     assert not csv.exists() or "FAILED" not in csv.read_text().upper()
+
+
+@pytest.fixture(scope="module")
+def big_grid():
+    z, y, x = np.mgrid[0:192, 0:192, 0:192].astype(np.float32)
+    a = (np.sin(x / 9.0) * np.cos(y / 7.0) + z / 192.0).astype(np.float32)
+    scene = pvrsim.Scene.fit(pvrsim.Volume.from_array(a), view="30,20", size=(800, 800))
+    scene._file()
+    return scene
+
+
+def _interrupted(call, after: float, within: float) -> None:
+    """``call`` is cut by Ctrl-C after ``after`` s, raises KeyboardInterrupt
+    within ``within`` s, and its job has stopped (not only the wait)."""
+    threading.Timer(after, _thread.interrupt_main).start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        call()
+        time.sleep(10)  # (a job that ignored Ctrl-C ends here: the interrupt lands in the sleep)
+    assert time.monotonic() - t0 < within
+    assert _stopped()
+
+
+@pytest.mark.parametrize("renderer", ["slice3d", "reference"])
+def test_an_interrupted_grid_render_stops(big_grid, renderer):
+    _interrupted(lambda: pvrsim.render(big_grid, threads=1, renderer=renderer), 0.3, 1.0)
+    assert pvrsim.render(VIEW_B, threads=1).image[..., 3].any()
+
+
+def test_an_interrupted_cluster_frame_stops(big_scene):
+    _interrupted(lambda: pvrsim.cluster(big_scene, nodes=4, ert=1.0), 0.3, 1.0)
+    assert pvrsim.cluster(VIEW_B, nodes=2).image[..., 3].any()
+
+
+def test_an_interrupted_grid_cluster_frame_stops(big_grid):
+    _interrupted(lambda: pvrsim.cluster(big_grid, nodes=4), 0.3, 1.0)
+    assert pvrsim.cluster(VIEW_B, nodes=2).image[..., 3].any()

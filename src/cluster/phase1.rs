@@ -211,6 +211,7 @@ pub fn build_nodes_from(
         .iter()
         .enumerate()
         .map(|(k, part)| {
+            crate::base::cancel::checkpoint();
             let mut r = NodeRenderer::new(view, tf.clone(), cfg.node);
             if let Some(rep) = &replica {
                 r.set_replica(rep.clone());
@@ -463,6 +464,17 @@ pub fn run(
     })
 }
 
+/// A rank under the simulator that stops a cancelled job (Ctrl-C in the
+/// Python module) at a checkpoint before each event it handles.
+struct Cancellable<A>(A);
+
+impl<A: Actor> Actor for Cancellable<A> {
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Action> {
+        crate::base::cancel::checkpoint();
+        self.0.handle(now, event)
+    }
+}
+
 /// The one phase-1 driver, for any node kind: runs `ranks` under the
 /// discrete-event simulator (virtual clock) or on threads over channels
 /// (wall clock, compute charged as the real work done); returns per rank
@@ -477,6 +489,7 @@ pub fn drive<A: Actor + Send>(
     let n = ranks.len();
     Ok(match clock {
         ClockKind::Virtual => {
+            let ranks: Vec<_> = ranks.into_iter().map(Cancellable).collect();
             let rep = Simulation::new(model.clone(), ranks)
                 .with_options(SimOptions {
                     record_trace,
@@ -500,6 +513,9 @@ pub fn drive<A: Actor + Send>(
                     ..Default::default()
                 },
             )?;
+            // A rank's thread cannot unwind alone (the others would wait
+            // for it): a cancelled wall-clock run stops here.
+            crate::base::cancel::checkpoint();
             (
                 rep.stopped_at.into_iter().map(Some).collect(),
                 rep.trace,

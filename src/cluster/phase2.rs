@@ -140,6 +140,7 @@ pub fn run(
     let mut plan = ReplayPlan::new(n, run.schedule().rounds.len());
     let mut r = 0usize;
     while let Some(round) = run.next_round() {
+        crate::base::cancel::checkpoint();
         if round.kind == RoundKind::Composite {
             for k in 0..n {
                 if let Some((px, segs)) = run.held(k) {

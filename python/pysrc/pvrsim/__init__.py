@@ -57,7 +57,8 @@ import sys as _sys
 
 from . import _native
 from ._data import Mesh, Volume
-from ._errors import DataError, Error, FileError, OptionError, RunError, UnknownOptionError
+from ._errors import *  # noqa: F403 (the exception classes, listed once: _errors.__all__)
+from ._errors import __all__ as _error_names
 from ._jobs import ClusterResult, RenderResult, cluster, render, sweep
 from ._options import doc as _doc
 from ._scene import Scene
@@ -82,11 +83,6 @@ __all__ = [
     "sweep",
     "RenderResult",
     "ClusterResult",
-    "Error",
-    "OptionError",
-    "UnknownOptionError",
-    "DataError",
-    "FileError",
-    "RunError",
+    *_error_names,
     "__version__",
 ]

@@ -34,6 +34,7 @@ pub fn run_frames(
     let mut outs = Vec::with_capacity(cameras.len());
     let mut input = input.clone();
     for (f, cam) in cameras.iter().enumerate() {
+        crate::base::cancel::checkpoint();
         let t = if f == 0 {
             t0
         } else {

@@ -82,18 +82,78 @@ impl NumType {
 }
 
 macro_rules! decode_into {
-    ($bytes:expr, $big:expr, $t:ty, $out:expr) => {{
+    ($bytes:expr, $big:expr, $t:ty, $out:expr, $conv:expr) => {{
         const N: usize = std::mem::size_of::<$t>();
         for (o, c) in $out.iter_mut().zip($bytes.chunks_exact(N)) {
             let mut a = [0u8; N];
             a.copy_from_slice(c);
-            *o = (if $big {
+            *o = $conv(if $big {
                 <$t>::from_be_bytes(a)
             } else {
                 <$t>::from_le_bytes(a)
-            }) as _;
+            });
         }
     }};
+}
+
+/// An output type of the decoders: what a stored value of each kind becomes
+/// (the same as an `as` cast from the stored type).
+trait Decoded: Copy + Send + Sync {
+    /// Whether floating-point input decodes into this type (if not, it
+    /// leaves the output as it was).
+    const TAKES_FLOATS: bool;
+    /// A signed integer (any width, widened to `i64`).
+    fn from_i64(v: i64) -> Self;
+    /// An unsigned 64-bit integer.
+    fn from_u64(v: u64) -> Self;
+    /// A floating-point value (either width, widened to `f64`).
+    fn from_f64(v: f64) -> Self;
+}
+
+impl Decoded for f64 {
+    const TAKES_FLOATS: bool = true;
+    fn from_i64(v: i64) -> f64 {
+        v as f64
+    }
+    fn from_u64(v: u64) -> f64 {
+        v as f64
+    }
+    fn from_f64(v: f64) -> f64 {
+        v
+    }
+}
+
+impl Decoded for i64 {
+    const TAKES_FLOATS: bool = false;
+    fn from_i64(v: i64) -> i64 {
+        v
+    }
+    fn from_u64(v: u64) -> i64 {
+        v as i64
+    }
+    fn from_f64(v: f64) -> i64 {
+        v as i64
+    }
+}
+
+/// Decodes `o.len()` whole values of `ty` from `b` into `o`, on this thread.
+fn decode_seq<T: Decoded>(b: &[u8], ty: NumType, big_endian: bool, o: &mut [T]) {
+    let big = big_endian;
+    match ty {
+        NumType::I8 => decode_into!(b, big, i8, o, |v| T::from_i64(i64::from(v))),
+        NumType::U8 => decode_into!(b, big, u8, o, |v| T::from_i64(i64::from(v))),
+        NumType::I16 => decode_into!(b, big, i16, o, |v| T::from_i64(i64::from(v))),
+        NumType::U16 => decode_into!(b, big, u16, o, |v| T::from_i64(i64::from(v))),
+        NumType::I32 => decode_into!(b, big, i32, o, |v| T::from_i64(i64::from(v))),
+        NumType::U32 => decode_into!(b, big, u32, o, |v| T::from_i64(i64::from(v))),
+        NumType::I64 => decode_into!(b, big, i64, o, T::from_i64),
+        NumType::U64 => decode_into!(b, big, u64, o, T::from_u64),
+        NumType::F32 if T::TAKES_FLOATS => {
+            decode_into!(b, big, f32, o, |v| T::from_f64(f64::from(v)))
+        }
+        NumType::F64 if T::TAKES_FLOATS => decode_into!(b, big, f64, o, T::from_f64),
+        NumType::F32 | NumType::F64 => {}
+    }
 }
 
 /// Values decoded per parallel task (large arrays are split into chunks of
@@ -101,48 +161,28 @@ macro_rules! decode_into {
 const CHUNK: usize = 1 << 16;
 
 /// Decodes `bytes` (`out.len()` whole values of `ty`) into `out`, in
+/// parallel chunks of [`CHUNK`] values.
+fn decode_chunked<T: Decoded>(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [T]) {
+    use rayon::prelude::*;
+    out.par_chunks_mut(CHUNK)
+        .zip(bytes.par_chunks(CHUNK * ty.size()))
+        .for_each(|(o, b)| decode_seq(b, ty, big_endian, o));
+}
+
+/// Decodes `bytes` (`out.len()` whole values of `ty`) into `out`, in
 /// parallel chunks.
 pub fn decode_f64_into(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [f64]) {
-    use rayon::prelude::*;
-    let s = ty.size();
-    out.par_chunks_mut(CHUNK)
-        .zip(bytes.par_chunks(CHUNK * s))
-        .for_each(|(o, b)| match ty {
-            NumType::I8 => decode_into!(b, big_endian, i8, o),
-            NumType::U8 => decode_into!(b, big_endian, u8, o),
-            NumType::I16 => decode_into!(b, big_endian, i16, o),
-            NumType::U16 => decode_into!(b, big_endian, u16, o),
-            NumType::I32 => decode_into!(b, big_endian, i32, o),
-            NumType::U32 => decode_into!(b, big_endian, u32, o),
-            NumType::I64 => decode_into!(b, big_endian, i64, o),
-            NumType::U64 => decode_into!(b, big_endian, u64, o),
-            NumType::F32 => decode_into!(b, big_endian, f32, o),
-            NumType::F64 => decode_into!(b, big_endian, f64, o),
-        });
+    decode_chunked(bytes, ty, big_endian, out);
 }
 
 /// Decodes `bytes` as integers of `ty` into `out` (`out.len()` whole
 /// values), in parallel chunks; `false` (and `out` unspecified) for a
 /// floating-point `ty`.
 pub fn decode_i64_into(bytes: &[u8], ty: NumType, big_endian: bool, out: &mut [i64]) -> bool {
-    use rayon::prelude::*;
     if ty.is_float() {
         return false;
     }
-    let s = ty.size();
-    out.par_chunks_mut(CHUNK)
-        .zip(bytes.par_chunks(CHUNK * s))
-        .for_each(|(o, b)| match ty {
-            NumType::I8 => decode_into!(b, big_endian, i8, o),
-            NumType::U8 => decode_into!(b, big_endian, u8, o),
-            NumType::I16 => decode_into!(b, big_endian, i16, o),
-            NumType::U16 => decode_into!(b, big_endian, u16, o),
-            NumType::I32 => decode_into!(b, big_endian, i32, o),
-            NumType::U32 => decode_into!(b, big_endian, u32, o),
-            NumType::I64 => decode_into!(b, big_endian, i64, o),
-            NumType::U64 => decode_into!(b, big_endian, u64, o),
-            NumType::F32 | NumType::F64 => {}
-        });
+    decode_chunked(bytes, ty, big_endian, out);
     true
 }
 
@@ -215,7 +255,7 @@ pub fn decode_tets(
             let mut good = true;
             for (oc, bc) in o.chunks_mut(256).zip(b.chunks(1024 * s)) {
                 let v = &mut buf[..oc.len() * 4];
-                decode_i64_into_seq(bc, ty, big_endian, v);
+                decode_seq(bc, ty, big_endian, v);
                 for (t, c) in oc.iter_mut().zip(v.chunks_exact(4)) {
                     for k in 0..4 {
                         good &= c[k] >= 0 && (c[k] as u64) < npoints as u64;
@@ -263,7 +303,7 @@ pub fn decode_counted_tets_into(
             let mut good = true;
             for (oc, bc) in o.chunks_mut(256).zip(b.chunks(1280 * s)) {
                 let v = &mut buf[..oc.len() * 5];
-                decode_i64_into_seq(bc, ty, big_endian, v);
+                decode_seq(bc, ty, big_endian, v);
                 for (t, c) in oc.iter_mut().zip(v.chunks_exact(5)) {
                     good &= c[0] == 4;
                     for k in 0..4 {
@@ -287,7 +327,7 @@ pub fn all_equal(bytes: &[u8], ty: NumType, big_endian: bool, value: i64) -> boo
         let mut buf = [0i64; 1024];
         b.chunks(1024 * s).all(|bc| {
             let v = &mut buf[..bc.len() / s];
-            decode_i64_into_seq(bc, ty, big_endian, v);
+            decode_seq(bc, ty, big_endian, v);
             v.iter().all(|&x| x == value)
         })
     })
@@ -306,7 +346,7 @@ pub fn is_arithmetic(bytes: &[u8], ty: NumType, big_endian: bool, step: i64) -> 
         let mut base = (ci * CHUNK) as i64;
         b.chunks(1024 * s).all(|bc| {
             let v = &mut buf[..bc.len() / s];
-            decode_i64_into_seq(bc, ty, big_endian, v);
+            decode_seq(bc, ty, big_endian, v);
             let ok = v
                 .iter()
                 .enumerate()
@@ -315,20 +355,6 @@ pub fn is_arithmetic(bytes: &[u8], ty: NumType, big_endian: bool, step: i64) -> 
             ok
         })
     })
-}
-
-fn decode_i64_into_seq(b: &[u8], ty: NumType, big_endian: bool, o: &mut [i64]) {
-    match ty {
-        NumType::I8 => decode_into!(b, big_endian, i8, o),
-        NumType::U8 => decode_into!(b, big_endian, u8, o),
-        NumType::I16 => decode_into!(b, big_endian, i16, o),
-        NumType::U16 => decode_into!(b, big_endian, u16, o),
-        NumType::I32 => decode_into!(b, big_endian, i32, o),
-        NumType::U32 => decode_into!(b, big_endian, u32, o),
-        NumType::I64 => decode_into!(b, big_endian, i64, o),
-        NumType::U64 => decode_into!(b, big_endian, u64, o),
-        NumType::F32 | NumType::F64 => {}
-    }
 }
 
 #[cfg(test)]
@@ -342,5 +368,43 @@ mod tests {
         let le = (-7i16).to_le_bytes();
         assert_eq!(decode_i64(&le, NumType::I16, false), Some(vec![-7]));
         assert_eq!(decode_i64(&le, NumType::F32, false), None);
+    }
+
+    // Each stored type decodes as an `as` cast from it would, at the ends
+    // of its range, in both byte orders, to f64 and (integers) to i64.
+    #[test]
+    fn every_type_decodes_as_a_cast_from_it() {
+        macro_rules! check {
+            ($t:ty, $ty:expr) => {{
+                let vals: Vec<$t> = vec![<$t>::MIN, 0 as $t, 1 as $t, 100 as $t, <$t>::MAX];
+                for big in [false, true] {
+                    let bytes: Vec<u8> = vals
+                        .iter()
+                        .flat_map(|v| {
+                            if big {
+                                v.to_be_bytes()
+                            } else {
+                                v.to_le_bytes()
+                            }
+                        })
+                        .collect();
+                    let f: Vec<f64> = vals.iter().map(|&v| v as f64).collect();
+                    assert_eq!(decode_f64(&bytes, $ty, big), f, "{:?}", $ty);
+                    let i: Vec<i64> = vals.iter().map(|&v| v as i64).collect();
+                    let want = (!$ty.is_float()).then_some(i);
+                    assert_eq!(decode_i64(&bytes, $ty, big), want, "{:?}", $ty);
+                }
+            }};
+        }
+        check!(i8, NumType::I8);
+        check!(u8, NumType::U8);
+        check!(i16, NumType::I16);
+        check!(u16, NumType::U16);
+        check!(i32, NumType::I32);
+        check!(u32, NumType::U32);
+        check!(i64, NumType::I64);
+        check!(u64, NumType::U64);
+        check!(f32, NumType::F32);
+        check!(f64, NumType::F64);
     }
 }

@@ -276,6 +276,7 @@ pub fn render_prepared(
             .par_chunks_mut(iw as usize)
             .enumerate()
             .map(|(j, row)| {
+                crate::base::cancel::checkpoint();
                 let mut n = SampleCounts::default();
                 for (i, px) in row.iter_mut().enumerate() {
                     let (x, y) = (ox + i as u32, oy + j as u32);

@@ -197,6 +197,7 @@ pub fn render(input: &VolumeInput, opts: &GridReferenceOptions) -> (Image, GridR
     let rows: Vec<(Vec<[f32; 4]>, Counters)> = (0..h)
         .into_par_iter()
         .map(|j| {
+            crate::base::cancel::checkpoint();
             let mut n = Counters::default();
             let row = (0..w)
                 .map(|i| {

@@ -380,6 +380,7 @@ fn composite_all<T: Texel>(
         .par_chunks_mut(w * composite::BAND)
         .enumerate()
         .map_init(Vec::new, |next, (b, rows)| {
+            crate::base::cancel::checkpoint();
             band(&s, steps, b * composite::BAND, w, rows, next)
         })
         .reduce(SampleCounts::default, SampleCounts::merge);

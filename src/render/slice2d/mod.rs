@@ -205,6 +205,7 @@ fn render_c<const C: usize>(
         .par_chunks_mut(w as usize)
         .enumerate()
         .map(|(j, row)| {
+            crate::base::cancel::checkpoint();
             let mut n = SampleCounts::default();
             for (i, px) in row.iter_mut().enumerate() {
                 let [c0, c1, c2, al] = ray(

@@ -243,6 +243,7 @@ pub fn render_prepared(
             .par_chunks_mut(w * PIXEL_TILE)
             .enumerate()
             .map(|(band, rows)| {
+                crate::base::cancel::checkpoint();
                 let mut n = SampleCounts::default();
                 let nrows = rows.len() / w;
                 for i0 in (0..w).step_by(PIXEL_TILE) {

@@ -160,6 +160,7 @@ pub fn rasterise<S: ShapeOf>(
         .par_chunks_mut(bins.rows_per * w as usize)
         .enumerate()
         .map(|(b, band)| {
+            crate::base::cancel::checkpoint();
             let list = &bins.idx[bins.starts[b]..bins.starts[b + 1]];
             let j0 = (b * bins.rows_per) as i64;
             let job = BandJob {

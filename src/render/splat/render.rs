@@ -261,6 +261,7 @@ fn frame<S: ShapeOf>(
         (splats, visible, offscreen)
     };
     let order_ms = t0.elapsed().as_secs_f64() * 1e3;
+    crate::base::cancel::checkpoint();
 
     let t1 = Instant::now();
     let c1 = process_cpu_s();
@@ -276,6 +277,7 @@ fn frame<S: ShapeOf>(
     };
     let bins = bands::bin(&splats, &shared, h, kernel);
     let bin_ms = t1.elapsed().as_secs_f64() * 1e3;
+    crate::base::cancel::checkpoint();
     let (acc, counts) = bands::rasterise(&splats, &shared, &bins, (w, h), cut, kernel, opts.ert);
     drop(bins);
     drop(splats);
