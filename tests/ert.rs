@@ -127,6 +127,7 @@ fn ert(
         update_c: c,
         span,
         structure,
+        backoff: true,
     }
 }
 
@@ -260,6 +261,39 @@ fn ert_image_is_independent_of_threads() {
         let (b, sb) = render(&input, &opts, 3);
         assert_eq!(a.pixels, b.pixels, "{structure}");
         assert_eq!(sa.cells_skipped_ert, sb.cells_skipped_ert);
+    }
+}
+
+/// The back-off (no tests while no pixel of a tile has terminated in front
+/// of a cell) changes no skip decision: the image and the skipped cells are
+/// the same with it and without it, for both structures, at a threshold
+/// where ERT skips many cells and at the default.
+#[test]
+fn ert_backoff_changes_no_image() {
+    for view in ["a", "b"] {
+        let input = small(view);
+        for structure in [ErtStructure::Flat, ErtStructure::Pyramid] {
+            for threshold in [0.5, 0.99] {
+                let on = ert(threshold, structure, ErtSpan::Multi, None, 100);
+                let opts = |backoff| CellOptions {
+                    ert: ErtOptions { backoff, ..on },
+                    ..Default::default()
+                };
+                let (a, sa) = render(&input, &opts(true), 1);
+                let (b, sb) = render(&input, &opts(false), 1);
+                let what = format!("view {view}, {structure}, {threshold}");
+                assert_eq!(a.pixels, b.pixels, "{what}");
+                assert_eq!(sa.cells_skipped_ert, sb.cells_skipped_ert, "{what}");
+                assert_eq!(
+                    sa.cell_tile_pairs_skipped_ert, sb.cell_tile_pairs_skipped_ert,
+                    "{what}"
+                );
+                assert!(sa.ert_tests <= sb.ert_tests, "{what}");
+                if threshold == 0.5 {
+                    assert!(sb.cells_skipped_ert > 0, "{what}: nothing skipped");
+                }
+            }
+        }
     }
 }
 

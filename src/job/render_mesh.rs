@@ -61,6 +61,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
             update_c: a.ert_update,
             span: a.ert_span,
             structure: a.ert_structure,
+            backoff: true,
         },
         oracle: a.oracle,
         canonical: a.canonical,

@@ -74,6 +74,11 @@ pub struct ErtOptions {
     pub span: ErtSpan,
     /// Flat table or pyramid.
     pub structure: ErtStructure,
+    /// Back off where ERT cannot skip (no test while no pixel of the tile has
+    /// terminated in front of a cell; see [`tile::scan_tile_ert`]). Skip
+    /// decisions, hence images, are the same either way; `false` is kept to
+    /// test exactly that.
+    pub backoff: bool,
 }
 
 impl ErtOptions {
@@ -90,6 +95,7 @@ impl ErtOptions {
         update_c: 100,
         span: ErtSpan::Multi,
         structure: ErtStructure::Pyramid,
+        backoff: true,
     };
 
     /// Whether ERT runs at all.

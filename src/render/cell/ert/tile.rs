@@ -24,7 +24,9 @@ pub struct ErtTileStats {
     pub update_s: f64,
     /// Seconds spent testing cells.
     pub tests_s: f64,
-    /// Cells tested.
+    /// Cells tested against the structure (cells are not tested, and the
+    /// structure not rebuilt, while no pixel of the tile has terminated in
+    /// front of them: see [`scan_tile_ert`]).
     pub tests: u64,
     /// Cells skipped whose whole range lies in this tile.
     pub skipped_whole: u64,
@@ -77,7 +79,15 @@ impl Structure {
 }
 
 /// Scan-converts the cells of tile `rect` in order, skipping those that ERT
-/// proves invisible. `entry` is the entry (or level-0 block) size in pixels,
+/// proves invisible.
+///
+/// Back-off where ERT skips nothing: the tile keeps the smallest termination
+/// depth of any of its pixels (`min_depth`, infinite while none has
+/// terminated). A cell can only be skipped if every pixel it covers
+/// terminates in front of its near depth, hence only if `min_depth < near`;
+/// cells failing that are not tested, and while no pixel has terminated the
+/// structure is neither rebuilt nor are the tests timed. Every skip decision
+/// is the one the full test would make, so the image is the same bit for bit. `entry` is the entry (or level-0 block) size in pixels,
 /// `tile` the nominal tile size (for counting cells that span tiles).
 pub fn scan_tile_ert(
     perspective: Option<PerspRays>,
@@ -101,6 +111,15 @@ pub fn scan_tile_ert(
     };
     let mut stats = ErtTileStats::default();
     let mut skip: Vec<bool> = Vec::new();
+    let mut min_depth = f32::INFINITY;
+    // Without back-off every cell is tested after every rebuild.
+    let gate = |min_depth: f32| {
+        if ert.backoff {
+            min_depth
+        } else {
+            f32::NEG_INFINITY
+        }
+    };
     for (b, range) in schedule::batches(cells.len(), ert.update_c)
         .into_iter()
         .enumerate()
@@ -108,22 +127,34 @@ pub fn scan_tile_ert(
         let batch = &cells[range];
         skip.clear();
         if b > 0 {
-            let t0 = Instant::now();
+            let t0 = (gate(min_depth) < f32::INFINITY).then(Instant::now);
             lists.drain_changed(|idx, list| {
                 let d = termination_depth(list, ert.threshold);
                 if d < depth[idx] {
                     depth[idx] = d;
+                    min_depth = min_depth.min(d);
                     st.mark(idx as u32 % w, idx as u32 / w);
                 }
             });
-            st.rebuild(&depth);
-            let t1 = Instant::now();
-            skip.extend(batch.iter().map(|c| st.skip(c, rect)));
-            let t2 = Instant::now();
-            stats.update_s += (t1 - t0).as_secs_f64();
-            stats.tests_s += (t2 - t1).as_secs_f64();
-            stats.updates += 1;
-            stats.tests += batch.len() as u64;
+            let gate = gate(min_depth);
+            if gate < f32::INFINITY {
+                // Marks exist only once a depth is finite: nothing to rebuild before.
+                let t0 = t0.unwrap_or_else(Instant::now);
+                st.rebuild(&depth);
+                let t1 = Instant::now();
+                let mut tested = 0u64;
+                skip.extend(batch.iter().map(|c| {
+                    c.near > gate && {
+                        tested += 1;
+                        st.skip(c, rect)
+                    }
+                }));
+                let t2 = Instant::now();
+                stats.update_s += (t1 - t0).as_secs_f64();
+                stats.tests_s += (t2 - t1).as_secs_f64();
+                stats.updates += 1;
+                stats.tests += tested;
+            }
         }
         let mut target = ScanTarget::new(
             &mut lists,
