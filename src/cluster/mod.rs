@@ -160,8 +160,11 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
     } = ph1;
     let mut node_stats = Vec::with_capacity(nodes.len());
     let mut lists = Vec::with_capacity(nodes.len());
+    let vertices = placement.vertex_counts(&input.mesh);
+    for (a, &v) in nodes.iter().zip(&vertices) {
+        node_stats.push(report::NodeRaw::from_actor(a).with_vertices_initial(v));
+    }
     for a in nodes {
-        node_stats.push(report::NodeRaw::from_actor(&a));
         lists.push(node_lists(a.renderer(), input, p1.node));
     }
     finish(
