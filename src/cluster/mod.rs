@@ -183,8 +183,11 @@ pub fn run_placed(
     let mut node_stats = Vec::with_capacity(nodes.len());
     let mut lists = Vec::with_capacity(nodes.len());
     let mut processed = Vec::with_capacity(nodes.len());
+    let vertices = placement.vertex_counts(&input.mesh);
+    for (a, &v) in nodes.iter().zip(&vertices) {
+        node_stats.push(report::NodeRaw::from_actor(a).with_vertices_initial(v));
+    }
     for a in nodes {
-        node_stats.push(report::NodeRaw::from_actor(&a));
         lists.push(node_lists(a.renderer(), input, p1.node));
         let mut cells: Vec<u32> = a.renderer().processed_cells().collect();
         cells.sort_unstable();

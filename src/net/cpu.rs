@@ -56,6 +56,20 @@ pub fn minor_faults() -> u64 {
     ru.ru_minflt.max(0) as u64
 }
 
+/// Peak resident memory of the calling process so far, in bytes
+/// (`getrusage(RUSAGE_SELF).ru_maxrss`, which Linux counts in KiB: the
+/// same figure as `VmHWM` in `/proc/self/status` and `/usr/bin/time -v`'s
+/// "Maximum resident set size"); `None` if the call fails.
+pub fn peak_rss_bytes() -> Option<u64> {
+    // SAFETY: an all-zero rusage is a valid value; getrusage only writes it.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `ru` is a valid, writable rusage.
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) } != 0 {
+        return None;
+    }
+    u64::try_from(ru.ru_maxrss).ok().map(|kib| kib * 1024)
+}
+
 /// Splits a call's measured `wall` and `cpu` seconds over its compute
 /// actions `(kind, modelled seconds)`, in proportion to the modelled
 /// seconds (evenly if they are all 0).

@@ -263,6 +263,29 @@ impl Placement {
         self.parts.len()
     }
 
+    /// Per node: how many distinct vertices its cells use (what the node
+    /// holds of the mesh's vertices).
+    pub fn vertex_counts(&self, mesh: &TetMesh) -> Vec<u64> {
+        let mut seen = vec![u32::MAX; mesh.points.len()];
+        self.parts
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let mut count = 0u64;
+                for &cell in p {
+                    for &v in &mesh.tets[cell as usize] {
+                        let s = &mut seen[v as usize];
+                        if *s != k as u32 {
+                            *s = k as u32;
+                            count += 1;
+                        }
+                    }
+                }
+                count
+            })
+            .collect()
+    }
+
     /// Per node: cell count and world bounding box.
     pub fn world(&self, mesh: &TetMesh) -> Vec<NodeWorld> {
         self.parts

@@ -155,6 +155,10 @@ pub fn build(i: Inputs) -> ClusterReport {
                 bytes_sent: s.bytes_sent + i.phase2.bytes_sent[k],
                 bytes_sent_phase1: s.bytes_sent,
                 segments_stored: r.stored,
+                peak_rss_bytes: r.peak_rss_bytes,
+                modelled_bytes: r.vertices_initial.map(|v| {
+                    v * 28 + s.cells_initial * 16 + s.cells_taken * (16 + 4 * 28) + r.stored * 24
+                }),
             }
         })
         .collect();
@@ -308,6 +312,12 @@ pub fn build(i: Inputs) -> ClusterReport {
         speedup_frame,
         efficiency_frame: speedup_frame.map(|s| s / n as f64),
         compositing: i.phase2.stats.clone(),
+        coordinator_peak_rss_bytes: i
+            .nodes
+            .iter()
+            .any(|r| r.peak_rss_bytes.is_some())
+            .then(crate::net::cpu::peak_rss_bytes)
+            .flatten(),
         nodes,
         wall: WallInfo {
             host_phase1_s: i.host_phase1_s,

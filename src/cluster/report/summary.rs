@@ -73,6 +73,9 @@ pub fn summary(r: &ClusterReport) -> String {
     if r.nodes.len() > 32 {
         let _ = writeln!(s, "  ... ({} more nodes in the report)", r.nodes.len() - 32);
     }
+    if let Some(line) = memory_line(r) {
+        let _ = writeln!(s, "{line}");
+    }
     let _ = writeln!(
         s,
         "Tsc max {:.4} s, mean {:.4} s, imbalance {:.1} %; phase 1 {:.4} s, phase 2 {:.4} s{}, frame {:.4} s",
@@ -173,4 +176,32 @@ pub fn summary(r: &ClusterReport) -> String {
         "terms: Tsc = a node's scan-conversion time (phase 1, no compositing); frame = phase 1 + phase 2; speed-up = sequential / frame or / Tsc max; Base = ERT, sharing and DLB off at the same N; ideal speed-up = Base Tsc max / (sequential / N); share efficiency = cells skipped by all nodes / cells skipped by the sequential run"
     );
     s
+}
+
+/// The memory line: measured with worker processes (the coordinator's and
+/// every worker's peak resident memory), modelled when the driver knew the
+/// placement (bytes of each node's part and lists), in MB.
+fn memory_line(r: &ClusterReport) -> Option<String> {
+    let mb = |b: u64| format!("{:.1}", b as f64 / 1e6);
+    let per_node = |f: fn(&super::types::NodeReport) -> Option<u64>| {
+        let v: Vec<String> = r
+            .nodes
+            .iter()
+            .map(|x| f(x).map_or("n/a".to_string(), mb))
+            .collect();
+        v.join(", ")
+    };
+    if let Some(c) = r.coordinator_peak_rss_bytes {
+        return Some(format!(
+            "peak resident memory (MB, measured): coordinator {}; workers by rank [{}]",
+            mb(c),
+            per_node(|x| x.peak_rss_bytes)
+        ));
+    }
+    r.nodes.iter().any(|x| x.modelled_bytes.is_some()).then(|| {
+        format!(
+            "memory per node (MB, modelled: part's vertices and cells, taken cells, lists): [{}]",
+            per_node(|x| x.modelled_bytes)
+        )
+    })
 }

@@ -33,6 +33,16 @@ pub struct NodeRaw {
     pub(super) skipped: u64,
     pub(super) culled: u64,
     pub(super) stored: u64,
+    /// Peak resident memory of the worker process that ran the node
+    /// (bytes, taken when its phase 1 ends); `None` when the node ran in
+    /// the coordinator's process (virtual clock, threads).
+    #[serde(default)]
+    pub(super) peak_rss_bytes: Option<u64>,
+    /// Distinct vertices of the node's initial part, when the driver
+    /// knows the placement (virtual clock, threads): the modelled memory's
+    /// vertex term.
+    #[serde(default)]
+    pub(super) vertices_initial: Option<u64>,
 }
 
 impl NodeRaw {
@@ -56,7 +66,23 @@ impl NodeRaw {
                 .iter()
                 .map(|l| l.len() as u64)
                 .sum(),
+            peak_rss_bytes: None,
+            vertices_initial: None,
         }
+    }
+
+    /// The same numbers with the node's initial vertex count (for
+    /// [`NodeReport::modelled_bytes`]).
+    pub fn with_vertices_initial(mut self, vertices: u64) -> NodeRaw {
+        self.vertices_initial = Some(vertices);
+        self
+    }
+
+    /// The same numbers with the calling process's peak resident memory
+    /// (a worker process, before it sends its result).
+    pub fn with_process_peak_rss(mut self) -> NodeRaw {
+        self.peak_rss_bytes = crate::net::cpu::peak_rss_bytes();
+        self
     }
 }
 
@@ -103,6 +129,20 @@ pub struct NodeReport {
     /// List entries (segments or merged pieces) the node holds at the end
     /// of phase 1: its list memory, 24 bytes each.
     pub segments_stored: u64,
+    /// Real transports with worker processes (`processes`, `tcp`, `mpi`):
+    /// the worker's peak resident memory in bytes (`getrusage` `ru_maxrss`,
+    /// = `VmHWM`), taken at the end of its phase 1 and sent with its
+    /// result; `null` when the nodes ran inside one process.
+    pub peak_rss_bytes: Option<u64>,
+    /// Modelled memory of the node in bytes, when the driver knows its
+    /// placement (virtual clock, threads): its initial part's vertices at
+    /// 28 B (3 × f64 position, f32 scalar, as [`crate::node::Replica::node_bytes`]
+    /// counts them) and cells at 16 B (4 × u32), each taken cell at
+    /// 16 + 4 × 28 B (a cell moved with its four vertices), and its list
+    /// entries at 24 B (`segments_stored`). Not counted: the renderer's
+    /// per-cell derived arrays and the image buffers. `null` on worker
+    /// processes (they report `peak_rss_bytes`).
+    pub modelled_bytes: Option<u64>,
 }
 
 /// Cost of the ERT exchanges: per exchange, from the share leaving the
@@ -271,6 +311,10 @@ pub struct ClusterReport {
     pub compositing: CompositeStats,
     /// One line per node.
     pub nodes: Vec<NodeReport>,
+    /// With worker processes: the coordinator's peak resident memory in
+    /// bytes (`getrusage` `ru_maxrss`), taken when the report is built
+    /// (after phase 2); `null` otherwise.
+    pub coordinator_peak_rss_bytes: Option<u64>,
     /// Host-time measurements.
     pub wall: WallInfo,
     /// With a real transport (`--transport processes|tcp`): bytes and

@@ -121,7 +121,7 @@ pub fn run_node<T: RemoteTransport>(
     let scene = parse_scene(setup)?;
     let lists = worker_lists(&actor, setup, (scene.image.width, scene.image.height));
     let result = NodeResult {
-        raw: NodeRaw::from_actor(&actor),
+        raw: NodeRaw::from_actor(&actor).with_process_peak_rss(),
         stopped_at: stop,
         trace,
         traffic,
