@@ -12,6 +12,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 
+use super::scaling_plot::{self, PlotPoint};
+
 /// What `pvrsim bench --scaling` runs.
 #[derive(Debug, Clone)]
 pub struct ScalingBench {
@@ -232,7 +234,19 @@ pub fn run(b: &ScalingBench) -> anyhow::Result<Vec<ScalingRow>> {
     std::fs::write(&csv, text).with_context(|| format!("{}", csv.display()))?;
     println!("wrote {}", csv.display());
     if !rows.is_empty() {
-        for p in super::scaling_plot::draw(&rows, &b.out)? {
+        let pts: Vec<PlotPoint> = rows
+            .iter()
+            .map(|r| PlotPoint {
+                cells: r.cells,
+                image: r.image,
+                load_s: r.load_s,
+                project_s: r.project_s,
+                scan_s: r.scan_s,
+                composite_s: r.composite_s,
+                bytes_per_tet: r.bytes_per_tet,
+            })
+            .collect();
+        for p in scaling_plot::draw(&pts, &b.out)? {
             println!("wrote {}", p.display());
         }
     }

@@ -5,19 +5,38 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use super::scaling::ScalingRow;
+/// One measured point as the plots need it.
+#[derive(Debug, Clone, Copy)]
+pub struct PlotPoint {
+    /// Tetrahedra.
+    pub cells: u64,
+    /// Image width = height, pixels.
+    pub image: u32,
+    /// Load phase, s.
+    pub load_s: f64,
+    /// Projection phase, s.
+    pub project_s: f64,
+    /// Scan phase, s.
+    pub scan_s: f64,
+    /// Compositing phase, s.
+    pub composite_s: f64,
+    /// Render peak RSS per tetrahedron, bytes.
+    pub bytes_per_tet: f64,
+}
 
 type Series = (String, Vec<(f64, f64)>);
+/// A named phase and how to read its time from a point.
+type Phase = (&'static str, fn(&PlotPoint) -> f64);
 
 /// Draws `scaling-times.png` and `scaling-memory.png` into `out`; returns
 /// their paths. Non-positive values (e.g. a 0 s composite) are left out,
 /// as a log axis cannot show them.
-pub fn draw(rows: &[ScalingRow], out: &Path) -> anyhow::Result<Vec<PathBuf>> {
+pub fn draw(rows: &[PlotPoint], out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     crate::text::register_fonts();
     let mut sizes: Vec<u32> = rows.iter().map(|r| r.image).collect();
     sizes.sort_unstable();
     sizes.dedup();
-    let phase: [(&str, fn(&ScalingRow) -> f64); 4] = [
+    let phase: [Phase; 4] = [
         ("load", |r| r.load_s),
         ("project", |r| r.project_s),
         ("scan", |r| r.scan_s),
@@ -26,7 +45,7 @@ pub fn draw(rows: &[ScalingRow], out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut times: Vec<Series> = Vec::new();
     let mut mem: Vec<Series> = Vec::new();
     for &s in &sizes {
-        let at: Vec<&ScalingRow> = rows.iter().filter(|r| r.image == s).collect();
+        let at: Vec<&PlotPoint> = rows.iter().filter(|r| r.image == s).collect();
         for (name, f) in phase {
             times.push((
                 format!("{name} {s}^2"),
