@@ -16,6 +16,8 @@ pub mod calibrate_pieces;
 pub mod calibrate_splat;
 pub mod grid;
 pub mod orderings;
+pub mod scaling;
+pub mod scaling_plot;
 pub mod splat;
 pub mod splat_experiments;
 pub mod timer;
@@ -107,6 +109,35 @@ pub struct BenchArgs {
     /// Tolerance for `--adaptive` (fraction of the scalar range).
     #[arg(long, default_value_t = 0.05)]
     pub adaptive_tolerance: f64,
+    /// Scaling benchmark instead: generate the demo vessel at each of
+    /// `--scaling-cells` (cached in `--scaling-cache`), render it one
+    /// thread, exact, ERT off at each `--scaling-sizes`, and write
+    /// `scaling.csv` and log-log plots into `--scaling-out`.
+    #[arg(long)]
+    pub scaling: bool,
+    /// Cell counts for `--scaling`.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "150000,500000,2000000,5000000,20000000"
+    )]
+    pub scaling_cells: Vec<u64>,
+    /// `--scaling`: skip cell counts above this (raise it to include e.g.
+    /// 100000000 in `--scaling-cells` where memory allows).
+    #[arg(long, default_value_t = 20_000_000)]
+    pub max_cells: u64,
+    /// Square image sizes for `--scaling` (512 = 512x512).
+    #[arg(long, value_delimiter = ',', default_value = "512,2048")]
+    pub scaling_sizes: Vec<u32>,
+    /// Render threads for `--scaling`.
+    #[arg(long, default_value_t = 1)]
+    pub scaling_threads: usize,
+    /// Folder of generated meshes for `--scaling` (reused when present).
+    #[arg(long, default_value = "scaling-cache")]
+    pub scaling_cache: PathBuf,
+    /// Folder for `--scaling`'s CSV, plots and per-point stats.
+    #[arg(long, default_value = "scaling-out")]
+    pub scaling_out: PathBuf,
 }
 
 /// One timed configuration.
@@ -144,6 +175,22 @@ fn median(v: &mut [f64]) -> f64 {
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if a.orderings {
         return orderings::run(a.json.as_deref());
+    }
+    if a.scaling {
+        let b = scaling::ScalingBench {
+            cells: a.scaling_cells.clone(),
+            max_cells: a.max_cells,
+            sizes: a.scaling_sizes.clone(),
+            threads: a.scaling_threads,
+            cache: a.scaling_cache.clone(),
+            out: a.scaling_out.clone(),
+        };
+        let rows = scaling::run(&b)?;
+        if let Some(path) = &a.json {
+            std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+            println!("wrote {}", path.display());
+        }
+        return Ok(());
     }
     if a.splat {
         let b = splat::SplatBench {
