@@ -145,8 +145,14 @@ fn write_cluster_outputs(
 ) -> Result<(), JobError> {
     let has = |k: &str| given.iter().any(|g| g == k);
     let w = || -> anyhow::Result<()> {
-        if has("output") {
-            r.image().save_png(&job.output)?;
+        // Every frame with a `%d` pattern in `output`, and the movie: the
+        // command line's own writer.
+        let output = has("output").then_some(job.output.as_path());
+        pvrsim::job::series_output::write_series_images(output, &job.series, &r.images())?;
+        if let ClusterResult::Mesh(frames) = r {
+            if let Some(last) = frames.last() {
+                pvrsim::job::series_output::write_series_csv(&job.series, &last.report)?;
+            }
         }
         if let (true, Some(p)) = (has("report"), &job.report) {
             std::fs::write(p, serde_json::to_string_pretty(&r.report_json())?)
@@ -185,6 +191,12 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
                 "--report",
                 job.report.as_deref(),
                 OutputKind::Json,
+            ),
+            (
+                "series_csv",
+                "--series-csv",
+                job.series.series_csv.as_deref(),
+                OutputKind::Csv,
             ),
             ("trace", "--trace", job.trace.as_deref(), OutputKind::Json),
             (

@@ -63,3 +63,22 @@ def test_sweep_from_a_dict_and_kept_results(tmp):
     assert (tmp / "mini" / "results.csv").is_file()
     again = pvrsim.sweep(config, out=tmp)  # resumes: nothing left to run
     assert len(again) == 2
+
+
+def test_a_mesh_series_writes_every_frame_its_rows_and_fps(tmp):
+    cl = pvrsim.cluster(
+        VIEW_B,
+        nodes=2,
+        frames=3,
+        turn=30,
+        no_baselines=True,
+        output=str(tmp / "f-%02d.png"),
+        series_csv=str(tmp / "s.csv"),
+    )
+    series = cl.report["series"]
+    assert series["n_frames"] == 3 and series["fps"] > 0
+    assert [f["frame"] for f in series["frames"]] == [0, 1, 2]
+    assert (tmp / "s.csv").read_text().count("\n") == 4
+    # Every frame written; the last is the image returned.
+    assert np.array_equal(cl.image[..., :3], read_png(tmp / "f-02.png"))
+    assert not np.array_equal(read_png(tmp / "f-00.png"), read_png(tmp / "f-02.png"))

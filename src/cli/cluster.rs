@@ -9,6 +9,7 @@ use crate::cluster::grid::GridOutcome;
 use crate::image::Image;
 pub use crate::job::cluster::*;
 use crate::job::output::{self, prepare_output, OutputKind};
+use crate::job::series_output;
 use crate::job::{ClusterResult, Valid};
 use crate::net::SimTrace;
 
@@ -56,9 +57,9 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                     out.report.cells_total
                 ),
             );
-            write_frames(&a, outs.iter().map(|o| &o.image))?;
-            if let Some(m) = &a.series.movie {
-                make_movie(&a, m, outs.iter().map(|o| &o.image))?;
+            let images: Vec<&Image> = outs.iter().map(|o| &o.image).collect();
+            for line in series_output::write_series_images(Some(&a.output), &a.series, &images)? {
+                println!("{line}");
             }
             let trace = if outs.len() > 1 {
                 crate::cluster::series::joined_trace(outs)
@@ -66,48 +67,12 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                 out.trace.clone()
             };
             write_outputs(&a, &out.report, &trace, out.report.n_nodes)?;
-            if let (Some(p), Some(series)) = (&a.series.series_csv, &out.report.series) {
-                std::fs::write(p, series.csv())
-                    .with_context(|| format!("cannot write {}", p.display()))?;
-                println!("wrote {}", p.display());
+            if let Some(line) = series_output::write_series_csv(&a.series, &out.report)? {
+                println!("{line}");
             }
         }
     }
     print!("{}", result.summary());
-    Ok(())
-}
-
-/// Writes the frames' images: every frame when `-o` has a `%d` pattern
-/// (`out-%04d.png`), else the last one to `-o` (saying so when there were
-/// more).
-fn write_frames<'a>(
-    a: &ClusterArgs,
-    images: impl ExactSizeIterator<Item = &'a Image>,
-) -> anyhow::Result<()> {
-    let n = images.len();
-    if crate::job::series_args::frame_path(&a.output, 0).is_some() {
-        for (k, img) in images.enumerate() {
-            let p = crate::job::series_args::frame_path(&a.output, k).expect("a pattern");
-            img.save_png(&p)?;
-            if k == 0 || k + 1 == n {
-                println!("wrote {}", p.display());
-            }
-        }
-        if n > 2 {
-            println!("({n} frames written)");
-        }
-        return Ok(());
-    }
-    let last = images.last().expect("at least one frame");
-    last.save_png(&a.output)?;
-    if n > 1 {
-        println!(
-            "wrote {} (the last of {n} frames; -o out-%04d.png writes every frame)",
-            a.output.display()
-        );
-    } else {
-        println!("wrote {}", a.output.display());
-    }
     Ok(())
 }
 
@@ -129,64 +94,11 @@ fn write_grid(a: &ClusterArgs, outs: &[GridOutcome]) -> anyhow::Result<()> {
         );
     }
     let out = outs.last().expect("at least one frame");
-    write_frames(a, outs.iter().map(|o| &o.image))?;
-    if let Some(m) = &a.series.movie {
-        make_movie(a, m, outs.iter().map(|o| &o.image))?;
+    let images: Vec<&Image> = outs.iter().map(|o| &o.image).collect();
+    for line in series_output::write_series_images(Some(&a.output), &a.series, &images)? {
+        println!("{line}");
     }
     write_outputs(a, &out.report, &out.trace, out.report.nodes.len())
-}
-
-/// Makes `--movie` with ffmpeg from the frames (written to a private
-/// folder first).
-fn make_movie<'a>(
-    a: &ClusterArgs,
-    movie: &std::path::Path,
-    images: impl Iterator<Item = &'a Image>,
-) -> anyhow::Result<()> {
-    /// The frames' folder, removed on every path.
-    struct Frames(std::path::PathBuf);
-    impl Drop for Frames {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let dir =
-        Frames(std::env::temp_dir().join(format!("pvrsim-movie-{}-{nanos}", std::process::id())));
-    std::fs::create_dir(&dir.0)
-        .with_context(|| format!("cannot make {} for the movie's frames", dir.0.display()))?;
-    for (k, img) in images.enumerate() {
-        img.save_png(&dir.0.join(format!("f{k:06}.png")))?;
-    }
-    let fps = a.series.movie_fps.unwrap_or(10).to_string();
-    let mut cmd = std::process::Command::new("ffmpeg");
-    cmd.args(["-loglevel", "error", "-y", "-framerate", &fps, "-i"])
-        .arg(dir.0.join("f%06d.png"));
-    if movie
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mp4"))
-    {
-        // H.264 needs even sizes and a planar 4:2:0 format to play anywhere.
-        cmd.args([
-            "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-            "-pix_fmt",
-            "yuv420p",
-        ]);
-    }
-    let st = cmd
-        .arg(movie)
-        .status()
-        .context("cannot run ffmpeg for --movie")?;
-    anyhow::ensure!(
-        st.success(),
-        "ffmpeg failed making {} ({st})",
-        movie.display()
-    );
-    println!("wrote {}", movie.display());
-    Ok(())
 }
 
 /// Writes the report (--report), the trace (--trace) and the timeline

@@ -12,7 +12,7 @@
 //!   reference); [`grid_order`] is `--order`; [`compare`] is `--compare`'s
 //!   verdict and strip.
 //! - [`cluster`]: a cluster frame of a mesh or a grid ([`cluster_grid`], whose
-//!   options are [`grid_args`]), or a series of frames ([`series_args`], [`series_steps`]), on
+//!   options are [`grid_args`]), or a series of frames ([`series_args`], [`series_steps`], [`series_output`]), on
 //!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]);
 //!   [`cluster_job`] is its one path: validated once, the scene read once
 //!   and its mesh or volume loaded ([`LoadedCluster`]), then run.
@@ -56,6 +56,7 @@ pub mod render_splat;
 pub mod run;
 pub mod scene_fit;
 pub mod series_args;
+pub mod series_output;
 pub mod series_steps;
 pub mod shared_args;
 pub mod sweep;

@@ -1,0 +1,116 @@
+//! The files a series writes besides the last frame's report, for every
+//! frontend alike (the command line prints the lines these return; the
+//! Python module does not): every frame's image (`-o out-%04d.png`), the
+//! per-frame CSV (`--series-csv`) and the movie (`--movie`, with ffmpeg).
+
+use std::path::Path;
+
+use anyhow::Context;
+
+use super::series_args::{frame_path, SeriesArgs};
+use crate::cluster::ClusterReport;
+use crate::image::Image;
+
+/// Writes the frames' images to `output` when given (every frame when it
+/// has a `%d` pattern, else the last one) and `--movie`; returns what it
+/// did, one line each.
+pub fn write_series_images(
+    output: Option<&Path>,
+    s: &SeriesArgs,
+    images: &[&Image],
+) -> anyhow::Result<Vec<String>> {
+    let mut said = Vec::new();
+    if let Some(output) = output {
+        write_frames(output, images, &mut said)?;
+    }
+    if let Some(m) = &s.movie {
+        make_movie(s, m, images)?;
+        said.push(format!("wrote {}", m.display()));
+    }
+    Ok(said)
+}
+
+/// Writes `--series-csv` from the last frame's report's series section
+/// (nothing without either); returns what it did.
+pub fn write_series_csv(s: &SeriesArgs, last: &ClusterReport) -> anyhow::Result<Option<String>> {
+    let (Some(p), Some(series)) = (&s.series_csv, &last.series) else {
+        return Ok(None);
+    };
+    std::fs::write(p, series.csv()).with_context(|| format!("cannot write {}", p.display()))?;
+    Ok(Some(format!("wrote {}", p.display())))
+}
+
+fn write_frames(output: &Path, images: &[&Image], said: &mut Vec<String>) -> anyhow::Result<()> {
+    let n = images.len();
+    if frame_path(output, 0).is_some() {
+        for (k, img) in images.iter().enumerate() {
+            let p = frame_path(output, k).expect("a pattern");
+            img.save_png(&p)?;
+            if k == 0 || k + 1 == n {
+                said.push(format!("wrote {}", p.display()));
+            }
+        }
+        if n > 2 {
+            said.push(format!("({n} frames written)"));
+        }
+        return Ok(());
+    }
+    let last = images.last().expect("at least one frame");
+    last.save_png(output)?;
+    said.push(if n > 1 {
+        format!(
+            "wrote {} (the last of {n} frames; -o out-%04d.png writes every frame)",
+            output.display()
+        )
+    } else {
+        format!("wrote {}", output.display())
+    });
+    Ok(())
+}
+
+/// Makes the movie with ffmpeg from the frames (written to a private
+/// folder first, removed on every path).
+fn make_movie(s: &SeriesArgs, movie: &Path, images: &[&Image]) -> anyhow::Result<()> {
+    struct Frames(std::path::PathBuf);
+    impl Drop for Frames {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let dir =
+        Frames(std::env::temp_dir().join(format!("pvrsim-movie-{}-{nanos}", std::process::id())));
+    std::fs::create_dir(&dir.0)
+        .with_context(|| format!("cannot make {} for the movie's frames", dir.0.display()))?;
+    for (k, img) in images.iter().enumerate() {
+        img.save_png(&dir.0.join(format!("f{k:06}.png")))?;
+    }
+    let fps = s.movie_fps.unwrap_or(10).to_string();
+    let mut cmd = std::process::Command::new("ffmpeg");
+    cmd.args(["-loglevel", "error", "-y", "-framerate", &fps, "-i"])
+        .arg(dir.0.join("f%06d.png"));
+    if movie
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mp4"))
+    {
+        // H.264 needs even sizes and a planar 4:2:0 format to play anywhere.
+        cmd.args([
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "-pix_fmt",
+            "yuv420p",
+        ]);
+    }
+    let st = cmd
+        .arg(movie)
+        .status()
+        .context("cannot run ffmpeg for --movie")?;
+    anyhow::ensure!(
+        st.success(),
+        "ffmpeg failed making {} ({st})",
+        movie.display()
+    );
+    Ok(())
+}
