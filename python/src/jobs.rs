@@ -172,7 +172,8 @@ fn write_cluster_outputs(
     w().map_err(JobError::Failed)
 }
 
-/// `pvrsim cluster` with `options`: a dict of `image`, `report` (JSON text
+/// `pvrsim cluster` with `options`: a dict of `image`, `images` (every
+/// frame's), `report` (JSON text
 /// of the last frame's report), `frames` (every frame's report, JSON
 /// text), `trace` (rows `(node, activity, start_s, end_s, bytes, peer)`),
 /// `summary` (the text the command prints), `warnings`.
@@ -218,6 +219,13 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
     let r = &out.result;
     let d = PyDict::new(py);
     d.set_item("image", rgba8(py, r.image()))?;
+    d.set_item(
+        "images",
+        r.images()
+            .into_iter()
+            .map(|i| rgba8(py, i))
+            .collect::<Vec<_>>(),
+    )?;
     d.set_item("report", json(&r.report_json()))?;
     d.set_item(
         "frames",

@@ -79,6 +79,9 @@ def test_a_mesh_series_writes_every_frame_its_rows_and_fps(tmp):
     assert series["n_frames"] == 3 and series["fps"] > 0
     assert [f["frame"] for f in series["frames"]] == [0, 1, 2]
     assert (tmp / "s.csv").read_text().count("\n") == 4
-    # Every frame written; the last is the image returned.
-    assert np.array_equal(cl.image[..., :3], read_png(tmp / "f-02.png"))
+    # Every frame written and returned; the last is the image.
+    assert len(cl.images) == 3 and len(cl.frames) == 3
+    for k, img in enumerate(cl.images):
+        assert np.array_equal(img[..., :3], read_png(tmp / f"f-{k:02d}.png"))
+    assert np.array_equal(cl.image, cl.images[-1])
     assert not np.array_equal(read_png(tmp / "f-00.png"), read_png(tmp / "f-02.png"))

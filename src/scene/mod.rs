@@ -142,19 +142,7 @@ impl Scene {
     /// Parses scene TOML; `path` is used for error messages and to resolve
     /// the data path.
     pub fn parse(text: &str, path: &Path) -> Result<Scene> {
-        let raw: RawScene = toml::from_str(text).map_err(|e| {
-            let key = e.message().split('`').nth(1).unwrap_or("").to_string();
-            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
-            let msg = match line {
-                Some(l) => format!("line {l}: {}", e.message().trim()),
-                None => e.message().trim().to_string(),
-            };
-            Error::scene(
-                path,
-                if key.is_empty() { "(file)".into() } else { key },
-                msg,
-            )
-        })?;
+        let raw: RawScene = toml::from_str(text).map_err(|e| toml_error(text, path, &e))?;
         Scene::from_raw(raw, path)
     }
 
@@ -303,6 +291,30 @@ impl Scene {
         s += "]\n";
         s
     }
+}
+
+/// A TOML error of the file at `path` (text `text`) as a scene error: the
+/// key it names, `line N` (an unknown key's own line: its span is the
+/// table, so the first line from there that sets the key) and the message.
+pub(crate) fn toml_error(text: &str, path: &Path, e: &toml::de::Error) -> Error {
+    let key = e.message().split('`').nth(1).unwrap_or("").to_string();
+    let line = e.span().map(|s| {
+        let from = text[..s.start].lines().count().max(1);
+        text.lines()
+            .enumerate()
+            .skip(from - 1)
+            .find(|(_, l)| !key.is_empty() && l.trim_start().starts_with(key.as_str()))
+            .map_or(from, |(i, _)| i + 1)
+    });
+    let msg = match line {
+        Some(l) => format!("line {l}: {}", e.message().trim()),
+        None => e.message().trim().to_string(),
+    };
+    Error::scene(
+        path,
+        if key.is_empty() { "(file)".into() } else { key },
+        msg,
+    )
 }
 
 /// A transfer function from rows `[s, r, g, b, opacity]` and its unit

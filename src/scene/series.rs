@@ -84,30 +84,7 @@ pub fn load(path: &Path, scene: &Scene) -> Result<Vec<FrameSpec>> {
 /// [`load`] of text already read (`path` names it in errors and resolves
 /// mesh paths).
 pub fn parse(text: &str, path: &Path, scene: &Scene) -> Result<Vec<FrameSpec>> {
-    let raw: RawSeries = toml::from_str(text).map_err(|e| {
-        let key = e.message().split('`').nth(1).unwrap_or("").to_string();
-        // The span of an unknown key is its table; the key's own line is
-        // the first line from there that sets it.
-        let line = e.span().map(|s| {
-            let from = text[..s.start].lines().count().max(1);
-            let own = text
-                .lines()
-                .enumerate()
-                .skip(from - 1)
-                .find(|(_, l)| !key.is_empty() && l.trim_start().starts_with(key.as_str()))
-                .map(|(i, _)| i + 1);
-            own.unwrap_or(from)
-        });
-        let msg = match line {
-            Some(l) => format!("line {l}: {}", e.message().trim()),
-            None => e.message().trim().to_string(),
-        };
-        Error::scene(
-            path,
-            if key.is_empty() { "(file)".into() } else { key },
-            msg,
-        )
-    })?;
+    let raw: RawSeries = toml::from_str(text).map_err(|e| super::toml_error(text, path, &e))?;
     if raw.frame.is_empty() {
         return Err(Error::scene(
             path,

@@ -63,8 +63,11 @@ class ClusterResult:
     """What ``cluster`` returns.
 
     - ``image``: (H, W, 4) uint8, the final frame (as ``-o`` writes it, plus A);
-    - ``report``: dict, the ``--report`` JSON of the (last) frame;
-    - ``frames``: every frame's report (a grid scene with ``frames`` > 1);
+    - ``images``: every frame's image, in order (a series: ``frames=N,
+      turn=DEG`` or ``series="session.toml"``; one image otherwise);
+    - ``report``: dict, the ``--report`` JSON of the (last) frame; a series
+      adds ``report["series"]``: ``fps``, ``total_s`` and one row per frame;
+    - ``frames``: every frame's report, in order;
     - ``nodes``: pandas.DataFrame, one row per node: the report's per-node
       figures (nested ones flattened as ``a.b``);
     - ``timeline``: pandas.DataFrame of what each node did when: ``node``,
@@ -73,10 +76,11 @@ class ClusterResult:
     - ``summary``: the text ``pvrsim cluster`` prints; ``warnings``.
     """
 
-    __slots__ = ("image", "report", "frames", "summary", "warnings", "ranks", "_trace", "_nodes", "_timeline")
+    __slots__ = ("image", "images", "report", "frames", "summary", "warnings", "ranks", "_trace", "_nodes", "_timeline")
 
     def __init__(self, raw: Dict[str, Any]) -> None:
         self.image: np.ndarray = raw["image"]
+        self.images: List[np.ndarray] = list(raw["images"])
         self.report: Dict[str, Any] = json.loads(raw["report"])
         self.frames: List[Dict[str, Any]] = [json.loads(f) for f in raw["frames"]]
         self.summary: str = raw["summary"]
