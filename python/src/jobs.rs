@@ -16,7 +16,6 @@ use pvrsim::image::Image;
 use pvrsim::job::options::ParamValue;
 use pvrsim::job::output::{prepare_output, OutputKind};
 use pvrsim::job::{ClusterJob, ClusterResult, JobError, RenderJob};
-use pvrsim::net::SimTrace;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -123,20 +122,6 @@ struct ClusterOut {
     warnings: Vec<String>,
 }
 
-/// The trace of the (last) frame and its rank count.
-fn trace_of(r: &ClusterResult) -> (&SimTrace, usize) {
-    match r {
-        ClusterResult::Mesh(f) => {
-            let o = f.last().expect("a frame");
-            (&o.trace, o.report.n_nodes)
-        }
-        ClusterResult::Grid(f) => {
-            let o = f.last().expect("a frame");
-            (&o.trace, o.report.nodes.len())
-        }
-    }
-}
-
 /// Writes `-o`, `--report`, `--trace`, `--timeline` when the caller named them.
 fn write_cluster_outputs(
     job: &ClusterJob,
@@ -158,14 +143,14 @@ fn write_cluster_outputs(
             std::fs::write(p, serde_json::to_string_pretty(&r.report_json())?)
                 .with_context(|| format!("cannot write {}", p.display()))?;
         }
-        let (trace, ranks) = trace_of(r);
+        let (trace, ranks) = r.trace();
         if let (true, Some(p)) = (has("trace"), &job.trace) {
             let f = std::fs::File::create(p)
                 .with_context(|| format!("cannot write {}", p.display()))?;
             trace.write_chrome_json(std::io::BufWriter::new(f))?;
         }
         if let (true, Some(p)) = (has("timeline"), &job.timeline) {
-            pvrsim::cluster::timeline::draw(trace, ranks, p)?;
+            pvrsim::cluster::timeline::draw(&trace, ranks, p)?;
         }
         Ok(())
     };
@@ -231,7 +216,7 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
         "frames",
         r.frame_reports_json().iter().map(json).collect::<Vec<_>>(),
     )?;
-    let (trace, ranks) = trace_of(r);
+    let (trace, ranks) = r.trace();
     let rows: Vec<TraceRow<'_>> = trace
         .events
         .iter()

@@ -61,12 +61,8 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             for line in series_output::write_series_images(Some(&a.output), &a.series, &images)? {
                 println!("{line}");
             }
-            let trace = if outs.len() > 1 {
-                crate::cluster::series::joined_trace(outs)
-            } else {
-                out.trace.clone()
-            };
-            write_outputs(&a, &out.report, &trace, out.report.n_nodes)?;
+            let (trace, ranks) = result.trace();
+            write_outputs(&a, &out.report, &trace, ranks)?;
             if let Some(line) = series_output::write_series_csv(&a.series, &out.report)? {
                 println!("{line}");
             }

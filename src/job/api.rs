@@ -114,6 +114,28 @@ impl ClusterResult {
         .expect("reports serialize")
     }
 
+    /// The timeline `--trace` and `--timeline` write, and its rank count:
+    /// a mesh series' frames laid end to end
+    /// ([`crate::cluster::series::joined_trace`]), else the (last) frame's.
+    pub fn trace(&self) -> (std::borrow::Cow<'_, crate::net::SimTrace>, usize) {
+        use std::borrow::Cow;
+        match self {
+            ClusterResult::Mesh(f) => {
+                let last = f.last().expect("a frame");
+                let trace = if f.len() > 1 {
+                    Cow::Owned(crate::cluster::series::joined_trace(f))
+                } else {
+                    Cow::Borrowed(&last.trace)
+                };
+                (trace, last.report.n_nodes)
+            }
+            ClusterResult::Grid(f) => {
+                let last = f.last().expect("a frame");
+                (Cow::Borrowed(&last.trace), last.report.nodes.len())
+            }
+        }
+    }
+
     /// Every frame's report as `--report` writes it, in order.
     pub fn frame_reports_json(&self) -> Vec<serde_json::Value> {
         match self {

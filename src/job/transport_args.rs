@@ -226,14 +226,7 @@ impl TransportArgs {
         let reassign = self.on_failure == OnFailure::Reassign;
         // Reassigning needs workers that serve a second session.
         let mut workers = self.spawn_processes(exe, cfg.phase1.nodes, reassign)?;
-        let c = Coordinator {
-            workers: workers.addrs.clone(),
-            token: workers.token().clone(),
-            tcp: self.tcp_options(),
-            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
-            reassign,
-        };
-        let r = c.run(input, cfg);
+        let r = self.local_coordinator(&workers).run(input, cfg);
         // Serving workers, and every worker after a failed frame (one may
         // be stopped: no waiting for it), are killed and reaped on drop.
         if r.is_ok() && !reassign {
@@ -282,18 +275,23 @@ impl TransportArgs {
                 // Workers that serve a session a frame; killed and reaped
                 // on drop, after the series or on any error.
                 let workers = self.spawn_processes(&exe, cfg.phase1.nodes, true)?;
-                let c = Coordinator {
-                    workers: workers.addrs.clone(),
-                    token: workers.token().clone(),
-                    tcp: self.tcp_options(),
-                    recv_timeout: Duration::from_secs_f64(self.recv_timeout),
-                    reassign: self.on_failure == OnFailure::Reassign,
-                };
+                let c = self.local_coordinator(&workers);
                 (0..n).map(|f| frame(f, &mut |i| c.run(i, cfg))).collect()
             }
             _ => (0..n)
                 .map(|f| frame(f, &mut |i| self.run(kind, i, cfg)))
                 .collect(),
+        }
+    }
+
+    /// The coordinator of worker processes started on this machine.
+    fn local_coordinator(&self, workers: &LocalWorkers) -> Coordinator {
+        Coordinator {
+            workers: workers.addrs.clone(),
+            token: workers.token().clone(),
+            tcp: self.tcp_options(),
+            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
+            reassign: self.on_failure == OnFailure::Reassign,
         }
     }
 
