@@ -14,6 +14,7 @@
 //! same ERT mode, same cost model) and the `Base` cluster (same `N`, ERT,
 //! sharing and DLB off, phase 1 only).
 
+pub mod frame;
 pub mod grid;
 pub mod phase1;
 pub mod phase2;
@@ -30,6 +31,7 @@ use crate::node::{CostProfile, NodeOptions, NodeRenderer, Placement, PlacementMe
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
 
+pub use frame::FrameData;
 pub use phase1::{ClockKind, Phase1, Phase1Config};
 pub use report::{ClusterReport, NodeReport};
 
@@ -278,13 +280,20 @@ pub fn finish(
         &cfg.network,
         p1.record_trace,
     )?;
-    finish_with(input, cfg, p, refs, ph2, t2.elapsed().as_secs_f64())
+    finish_with(
+        FrameData::Mesh(input),
+        cfg,
+        p,
+        refs,
+        ph2,
+        t2.elapsed().as_secs_f64(),
+    )
 }
 
 /// The report over phase 1's parts (their `lists` unused) and a phase 2
 /// that already ran (`host2_s` host seconds), e.g. worker to worker.
 pub fn finish_with(
-    input: &RenderInput,
+    data: FrameData<'_>,
     cfg: &ClusterConfig,
     p: Phase1Parts,
     refs: Option<report::References>,
@@ -327,7 +336,7 @@ pub fn finish_with(
     }
     let report = report::build(report::Inputs {
         cfg,
-        input,
+        data,
         nodes: node_stats,
         manager,
         phase1_end_s: end_s,

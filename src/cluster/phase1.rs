@@ -325,14 +325,17 @@ fn depth_quant(input: &RenderInput) -> crate::node::pixel_share::DepthQuant {
 /// The frame's depth range `[z0, z1]` for per-pixel sharing's depth codes
 /// (see `depth_quant`), padded a little.
 pub fn depth_range(input: &RenderInput) -> [f32; 2] {
-    let view = &input.scene.view();
+    padded_depths(depth_extent(&input.scene.view(), &input.mesh.points))
+}
+
+/// The smallest and largest depth of `points` in `view` (distance from the
+/// eye in perspective, camera `z` in orthographic), `(inf, -inf)` if none.
+pub fn depth_extent(view: &crate::scene::View, points: &[[f64; 3]]) -> (f64, f64) {
     let persp = matches!(
         view.projection,
         crate::scene::Projection::Perspective { .. }
     );
-    let (lo, hi) = input
-        .mesh
-        .points
+    points
         .iter()
         .map(|&p| {
             let c = view.to_camera(p);
@@ -344,7 +347,11 @@ pub fn depth_range(input: &RenderInput) -> [f32; 2] {
         })
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| {
             (a.min(z), b.max(z))
-        });
+        })
+}
+
+/// [`depth_range`] of an extent (the union of pieces' [`depth_extent`]s).
+pub fn padded_depths((lo, hi): (f64, f64)) -> [f32; 2] {
     // Widen by a relative epsilon: f32 segment depths may round past the
     // f64 extremes.
     let pad = 1e-4 * (hi - lo).abs().max(1.0);

@@ -134,14 +134,7 @@ impl TetMesh {
                 }
             ))
         })?;
-        Ok(match f.components {
-            1 => f.values.clone(),
-            c => f
-                .values
-                .chunks_exact(c)
-                .map(|v| v.iter().map(|x| x * x).sum::<f64>().sqrt())
-                .collect(),
-        })
+        Ok(scalar_of(&f.values, f.components))
     }
 
     /// Axis-aligned bounds `(min, max)` of the points.
@@ -222,6 +215,18 @@ impl TetMesh {
             neighbors,
             nonmanifold_faces,
         }
+    }
+}
+
+/// The scalar of a field with `components` values per vertex: the value
+/// itself, or the magnitude of a vector (as [`TetMesh::scalar`] gives it).
+pub fn scalar_of(values: &[f64], components: usize) -> Vec<f64> {
+    match components {
+        1 => values.to_vec(),
+        c => values
+            .chunks_exact(c.max(1))
+            .map(|v| v.iter().map(|x| x * x).sum::<f64>().sqrt())
+            .collect(),
     }
 }
 

@@ -169,9 +169,13 @@ pub struct ClusterArgs {
     /// of the cell centroids in 3-D (`rcb`, the paper's object-space split),
     /// a Morton-curve cut (`morton`), or bisection of the centroids' screen
     /// positions for this view (`rcb-view`: every node owns a screen region
-    /// with all its depths; view-dependent).
-    #[arg(long, value_enum, default_value_t = PlacementMethod::Rcb)]
-    pub placement: PlacementMethod,
+    /// with all its depths; view-dependent). Default: `rcb`; but a scene
+    /// whose data is a `.pvtu` on `--transport processes` or `tcp` is placed
+    /// by its pieces, each worker reading its own (the coordinator never
+    /// reads the cells); giving `--placement` there reads the whole mesh in
+    /// the coordinator and sends each worker its cells instead.
+    #[arg(long, value_enum)]
+    pub placement: Option<PlacementMethod>,
     /// Most cells a node scans between two looks at its inbox (an ERT update
     /// point also ends a chunk). Smaller chunks let a donor answer work
     /// requests sooner (measured on aorta-small, 8 nodes: 1000 → every
@@ -486,7 +490,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             clock: a.clock.unwrap_or(ClockKind::Virtual),
             record_trace: true,
         },
-        placement: a.placement,
+        placement: a.placement.unwrap_or(PlacementMethod::Rcb),
         compositor: a.compositing()?,
         codec: a.codec.list()?,
         network: load_network(network)?,
@@ -523,10 +527,27 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         input = input.with_size(w, h);
     }
     super::warn_field(&input);
+    let (cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
+    let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
+    Ok(MeshFrame {
+        inputs,
+        cfg,
+        steps,
+        remote,
+    })
+}
+
+/// The configuration of a mesh frame of `image` pixels and where it runs
+/// (`None`: this process): checks memory, the node count and what the
+/// transport accepts (remote workers hold partitioned data).
+pub(super) fn mesh_config(
+    a: &ClusterArgs,
+    image: [u32; 2],
+) -> anyhow::Result<(ClusterConfig, Option<super::transport_args::TransportKind>)> {
     let mut cfg = config(a)?;
     memory::check_fits(
-        input.scene.image.width,
-        input.scene.image.height,
+        image[0],
+        image[1],
         FrameKind::Cluster { nodes: a.nodes },
         crate::budget::available_bytes(),
     )?;
@@ -572,13 +593,7 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
             cfg.phase1.schedule_waves = 0;
         }
     }
-    let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
-    Ok(MeshFrame {
-        inputs,
-        cfg,
-        steps,
-        remote,
-    })
+    Ok((cfg, remote))
 }
 
 /// Runs prepared mesh frames (on the transport `a` names), writing

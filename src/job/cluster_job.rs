@@ -1,6 +1,7 @@
 //! A cluster job's one path: options validated once
 //! ([`Valid<ClusterArgs>`](super::validate::Valid)), the scene read once and,
-//! by what its data is, its mesh or volume loaded with the frame's
+//! by what its data is, its mesh or volume loaded (or, for a `.pvtu` on
+//! worker processes, its pieces' summaries: the workers read the cells) with the frame's
 //! configuration ([`LoadedCluster`]), then run into a [`ClusterResult`].
 //! The command line and [`super::ClusterJob::run`] both take it; nothing
 //! on it checks the options or reads the scene again.
@@ -8,6 +9,7 @@
 use super::api::ClusterResult;
 use super::cluster::{self, ClusterArgs, MeshFrame};
 use super::cluster_grid::{self, GridFrames};
+use super::cluster_pieces::{self, PieceFrames};
 use super::validate::Valid;
 
 /// A cluster job with its scene and data loaded, ready to run.
@@ -16,6 +18,8 @@ pub enum LoadedCluster<'a> {
     Mesh(&'a ClusterArgs, Box<MeshFrame>),
     /// The frames of a grid scene.
     Grid(&'a ClusterArgs, Box<GridFrames>),
+    /// The frames of a `.pvtu` mesh whose workers read their own pieces.
+    Pieces(&'a ClusterArgs, Box<PieceFrames>),
 }
 
 impl<'a> Valid<'a, ClusterArgs> {
@@ -26,6 +30,8 @@ impl<'a> Valid<'a, ClusterArgs> {
         let scene = super::load_scene(&a.scene)?;
         Ok(if super::render_grid::is_grid_scene(&scene) {
             LoadedCluster::Grid(a, Box::new(cluster_grid::load(a, scene)?))
+        } else if cluster_pieces::reads_pieces(a, &scene) {
+            LoadedCluster::Pieces(a, Box::new(cluster_pieces::load(a, scene)?))
         } else {
             LoadedCluster::Mesh(a, Box::new(cluster::load_mesh(a, scene)?))
         })
@@ -47,6 +53,9 @@ impl LoadedCluster<'_> {
         Ok(match self {
             LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(cluster::run_mesh(a, *f, progress)?),
             LoadedCluster::Grid(a, f) => ClusterResult::Grid(cluster_grid::run(a, *f)?),
+            LoadedCluster::Pieces(a, f) => {
+                ClusterResult::Mesh(cluster_pieces::run(a, *f, progress)?)
+            }
         })
     }
 }

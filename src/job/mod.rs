@@ -43,6 +43,7 @@ pub mod cluster;
 pub mod cluster_ert;
 pub mod cluster_grid;
 pub mod cluster_job;
+pub mod cluster_pieces;
 pub mod compare;
 pub mod grid_args;
 pub mod grid_order;

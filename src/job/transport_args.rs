@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
+use crate::cluster::remote::pieces::PieceSet;
 use crate::cluster::remote::{Coordinator, LocalWorkers, Measured};
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::tcp::{TcpOptions, Token};
@@ -347,12 +348,11 @@ impl TransportArgs {
         input: &RenderInput,
         cfg: &ClusterConfig,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let n = cfg.phase1.nodes;
-        let recv_timeout = Duration::from_secs_f64(self.recv_timeout);
         match kind {
             TransportKind::Threads => anyhow::bail!("threads run in this process (internal error)"),
             #[cfg(feature = "mpi")]
             TransportKind::Mpi => {
+                let recv_timeout = Duration::from_secs_f64(self.recv_timeout);
                 match crate::cluster::remote::mpi::coordinate(input, cfg, recv_timeout) {
                     Ok(x) => Ok(x),
                     // Print here, then end every rank of the job.
@@ -368,33 +368,86 @@ impl TransportArgs {
                 let exe = std::env::current_exe().context("cannot find this program's path")?;
                 self.run_processes(&exe, input, cfg)
             }
-            TransportKind::Tcp => {
-                let workers = match &self.hostfile {
-                    Some(p) => read_hostfile(p)?,
-                    None => self.workers.clone(),
-                };
+            TransportKind::Tcp => self.tcp_coordinator(cfg.phase1.nodes)?.run(input, cfg),
+        }
+    }
+
+    /// The coordinator of `--transport tcp`'s workers (`--workers` or
+    /// `--hostfile`, one per node).
+    fn tcp_coordinator(&self, n: usize) -> anyhow::Result<Coordinator> {
+        let workers = match &self.hostfile {
+            Some(p) => read_hostfile(p)?,
+            None => self.workers.clone(),
+        };
+        anyhow::ensure!(
+            !workers.is_empty(),
+            "--transport tcp needs --workers host:port,... or --hostfile FILE"
+        );
+        anyhow::ensure!(
+            workers.len() == n,
+            "{} workers for --nodes {n}: give one worker per node",
+            workers.len()
+        );
+        let token = match &self.token_file {
+            Some(p) => Token::load(p)?,
+            None => Token::none(),
+        };
+        Ok(Coordinator {
+            workers,
+            token,
+            tcp: self.tcp_options(),
+            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
+            reassign: self.on_failure == OnFailure::Reassign,
+        })
+    }
+
+    /// Frames on workers that read their own pieces of `pieces`
+    /// (`--transport processes` or `tcp`), one per scene (a series' cameras
+    /// and transfer functions): worker processes are started once. Per
+    /// frame: its outcome, what the transport measured and its wall
+    /// seconds. `done` hears of each frame.
+    pub fn run_pieces(
+        &self,
+        kind: TransportKind,
+        pieces: &PieceSet,
+        scenes: &[crate::scene::Scene],
+        cfg: &ClusterConfig,
+        mut done: impl FnMut(usize),
+    ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
+        let n = cfg.phase1.nodes;
+        let frames = scenes.len();
+        let serving = frames > 1 || self.on_failure == OnFailure::Reassign;
+        let (c, workers) = match kind {
+            TransportKind::Processes => {
+                let exe = std::env::current_exe().context("cannot find this program's path")?;
+                let w = self.spawn_processes(&exe, n, serving)?;
+                (self.local_coordinator(&w), Some(w))
+            }
+            TransportKind::Tcp => (self.tcp_coordinator(n)?, None),
+            other => anyhow::bail!(
+                "workers reading their own pieces run on --transport processes or tcp, not {}",
+                other.name()
+            ),
+        };
+        let mut out = Vec::with_capacity(frames);
+        for (f, scene) in scenes.iter().enumerate() {
+            crate::base::cancel::checkpoint();
+            let t = std::time::Instant::now();
+            let (o, m) = c
+                .run_pieces(pieces, scene, cfg)
+                .with_context(|| format!("frame {f} of {frames}"))?;
+            out.push((o, m, t.elapsed().as_secs_f64()));
+            done(f);
+        }
+        if let Some(mut w) = workers {
+            if !serving {
+                let bad = w.finish(Duration::from_secs(10));
                 anyhow::ensure!(
-                    !workers.is_empty(),
-                    "--transport tcp needs --workers host:port,... or --hostfile FILE"
+                    bad.is_empty(),
+                    "worker processes {bad:?} did not exit cleanly"
                 );
-                anyhow::ensure!(
-                    workers.len() == n,
-                    "{} workers for --nodes {n}: give one worker per node",
-                    workers.len()
-                );
-                let token = match &self.token_file {
-                    Some(p) => Token::load(p)?,
-                    None => Token::none(),
-                };
-                Coordinator {
-                    workers,
-                    token,
-                    tcp: self.tcp_options(),
-                    recv_timeout,
-                    reassign: self.on_failure == OnFailure::Reassign,
-                }
-                .run(input, cfg)
             }
         }
+        Ok(out)
     }
 }

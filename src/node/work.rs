@@ -3,10 +3,11 @@
 //!
 //! A unit carries its cells and the vertex data they need, indexed locally:
 //!
-//! - per vertex: its **global id** (scan conversion orients every face by the
-//!   global ids of its vertices, so that the two cells sharing a face compute
+//! - per vertex: its **global id** (the key a node merges units' vertices
+//!   by; scan conversion orients every face by its vertices' positions, ids
+//!   breaking ties, so that the two cells sharing a face compute
 //!   bit-identical planes wherever they are rendered — watertightness across
-//!   nodes), its world position (f64, so that every node projects it exactly
+//!   nodes and across pieces), its world position (f64, so that every node projects it exactly
 //!   as the single-machine renderer does) and its scalar, already normalised
 //!   to the transfer function's `[0, 1]` scale (f32: the precision scan
 //!   conversion uses);

@@ -11,15 +11,17 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::drive::{drive, worker_setups, DriveOptions};
+use super::drive::{drive, piece_setups, worker_setups, DriveOptions};
 use super::measured::Measured;
+use super::pieces::PieceSet;
 use super::reassign::{endings_wait, lost_on, with_reassign, LostWorkers};
 use super::session::Session;
-use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
+use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, FrameData};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{Codec, NodeId, RemoteTransport};
 use crate::node::Placement;
 use crate::render::RenderInput;
+use crate::scene::Scene;
 
 /// How the coordinator reaches its workers.
 #[derive(Debug, Clone)]
@@ -50,21 +52,66 @@ impl Coordinator {
         placement: &Placement,
         busy_wait: Duration,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let t_setup = Instant::now();
+        let setups = worker_setups(
+            input,
+            cfg,
+            placement,
+            &self.workers,
+            Codec::default(),
+            self.recv_timeout,
+        );
+        self.run_setups(FrameData::Mesh(input), cfg, setups, t_setup, busy_wait)
+    }
+
+    /// One frame on the workers, each reading pieces `parts[k]` of
+    /// `pieces` itself (see [`super::pieces`]).
+    pub(super) fn run_pieces_placed(
+        &self,
+        pieces: &PieceSet,
+        scene: &Scene,
+        cfg: &ClusterConfig,
+        parts: &[Vec<u32>],
+        busy_wait: Duration,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let t_setup = Instant::now();
+        let depth_range = pieces.depth_range(scene)?;
+        let setups = piece_setups(
+            pieces,
+            scene,
+            depth_range,
+            cfg,
+            parts,
+            &self.workers,
+            Codec::default(),
+            self.recv_timeout,
+        );
+        let data = FrameData::Pieces {
+            scene,
+            cells: 0,
+            depth_range,
+        };
+        let (mut out, m) = self.run_setups(data, cfg, setups, t_setup, busy_wait)?;
+        out.report.placement = "pieces".to_string();
+        Ok((out, m))
+    }
+
+    /// One frame on the workers with these set-ups (and cells to send
+    /// when a worker's cache misses).
+    fn run_setups(
+        &self,
+        data: FrameData<'_>,
+        cfg: &ClusterConfig,
+        setups: Vec<(super::session::WorkerSetup, Vec<u8>)>,
+        t_setup: Instant,
+        busy_wait: Duration,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
         let n = cfg.phase1.nodes;
         let mut cfg = cfg.clone();
         cfg.phase1.clock = ClockKind::Wall;
-        let codec = Codec::default();
         let rt = tcp::runtime()?;
-        let t_setup = Instant::now();
         let me = NodeId::from(n);
-        let setups = worker_setups(
-            input,
-            &cfg,
-            placement,
-            &self.workers,
-            codec,
-            self.recv_timeout,
-        );
+        let pieces = setups.iter().any(|(s, _)| s.pieces.is_some());
         // Connect, set up, send cells: all workers concurrently.
         let mut tasks = Vec::with_capacity(n);
         for (k, (setup, cells)) in setups.into_iter().enumerate() {
@@ -98,16 +145,62 @@ impl Coordinator {
         }
         let t = TcpTransport::new(Arc::clone(&rt), me, n + 1, links, self.tcp)?;
         let d = DriveOptions {
-            ready_wait: self.tcp.handshake_timeout * 4 + Duration::from_secs(10),
+            // Workers that read their pieces take the time that needs
+            // (their links stay up: a death is still seen at once).
+            ready_wait: if pieces {
+                PIECES_READY_WAIT
+            } else {
+                self.tcp.handshake_timeout * 4 + Duration::from_secs(10)
+            },
             recv_timeout: self.recv_timeout,
         };
-        drive(&t, d, input, &cfg, t_setup, measured, |t, e, phase| {
+        drive(&t, d, data, &cfg, t_setup, measured, |t, e, phase| {
             self.lost_workers(t, n, e, phase)
         })
     }
 }
 
+/// Longest wait for the workers' `Ready` when they read their own pieces.
+const PIECES_READY_WAIT: Duration = Duration::from_secs(600);
+
 impl Coordinator {
+    /// Runs one frame on workers that read their own pieces of `pieces`
+    /// (node `k` a contiguous run, [`PieceSet::parts`]); with
+    /// [`Coordinator::reassign`], again on the survivors whenever workers
+    /// are lost, the lost workers' pieces read by the survivors.
+    pub fn run_pieces(
+        &self,
+        pieces: &PieceSet,
+        scene: &Scene,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        let n = cfg.phase1.nodes;
+        anyhow::ensure!(
+            self.workers.len() == n,
+            "{} worker addresses for --nodes {n}: give one worker per node",
+            self.workers.len()
+        );
+        let ((out, mut m), r) = with_reassign(
+            n,
+            pieces.parts(n),
+            self.tcp.deadline,
+            self.reassign,
+            "pieces",
+            |alive, parts| {
+                let c = Coordinator {
+                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
+                    ..self.clone()
+                };
+                let mut cfg = cfg.clone();
+                cfg.phase1.nodes = alive.len();
+                let wait = busy_wait(alive.len() < n, self.tcp.deadline);
+                c.run_pieces_placed(pieces, scene, &cfg, parts, wait)
+            },
+        )?;
+        m.reassigned = r;
+        Ok((out, m))
+    }
+
     /// Runs one frame on the workers; with [`Coordinator::reassign`], again
     /// on the survivors whenever workers are lost (at any phase).
     pub fn run(

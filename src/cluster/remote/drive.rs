@@ -17,9 +17,10 @@ use anyhow::Context;
 use super::guard::SessionGuard;
 use super::measured::Measured;
 use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
+use super::pieces::PieceSet;
 use super::session::{sha256, NodeResult, Session, WorkerSetup};
 use crate::cluster::phase2::Phase2;
-use crate::cluster::{ClusterConfig, ClusterOutcome, Phase1Parts};
+use crate::cluster::{ClusterConfig, ClusterOutcome, FrameData, Phase1Parts};
 use crate::manager::{ManagerActor, ManagerConfig};
 use crate::net::{
     run_actor, Codec, ComputeMode, MessageKind, NodeId, RemoteTransport, SimTrace, TrafficStats,
@@ -28,6 +29,7 @@ use crate::net::{
 use crate::node::{NodeRenderer, Placement, WorkUnit};
 use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
+use crate::scene::Scene;
 
 /// Each worker's set-up and encoded cells for `placement` (`addrs`: the
 /// workers' addresses by rank, for the mesh; empty when the transport
@@ -48,11 +50,15 @@ pub(super) fn worker_setups(
     } else {
         Vec::new()
     };
-    let scene_toml = input
-        .scene
-        .to_toml(&input.scene.data.path.to_string_lossy());
+    let base = base_setup(
+        &input.scene,
+        crate::cluster::phase1::depth_range(input),
+        cfg,
+        addrs,
+        codec,
+        recv_timeout,
+    );
     let mut out = Vec::with_capacity(n);
-    let session_id = super::session::new_session_id();
     for (k, part) in placement.parts.iter().enumerate() {
         let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
         let peers: Vec<u32> = if overlap {
@@ -65,27 +71,75 @@ pub(super) fn worker_setups(
         };
         let setup = WorkerSetup {
             rank: k as u32,
-            nodes: n as u32,
-            peers: addrs.to_vec(),
-            scene_toml: scene_toml.clone(),
-            depth_range: crate::cluster::phase1::depth_range(input),
-            node: p1.node.into(),
-            share: p1.share,
-            dlb: p1.dlb,
-            policy: p1.policy.into(),
             overlap_peers: peers,
-            profile: cfg.profile,
-            list_codec: cfg.codec,
-            compositor: cfg.compositor,
-            max_message_bytes: codec.max_message_bytes,
             cells_initial: part.len() as u64,
             cells_sha256: sha256(&cells),
-            recv_timeout_s: recv_timeout.as_secs_f64(),
-            session_id,
+            ..base.clone()
         };
         out.push((setup, cells));
     }
     out
+}
+
+/// Each worker's set-up when the workers read their own pieces: node `k`
+/// the pieces `parts[k]` of `pieces` (no cells to send).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn piece_setups(
+    pieces: &PieceSet,
+    scene: &Scene,
+    depth_range: [f32; 2],
+    cfg: &ClusterConfig,
+    parts: &[Vec<u32>],
+    addrs: &[String],
+    codec: Codec,
+    recv_timeout: Duration,
+) -> Vec<(WorkerSetup, Vec<u8>)> {
+    let base = base_setup(scene, depth_range, cfg, addrs, codec, recv_timeout);
+    parts
+        .iter()
+        .enumerate()
+        .map(|(k, part)| {
+            let setup = WorkerSetup {
+                rank: k as u32,
+                pieces: Some(pieces.source(part)),
+                ..base.clone()
+            };
+            (setup, Vec::new())
+        })
+        .collect()
+}
+
+/// What every worker's set-up of a frame shares (rank 0, no cells).
+fn base_setup(
+    scene: &Scene,
+    depth_range: [f32; 2],
+    cfg: &ClusterConfig,
+    addrs: &[String],
+    codec: Codec,
+    recv_timeout: Duration,
+) -> WorkerSetup {
+    let p1 = cfg.phase1;
+    WorkerSetup {
+        rank: 0,
+        nodes: p1.nodes as u32,
+        peers: addrs.to_vec(),
+        scene_toml: scene.to_toml(&scene.data.path.to_string_lossy()),
+        depth_range,
+        node: p1.node.into(),
+        share: p1.share,
+        dlb: p1.dlb,
+        policy: p1.policy.into(),
+        overlap_peers: Vec::new(),
+        profile: cfg.profile,
+        list_codec: cfg.codec,
+        compositor: cfg.compositor,
+        max_message_bytes: codec.max_message_bytes,
+        cells_initial: 0,
+        cells_sha256: [0; 32],
+        pieces: None,
+        recv_timeout_s: recv_timeout.as_secs_f64(),
+        session_id: super::session::new_session_id(),
+    }
 }
 
 /// Timing of a coordinator's frame.
@@ -133,14 +187,14 @@ fn blame_the_dead<T: RemoteTransport>(t: &T, n: usize, e: anyhow::Error) -> anyh
 pub(super) fn drive<T: RemoteTransport>(
     t: &T,
     d: DriveOptions,
-    input: &RenderInput,
+    data: FrameData<'_>,
     cfg: &ClusterConfig,
     t_setup: Instant,
     measured: Measured,
     on_error: impl FnOnce(&T, anyhow::Error, &'static str) -> anyhow::Error,
 ) -> anyhow::Result<(ClusterOutcome, Measured)> {
     let mut phase = "set-up";
-    drive_phases(t, d, input, cfg, t_setup, measured, &mut phase).map_err(|e| on_error(t, e, phase))
+    drive_phases(t, d, data, cfg, t_setup, measured, &mut phase).map_err(|e| on_error(t, e, phase))
 }
 
 /// [`drive`]'s body; `phase` follows the frame (`set-up`, `phase 1`,
@@ -148,7 +202,7 @@ pub(super) fn drive<T: RemoteTransport>(
 fn drive_phases<T: RemoteTransport>(
     t: &T,
     d: DriveOptions,
-    input: &RenderInput,
+    mut data: FrameData<'_>,
     cfg: &ClusterConfig,
     t_setup: Instant,
     mut measured: Measured,
@@ -190,6 +244,10 @@ fn drive_phases<T: RemoteTransport>(
         }
     }
     measured.setup_s = t_setup.elapsed().as_secs_f64();
+    if let FrameData::Pieces { cells, .. } = &mut data {
+        // The workers read the cells: their counts are the frame's.
+        *cells = initial.iter().sum();
+    }
     let go = codec.encode(&Session::Go)?;
     for k in 0..n {
         t.send(NodeId::from(k), MessageKind::Session, go.clone())
@@ -198,7 +256,7 @@ fn drive_phases<T: RemoteTransport>(
 
     // Phase 1: the manager here, the nodes on the workers.
     *phase = "phase 1";
-    let mut manager = manager_for(input, &cfg, initial)?;
+    let mut manager = manager_for(data, &cfg, initial)?;
     let wire0 = t.stats();
     let t1 = Instant::now();
     let phase1 = (|| {
@@ -272,7 +330,7 @@ fn drive_phases<T: RemoteTransport>(
     // Phase 2, worker to worker; the pixels come here.
     *phase = "phase 2";
     let t2 = Instant::now();
-    let (ph2, logs) = phase2(t, d, input, &cfg, codec, &mut measured)?;
+    let (ph2, logs) = phase2(t, d, data.scene(), &cfg, codec, &mut measured)?;
     measured.phase2_s = t2.elapsed().as_secs_f64();
     t.close(Duration::from_secs(2));
 
@@ -307,7 +365,7 @@ fn drive_phases<T: RemoteTransport>(
     measured.phase2_ranks = logs.iter().map(|l| (l.seconds, l.cpu_s)).collect();
     measured.phase2_handoff_messages = logs.iter().map(|l| l.handoff_messages).sum();
     let out = crate::cluster::finish_with(
-        input,
+        data,
         &cfg,
         Phase1Parts {
             nodes,
@@ -332,7 +390,7 @@ fn drive_phases<T: RemoteTransport>(
 fn phase2<T: RemoteTransport>(
     t: &T,
     d: DriveOptions,
-    input: &RenderInput,
+    scene: &Scene,
     cfg: &ClusterConfig,
     codec: Codec,
     measured: &mut Measured,
@@ -340,7 +398,6 @@ fn phase2<T: RemoteTransport>(
     let n = cfg.phase1.nodes;
     let strategy = cfg.compositor.build();
     let list_codec = cfg.codec.build();
-    let scene = &input.scene;
     let schedule = strategy.schedule(
         n,
         crate::compositor::region::screen(scene.image.width, scene.image.height),
@@ -407,19 +464,16 @@ fn phase2<T: RemoteTransport>(
 /// The manager for a run, as [`crate::cluster::phase1::run`] builds it:
 /// table shape and level grid from a node renderer of the same options.
 fn manager_for(
-    input: &RenderInput,
+    data: FrameData<'_>,
     cfg: &ClusterConfig,
     initial: Vec<u64>,
 ) -> anyhow::Result<ManagerActor> {
     let p1 = &cfg.phase1;
-    let mut probe = NodeRenderer::new(
-        input.scene.view(),
-        PreparedTf::new(&input.scene.transfer),
-        p1.node,
-    );
+    let scene = data.scene();
+    let mut probe = NodeRenderer::new(scene.view(), PreparedTf::new(&scene.transfer), p1.node);
     if p1.share {
         probe.enable_level_sharing();
-        let [z0, z1] = crate::cluster::phase1::depth_range(input);
+        let [z0, z1] = data.depth_range();
         probe.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
     }
     let (nx, ny) = probe.table_dims();

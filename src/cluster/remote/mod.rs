@@ -17,6 +17,7 @@
 //! | [`guard`] | keeps session messages away from the actors; failure reports become errors |
 //! | [`phase2`] | compositing worker to worker: one rank's rounds, the coordinator's gather |
 //! | [`measured`] | what a real transport measured beside the report |
+//! | [`pieces`] | partitioned data: each worker reads its own pieces of a `.pvtu` |
 //! | [`mesh`] | a worker joins the mesh of its peers; its transport with the coordinator's link |
 //! | [`worker`] | `pvrsim worker`: sessions, one node |
 //! | `mpi` | (feature `mpi`) `--transport mpi`: the coordinator on MPI rank 0, the workers' set-up over MPI |
@@ -37,6 +38,7 @@ pub mod mesh;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod phase2;
+pub mod pieces;
 pub mod probe;
 pub mod reassign;
 pub mod session;

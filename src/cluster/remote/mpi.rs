@@ -80,7 +80,15 @@ pub fn coordinate(
         ready_wait: recv_timeout,
         recv_timeout,
     };
-    drive(&t, d, input, &cfg, t_setup, measured, |_, e, _| e)
+    drive(
+        &t,
+        d,
+        crate::cluster::FrameData::Mesh(input),
+        &cfg,
+        t_setup,
+        measured,
+        |_, e, _| e,
+    )
 }
 
 /// A worker rank (`≥ 1`): receives its set-up and cells, runs its node

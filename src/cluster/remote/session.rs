@@ -6,7 +6,9 @@
 //! ```text
 //! coordinator → worker  Setup        rank, peers, scene, options, hash of its cells
 //! worker → coordinator  Need(bool)   true: the cells are not in its cache
-//! coordinator → worker  Cells        WorkUnit::encode bytes (only if needed)
+//! coordinator → worker  Cells        WorkUnit::encode bytes (only if needed;
+//!                                    never when the set-up names pieces the
+//!                                    worker reads itself, see super::pieces)
 //! (workers dial lower ranks, accept higher ones: a full mesh)
 //! worker → coordinator  Ready        every peer link is up, the node is built
 //! coordinator → worker  Go           phase 1 starts (the worker's clock starts)
@@ -226,6 +228,9 @@ pub struct WorkerSetup {
     pub cells_initial: u64,
     /// SHA-256 of the cells' bytes (the cache key).
     pub cells_sha256: [u8; 32],
+    /// Partitioned data read where it is used: the pieces this worker reads
+    /// itself ([`super::pieces`]); no cells are sent (its `Need` is false).
+    pub pieces: Option<super::pieces::PieceSource>,
     /// Longest wait for a message in phase 1 before giving up (seconds).
     pub recv_timeout_s: f64,
     /// The frame's random id (the same in every worker's set-up): a mesh

@@ -6,17 +6,17 @@ use std::collections::BTreeMap;
 
 use super::types::{ClusterReport, NodeRaw, NodeReport, References, Replication, TShare, WallInfo};
 use crate::cluster::phase2::Phase2;
+use crate::cluster::FrameData;
 use crate::cluster::{ClockKind, ClusterConfig};
 use crate::manager::ManagerStats;
 use crate::net::{MessageKind, SimTrace, TraceKind, TrafficStats};
-use crate::render::RenderInput;
 
 /// What [`build`] needs.
 pub struct Inputs<'a> {
     /// The configuration.
     pub cfg: &'a ClusterConfig,
-    /// The scene.
-    pub input: &'a RenderInput,
+    /// The scene and its data.
+    pub data: FrameData<'a>,
     /// Per node, from the actors.
     pub nodes: Vec<NodeRaw>,
     /// The manager's stats.
@@ -222,8 +222,8 @@ pub fn build(i: Inputs) -> ClusterReport {
         }
     };
     ClusterReport {
-        image: [i.input.scene.image.width, i.input.scene.image.height],
-        cells_total: i.input.mesh.tets.len() as u64,
+        image: [i.data.scene().image.width, i.data.scene().image.height],
+        cells_total: i.data.cells_total(),
         n_nodes: n,
         clock: p1.clock,
         network: modelled_name(&cfg.network_name),
@@ -258,8 +258,12 @@ pub fn build(i: Inputs) -> ClusterReport {
         help_gap: p1.policy.help_gap,
         help_forwards: manager.help_forwards,
         data: p1.data,
-        replication: (p1.data == crate::node::DataMode::Replicated)
-            .then(|| Replication::new(i.input, n, &cfg.network)),
+        replication: match i.data {
+            FrameData::Mesh(input) if p1.data == crate::node::DataMode::Replicated => {
+                Some(Replication::new(input, n, &cfg.network))
+            }
+            _ => None,
+        },
         dlb: p1.dlb,
         canonical: p1.node.canonical,
         frame_s,
@@ -288,7 +292,10 @@ pub fn build(i: Inputs) -> ClusterReport {
         cells_processed: nodes.iter().map(|x| x.cells_processed).sum(),
         cells_skipped_ert: skipped,
         cells_moved: nodes.iter().map(|x| x.cells_taken).sum(),
-        schedule_waves: crate::cluster::phase1::effective_waves(p1, i.input.mesh.tets.len()),
+        schedule_waves: crate::cluster::phase1::effective_waves(
+            p1,
+            usize::try_from(i.data.cells_total()).unwrap_or(usize::MAX),
+        ),
         schedule_leaf_cells: p1.schedule_leaf_cells,
         schedule_stacking: i
             .nodes

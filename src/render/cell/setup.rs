@@ -5,17 +5,24 @@
 //! agree exactly on where a ray crosses it, or the ray would see a crack (or
 //! a sliver of double coverage) between them and partial composition could not
 //! merge their segments. So each face's plane `n · p = h` is computed from its
-//! three vertices *sorted by global vertex index*, never from the tet's own
+//! three vertices *sorted by position* (lexicographic `x, y, z`, then the
+//! global vertex id for coincident vertices), never from the tet's own
 //! vertex order: both neighbours get bit-identical `n` and `h`, and only the
 //! orientation sign `sigma` (which side is inside) differs. Every later
 //! formula is odd in `(n, h)` so the crossing depth is bit-identical too.
+//!
+//! The order is the vertices' own, not their numbering's: the copies of a
+//! vertex that two pieces of a partitioned mesh both hold (solvers duplicate
+//! the vertices on piece boundaries, each piece numbering its own) sort the
+//! same in both, so the two cells that meet across the boundary agree on
+//! their face wherever they are read and whatever ids they were given.
 
 /// One face plane of a tet: `n · p = h`, outward normal `sigma * n`.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FacePlane {
     /// Normal from the sorted vertex triple (not unit length).
     pub n: [f32; 3],
-    /// Plane offset, `n · a` for the lowest-index vertex `a`.
+    /// Plane offset, `n · a` for the face's first vertex `a` in the order.
     pub h: f32,
     /// `+1` if `n` points out of the tet, `-1` if in.
     pub sigma: f32,
@@ -56,18 +63,31 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// Whether vertex slot `a` sorts after slot `b`: by position (`x`, `y`,
+/// `z`, IEEE total order), then by global id (see the module docs).
+#[inline(always)]
+fn after(ids: &[u32; 4], p: &[[f32; 3]; 4], a: usize, b: usize) -> bool {
+    let (pa, pb) = (p[a], p[b]);
+    pa[0]
+        .total_cmp(&pb[0])
+        .then(pa[1].total_cmp(&pb[1]))
+        .then(pa[2].total_cmp(&pb[2]))
+        .then(ids[a].cmp(&ids[b]))
+        .is_gt()
+}
+
 /// Sets up the tet with global vertex ids `ids`, vertex positions `p` and
 /// scalars `sv`. `None` for a tet with no volume (in f32): it covers no ray
 /// stretch of positive length.
 #[inline]
 pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetSetup> {
-    // The slots in increasing global id (a sorting network): every face's
-    // vertex triple is then this order with one vertex left out, so it is
-    // sorted without sorting it again, and the edges from the lowest vertex
-    // are shared by the three faces that hold it.
+    // The slots in increasing vertex order (a sorting network): every
+    // face's vertex triple is then this order with one vertex left out, so
+    // it is sorted without sorting it again, and the edges from the lowest
+    // vertex are shared by the three faces that hold it.
     let mut o = [0usize, 1, 2, 3];
     for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-        if ids[o[a]] > ids[o[b]] {
+        if after(&ids, p, o[a], o[b]) {
             o.swap(a, b);
         }
     }

@@ -216,6 +216,9 @@ impl Worker {
         let me = NodeId(setup.rank);
         self.door.set_rank(setup.rank);
         let codec = Codec::with_limit(setup.max_message_bytes);
+        // Pieces the worker reads itself: nothing to send (read once the
+        // mesh of peers is up, see node::build_node).
+        let pieces = setup.pieces.is_some();
         let cached = self
             .cache
             .iter()
@@ -225,10 +228,11 @@ impl Worker {
             &codec,
             me,
             coord,
-            &Session::Need(cached.is_none()),
+            &Session::Need(!pieces && cached.is_none()),
             &name,
         ))?;
         let cells = match cached {
+            _ if pieces => Vec::new(),
             Some(i) => self.cache[i].1.clone(),
             None => {
                 let m: Session =

@@ -268,8 +268,16 @@ pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor
         let [z0, z1] = setup.depth_range;
         r.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
     }
-    let unit = WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+    let unit = match &setup.pieces {
+        Some(src) => crate::cluster::remote::pieces::load(src)?,
+        None => WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?,
+    };
+    let cells_initial = match setup.pieces {
+        Some(_) => unit.len() as u64,
+        None => setup.cells_initial,
+    };
     r.add_work(&unit)?;
+    drop(unit);
     let nc = NodeConfig {
         rank: setup.rank as usize,
         manager: setup.nodes as usize,
@@ -277,7 +285,7 @@ pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor
         dlb: setup.dlb,
         policy: setup.policy.into(),
     };
-    let mut a = NodeActor::new(nc, r, setup.profile, Codec::default(), setup.cells_initial);
+    let mut a = NodeActor::new(nc, r, setup.profile, Codec::default(), cells_initial);
     if !setup.overlap_peers.is_empty() {
         a.set_peers(setup.overlap_peers.iter().map(|&p| p as usize).collect());
     }

@@ -22,6 +22,7 @@
 //! boundaries); vertices that differ in any value are kept apart.
 
 pub mod merge;
+pub mod summary;
 pub mod write;
 
 use std::path::{Path, PathBuf};
@@ -172,6 +173,23 @@ pub fn read_piece(path: &Path, head: &PvtuHeader, k: usize) -> Result<TetMesh> {
     let at = |msg: String| Error::data(path, format!("<Piece> {k} Source=\"{src}\""), msg);
     let (mesh, pty, decl) = vtu::read_declared(p).map_err(|e| at(e.to_string()))?;
     mesh.validate(p).map_err(|e| at(e.to_string()))?;
+    check_piece(path, head, k, pty, &decl, mesh.points.is_empty())?;
+    Ok(mesh)
+}
+
+/// Checks piece `k`'s points type `pty` and point-data arrays `decl`
+/// against the `.pvtu`'s declaration (`empty`: the piece has no points, and
+/// may then declare no arrays).
+pub(crate) fn check_piece(
+    path: &Path,
+    head: &PvtuHeader,
+    k: usize,
+    pty: Option<NumType>,
+    decl: &Declared,
+    empty: bool,
+) -> Result<()> {
+    let (src, p) = &head.pieces[k];
+    let at = |msg: String| Error::data(path, format!("<Piece> {k} Source=\"{src}\""), msg);
     if let (Some(want), Some(got)) = (head.points_type, pty) {
         if want != got {
             return Err(at(format!(
@@ -186,18 +204,18 @@ pub fn read_piece(path: &Path, head: &PvtuHeader, k: usize) -> Result<TetMesh> {
             .collect::<Vec<_>>()
             .join(", ")
     };
-    if mesh.points.is_empty() && decl.is_empty() {
-        return Ok(mesh);
+    if empty && decl.is_empty() {
+        return Ok(());
     }
-    if decl != head.arrays {
+    if *decl != head.arrays {
         return Err(at(format!(
             "{}: its point data [{}] differ from the .pvtu's <PPointData> [{}] (every piece must have the same arrays, types and components)",
             p.display(),
-            show(&decl),
+            show(decl),
             show(&head.arrays)
         )));
     }
-    Ok(mesh)
+    Ok(())
 }
 
 /// Reads a `.pvtu` and all its pieces (in parallel) into one mesh, merging

@@ -25,6 +25,7 @@ use std::path::Path;
 
 mod assemble;
 mod decode;
+pub mod vertices;
 
 use assemble::assemble;
 

@@ -1,0 +1,270 @@
+//! Partitioned data read where it is used: a scene whose data is a `.pvtu`
+//! runs on worker processes or TCP workers with **each worker reading its
+//! own pieces** ([`load`]); the coordinator reads the `.pvtu` and each
+//! piece's vertices for their bounds and the field's range
+//! ([`PieceSet::open`]), never the cells. The pieces are the initial
+//! placement, as the paper's nodes held what the simulation wrote: node `k`
+//! gets a contiguous run of pieces ([`PieceSet::parts`]); DLB then moves
+//! cells with their vertices as with any partitioned data.
+//!
+//! **Numbering.** A worker numbers piece `i`'s vertices `vertex_base(i) +
+//! local` (the pieces' vertex counts summed in the `.pvtu`'s order) and its
+//! tetrahedra `cell_base(i) + local`, where the cell bases leave room for
+//! the tetrahedra of other cell types (at most [`TETS_PER_CELL`] per cell).
+//! Ids only have to be unique: a vertex that two pieces both hold (solvers
+//! duplicate the vertices of the boundary between pieces) gets two ids, and
+//! scan conversion orients faces by the vertices' positions, not their ids
+//! ([`crate::render::cell::setup`]), so the cells that meet across the
+//! boundary still agree on the face bit for bit: the image is the one a
+//! single process renders from the union of the pieces.
+//!
+//! Every check of the full reader applies (a missing, truncated or
+//! inconsistent piece, out-of-range indices), as the worker sees its
+//! pieces; the worker also checks that each piece has the vertices the
+//! coordinator saw (the same file under the same path).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+
+use crate::data::io::pvtu::{self, summary::Summary};
+use crate::node::WorkUnit;
+use crate::scene::Scene;
+
+/// Most tetrahedra one VTK cell becomes (a hexahedron: 6).
+pub const TETS_PER_CELL: u64 = 6;
+
+/// One piece a worker reads, with the ids it gives its vertices and cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct WirePiece {
+    /// Its index in the `.pvtu`.
+    pub index: u32,
+    /// Its vertices as the coordinator counted them.
+    pub points: u32,
+    /// Id of its first vertex.
+    pub vertex_base: u32,
+    /// Id of its first tetrahedron.
+    pub cell_base: u32,
+    /// Most tetrahedra it may hold (`TETS_PER_CELL` x its declared cells).
+    pub cells_max: u32,
+}
+
+/// The pieces a worker reads (in its set-up, instead of cells).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PieceSource {
+    /// The `.pvtu` as the coordinator names it: the same path must reach
+    /// the same files on every worker's machine.
+    pub pvtu: String,
+    /// The field rendered.
+    pub field: String,
+    /// The range the field is normalised with (the whole mesh's).
+    pub range: [f64; 2],
+    /// Its pieces, ascending.
+    pub pieces: Vec<WirePiece>,
+}
+
+/// The coordinator's view of a partitioned mesh: its pieces' summaries and
+/// the field's range, no cells.
+#[derive(Debug, Clone)]
+pub struct PieceSet {
+    /// What the coordinator read of each piece.
+    pub summary: Summary,
+    /// The field rendered.
+    pub field: String,
+    /// The range the field is normalised with: the scene's, or the
+    /// field's min..max over every piece (as [`crate::render::RenderInput`]
+    /// takes it).
+    pub range: [f64; 2],
+    /// Per piece: `(vertex_base, cell_base, cells_max)`.
+    bases: Vec<(u32, u32, u32)>,
+}
+
+impl PieceSet {
+    /// Reads the `.pvtu` of `scene`'s data and its pieces' vertices.
+    pub fn open(scene: &Scene) -> anyhow::Result<PieceSet> {
+        let path = &scene.data.path;
+        let summary = pvtu::summary::summarize(path, &scene.data.field)?;
+        let range = match scene.data.range {
+            Some(r) => r,
+            None => summary.scalar_range().unwrap_or([0.0, 1.0]),
+        };
+        let mut bases = Vec::with_capacity(summary.pieces.len());
+        let (mut v, mut c) = (0u64, 0u64);
+        for p in &summary.pieces {
+            let cells_max = p.cells_declared * TETS_PER_CELL;
+            let fits = |x: u64| u32::try_from(x).ok();
+            let (Some(vb), Some(cb), Some(cm), Some(_), Some(_)) = (
+                fits(v),
+                fits(c),
+                fits(cells_max),
+                fits(v + p.points),
+                fits(c + cells_max),
+            ) else {
+                anyhow::bail!(
+                    "{}: the pieces hold more than 2^32 vertices or possible tetrahedra \
+                     (piece {}: vertex {v}, cell {c}); pvrsim numbers them in 32 bits",
+                    path.display(),
+                    p.source
+                );
+            };
+            bases.push((vb, cb, cm));
+            v += p.points;
+            c += cells_max;
+        }
+        Ok(PieceSet {
+            summary,
+            field: scene.data.field.clone(),
+            range,
+            bases,
+        })
+    }
+
+    /// The `.pvtu`'s path.
+    pub fn path(&self) -> &Path {
+        &self.summary.path
+    }
+
+    /// Pieces per node: `n` contiguous runs of about equal declared cells
+    /// (with fewer pieces than nodes, the last nodes start empty).
+    pub fn parts(&self, n: usize) -> Vec<Vec<u32>> {
+        let w: Vec<u64> = self
+            .summary
+            .pieces
+            .iter()
+            .map(|p| p.cells_declared)
+            .collect();
+        let total: u64 = w.iter().sum();
+        let mut parts = vec![Vec::new(); n];
+        let mut acc = 0u64;
+        for (i, &c) in w.iter().enumerate() {
+            // The node whose share the piece's middle falls in.
+            let mid = acc as u128 * 2 + c as u128;
+            let k = if total == 0 {
+                i * n / w.len().max(1)
+            } else {
+                ((mid * n as u128) / (2 * total as u128)) as usize
+            };
+            parts[k.min(n - 1)].push(i as u32);
+            acc += c;
+        }
+        // Fewer pieces than nodes: one piece each, first nodes first.
+        if w.len() >= n && parts.iter().any(Vec::is_empty) {
+            for (k, p) in parts.iter_mut().enumerate() {
+                p.clear();
+                let (a, b) = (k * w.len() / n, (k + 1) * w.len() / n);
+                p.extend(a as u32..b as u32);
+            }
+        }
+        parts
+    }
+
+    /// What a worker holding pieces `part` is told.
+    pub fn source(&self, part: &[u32]) -> PieceSource {
+        PieceSource {
+            pvtu: self.summary.path.to_string_lossy().into_owned(),
+            field: self.field.clone(),
+            range: self.range,
+            pieces: part
+                .iter()
+                .map(|&i| {
+                    let (vertex_base, cell_base, cells_max) = self.bases[i as usize];
+                    WirePiece {
+                        index: i,
+                        points: self.summary.pieces[i as usize].points as u32,
+                        vertex_base,
+                        cell_base,
+                        cells_max,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// The frame's depth range for `scene`'s camera over every piece's
+    /// vertices (read again, a piece per thread), as
+    /// [`crate::cluster::phase1::depth_range`] gives it for a whole mesh.
+    pub fn depth_range(&self, scene: &Scene) -> anyhow::Result<[f32; 2]> {
+        let view = scene.view();
+        let ext = pvtu::summary::map_points(&self.summary, |p| {
+            crate::cluster::phase1::depth_extent(&view, p)
+        })?;
+        Ok(crate::cluster::phase1::padded_depths(
+            ext.into_iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |a, b| {
+                    (a.0.min(b.0), a.1.max(b.1))
+                }),
+        ))
+    }
+}
+
+/// A worker's cells: reads its pieces of `src` (checked as the full reader
+/// checks them) and numbers them as the module docs say.
+pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
+    let path = PathBuf::from(&src.pvtu);
+    let head = pvtu::read_header(&path)?;
+    let span = src.range[1] - src.range[0];
+    let mut unit = WorkUnit::default();
+    let mut last: Option<u32> = None;
+    for wp in &src.pieces {
+        anyhow::ensure!(
+            last.is_none_or(|l| l < wp.index),
+            "the set-up's pieces are not ascending (piece {})",
+            wp.index
+        );
+        last = Some(wp.index);
+        let k = wp.index as usize;
+        anyhow::ensure!(
+            k < head.pieces.len(),
+            "{}: piece {k} was asked for, the file names {}",
+            path.display(),
+            head.pieces.len()
+        );
+        let mesh = pvtu::read_piece(&path, &head, k)?;
+        let src_name = &head.pieces[k].0;
+        anyhow::ensure!(
+            mesh.points.len() as u64 == wp.points as u64,
+            "{}: <Piece> {k} Source=\"{src_name}\" has {} vertices here, the coordinator read {} \
+             (does this worker see another file under the same path?)",
+            path.display(),
+            mesh.points.len(),
+            wp.points
+        );
+        anyhow::ensure!(
+            mesh.tets.len() as u64 <= wp.cells_max as u64,
+            "{}: <Piece> {k} Source=\"{src_name}\" has {} tetrahedra, more than its {} declared \
+             cells can make",
+            path.display(),
+            mesh.tets.len(),
+            wp.cells_max as u64 / TETS_PER_CELL
+        );
+        let s = mesh
+            .scalar(&src.field)
+            .with_context(|| format!("{}: <Piece> {k} Source=\"{src_name}\"", path.display()))?;
+        let offset = unit.vertex_ids.len() as u32;
+        unit.vertex_ids
+            .extend((0..mesh.points.len() as u32).map(|v| wp.vertex_base + v));
+        unit.positions.extend_from_slice(&mesh.points);
+        // As RenderInput normalises (f64), then the unit's f32.
+        unit.scalars.extend(s.iter().map(|&x| {
+            let n = if span > 0.0 {
+                (x - src.range[0]) / span
+            } else {
+                0.0
+            };
+            n as f32
+        }));
+        unit.cells.extend(
+            mesh.tets
+                .iter()
+                .enumerate()
+                .map(|(c, t)| crate::node::work::WorkCell {
+                    id: wp.cell_base + c as u32,
+                    v: t.map(|v| v + offset),
+                }),
+        );
+    }
+    unit.validate()
+        .map_err(|e| anyhow::anyhow!("{}: the pieces read: {e}", path.display()))?;
+    Ok(unit)
+}

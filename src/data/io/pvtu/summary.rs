@@ -1,0 +1,143 @@
+//! What a coordinator knows of a partitioned mesh without reading its
+//! cells: per piece, its vertex count, declared cell count, bounds and the
+//! range of the rendered field ([`summarize`]); and the pieces' points
+//! again when a frame's depth range is wanted ([`map_points`]). The cells
+//! stay in the pieces, for the workers that render them to read.
+//!
+//! Every piece is checked against the `.pvtu`'s declaration as the full
+//! reader checks it ([`super::check_piece`]); errors name the piece.
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use super::{check_piece, read_header, PvtuHeader};
+use crate::data::io::vtu::vertices::{read_vertices, Vertices};
+use crate::error::{Error, Result};
+
+/// One piece as [`summarize`] saw it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PieceInfo {
+    /// Its `Source` as the `.pvtu` writes it.
+    pub source: String,
+    /// The path it resolves to.
+    pub path: PathBuf,
+    /// Its vertices.
+    pub points: u64,
+    /// Its cells as declared (`NumberOfCells`: before other cell types are
+    /// made tetrahedra).
+    pub cells_declared: u64,
+    /// Bounding box of its vertices, min corner (`+inf` when it has none).
+    pub lo: [f64; 3],
+    /// Bounding box, max corner (`-inf` when it has none).
+    pub hi: [f64; 3],
+    /// Smallest and largest value of the field's scalar (a vector's
+    /// magnitude), `None` when it has no vertices.
+    pub scalar_range: Option<[f64; 2]>,
+}
+
+/// A `.pvtu` and its pieces' [`PieceInfo`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// The `.pvtu` file.
+    pub path: PathBuf,
+    /// What it declares.
+    pub head: PvtuHeader,
+    /// One per piece, in the `.pvtu`'s order.
+    pub pieces: Vec<PieceInfo>,
+}
+
+impl Summary {
+    /// Every piece's vertices.
+    pub fn points(&self) -> u64 {
+        self.pieces.iter().map(|p| p.points).sum()
+    }
+
+    /// Every piece's declared cells.
+    pub fn cells_declared(&self) -> u64 {
+        self.pieces.iter().map(|p| p.cells_declared).sum()
+    }
+
+    /// The field's range over every piece (`None`: no vertices at all).
+    pub fn scalar_range(&self) -> Option<[f64; 2]> {
+        self.pieces
+            .iter()
+            .filter_map(|p| p.scalar_range)
+            .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
+    }
+}
+
+/// Reads the `.pvtu` at `path` and each piece's points and field `field`
+/// (in parallel, one piece per thread: never the cells, never every piece
+/// at once), checking each against the declaration.
+pub fn summarize(path: &Path, field: &str) -> Result<Summary> {
+    let head = read_header(path)?;
+    let pieces = (0..head.pieces.len())
+        .into_par_iter()
+        .map(|k| {
+            let v = vertices(path, &head, k, Some(field))?;
+            let (src, p) = &head.pieces[k];
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for q in &v.points {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(q[a]);
+                    hi[a] = hi[a].max(q[a]);
+                }
+            }
+            let s = crate::data::mesh::scalar_of(&v.values, v.components);
+            let scalar_range = (!s.is_empty()).then(|| {
+                s.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, &x| {
+                    [r[0].min(x), r[1].max(x)]
+                })
+            });
+            Ok(PieceInfo {
+                source: src.clone(),
+                path: p.clone(),
+                points: v.points.len() as u64,
+                cells_declared: v.cells_declared,
+                lo,
+                hi,
+                scalar_range,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Summary {
+        path: path.to_path_buf(),
+        head,
+        pieces,
+    })
+}
+
+/// `f` of each piece's points (in parallel, one piece per thread), in the
+/// pieces' order.
+pub fn map_points<T: Send>(s: &Summary, f: impl Fn(&[[f64; 3]]) -> T + Sync) -> Result<Vec<T>> {
+    (0..s.pieces.len())
+        .into_par_iter()
+        .map(|k| Ok(f(&vertices(&s.path, &s.head, k, None)?.points)))
+        .collect()
+}
+
+/// Piece `k`'s vertices (and `field`), checked against the declaration;
+/// errors name the `.pvtu` and the piece.
+fn vertices(path: &Path, head: &PvtuHeader, k: usize, field: Option<&str>) -> Result<Vertices> {
+    let (src, p) = &head.pieces[k];
+    let at = |msg: String| Error::data(path, format!("<Piece> {k} Source=\"{src}\""), msg);
+    let (v, pty, decl) = read_vertices(p, field).map_err(|e| at(e.to_string()))?;
+    if let Some(bad) = v
+        .points
+        .iter()
+        .position(|q| q.iter().any(|x| !x.is_finite()))
+    {
+        return Err(at(format!("{}: point {bad} is not finite", p.display())));
+    }
+    if v.values.iter().any(|x| !x.is_finite()) {
+        return Err(at(format!(
+            "{}: a value of \"{}\" is not finite",
+            p.display(),
+            field.unwrap_or_default()
+        )));
+    }
+    check_piece(path, head, k, pty, &decl, v.points.is_empty())?;
+    Ok(v)
+}

@@ -1,0 +1,134 @@
+//! A mesh cluster job whose workers read their own pieces: the scene's data
+//! is a `.pvtu` and the frame runs on `--transport processes` or `tcp`
+//! without `--placement` ([`reads_pieces`]). The coordinator reads the
+//! `.pvtu` and the pieces' vertices (bounds, the field's range), never the
+//! cells ([`crate::cluster::remote::pieces`]); the pieces are the initial
+//! placement. Frames of an orbit (`--frames`, `--turn`) run on the same
+//! workers, each frame reading its pieces again.
+
+use anyhow::Context;
+
+use super::cluster::{mesh_config, ClusterArgs, Sharing};
+use super::transport_args::TransportKind;
+use crate::cluster::remote::pieces::PieceSet;
+use crate::cluster::series::{Coherence, Step};
+use crate::cluster::{ClusterConfig, ClusterOutcome};
+use crate::scene::Scene;
+
+/// Frames ready to run on workers that read their pieces.
+pub struct PieceFrames {
+    /// What the coordinator read of the pieces.
+    pub pieces: PieceSet,
+    /// The scene of each frame (its camera and transfer function).
+    pub scenes: Vec<Scene>,
+    /// One step per frame (for the series report).
+    pub steps: Vec<Step>,
+    /// The configuration.
+    pub cfg: ClusterConfig,
+    kind: TransportKind,
+}
+
+/// Whether `scene` runs with the workers reading their own pieces (the one
+/// place that decides it): a `.pvtu` on worker processes or TCP workers,
+/// placed by its pieces (no `--placement`).
+pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
+    let pvtu = scene
+        .data
+        .path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pvtu"));
+    pvtu && a.placement.is_none()
+        && matches!(
+            a.net.transport,
+            Some(TransportKind::Processes | TransportKind::Tcp)
+        )
+}
+
+/// Prepares the frames: the configuration (as for any mesh frame), the
+/// pieces' summaries, one scene per camera. Refuses what needs the cells
+/// in the coordinator.
+pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
+    super::grid_args::refuse_on_mesh(&a.grid)?;
+    let why = "the workers read their own pieces of the .pvtu and the coordinator never holds \
+               the cells; give --placement rcb to read the whole mesh in the coordinator and \
+               send each worker its cells";
+    anyhow::ensure!(
+        a.series.series.is_none(),
+        "--series with a .pvtu on worker processes: {why}"
+    );
+    anyhow::ensure!(
+        a.sharing != Sharing::Overlap,
+        "--sharing overlap with a .pvtu on worker processes (the nodes' screen footprints \
+         need the cells): {why}"
+    );
+    if let (Some(w), Some(h)) = (a.width, a.height) {
+        scene.image.width = w;
+        scene.image.height = h;
+    }
+    let (cfg, remote) = mesh_config(a, [scene.image.width, scene.image.height])?;
+    let kind = remote.context("workers reading pieces need a remote transport (internal error)")?;
+    let pieces = PieceSet::open(&scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if pieces.summary.pieces.len() < a.nodes {
+        eprintln!(
+            "note: {} has {} pieces for {} nodes: nodes {}..{} start with no cells{}",
+            pieces.path().display(),
+            pieces.summary.pieces.len(),
+            a.nodes,
+            pieces.summary.pieces.len(),
+            a.nodes - 1,
+            if a.dlb { " (DLB gives them work)" } else { "" }
+        );
+    }
+    let steps: Vec<Step> = a
+        .series
+        .cameras(&scene.camera)?
+        .into_iter()
+        .map(|camera| Step {
+            data: 0,
+            camera,
+            transfer: scene.transfer.clone(),
+        })
+        .collect();
+    let scenes = steps
+        .iter()
+        .map(|s| {
+            let mut f = scene.clone();
+            f.camera = s.camera;
+            f
+        })
+        .collect();
+    Ok(PieceFrames {
+        pieces,
+        scenes,
+        steps,
+        cfg,
+        kind,
+    })
+}
+
+/// Runs the frames, writing nothing: one outcome per camera, in order
+/// (the last carrying the series section when there is more than one).
+pub fn run(
+    a: &ClusterArgs,
+    f: PieceFrames,
+    mut progress: impl FnMut(usize, usize),
+) -> anyhow::Result<Vec<ClusterOutcome>> {
+    let n = f.scenes.len();
+    let frames = a
+        .net
+        .run_pieces(f.kind, &f.pieces, &f.scenes, &f.cfg, |k| progress(k, n))?;
+    let mut outs = Vec::with_capacity(n);
+    let mut rows = Vec::with_capacity(n);
+    for (out, m, wall_s) in frames {
+        rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
+        outs.push(out);
+    }
+    if a.series.is_series() {
+        let series = crate::cluster::series::report(&outs, &f.steps, Some(&rows), Coherence::Off);
+        if let Some(last) = outs.last_mut() {
+            last.report.series = Some(series);
+        }
+    }
+    Ok(outs)
+}
