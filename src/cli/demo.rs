@@ -23,7 +23,10 @@ pub struct DemoArgs {
     /// cluster's cluster.png, timeline.png and cluster-report.json.
     #[arg(long, default_value = "demo")]
     pub out_dir: PathBuf,
-    /// About how many tetrahedra to generate, 1,000 to 20,000,000.
+    /// About how many tetrahedra to generate, 1,000 to 20,000,000 (to
+    /// 100,000,000 with `--pieces` and `--nodes 0`: the pieces are written,
+    /// not rendered, above 20,000,000; render them with `pvrsim cluster
+    /// --transport processes`, each worker reading its own).
     #[arg(long, default_value_t = 150_000)]
     pub cells: usize,
     /// Worker threads; 0 = all cores.
@@ -44,13 +47,26 @@ pub struct DemoArgs {
 pub const MIN_CELLS: usize = 1_000;
 /// Most tetrahedra `--cells` accepts (about 5 GB of mesh and lists).
 pub const MAX_CELLS: usize = 20_000_000;
+/// Most tetrahedra `--cells` accepts with `--pieces` and `--nodes 0` (the
+/// generator's ~160 B a tetrahedron: 16 GB); the pieces are not rendered.
+pub const MAX_CELLS_PIECES: usize = 100_000_000;
 
 impl Validate for DemoArgs {
     fn validate(&self, _c: &mut Checks) -> anyhow::Result<()> {
+        let max = if self.pieces > 0 && self.nodes == 0 {
+            MAX_CELLS_PIECES
+        } else {
+            MAX_CELLS
+        };
         anyhow::ensure!(
-            (MIN_CELLS..=MAX_CELLS).contains(&self.cells),
-            "--cells {}: must be between {MIN_CELLS} and {MAX_CELLS}",
-            self.cells
+            (MIN_CELLS..=max).contains(&self.cells),
+            "--cells {}: must be between {MIN_CELLS} and {max}{}",
+            self.cells,
+            if max == MAX_CELLS {
+                format!(" ({MAX_CELLS_PIECES} with --pieces and --nodes 0)")
+            } else {
+                String::new()
+            }
         );
         anyhow::ensure!(
             self.pieces <= super::partition::MAX_PIECES,
@@ -143,6 +159,15 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", scene_path.display()))?;
     println!("wrote {} and {}", vtk.display(), scene_path.display());
     write_demo_volume(&a)?;
+    if mesh.tets.len() > MAX_CELLS {
+        println!(
+            "not rendered here (more than {MAX_CELLS} tetrahedra): pvrsim cluster {} --nodes {} \
+             --transport processes renders the pieces, each worker reading its own",
+            scene_path.display(),
+            a.pieces
+        );
+        return Ok(());
+    }
 
     let scene = Scene::parse(&scene_text, &scene_path)?;
     let input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;

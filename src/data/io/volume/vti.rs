@@ -204,7 +204,7 @@ pub fn parse(d: &[u8], path: &Path, field: &str) -> Result<Volume> {
                     ),
                 ));
             }
-            decode_voxels(b, a.ty, s.ctx.big_endian)
+            decode_voxels(b.into_owned(), a.ty, s.ctx.big_endian)
         }
     };
     if lossy {

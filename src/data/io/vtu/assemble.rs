@@ -13,7 +13,24 @@ struct PieceCells {
     base: i64,
 }
 
+/// A piece's cells: decoded straight into tetrahedra (indices already
+/// offset), or in the general form.
+enum Part {
+    Tets(Vec<[u32; 4]>),
+    Cells(PieceCells),
+}
+
 impl PieceCells {
+    /// The general form of tetrahedra already offset (base 0).
+    fn of_tets(t: &[[u32; 4]]) -> PieceCells {
+        PieceCells {
+            types: vec![10; t.len()],
+            offs: (1..=t.len() as i64).map(|i| 4 * i).collect(),
+            conn: t.iter().flat_map(|c| c.map(i64::from)).collect(),
+            base: 0,
+        }
+    }
+
     /// The piece's cells as tetrahedra if all are 4-vertex tetrahedra with
     /// indices inside the piece's `npoints` (checked on all cores).
     fn all_tets(&self, npoints: usize) -> Option<Vec<[u32; 4]>> {
@@ -42,7 +59,7 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
     let path = ctx.path;
     let mut points: Vec<[f64; 3]> = Vec::new();
     let mut fields: Vec<Field> = Vec::new();
-    let mut cells: Vec<(PieceCells, usize)> = Vec::new();
+    let mut cells: Vec<(Part, usize)> = Vec::new();
     for (pi, p) in pieces.iter().enumerate() {
         let where_ = |what: &str| format!("<Piece> {pi} <{what}>");
         let base = points.len() as i64;
@@ -80,6 +97,10 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
             let oa = p.offsets.as_ref().ok_or_else(|| missing("offsets"))?;
             let ta = p.types.as_ref().ok_or_else(|| missing("types"))?;
             let ca = p.conn.as_ref().ok_or_else(|| missing("connectivity"))?;
+            if let Some(tets) = direct_tets(ctx, [oa, ta, ca], p.ncells, p.npoints, base)? {
+                cells.push((Part::Tets(tets), p.npoints));
+                continue;
+            }
             let offs = ctx.i64s(oa, p.ncells)?;
             let types = ctx.i64s(ta, p.ncells)?;
             let nconn = *offs.last().unwrap_or(&0);
@@ -88,12 +109,12 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
             }
             let conn = ctx.i64s(ca, nconn as usize)?;
             cells.push((
-                PieceCells {
+                Part::Cells(PieceCells {
                     types,
                     offs,
                     conn,
                     base,
-                },
+                }),
                 p.npoints,
             ));
         }
@@ -109,19 +130,55 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
         ));
     }
     // Fast path: every piece all tetrahedra with indices in range.
-    let fast: Option<Vec<Vec<[u32; 4]>>> = cells.iter().map(|(c, np)| c.all_tets(*np)).collect();
-    if let Some(parts) = fast {
+    let fast: Option<Vec<&[[u32; 4]]>> = cells
+        .iter()
+        .map(|(c, _)| match c {
+            Part::Tets(t) => Some(t.as_slice()),
+            Part::Cells(_) => None,
+        })
+        .collect();
+    if fast.is_some() {
+        let tets = if cells.len() == 1 {
+            match cells.pop() {
+                Some((Part::Tets(t), _)) => t,
+                _ => Vec::new(),
+            }
+        } else {
+            fast.unwrap_or_default().concat()
+        };
+        return Ok(TetMesh {
+            points,
+            tets,
+            fields,
+        });
+    }
+    let all: Option<Vec<Vec<[u32; 4]>>> = cells
+        .iter()
+        .map(|(c, np)| match c {
+            Part::Tets(t) => Some(t.clone()),
+            Part::Cells(c) => c.all_tets(*np),
+        })
+        .collect();
+    if let Some(parts) = all {
         return Ok(TetMesh {
             points,
             tets: parts.concat(),
             fields,
         });
     }
-    let total: usize = cells.iter().map(|(c, _)| c.types.len()).sum();
+    // The general path, in file order (pieces read directly back in its form).
+    let cells: Vec<PieceCells> = cells
+        .into_iter()
+        .map(|(c, _)| match c {
+            Part::Cells(c) => c,
+            Part::Tets(t) => PieceCells::of_tets(&t),
+        })
+        .collect();
+    let total: usize = cells.iter().map(|c| c.types.len()).sum();
     let mut b = TetBuilder::new(&points, total);
     let mut c = 0usize;
     let mut verts: Vec<i64> = Vec::new();
-    for (pc, _) in &cells {
+    for pc in &cells {
         let mut s = 0usize;
         for (&e, &t) in pc.offs.iter().zip(&pc.types) {
             let e = e as usize;
@@ -146,4 +203,66 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
         tets,
         fields,
     })
+}
+
+/// A piece's `ncells` cells decoded straight into tetrahedra (indices
+/// offset by `base`) when every cell is a tetrahedron (offsets every 4,
+/// types all 10) and every index is inside the piece's `npoints`: the
+/// offsets and types are checked in chunks and the connectivity decoded
+/// into `[u32; 4]`, never into 64-bit arrays. `None` to take the general
+/// path, which decodes them again and names what is wrong.
+fn direct_tets(
+    ctx: &Ctx,
+    [oa, ta, ca]: [&ArrayDesc; 3],
+    ncells: usize,
+    npoints: usize,
+    base: i64,
+) -> Result<Option<Vec<[u32; 4]>>> {
+    let binary = |a: &ArrayDesc| a.format != Format::Ascii && !a.ty.is_float();
+    if !(binary(oa) && binary(ta) && binary(ca)) {
+        return Ok(None);
+    }
+    if !all_values(ctx, oa, ncells, |i, e| e == 4 * (i as i64 + 1))?
+        || !all_values(ctx, ta, ncells, |_, t| t == 10)?
+    {
+        return Ok(None);
+    }
+    let b = ctx.bytes(ca)?;
+    if b.len() % ca.ty.size() != 0 || b.len() / ca.ty.size() != 4 * ncells {
+        return Ok(None);
+    }
+    let Some(mut tets) =
+        crate::data::io::numeric::decode_tets(&b, ca.ty, ctx.big_endian, npoints)
+    else {
+        return Ok(None);
+    };
+    if base != 0 {
+        use rayon::prelude::*;
+        let base = base as u32;
+        tets.par_iter_mut()
+            .for_each(|t| *t = t.map(|v| v + base));
+    }
+    Ok(Some(tets))
+}
+
+/// Whether integer array `a` holds `n` values, each `ok(index, value)`,
+/// decoded in chunks on all cores (no array of the values is made).
+fn all_values(
+    ctx: &Ctx,
+    a: &ArrayDesc,
+    n: usize,
+    ok: impl Fn(usize, i64) -> bool + Sync,
+) -> Result<bool> {
+    use rayon::prelude::*;
+    const CHUNK: usize = 1 << 16;
+    let b = ctx.bytes(a)?;
+    let sz = a.ty.size();
+    if b.len() % sz != 0 || b.len() / sz != n {
+        return Ok(false);
+    }
+    Ok(b.par_chunks(CHUNK * sz).enumerate().all(|(k, c)| {
+        let mut v = vec![0i64; c.len() / sz];
+        crate::data::io::numeric::decode_i64_into(c, a.ty, ctx.big_endian, &mut v)
+            && v.iter().enumerate().all(|(i, &x)| ok(k * CHUNK + i, x))
+    }))
 }

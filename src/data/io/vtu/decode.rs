@@ -2,6 +2,7 @@
 //! zlib-compressed blocks, length headers of 32 or 64 bits; and the checks
 //! of its length against what the mesh needs.
 
+use std::borrow::Cow;
 use std::io::Read;
 
 use base64::Engine;
@@ -75,7 +76,7 @@ impl Ctx<'_> {
 
     /// The data bytes of a binary or appended array, after its header and
     /// decompression. `raw` starts at the array's header.
-    pub(super) fn payload(&self, a: &ArrayDesc, raw: &[u8]) -> Result<Vec<u8>> {
+    pub(super) fn payload<'r>(&self, a: &ArrayDesc, raw: &'r [u8]) -> Result<Cow<'r, [u8]>> {
         let hs = if self.header_u64 { 8 } else { 4 };
         let trunc = |need: u64, what: &str| {
             self.err(
@@ -94,7 +95,8 @@ impl Ctx<'_> {
             if n > (raw.len() - hs) as u64 {
                 return Err(trunc(n + hs as u64, &format!("the header (\"{n} bytes\")")));
             }
-            return Ok(raw[hs..hs + n as usize].to_vec());
+            // Uncompressed: the file's own bytes, not a copy.
+            return Ok(Cow::Borrowed(&raw[hs..hs + n as usize]));
         }
         if raw.len() < 3 * hs {
             return Err(trunc(3 * hs as u64, "the compression header"));
@@ -181,7 +183,7 @@ impl Ctx<'_> {
                     Ok(_) => {}
                 }
             }
-            return Ok(out);
+            return Ok(Cow::Owned(out));
         }
         let mut out = Vec::with_capacity(expected_total.min(raw.len() as u128 * 8) as usize);
         for (k, &start) in starts.iter().enumerate() {
@@ -195,15 +197,16 @@ impl Ctx<'_> {
                 return Err(short(k, out.len() - before));
             }
         }
-        Ok(out)
+        Ok(Cow::Owned(out))
     }
 
-    /// The decoded bytes of a binary or appended array (empty for ascii).
-    pub(crate) fn bytes(&self, a: &ArrayDesc) -> Result<Vec<u8>> {
+    /// The decoded bytes of a binary or appended array (empty for ascii):
+    /// raw uncompressed appended data is borrowed from the file.
+    pub(crate) fn bytes<'s>(&'s self, a: &'s ArrayDesc) -> Result<Cow<'s, [u8]>> {
         match a.format {
             Format::Binary => {
                 let raw = self.base64(a, &a.text)?;
-                self.payload(a, &raw)
+                Ok(Cow::Owned(self.payload(a, &raw)?.into_owned()))
             }
             Format::Appended => {
                 let (body, b64) = self.appended.ok_or_else(|| {
@@ -228,12 +231,12 @@ impl Ctx<'_> {
                         .unwrap_or(body.len())
                         .min(body.len());
                     let raw = self.base64(a, &body[a.offset..end])?;
-                    self.payload(a, &raw)
+                    Ok(Cow::Owned(self.payload(a, &raw)?.into_owned()))
                 } else {
                     self.payload(a, &body[a.offset..])
                 }
             }
-            Format::Ascii => Ok(Vec::new()),
+            Format::Ascii => Ok(Cow::Borrowed(&[])),
         }
     }
 
