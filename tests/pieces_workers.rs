@@ -220,3 +220,27 @@ fn an_orbit_runs_on_the_same_workers() {
     let json = std::fs::read_to_string(r).unwrap();
     assert!(json.contains("\"series\""), "{json}");
 }
+
+#[test]
+fn a_lost_workers_pieces_are_read_by_the_survivors() {
+    let d = pieces_scene("zlib", |_| {});
+    let want = single(d.path());
+    for hook in ["2:--test-kill-at-setup", "2:--test-kill-after-chunks 2"] {
+        let (ok, err, png, json) = cluster(
+            d.path(),
+            "4",
+            &[
+                "--on-failure",
+                "reassign",
+                "--heartbeat-timeout",
+                "2",
+                "--test-worker-hook",
+                hook,
+            ],
+        );
+        assert!(ok, "{hook}: {err}");
+        assert!(png == want, "{hook}: the image differs");
+        assert!(json.contains("\"reassigned\""), "{hook}: {json}");
+        assert!(json.contains("\"n_nodes\": 3"), "{hook}: {json}");
+    }
+}

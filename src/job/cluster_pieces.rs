@@ -11,6 +11,7 @@ use anyhow::Context;
 use super::cluster::{mesh_config, ClusterArgs, Sharing};
 use super::transport_args::TransportKind;
 use crate::cluster::remote::pieces::PieceSet;
+use crate::cluster::report::transport::PiecesSection;
 use crate::cluster::series::{Coherence, Step};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
 use crate::scene::Scene;
@@ -120,8 +121,21 @@ pub fn run(
         .run_pieces(f.kind, &f.pieces, &f.scenes, &f.cfg, |k| progress(k, n))?;
     let mut outs = Vec::with_capacity(n);
     let mut rows = Vec::with_capacity(n);
-    for (out, m, wall_s) in frames {
+    for (mut out, m, wall_s) in frames {
         rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
+        out.report.pieces = Some(PiecesSection {
+            pvtu: f.pieces.path().display().to_string(),
+            pieces: f.pieces.summary.pieces.len(),
+            vertices_read_by_coordinator: f.pieces.summary.points(),
+            parts: match &m.reassigned {
+                Some(r) => r.parts.clone(),
+                None => f.pieces.parts(f.cfg.phase1.nodes),
+            },
+            setup_s: m.setup_s,
+            phase1_wire_bytes: m.phase1.wire_bytes_sent,
+            phase2_wire_bytes: m.phase2.wire_bytes_sent,
+            reassigned: m.reassigned,
+        });
         outs.push(out);
     }
     if a.series.is_series() {

@@ -186,9 +186,14 @@ impl PieceSet {
     /// [`crate::cluster::phase1::depth_range`] gives it for a whole mesh.
     pub fn depth_range(&self, scene: &Scene) -> anyhow::Result<[f32; 2]> {
         let view = scene.view();
-        let ext = pvtu::summary::map_points(&self.summary, |p| {
-            crate::cluster::phase1::depth_extent(&view, p)
-        })?;
+        let ext = pvtu::summary::fold_points(
+            &self.summary,
+            (f64::INFINITY, f64::NEG_INFINITY),
+            |acc, p| {
+                let (lo, hi) = crate::cluster::phase1::depth_extent(&view, p);
+                *acc = (acc.0.min(lo), acc.1.max(hi));
+            },
+        )?;
         Ok(crate::cluster::phase1::padded_depths(
             ext.into_iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |a, b| {

@@ -331,6 +331,7 @@ pub fn build(i: Inputs) -> ClusterReport {
             host_phase2_s: i.host_phase2_s,
         },
         transport: None,
+        pieces: None,
         cpu: super::cpu::cpu_section(i.trace1, &i.stopped_at),
         series: None,
     }

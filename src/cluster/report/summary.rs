@@ -76,6 +76,25 @@ pub fn summary(r: &ClusterReport) -> String {
     if let Some(line) = memory_line(r) {
         let _ = writeln!(s, "{line}");
     }
+    if let Some(p) = &r.pieces {
+        let parts: Vec<String> = p.parts.iter().map(|q| format!("{q:?}")).collect();
+        let _ = writeln!(
+            s,
+            "pieces: the {} pieces of {} read by the workers themselves (by rank: {}); the coordinator read {} vertices, no cells{}",
+            p.pieces,
+            p.pvtu,
+            parts.join(" "),
+            p.vertices_read_by_coordinator,
+            match &p.reassigned {
+                Some(re) => format!(
+                    "; {} lost, their {} pieces read by the survivors",
+                    re.lost.join(", "),
+                    re.cells
+                ),
+                None => String::new(),
+            }
+        );
+    }
     let _ = writeln!(
         s,
         "Tsc max {:.4} s, mean {:.4} s, imbalance {:.1} %; phase 1 {:.4} s, phase 2 {:.4} s{}, frame {:.4} s",
@@ -84,7 +103,7 @@ pub fn summary(r: &ClusterReport) -> String {
         100.0 * r.imbalance,
         r.phase1_s,
         r.composite_s,
-        if r.transport.is_some() {
+        if r.transport.is_some() || r.pieces.is_some() {
             " (wall clock, worker to worker)"
         } else if wall {
             " (host, all nodes on one thread)"

@@ -156,3 +156,28 @@ pub struct Reassigned {
     #[serde(skip)]
     pub parts: Vec<Vec<u32>>,
 }
+
+/// The `pieces` section of a run whose workers read their own pieces of a
+/// `.pvtu` ([`crate::cluster::remote::pieces`]): what was read where, and
+/// what the transport measured (the virtual model's comparison needs the
+/// cells in the coordinator, so there is no `transport` section).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PiecesSection {
+    /// The `.pvtu` the workers read.
+    pub pvtu: String,
+    /// Its pieces.
+    pub pieces: usize,
+    /// Vertices the coordinator read of them (bounds, the field's range).
+    pub vertices_read_by_coordinator: u64,
+    /// Per node of the run that completed, the pieces it read.
+    pub parts: Vec<Vec<u32>>,
+    /// Seconds of connection, set-up, reading the pieces and the mesh.
+    pub setup_s: f64,
+    /// Bytes written on the wire in phase 1 (frames, heartbeats, goodbyes).
+    pub phase1_wire_bytes: u64,
+    /// Bytes written on the wire in phase 2 by the workers.
+    pub phase2_wire_bytes: u64,
+    /// Set when `--on-failure reassign` re-ran the frame on the survivors
+    /// (`cells` counts the pieces they took over).
+    pub reassigned: Option<Reassigned>,
+}

@@ -322,6 +322,10 @@ pub struct ClusterReport {
     /// prediction for the same frame.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transport: Option<super::transport::TransportSection>,
+    /// Workers that read their own pieces of a `.pvtu`: what they read and
+    /// what the transport measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pieces: Option<super::transport::PiecesSection>,
     /// Real transports: per rank and activity, modelled compute beside the
     /// measured thread CPU and wall seconds ([`super::cpu`]).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -1,7 +1,7 @@
 //! What a coordinator knows of a partitioned mesh without reading its
 //! cells: per piece, its vertex count, declared cell count, bounds and the
 //! range of the rendered field ([`summarize`]); and the pieces' points
-//! again when a frame's depth range is wanted ([`map_points`]). The cells
+//! again when a frame's depth range is wanted ([`fold_points`]). The cells
 //! stay in the pieces, for the workers that render them to read.
 //!
 //! Every piece is checked against the `.pvtu`'s declaration as the full
@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use super::{check_piece, read_header, PvtuHeader};
-use crate::data::io::vtu::vertices::{read_vertices, Vertices};
+use crate::data::io::vtu::vertices::{fold_vertices, VertexCounts};
 use crate::error::{Error, Result};
 
 /// One piece as [`summarize`] saw it.
@@ -68,37 +68,45 @@ impl Summary {
 }
 
 /// Reads the `.pvtu` at `path` and each piece's points and field `field`
-/// (in parallel, one piece per thread: never the cells, never every piece
-/// at once), checking each against the declaration.
+/// (in parallel, one piece per thread, a chunk at a time: never the cells,
+/// never a piece's vertices at once), checking each against the
+/// declaration.
 pub fn summarize(path: &Path, field: &str) -> Result<Summary> {
     let head = read_header(path)?;
     let pieces = (0..head.pieces.len())
         .into_par_iter()
         .map(|k| {
-            let v = vertices(path, &head, k, Some(field))?;
-            let (src, p) = &head.pieces[k];
             let mut lo = [f64::INFINITY; 3];
             let mut hi = [f64::NEG_INFINITY; 3];
-            for q in &v.points {
-                for a in 0..3 {
-                    lo[a] = lo[a].min(q[a]);
-                    hi[a] = hi[a].max(q[a]);
-                }
-            }
-            let s = crate::data::mesh::scalar_of(&v.values, v.components);
-            let scalar_range = (!s.is_empty()).then(|| {
-                s.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, &x| {
-                    [r[0].min(x), r[1].max(x)]
-                })
-            });
+            let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+            let n = fold(
+                path,
+                &head,
+                k,
+                Some(field),
+                |pts| {
+                    for q in pts {
+                        for a in 0..3 {
+                            lo[a] = lo[a].min(q[a]);
+                            hi[a] = hi[a].max(q[a]);
+                        }
+                    }
+                },
+                |v, c| {
+                    for x in crate::data::mesh::scalar_of(v, c) {
+                        range = [range[0].min(x), range[1].max(x)];
+                    }
+                },
+            )?;
+            let (src, p) = &head.pieces[k];
             Ok(PieceInfo {
                 source: src.clone(),
                 path: p.clone(),
-                points: v.points.len() as u64,
-                cells_declared: v.cells_declared,
+                points: n.points,
+                cells_declared: n.cells_declared,
                 lo,
                 hi,
-                scalar_range,
+                scalar_range: (n.points > 0).then_some(range),
             })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -109,35 +117,68 @@ pub fn summarize(path: &Path, field: &str) -> Result<Summary> {
     })
 }
 
-/// `f` of each piece's points (in parallel, one piece per thread), in the
+/// `f` folded over each piece's points (in parallel, one piece per
+/// thread, a chunk at a time) from `init`: one result per piece, in the
 /// pieces' order.
-pub fn map_points<T: Send>(s: &Summary, f: impl Fn(&[[f64; 3]]) -> T + Sync) -> Result<Vec<T>> {
+pub fn fold_points<T: Send + Clone + Sync>(
+    s: &Summary,
+    init: T,
+    f: impl Fn(&mut T, &[[f64; 3]]) + Sync,
+) -> Result<Vec<T>> {
     (0..s.pieces.len())
         .into_par_iter()
-        .map(|k| Ok(f(&vertices(&s.path, &s.head, k, None)?.points)))
+        .map(|k| {
+            let mut acc = init.clone();
+            fold(&s.path, &s.head, k, None, |p| f(&mut acc, p), |_, _| {})?;
+            Ok(acc)
+        })
         .collect()
 }
 
-/// Piece `k`'s vertices (and `field`), checked against the declaration;
-/// errors name the `.pvtu` and the piece.
-fn vertices(path: &Path, head: &PvtuHeader, k: usize, field: Option<&str>) -> Result<Vertices> {
+/// Piece `k`'s vertices (and `field`) folded, checked against the
+/// declaration (finite positions and values); errors name the `.pvtu` and
+/// the piece.
+fn fold(
+    path: &Path,
+    head: &PvtuHeader,
+    k: usize,
+    field: Option<&str>,
+    mut on_points: impl FnMut(&[[f64; 3]]),
+    mut on_values: impl FnMut(&[f64], usize),
+) -> Result<VertexCounts> {
     let (src, p) = &head.pieces[k];
     let at = |msg: String| Error::data(path, format!("<Piece> {k} Source=\"{src}\""), msg);
-    let (v, pty, decl) = read_vertices(p, field).map_err(|e| at(e.to_string()))?;
-    if let Some(bad) = v
-        .points
-        .iter()
-        .position(|q| q.iter().any(|x| !x.is_finite()))
-    {
-        return Err(at(format!("{}: point {bad} is not finite", p.display())));
+    let mut bad_point: Option<u64> = None;
+    let mut bad_value = false;
+    let mut seen = 0u64;
+    let (n, pty, decl) = fold_vertices(
+        p,
+        field,
+        |pts| {
+            if bad_point.is_none() {
+                if let Some(i) = pts.iter().position(|q| q.iter().any(|x| !x.is_finite())) {
+                    bad_point = Some(seen + i as u64);
+                }
+            }
+            seen += pts.len() as u64;
+            on_points(pts);
+        },
+        |v, c| {
+            bad_value |= v.iter().any(|x| !x.is_finite());
+            on_values(v, c);
+        },
+    )
+    .map_err(|e| at(e.to_string()))?;
+    if let Some(i) = bad_point {
+        return Err(at(format!("{}: point {i} is not finite", p.display())));
     }
-    if v.values.iter().any(|x| !x.is_finite()) {
+    if bad_value {
         return Err(at(format!(
             "{}: a value of \"{}\" is not finite",
             p.display(),
             field.unwrap_or_default()
         )));
     }
-    check_piece(path, head, k, pty, &decl, v.points.is_empty())?;
-    Ok(v)
+    check_piece(path, head, k, pty, &decl, n.points == 0)?;
+    Ok(n)
 }

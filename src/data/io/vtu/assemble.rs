@@ -231,16 +231,14 @@ fn direct_tets(
     if b.len() % ca.ty.size() != 0 || b.len() / ca.ty.size() != 4 * ncells {
         return Ok(None);
     }
-    let Some(mut tets) =
-        crate::data::io::numeric::decode_tets(&b, ca.ty, ctx.big_endian, npoints)
+    let Some(mut tets) = crate::data::io::numeric::decode_tets(&b, ca.ty, ctx.big_endian, npoints)
     else {
         return Ok(None);
     };
     if base != 0 {
         use rayon::prelude::*;
         let base = base as u32;
-        tets.par_iter_mut()
-            .for_each(|t| *t = t.map(|v| v + base));
+        tets.par_iter_mut().for_each(|t| *t = t.map(|v| v + base));
     }
     Ok(Some(tets))
 }

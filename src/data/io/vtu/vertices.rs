@@ -1,18 +1,23 @@
 //! A `.vtu`'s vertices without its cells: the points and one point-data
-//! array of every `<Piece>`, and the cell count each piece declares. What a
-//! coordinator needs of a partitioned mesh's pieces (their bounds, their
-//! field's range) without reading the cells, which stay with the workers.
+//! array of every `<Piece>`, handed over in chunks, and the cell count each
+//! piece declares. What a coordinator needs of a partitioned mesh's pieces
+//! (their bounds, their field's range, a frame's depth range) without
+//! reading the cells, which stay with the workers, and without holding the
+//! vertices either: raw appended arrays are decoded from the mapped file a
+//! chunk at a time.
 
 use super::*;
+use crate::data::io::numeric::decode_f64_into;
 
-/// The vertex data of a `.vtu` ([`read_vertices`]).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Vertices {
-    /// Positions, every piece's in turn.
-    pub points: Vec<[f64; 3]>,
-    /// The field's values, `components` per point.
-    pub values: Vec<f64>,
-    /// Components of the field.
+/// Values decoded per chunk.
+const CHUNK: usize = 1 << 16;
+
+/// What [`fold_vertices`] counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct VertexCounts {
+    /// Vertices, every piece's.
+    pub points: u64,
+    /// Components of the field (0 without one).
     pub components: usize,
     /// Cells the file declares (`NumberOfCells`, before tetrahedra are made
     /// of other cell types).
@@ -20,13 +25,17 @@ pub struct Vertices {
 }
 
 /// Reads the points of `path` and, if named, its point-data array `field`
-/// (all its components), not the cells. The points' type and the declared arrays
-/// are returned as [`super::read_declared`] returns them. A missing field is
-/// an error naming the arrays there are.
-pub(crate) fn read_vertices(
+/// (all its components), not the cells: `on_points` gets the positions and
+/// `on_values` the field's values (whole vertices, `components` each) a
+/// chunk at a time. The points' type and the declared arrays are returned
+/// as [`super::read_declared`] returns them. A missing field is an error
+/// naming the arrays there are.
+pub(crate) fn fold_vertices(
     path: &Path,
     field: Option<&str>,
-) -> Result<(Vertices, Option<NumType>, Declared)> {
+    mut on_points: impl FnMut(&[[f64; 3]]),
+    mut on_values: impl FnMut(&[f64], usize),
+) -> Result<(VertexCounts, Option<NumType>, Declared)> {
     let data = FileBytes::open(path)?;
     let s = scan(&data, path, "UnstructuredGrid")?;
     let first = s.pieces.first();
@@ -37,12 +46,14 @@ pub(crate) fn read_vertices(
             .map(|a| (a.name.clone(), a.ty, a.ncomp))
             .collect()
     });
-    let mut v = Vertices::default();
+    let mut n = VertexCounts::default();
+    let mut xyz: Vec<[f64; 3]> = Vec::new();
     for (pi, p) in s.pieces.iter().enumerate() {
-        v.cells_declared += p.ncells as u64;
+        n.cells_declared += p.ncells as u64;
         if p.npoints == 0 {
             continue;
         }
+        n.points += p.npoints as u64;
         let pa = p.points.as_ref().ok_or_else(|| {
             Error::data(path, format!("<Piece> {pi} <Points>"), "no points array")
         })?;
@@ -52,9 +63,11 @@ pub(crate) fn read_vertices(
                 format!("points need NumberOfComponents=\"3\", found {}", pa.ncomp),
             ));
         }
-        let xyz = s.ctx.f64s(pa, p.npoints.saturating_mul(3))?;
-        v.points
-            .extend(xyz.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        chunks(&s.ctx, pa, p.npoints.saturating_mul(3), 3, |v| {
+            xyz.clear();
+            xyz.extend(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+            on_points(&xyz);
+        })?;
         let Some(field) = field else {
             continue;
         };
@@ -81,9 +94,37 @@ pub(crate) fn read_vertices(
                     ),
                 )
             })?;
-        v.components = a.ncomp;
-        v.values
-            .extend(s.ctx.f64s(a, p.npoints.saturating_mul(a.ncomp))?);
+        n.components = a.ncomp;
+        chunks(&s.ctx, a, p.npoints.saturating_mul(a.ncomp), a.ncomp, |v| {
+            on_values(v, a.ncomp)
+        })?;
     }
-    Ok((v, pty, decl))
+    Ok((n, pty, decl))
+}
+
+/// Array `a`'s `expected` values as `f64`, given to `f` a chunk at a time
+/// (a whole number of `group`s each), checked as [`Ctx::f64s`] checks them.
+fn chunks(
+    ctx: &Ctx,
+    a: &ArrayDesc,
+    expected: usize,
+    group: usize,
+    mut f: impl FnMut(&[f64]),
+) -> Result<()> {
+    if a.format == Format::Ascii {
+        f(&ctx.f64s(a, expected)?);
+        return Ok(());
+    }
+    let b = ctx.bytes(a)?;
+    ctx.check_len(a, b.len())?;
+    let sz = a.ty.size();
+    ctx.check_count(a, b.len() / sz, expected)?;
+    let per = CHUNK / group.max(1) * group.max(1);
+    let mut buf = vec![0.0f64; per.min(expected)];
+    for c in b.chunks(per * sz) {
+        let v = &mut buf[..c.len() / sz];
+        decode_f64_into(c, a.ty, ctx.big_endian, v);
+        f(v);
+    }
+    Ok(())
 }
