@@ -408,6 +408,18 @@ mod seeds {
             max_message_bytes: super::bodies::LIMIT,
             cells_initial: 2,
             cells_sha256: sha256(&cells),
+            pieces: Some(pvrsim::cluster::remote::pieces::PieceSource {
+                pvtu: "/data/a.pvtu".into(),
+                field: "speed".into(),
+                range: [0.0, 1.5],
+                pieces: vec![pvrsim::cluster::remote::pieces::WirePiece {
+                    index: 1,
+                    points: 5,
+                    vertex_base: 9,
+                    cell_base: 12,
+                    cells_max: 6,
+                }],
+            }),
             recv_timeout_s: 30.0,
             session_id: [7; 16],
         }

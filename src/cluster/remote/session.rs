@@ -273,6 +273,16 @@ impl WorkerSetup {
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("recv timeout {} s", self.recv_timeout_s));
         }
+        if let Some(p) = &self.pieces {
+            // A worker reads only `.pvtu` files (and the pieces they name,
+            // under their folder) for a coordinator.
+            if !p.pvtu.to_ascii_lowercase().ends_with(".pvtu") {
+                return Err(format!("pieces of {:?}: not a .pvtu", p.pvtu));
+            }
+            if !(p.range[0].is_finite() && p.range[1].is_finite()) {
+                return Err(format!("pieces: scalar range {:?}", p.range));
+            }
+        }
         Ok(())
     }
 }
