@@ -63,17 +63,23 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Whether vertex slot `a` sorts after slot `b`: by position (`x`, `y`,
-/// `z`, IEEE total order), then by global id (see the module docs).
+/// Whether slot `a` sorts after slot `b` in the vertex order: by position
+/// (`x`, then `y`, then `z`, compared as numbers: the positions are finite),
+/// then by global id (see the module docs). Only the two vertices' own
+/// values decide, so every cell holding both orders them alike.
 #[inline(always)]
 fn after(ids: &[u32; 4], p: &[[f32; 3]; 4], a: usize, b: usize) -> bool {
     let (pa, pb) = (p[a], p[b]);
-    pa[0]
-        .total_cmp(&pb[0])
-        .then(pa[1].total_cmp(&pb[1]))
-        .then(pa[2].total_cmp(&pb[2]))
-        .then(ids[a].cmp(&ids[b]))
-        .is_gt()
+    if pa[0] != pb[0] {
+        return pa[0] > pb[0];
+    }
+    if pa[1] != pb[1] {
+        return pa[1] > pb[1];
+    }
+    if pa[2] != pb[2] {
+        return pa[2] > pb[2];
+    }
+    ids[a] > ids[b]
 }
 
 /// Sets up the tet with global vertex ids `ids`, vertex positions `p` and
