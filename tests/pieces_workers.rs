@@ -244,3 +244,68 @@ fn a_lost_workers_pieces_are_read_by_the_survivors() {
         assert!(json.contains("\"n_nodes\": 3"), "{hook}: {json}");
     }
 }
+
+#[test]
+fn the_pieces_place_the_nodes_on_every_transport() {
+    let d = pieces_scene("zlib", |_| {});
+    let want = single(d.path());
+    let scene = d.path().join("scene.toml");
+    // The simulated cluster and threads: the union in this process, placed
+    // by the pieces by default; the same image as the workers' and the
+    // single-process render's, and the same cells per node.
+    let mut cells_per_node = Vec::new();
+    for transport in [None, Some("threads"), Some("processes")] {
+        let o = d.path().join("t.png");
+        let r = d.path().join("t.json");
+        let mut args = vec![
+            "cluster",
+            s(&scene),
+            "--nodes",
+            "3",
+            "--canonical",
+            "--ert",
+            "1",
+            "--no-baselines",
+            "-o",
+            s(&o),
+            "--report",
+            s(&r),
+        ];
+        if let Some(t) = transport {
+            args.extend(["--transport", t]);
+        }
+        let (ok, err) = pvrsim(&args);
+        assert!(ok, "{transport:?}: {err}");
+        assert!(
+            std::fs::read(&o).unwrap() == want,
+            "{transport:?}: the image differs"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
+        assert_eq!(json["placement"], "pieces", "{transport:?}");
+        let per_node: Vec<u64> = json["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n["cells_initial"].as_u64().unwrap())
+            .collect();
+        cells_per_node.push(per_node);
+    }
+    assert!(
+        cells_per_node.windows(2).all(|w| w[0] == w[1]),
+        "{cells_per_node:?}"
+    );
+    // One file has no pieces.
+    let (ok, err) = pvrsim(&[
+        "cluster",
+        s(&data("aorta-small-view-b.toml")),
+        "--nodes",
+        "2",
+        "--placement",
+        "pieces",
+    ]);
+    assert!(
+        !ok && err.contains("--placement pieces") && err.contains(".pvtu"),
+        "{err}"
+    );
+}

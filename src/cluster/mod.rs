@@ -109,12 +109,16 @@ pub fn run(input: &RenderInput, cfg: &ClusterConfig) -> anyhow::Result<ClusterOu
 
 /// The initial placement of `cfg` for `input`'s camera.
 pub fn place(input: &RenderInput, cfg: &ClusterConfig) -> Placement {
-    Placement::new(
-        &input.mesh,
-        cfg.phase1.nodes,
-        cfg.placement,
-        Some(&input.scene.view()),
-    )
+    place_on(input, cfg.placement, cfg.phase1.nodes)
+}
+
+/// The placement `method` of `input` on `n` nodes: by its camera, or by
+/// its pieces ([`PlacementMethod::Pieces`] of a `.pvtu`).
+pub fn place_on(input: &RenderInput, method: PlacementMethod, n: usize) -> Placement {
+    match (&input.pieces, method) {
+        (Some(p), PlacementMethod::Pieces) => Placement::from_pieces(p, n),
+        _ => Placement::new(&input.mesh, n, method, Some(&input.scene.view())),
+    }
 }
 
 /// [`run`] with the placement and the nodes' data given (a series keeps

@@ -169,11 +169,13 @@ pub struct ClusterArgs {
     /// of the cell centroids in 3-D (`rcb`, the paper's object-space split),
     /// a Morton-curve cut (`morton`), or bisection of the centroids' screen
     /// positions for this view (`rcb-view`: every node owns a screen region
-    /// with all its depths; view-dependent). Default: `rcb`; but a scene
-    /// whose data is a `.pvtu` on `--transport processes` or `tcp` is placed
-    /// by its pieces, each worker reading its own (the coordinator never
-    /// reads the cells); giving `--placement` there reads the whole mesh in
-    /// the coordinator and sends each worker its cells instead.
+    /// with all its depths; view-dependent), or the pieces of a `.pvtu`
+    /// scene (`pieces`: each node a contiguous run of them, as the solver
+    /// wrote them). Default: `pieces` for a `.pvtu`, else `rcb`. On
+    /// `--transport processes` or `tcp` with `pieces`, each worker reads its
+    /// own pieces (the coordinator never reads the cells); another
+    /// placement there reads the whole mesh in the coordinator and sends
+    /// each worker its cells.
     #[arg(long, value_enum)]
     pub placement: Option<PlacementMethod>,
     /// Most cells a node scans between two looks at its inbox (an ERT update
@@ -519,15 +521,27 @@ pub struct MeshFrame {
 pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
     super::grid_args::refuse_on_mesh(&a.grid)?;
     let load = || -> anyhow::Result<RenderInput> {
-        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
-        Ok(RenderInput::new(scene, std::sync::Arc::new(mesh))?)
+        let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
+        let mut input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;
+        input.pieces = pieces.map(std::sync::Arc::from);
+        Ok(input)
     };
     let mut input = load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
     super::warn_field(&input);
-    let (cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
+    let (mut cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
+    match (a.placement, &input.pieces) {
+        // A .pvtu is placed by its pieces unless told otherwise.
+        (None, Some(_)) => cfg.placement = PlacementMethod::Pieces,
+        (Some(PlacementMethod::Pieces), None) => anyhow::bail!(
+            "--placement pieces: the scene's data {} is one file; pieces come from a .pvtu \
+             (pvrsim partition MESH --pieces P -o OUT.pvtu writes one)",
+            input.scene.data.path.display()
+        ),
+        _ => {}
+    }
     let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
     Ok(MeshFrame {
         inputs,

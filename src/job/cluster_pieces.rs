@@ -14,6 +14,7 @@ use crate::cluster::remote::pieces::PieceSet;
 use crate::cluster::report::transport::PiecesSection;
 use crate::cluster::series::{Coherence, Step};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
+use crate::node::PlacementMethod;
 use crate::scene::Scene;
 
 /// Frames ready to run on workers that read their pieces.
@@ -38,7 +39,7 @@ pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
         .path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("pvtu"));
-    pvtu && a.placement.is_none()
+    pvtu && matches!(a.placement, None | Some(PlacementMethod::Pieces))
         && matches!(
             a.net.transport,
             Some(TransportKind::Processes | TransportKind::Tcp)
@@ -66,7 +67,8 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
         scene.image.width = w;
         scene.image.height = h;
     }
-    let (cfg, remote) = mesh_config(a, [scene.image.width, scene.image.height])?;
+    let (mut cfg, remote) = mesh_config(a, [scene.image.width, scene.image.height])?;
+    cfg.placement = PlacementMethod::Pieces;
     let kind = remote.context("workers reading pieces need a remote transport (internal error)")?;
     let pieces = PieceSet::open(&scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;

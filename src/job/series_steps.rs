@@ -69,8 +69,10 @@ pub fn mesh_steps(
                 let mut scene = inputs[0].scene.clone();
                 scene.data.path = f.mesh.clone();
                 scene.data.field = f.field.clone();
-                let input = RenderInput::new(scene, mesh)
+                let mut input = RenderInput::new(scene, mesh)
                     .with_context(|| format!("{}: field {:?}", at(), f.field))?;
+                // Same topology: the scene's pieces (if any) place it too.
+                input.pieces = inputs[0].pieces.clone();
                 keys.push(key);
                 inputs.push(input);
                 inputs.len() - 1

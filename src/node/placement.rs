@@ -60,6 +60,10 @@ pub enum PlacementMethod {
     /// each node holds every depth of its part of the screen (sort-first
     /// style). View-dependent: another view needs another placement.
     RcbView,
+    /// The pieces of a partitioned mesh (`.pvtu`), as its solver wrote
+    /// them: each node a contiguous run of pieces ([`piece_runs`]). Without
+    /// pieces (one file), as [`PlacementMethod::Rcb`].
+    Pieces,
 }
 
 /// Cells per node.
@@ -192,6 +196,48 @@ fn morton3(x: u64, y: u64, z: u64) -> u64 {
     spread(x) | spread(y) << 1 | spread(z) << 2
 }
 
+/// Pieces per node: `n` contiguous runs of the pieces (weights `w`, e.g.
+/// their cells) of about equal weight, every node a piece when there are at
+/// least `n`; with fewer pieces than nodes, the last nodes get none. The
+/// same runs wherever pieces are placed (in this process, or by workers
+/// that read their own).
+pub fn piece_runs(w: &[u64], n: usize) -> Vec<Vec<u32>> {
+    let n = n.max(1);
+    let mut parts = vec![Vec::new(); n];
+    if w.len() <= n {
+        // One piece a node, first nodes first.
+        for (i, p) in parts.iter_mut().enumerate().take(w.len()) {
+            p.push(i as u32);
+        }
+        return parts;
+    }
+    let total: u128 = w.iter().map(|&c| c as u128).sum();
+    let equal = |parts: &mut Vec<Vec<u32>>| {
+        for (k, p) in parts.iter_mut().enumerate() {
+            p.clear();
+            let (a, b) = (k * w.len() / n, (k + 1) * w.len() / n);
+            p.extend(a as u32..b as u32);
+        }
+    };
+    if total == 0 {
+        equal(&mut parts);
+        return parts;
+    }
+    // Each piece to the node whose share its middle falls in; a node left
+    // empty (a heavy neighbour) takes equal counts of pieces instead.
+    let mut acc = 0u128;
+    for (i, &c) in w.iter().enumerate() {
+        let mid = acc * 2 + c as u128;
+        let k = (mid * n as u128 / (2 * total)) as usize;
+        parts[k.min(n - 1)].push(i as u32);
+        acc += c as u128;
+    }
+    if parts.iter().any(Vec::is_empty) {
+        equal(&mut parts);
+    }
+    parts
+}
+
 impl Placement {
     /// Places the cells of `mesh` on `n >= 1` nodes. `view` is needed by
     /// [`PlacementMethod::RcbView`] only (without one it falls back to
@@ -221,7 +267,9 @@ impl Placement {
                 }
                 rcb(&mut ids, &c, 2, &t, &mut parts)
             }
-            PlacementMethod::Rcb | PlacementMethod::RcbView => rcb(&mut ids, &c, 3, &t, &mut parts),
+            PlacementMethod::Rcb | PlacementMethod::RcbView | PlacementMethod::Pieces => {
+                rcb(&mut ids, &c, 3, &t, &mut parts)
+            }
             PlacementMethod::Morton => {
                 let (lo, hi) = bbox(&ids, &c);
                 let q = |v: f64, a: usize| {
@@ -250,6 +298,30 @@ impl Placement {
                 }
             }
         }
+        Placement { parts }
+    }
+
+    /// Places a mesh made of pieces of `cells[i]` cells each, one piece
+    /// after the other, on `n >= 1` nodes: node `k` the cells of its pieces
+    /// ([`piece_runs`]).
+    pub fn from_pieces(cells: &[u64], n: usize) -> Placement {
+        let mut first = Vec::with_capacity(cells.len());
+        let mut acc = 0u64;
+        for &c in cells {
+            first.push(acc);
+            acc += c;
+        }
+        let parts = piece_runs(cells, n.max(1))
+            .into_iter()
+            .map(|run| {
+                run.iter()
+                    .flat_map(|&i| {
+                        let a = first[i as usize];
+                        a as u32..(a + cells[i as usize]) as u32
+                    })
+                    .collect()
+            })
+            .collect();
         Placement { parts }
     }
 

@@ -18,6 +18,9 @@ pub struct RenderInput {
     pub s_norm: Vec<f64>,
     /// The range actually used (the scene's, or the field's min..max).
     pub range: [f64; 2],
+    /// A `.pvtu`'s pieces: each one's tetrahedra, the mesh holding them in
+    /// turn (`None` for one file). `--placement pieces` places by them.
+    pub pieces: Option<Arc<[u64]>>,
 }
 
 impl RenderInput {
@@ -48,6 +51,7 @@ impl RenderInput {
             mesh,
             s_norm,
             range,
+            pieces: None,
         })
     }
 }
@@ -58,9 +62,11 @@ impl RenderInput {
     pub fn load(scene_path: &std::path::Path) -> Result<(RenderInput, f64)> {
         let scene = Scene::load(scene_path)?;
         let t = std::time::Instant::now();
-        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
+        let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
         let load_s = t.elapsed().as_secs_f64();
-        Ok((RenderInput::new(scene, Arc::new(mesh))?, load_s))
+        let mut input = RenderInput::new(scene, Arc::new(mesh))?;
+        input.pieces = pieces.map(Arc::from);
+        Ok((input, load_s))
     }
 
     /// The same input with the image size replaced (camera unchanged: an

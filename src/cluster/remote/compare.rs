@@ -85,12 +85,7 @@ pub fn transport_section(
                 parts: r.parts.clone(),
             }
         }
-        None => Placement::new(
-            &input.mesh,
-            p1.nodes,
-            cfg.placement,
-            Some(&input.scene.view()),
-        ),
+        None => crate::cluster::place_on(input, cfg.placement, p1.nodes),
     };
     let (sim, model2) = model(input, cfg, &placement, p1)?;
     // The recovery's modelled cost: the survivors' frame beside the
@@ -100,12 +95,7 @@ pub fn transport_section(
         Some(r) => {
             let mut q1 = p1;
             q1.nodes = r.parts.len() + r.lost.len();
-            let all = Placement::new(
-                &input.mesh,
-                q1.nodes,
-                cfg.placement,
-                Some(&input.scene.view()),
-            );
+            let all = crate::cluster::place_on(input, cfg.placement, q1.nodes);
             let (s0, m0) = model(input, cfg, &all, q1)?;
             let undisturbed = s0.end_s + m0.sim.end_time;
             let lost_work: f64 = r

@@ -91,9 +91,7 @@ impl Coordinator {
             cells: 0,
             depth_range,
         };
-        let (mut out, m) = self.run_setups(data, cfg, setups, t_setup, busy_wait)?;
-        out.report.placement = "pieces".to_string();
-        Ok((out, m))
+        self.run_setups(data, cfg, setups, t_setup, busy_wait)
     }
 
     /// One frame on the workers with these set-ups (and cells to send
@@ -214,7 +212,7 @@ impl Coordinator {
             "{} worker addresses for --nodes {n}: give one worker per node",
             self.workers.len()
         );
-        let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
+        let placement = crate::cluster::place(input, cfg);
         let ((out, mut m), r) = with_reassign(
             n,
             placement.parts,

@@ -27,7 +27,6 @@ use super::worker::run_node;
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
 use crate::net::mpi::MpiTransport;
 use crate::net::{Codec, MessageKind, NodeId, RemoteTransport, Transport};
-use crate::node::Placement;
 use crate::render::RenderInput;
 
 /// Longest wait of a worker for its set-up: the coordinator loads the
@@ -54,7 +53,7 @@ pub fn coordinate(
     let mut cfg = cfg.clone();
     cfg.phase1.clock = ClockKind::Wall;
     let t_setup = Instant::now();
-    let placement = Placement::new(&input.mesh, n, cfg.placement, Some(&input.scene.view()));
+    let placement = crate::cluster::place(input, &cfg);
     let names: Vec<String> = (1..=n).map(|r| format!("MPI rank {r}")).collect();
     let mut measured = Measured::default();
     for (k, (setup, cells)) in worker_setups(input, &cfg, &placement, &names, codec, recv_timeout)

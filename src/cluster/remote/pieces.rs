@@ -126,7 +126,8 @@ impl PieceSet {
     }
 
     /// Pieces per node: `n` contiguous runs of about equal declared cells
-    /// (with fewer pieces than nodes, the last nodes start empty).
+    /// ([`crate::node::placement::piece_runs`], as a run in this process
+    /// places the pieces).
     pub fn parts(&self, n: usize) -> Vec<Vec<u32>> {
         let w: Vec<u64> = self
             .summary
@@ -134,29 +135,7 @@ impl PieceSet {
             .iter()
             .map(|p| p.cells_declared)
             .collect();
-        let total: u64 = w.iter().sum();
-        let mut parts = vec![Vec::new(); n];
-        let mut acc = 0u64;
-        for (i, &c) in w.iter().enumerate() {
-            // The node whose share the piece's middle falls in.
-            let mid = acc as u128 * 2 + c as u128;
-            let k = if total == 0 {
-                i * n / w.len().max(1)
-            } else {
-                ((mid * n as u128) / (2 * total as u128)) as usize
-            };
-            parts[k.min(n - 1)].push(i as u32);
-            acc += c;
-        }
-        // Fewer pieces than nodes: one piece each, first nodes first.
-        if w.len() >= n && parts.iter().any(Vec::is_empty) {
-            for (k, p) in parts.iter_mut().enumerate() {
-                p.clear();
-                let (a, b) = (k * w.len() / n, (k + 1) * w.len() / n);
-                p.extend(a as u32..b as u32);
-            }
-        }
-        parts
+        crate::node::placement::piece_runs(&w, n)
     }
 
     /// What a worker holding pieces `part` is told.

@@ -43,14 +43,25 @@ pub const SUPPORTED: &str =
 /// (case-insensitive), and validates it ([`TetMesh::validate`]: indices in
 /// range, coordinates and field values finite, field lengths right).
 pub fn read_mesh(path: &Path) -> Result<TetMesh> {
+    Ok(read_mesh_with_pieces(path)?.0)
+}
+
+/// [`read_mesh`], with the tetrahedra of each piece of a `.pvtu` (`None`
+/// for the other formats): the union holds the pieces' cells in turn.
+pub fn read_mesh_with_pieces(path: &Path) -> Result<(TetMesh, Option<Vec<u64>>)> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    let mut pieces = None;
     let mesh = match ext.as_deref() {
         Some("vtk") => vtk_legacy::read(path)?,
         Some("vtu") => vtu::read(path)?,
-        Some("pvtu") => pvtu::read(path)?,
+        Some("pvtu") => {
+            let (m, p) = pvtu::read_with_pieces(path)?;
+            pieces = Some(p);
+            m
+        }
         Some("inp") => avs_ucd::read(path)?,
         _ => {
             return Err(Error::data(
@@ -64,7 +75,7 @@ pub fn read_mesh(path: &Path) -> Result<TetMesh> {
         }
     };
     mesh.validate(path)?;
-    Ok(mesh)
+    Ok((mesh, pieces))
 }
 
 /// Reads a whole regular file (a device, FIFO or directory is refused),

@@ -221,6 +221,12 @@ pub(crate) fn check_piece(
 /// Reads a `.pvtu` and all its pieces (in parallel) into one mesh, merging
 /// the vertices the pieces share (see the module documentation).
 pub fn read(path: &Path) -> Result<TetMesh> {
+    Ok(read_with_pieces(path)?.0)
+}
+
+/// [`read`], with each piece's tetrahedra (the union holds the pieces'
+/// cells one piece after the other, in the `.pvtu`'s order).
+pub fn read_with_pieces(path: &Path) -> Result<(TetMesh, Vec<u64>)> {
     let head = read_header(path)?;
     let meshes: Vec<Result<TetMesh>> = (0..head.pieces.len())
         .into_par_iter()
@@ -230,5 +236,6 @@ pub fn read(path: &Path) -> Result<TetMesh> {
     for m in meshes {
         parts.push(m?);
     }
-    Ok(merge::merge_shared(merge::concat(parts)))
+    let cells = parts.iter().map(|m| m.tets.len() as u64).collect();
+    Ok((merge::merge_shared(merge::concat(parts)), cells))
 }

@@ -95,6 +95,7 @@ pub(super) fn run_tol(
         mesh: Arc::new(mesh),
         s_norm,
         range: [0.0, 1.0],
+        pieces: None,
     };
     let (img, st) = render(&input, &adj, &ReferenceOptions { tolerance });
     assert!(!img.has_non_finite());
