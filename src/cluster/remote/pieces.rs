@@ -53,8 +53,8 @@ pub struct WirePiece {
 /// The pieces a worker reads (in its set-up, instead of cells).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PieceSource {
-    /// The `.pvtu` as the coordinator names it: the same path must reach
-    /// the same files on every worker's machine.
+    /// The `.pvtu`'s absolute path on the coordinator's machine: the same
+    /// path must reach the same files on every worker's machine.
     pub pvtu: String,
     /// The field rendered.
     pub field: String,
@@ -78,6 +78,9 @@ pub struct PieceSet {
     pub range: [f64; 2],
     /// Per piece: `(vertex_base, cell_base, cells_max)`.
     bases: Vec<(u32, u32, u32)>,
+    /// The `.pvtu`'s absolute path, as the workers are told it (whatever
+    /// folder they run in).
+    absolute: PathBuf,
 }
 
 impl PieceSet {
@@ -112,11 +115,14 @@ impl PieceSet {
             v += p.points;
             c += cells_max;
         }
+        let absolute = std::fs::canonicalize(path)
+            .with_context(|| format!("cannot resolve {}", path.display()))?;
         Ok(PieceSet {
             summary,
             field: scene.data.field.clone(),
             range,
             bases,
+            absolute,
         })
     }
 
@@ -141,7 +147,7 @@ impl PieceSet {
     /// What a worker holding pieces `part` is told.
     pub fn source(&self, part: &[u32]) -> PieceSource {
         PieceSource {
-            pvtu: self.summary.path.to_string_lossy().into_owned(),
+            pvtu: self.absolute.to_string_lossy().into_owned(),
             field: self.field.clone(),
             range: self.range,
             pieces: part
