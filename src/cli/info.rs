@@ -53,10 +53,19 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let mesh = crate::data::io::read_mesh(&a.file)
+    let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&a.file)
         .with_context(|| format!("cannot read {}", a.file.display()))?;
     let load_s = t.elapsed().as_secs_f64();
-    let (bytes, per, line) = memory_line(&mesh);
+    let (bytes, per, mut line) = memory_line(&mesh);
+    if let Some(p) = &pieces {
+        // The tetrahedra of each piece (the cluster's `--placement pieces`).
+        let list: Vec<String> = p.iter().map(u64::to_string).collect();
+        line = format!(
+            "pieces: {} (tetrahedra each: {})\n{line}",
+            p.len(),
+            list.join(", ")
+        );
+    }
     if a.no_quality {
         let (lo, hi) = mesh.bounds();
         let fields: Vec<String> = mesh
@@ -73,6 +82,7 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
                 "load_s": load_s,
                 "mesh_bytes": bytes,
                 "bytes_per_tet": per,
+                "piece_tetrahedra": pieces,
             });
             println!("{}", serde_json::to_string_pretty(&v)?);
         } else {
@@ -93,6 +103,7 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         if let Some(o) = v.as_object_mut() {
             o.insert("mesh_bytes".into(), bytes.into());
             o.insert("bytes_per_tet".into(), per.into());
+            o.insert("piece_tetrahedra".into(), serde_json::to_value(&pieces)?);
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
