@@ -172,31 +172,12 @@ impl Coordinator {
         scene: &Scene,
         cfg: &ClusterConfig,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let n = cfg.phase1.nodes;
-        anyhow::ensure!(
-            self.workers.len() == n,
-            "{} worker addresses for --nodes {n}: give one worker per node",
-            self.workers.len()
-        );
-        let ((out, mut m), r) = with_reassign(
-            n,
-            pieces.parts(n),
-            self.tcp.deadline,
-            self.reassign,
+        self.reassigning(
+            cfg,
             "pieces",
-            |alive, parts| {
-                let c = Coordinator {
-                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
-                    ..self.clone()
-                };
-                let mut cfg = cfg.clone();
-                cfg.phase1.nodes = alive.len();
-                let wait = busy_wait(alive.len() < n, self.tcp.deadline);
-                c.run_pieces_placed(pieces, scene, &cfg, parts, wait)
-            },
-        )?;
-        m.reassigned = r;
-        Ok((out, m))
+            |n| pieces.parts(n),
+            |c, cfg, parts, wait| c.run_pieces_placed(pieces, scene, cfg, parts, wait),
+        )
     }
 
     /// Runs one frame on the workers; with [`Coordinator::reassign`], again
@@ -206,19 +187,48 @@ impl Coordinator {
         input: &RenderInput,
         cfg: &ClusterConfig,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        self.reassigning(
+            cfg,
+            "cells",
+            |_| crate::cluster::place(input, cfg).parts,
+            |c, cfg, parts, wait| {
+                let p = Placement {
+                    parts: parts.to_vec(),
+                };
+                c.run_placed(input, cfg, &p, wait)
+            },
+        )
+    }
+
+    /// Runs `attempt` on every worker with `parts(n)` (cells or pieces by
+    /// rank, `what` in messages); with [`Coordinator::reassign`], again on
+    /// the survivors (a coordinator of them, the configuration with their
+    /// count, their parts, how long to ask a busy one) whenever workers are
+    /// lost.
+    fn reassigning(
+        &self,
+        cfg: &ClusterConfig,
+        what: &str,
+        parts: impl FnOnce(usize) -> Vec<Vec<u32>>,
+        mut attempt: impl FnMut(
+            &Coordinator,
+            &ClusterConfig,
+            &[Vec<u32>],
+            Duration,
+        ) -> anyhow::Result<(ClusterOutcome, Measured)>,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
         let n = cfg.phase1.nodes;
         anyhow::ensure!(
             self.workers.len() == n,
             "{} worker addresses for --nodes {n}: give one worker per node",
             self.workers.len()
         );
-        let placement = crate::cluster::place(input, cfg);
         let ((out, mut m), r) = with_reassign(
             n,
-            placement.parts,
+            parts(n),
             self.tcp.deadline,
             self.reassign,
-            "cells",
+            what,
             |alive, parts| {
                 let c = Coordinator {
                     workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
@@ -226,11 +236,8 @@ impl Coordinator {
                 };
                 let mut cfg = cfg.clone();
                 cfg.phase1.nodes = alive.len();
-                let p = Placement {
-                    parts: parts.to_vec(),
-                };
                 let wait = busy_wait(alive.len() < n, self.tcp.deadline);
-                c.run_placed(input, &cfg, &p, wait)
+                attempt(&c, &cfg, parts, wait)
             },
         )?;
         m.reassigned = r;
