@@ -328,6 +328,32 @@ fn small_mesh(n: usize, seed: u64) -> TetMesh {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
+    /// The pieces' runs: every piece on exactly one node, each node's
+    /// pieces one ascending run and the runs in node order, no node empty
+    /// when there are as many pieces as nodes; the placement from them
+    /// holds every cell once, a node's cells being its pieces'.
+    #[test]
+    fn piece_runs_cover_in_order(w in prop::collection::vec(0u64..5000, 1..40), n in 1usize..20) {
+        use pvrsim::node::placement::piece_runs;
+        let runs = piece_runs(&w, n);
+        prop_assert_eq!(runs.len(), n);
+        let flat: Vec<u32> = runs.iter().flatten().copied().collect();
+        prop_assert_eq!(flat, (0..w.len() as u32).collect::<Vec<_>>());
+        if w.len() >= n {
+            prop_assert!(runs.iter().all(|r| !r.is_empty()), "{:?}", runs);
+        }
+        let p = pvrsim::node::Placement::from_pieces(&w, n);
+        let total: u64 = w.iter().sum();
+        let mut cells: Vec<u32> = p.parts.iter().flatten().copied().collect();
+        cells.sort_unstable();
+        prop_assert_eq!(cells, (0..total as u32).collect::<Vec<_>>());
+        for (run, part) in runs.iter().zip(&p.parts) {
+            let want: u64 = run.iter().map(|&i| w[i as usize]).sum();
+            prop_assert_eq!(part.len() as u64, want);
+        }
+    }
+
+
     /// Every cell in exactly one piece; sizes within one cell of the
     /// share; the pieces' centroid boxes together no larger than the whole
     /// box (pieces from a bisection do not overlap; random pieces would
