@@ -7,8 +7,9 @@
 //! on it checks the options or reads the scene again.
 
 use super::api::ClusterResult;
-use super::cluster::{self, ClusterArgs, MeshFrame};
+use super::cluster::ClusterArgs;
 use super::cluster_grid::{self, GridFrames};
+use super::cluster_mesh::{self, MeshFrame};
 use super::cluster_pieces::{self, PieceFrames};
 use super::validate::Valid;
 
@@ -33,7 +34,7 @@ impl<'a> Valid<'a, ClusterArgs> {
         } else if cluster_pieces::reads_pieces(a, &scene) {
             LoadedCluster::Pieces(a, Box::new(cluster_pieces::load(a, scene)?))
         } else {
-            LoadedCluster::Mesh(a, Box::new(cluster::load_mesh(a, scene)?))
+            LoadedCluster::Mesh(a, Box::new(cluster_mesh::load_mesh(a, scene)?))
         })
     }
 }
@@ -51,7 +52,9 @@ impl LoadedCluster<'_> {
         progress: impl FnMut(usize, usize),
     ) -> anyhow::Result<ClusterResult> {
         Ok(match self {
-            LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(cluster::run_mesh(a, *f, progress)?),
+            LoadedCluster::Mesh(a, f) => {
+                ClusterResult::Mesh(cluster_mesh::run_mesh(a, *f, progress)?)
+            }
             LoadedCluster::Grid(a, f) => ClusterResult::Grid(cluster_grid::run(a, *f)?),
             LoadedCluster::Pieces(a, f) => {
                 ClusterResult::Mesh(cluster_pieces::run(a, *f, progress)?)

@@ -8,7 +8,8 @@
 
 use anyhow::Context;
 
-use super::cluster::{mesh_config, ClusterArgs, Sharing};
+use super::cluster::{ClusterArgs, Sharing};
+use super::cluster_mesh::mesh_config;
 use super::transport_args::TransportKind;
 use crate::cluster::remote::pieces::PieceSet;
 use crate::cluster::report::transport::PiecesSection;

@@ -11,11 +11,13 @@
 //!   or [`render_grid`] (slicing, adaptive, [`render_splat`], the grid
 //!   reference); [`grid_order`] is `--order`; [`compare`] is `--compare`'s
 //!   verdict and strip.
-//! - [`cluster`]: a cluster frame of a mesh or a grid ([`cluster_grid`], whose
-//!   options are [`grid_args`]), or a series of frames ([`series_args`], [`series_steps`], [`series_output`]), on
+//! - [`cluster`]: a cluster frame's options, of a mesh ([`cluster_mesh`];
+//!   a `.pvtu` whose workers read their own pieces: [`cluster_pieces`]) or
+//!   a grid ([`cluster_grid`], whose options are [`grid_args`]), or a
+//!   series of frames ([`series_args`], [`series_steps`], [`series_output`]), on
 //!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]);
 //!   [`cluster_job`] is its one path: validated once, the scene read once
-//!   and its mesh or volume loaded ([`LoadedCluster`]), then run.
+//!   and its mesh, pieces or volume loaded ([`LoadedCluster`]), then run.
 //! - [`validate`]: the one validation layer. Each job implements
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
 //!   are decided there (errors say what to do, warnings what will happen);
@@ -43,6 +45,7 @@ pub mod cluster;
 pub mod cluster_ert;
 pub mod cluster_grid;
 pub mod cluster_job;
+pub mod cluster_mesh;
 pub mod cluster_pieces;
 pub mod compare;
 pub mod grid_args;

@@ -1,0 +1,176 @@
+//! A mesh cluster job's frames: the scene's mesh read once with the
+//! frame's configuration ([`load_mesh`], [`mesh_config`]), then run in this
+//! process or on the workers the transport names ([`run_mesh`]). The
+//! options live in [`super::cluster`].
+
+use anyhow::Context;
+
+use super::cluster::{config, ClusterArgs};
+use super::memory::{self, FrameKind};
+use crate::cluster::{self, ClusterConfig, ClusterOutcome};
+use crate::node::{DataMode, PlacementMethod};
+use crate::render::RenderInput;
+
+/// Mesh frames ready to run: the scene and its mesh (each read once),
+/// the configuration, the cameras, and where they run (`None`: this process).
+pub struct MeshFrame {
+    /// The scene with its mesh, then each other time step of a series.
+    pub inputs: Vec<RenderInput>,
+    /// The configuration.
+    pub cfg: ClusterConfig,
+    /// One step per frame (`--frames`, `--turn`, `--series`; one without them).
+    pub steps: Vec<crate::cluster::series::Step>,
+    remote: Option<super::transport_args::TransportKind>,
+}
+
+/// Prepares a mesh frame of validated options on `scene` (read once, by
+/// the caller): refuses grid-only options, reads the mesh, builds the
+/// configuration and checks memory and the transport's set-up.
+pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
+    super::grid_args::refuse_on_mesh(&a.grid)?;
+    let load = || -> anyhow::Result<RenderInput> {
+        let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
+        let mut input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;
+        input.pieces = pieces.map(std::sync::Arc::from);
+        Ok(input)
+    };
+    let mut input = load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    if let (Some(w), Some(h)) = (a.width, a.height) {
+        input = input.with_size(w, h);
+    }
+    super::warn_field(&input);
+    let (mut cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
+    match (a.placement, &input.pieces) {
+        // A .pvtu is placed by its pieces unless told otherwise.
+        (None, Some(_)) => cfg.placement = PlacementMethod::Pieces,
+        (Some(PlacementMethod::Pieces), None) => anyhow::bail!(
+            "--placement pieces: the scene's data {} is one file; pieces come from a .pvtu \
+             (pvrsim partition MESH --pieces P -o OUT.pvtu writes one)",
+            input.scene.data.path.display()
+        ),
+        _ => {}
+    }
+    let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
+    Ok(MeshFrame {
+        inputs,
+        cfg,
+        steps,
+        remote,
+    })
+}
+
+/// The configuration of a mesh frame of `image` pixels and where it runs
+/// (`None`: this process): checks memory, the node count and what the
+/// transport accepts (remote workers hold partitioned data).
+pub(super) fn mesh_config(
+    a: &ClusterArgs,
+    image: [u32; 2],
+) -> anyhow::Result<(ClusterConfig, Option<super::transport_args::TransportKind>)> {
+    let mut cfg = config(a)?;
+    memory::check_fits(
+        image[0],
+        image[1],
+        FrameKind::Cluster { nodes: a.nodes },
+        crate::budget::available_bytes(),
+    )?;
+    // After the memory check, whose message says what a huge count costs.
+    anyhow::ensure!(
+        a.nodes <= 65_536,
+        "--nodes {} is more than this simulator supports (65536)",
+        a.nodes
+    );
+    let remote = a.net.apply(&mut cfg)?;
+    if a.series.is_series() {
+        anyhow::ensure!(
+            remote != Some(super::transport_args::TransportKind::Mpi),
+            "--frames/--series with --transport mpi: an MPI job renders one frame (its ranks \
+             serve one session); run a series on processes, tcp or threads"
+        );
+    }
+    if remote.is_some() {
+        anyhow::ensure!(
+            a.ert_mode.manager_shards.is_none_or(|k| k == 1),
+            "--manager-shards runs on the simulated cluster (or --transport threads) only: \
+             remote workers talk to one manager"
+        );
+        if a.ert_mode.manager_shards.is_none() && a.nodes > 16 {
+            eprintln!(
+                "note: remote workers talk to one manager: 1 manager shard (the simulated \
+                 cluster's default for {} nodes would be {})",
+                a.nodes,
+                a.nodes.div_ceil(crate::node::shard_map::NODES_PER_SHARD)
+            );
+        }
+        if cfg.phase1.data == DataMode::Replicated {
+            anyhow::ensure!(
+                a.data.is_none(),
+                "--data replicated runs on the simulated cluster only: remote workers receive their part of the mesh, not all of it; give --data partitioned"
+            );
+            eprintln!("note: remote workers hold their part of the mesh only: --data partitioned (cells move with their vertices)");
+            cfg.phase1.data = DataMode::Partitioned;
+            anyhow::ensure!(
+                a.ert_mode.schedule_waves.is_none_or(|w| w <= 1),
+                "--schedule-waves needs replicated data, which runs on the simulated cluster only"
+            );
+            cfg.phase1.schedule_waves = 0;
+        }
+    }
+    Ok((cfg, remote))
+}
+
+/// Runs prepared mesh frames (on the transport `a` names), writing
+/// nothing: one outcome per camera, in order; with more than one frame the
+/// last frame's report carries the series section
+/// ([`crate::cluster::series`]). `progress` hears of each frame as it ends.
+pub fn run_mesh(
+    a: &ClusterArgs,
+    f: MeshFrame,
+    mut progress: impl FnMut(usize, usize),
+) -> anyhow::Result<Vec<ClusterOutcome>> {
+    let MeshFrame {
+        inputs,
+        cfg,
+        steps,
+        remote,
+    } = f;
+    let n = steps.len();
+    let coherence = match (remote, a.series.coherence) {
+        (Some(_), _) => cluster::series::Coherence::Off,
+        (None, Some(c)) => c,
+        (None, None) if cfg.phase1.data == DataMode::Partitioned => {
+            cluster::series::Coherence::Placement
+        }
+        (None, None) => cluster::series::Coherence::Off,
+    };
+    let (mut outs, measured) = match remote {
+        None => (
+            cluster::series::run(&inputs, &steps, &cfg, coherence, |k, _| progress(k, n))?,
+            None,
+        ),
+        Some(kind) => {
+            let frames = a
+                .net
+                .run_series(kind, &inputs, &steps, &cfg, |k| progress(k, n))?;
+            let mut outs = Vec::with_capacity(n);
+            let mut rows = Vec::with_capacity(n);
+            for (step, (mut out, m, wall_s)) in steps.iter().zip(frames) {
+                rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
+                out.report.transport = Some(crate::cluster::remote::transport_section(
+                    &step.input(&inputs),
+                    &cfg,
+                    &out,
+                    m,
+                )?);
+                outs.push(out);
+            }
+            (outs, Some(rows))
+        }
+    };
+    if a.series.is_series() {
+        let series = cluster::series::report(&outs, &steps, measured.as_deref(), coherence);
+        if let Some(last) = outs.last_mut() {
+            last.report.series = Some(series);
+        }
+    }
+    Ok(outs)
+}
