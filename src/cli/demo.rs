@@ -203,5 +203,12 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         "      pvrsim cluster {} --nodes 16 --ert 0.9 --share --dlb --timeline t.png",
         a.out_dir.join("demo-ert.toml").display()
     );
+    if a.pieces > 0 {
+        println!(
+            "      pvrsim cluster {} --nodes {} --transport processes   (each worker reads its own piece)",
+            scene_path.display(),
+            a.pieces
+        );
+    }
     Ok(())
 }
