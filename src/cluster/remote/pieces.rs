@@ -210,7 +210,7 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
             path.display(),
             head.pieces.len()
         );
-        let mesh = pvtu::read_piece(&path, &head, k)?;
+        let mesh = pvtu::read_piece_keeping(&path, &head, k, Some(&src.field))?;
         let src_name = &head.pieces[k].0;
         anyhow::ensure!(
             mesh.points.len() as u64 == wp.points as u64,

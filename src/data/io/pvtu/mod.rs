@@ -169,9 +169,20 @@ pub fn read_header(path: &Path) -> Result<PvtuHeader> {
 
 /// Reads one piece of `head` and checks it against the declaration.
 pub fn read_piece(path: &Path, head: &PvtuHeader, k: usize) -> Result<TetMesh> {
+    read_piece_keeping(path, head, k, None)
+}
+
+/// [`read_piece`], decoding only the point-data array `keep` when one is
+/// named (a worker reads the field it renders, not the solver's others).
+pub fn read_piece_keeping(
+    path: &Path,
+    head: &PvtuHeader,
+    k: usize,
+    keep: Option<&str>,
+) -> Result<TetMesh> {
     let (src, p) = &head.pieces[k];
     let at = |msg: String| Error::data(path, format!("<Piece> {k} Source=\"{src}\""), msg);
-    let (mesh, pty, decl) = vtu::read_declared(p).map_err(|e| at(e.to_string()))?;
+    let (mesh, pty, decl) = vtu::read_declared_keeping(p, keep).map_err(|e| at(e.to_string()))?;
     mesh.validate(p).map_err(|e| at(e.to_string()))?;
     check_piece(path, head, k, pty, &decl, mesh.points.is_empty())?;
     Ok(mesh)

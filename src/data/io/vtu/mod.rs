@@ -46,10 +46,14 @@ pub(crate) type Declared = Vec<(String, NumType, usize)>;
 
 /// Reads a `.vtu` like [`read`], with the points' type and the point-data
 /// arrays its first `<Piece>` declares (to check that the pieces of a
-/// `.pvtu` agree).
-pub(crate) fn read_declared(path: &Path) -> Result<(TetMesh, Option<NumType>, Declared)> {
+/// `.pvtu` agree), decoding only the point-data array `keep` when one is
+/// named (the others are declared, and checked, but not read).
+pub(crate) fn read_declared_keeping(
+    path: &Path,
+    keep: Option<&str>,
+) -> Result<(TetMesh, Option<NumType>, Declared)> {
     let data = FileBytes::open(path)?;
-    let s = scan(&data, path, "UnstructuredGrid")?;
+    let mut s = scan(&data, path, "UnstructuredGrid")?;
     let first = s.pieces.first();
     let points = first.and_then(|p| p.points.as_ref()).map(|a| a.ty);
     let decl = first.map_or(Vec::new(), |p| {
@@ -58,6 +62,11 @@ pub(crate) fn read_declared(path: &Path) -> Result<(TetMesh, Option<NumType>, De
             .map(|a| (a.name.clone(), a.ty, a.ncomp))
             .collect()
     });
+    if let Some(keep) = keep {
+        for p in &mut s.pieces {
+            p.point_data.retain(|a| a.name == keep);
+        }
+    }
     Ok((assemble(&s.ctx, s.pieces)?, points, decl))
 }
 

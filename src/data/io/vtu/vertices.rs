@@ -28,7 +28,7 @@ pub struct VertexCounts {
 /// (all its components), not the cells: `on_points` gets the positions and
 /// `on_values` the field's values (whole vertices, `components` each) a
 /// chunk at a time. The points' type and the declared arrays are returned
-/// as [`super::read_declared`] returns them. A missing field is an error
+/// as [`super::read_declared_keeping`] returns them. A missing field is an error
 /// naming the arrays there are.
 pub(crate) fn fold_vertices(
     path: &Path,
