@@ -129,22 +129,30 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
             "the array is missing from some pieces",
         ));
     }
-    // Fast path: every piece all tetrahedra with indices in range.
-    let fast: Option<Vec<&[[u32; 4]]>> = cells
-        .iter()
-        .map(|(c, _)| match c {
-            Part::Tets(t) => Some(t.as_slice()),
-            Part::Cells(_) => None,
+    // Fast path: every piece all tetrahedra with indices in range (read
+    // straight into tetrahedra, or found so now).
+    let cells: Vec<Part> = cells
+        .into_iter()
+        .map(|(c, np)| match c {
+            Part::Cells(pc) => match pc.all_tets(np) {
+                Some(t) => Part::Tets(t),
+                None => Part::Cells(pc),
+            },
+            tets => tets,
         })
         .collect();
-    if fast.is_some() {
-        let tets = if cells.len() == 1 {
-            match cells.pop() {
-                Some((Part::Tets(t), _)) => t,
-                _ => Vec::new(),
-            }
-        } else {
-            fast.unwrap_or_default().concat()
+    if cells.iter().all(|c| matches!(c, Part::Tets(_))) {
+        let mut parts: Vec<Vec<[u32; 4]>> = cells
+            .into_iter()
+            .filter_map(|c| match c {
+                Part::Tets(t) => Some(t),
+                Part::Cells(_) => None,
+            })
+            .collect();
+        // One piece's array is kept, not copied.
+        let tets = match parts.len() {
+            1 => parts.pop().unwrap_or_default(),
+            _ => parts.concat(),
         };
         return Ok(TetMesh {
             points,
@@ -152,24 +160,10 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
             fields,
         });
     }
-    let all: Option<Vec<Vec<[u32; 4]>>> = cells
-        .iter()
-        .map(|(c, np)| match c {
-            Part::Tets(t) => Some(t.clone()),
-            Part::Cells(c) => c.all_tets(*np),
-        })
-        .collect();
-    if let Some(parts) = all {
-        return Ok(TetMesh {
-            points,
-            tets: parts.concat(),
-            fields,
-        });
-    }
     // The general path, in file order (pieces read directly back in its form).
     let cells: Vec<PieceCells> = cells
         .into_iter()
-        .map(|(c, _)| match c {
+        .map(|c| match c {
             Part::Cells(c) => c,
             Part::Tets(t) => PieceCells::of_tets(&t),
         })
