@@ -231,11 +231,7 @@ impl TransportArgs {
         // Serving workers, and every worker after a failed frame (one may
         // be stopped: no waiting for it), are killed and reaped on drop.
         if r.is_ok() && !reassign {
-            let bad = workers.finish(Duration::from_secs(10));
-            anyhow::ensure!(
-                bad.is_empty(),
-                "worker processes {bad:?} did not exit cleanly"
-            );
+            finished(&mut workers)?;
         }
         r
     }
@@ -261,11 +257,9 @@ impl TransportArgs {
              -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
                 crate::base::cancel::checkpoint();
                 let input = steps[f].input(inputs);
-                let t = std::time::Instant::now();
-                let (out, m) = run(&input).with_context(|| format!("frame {f} of {n}"))?;
-                let wall = t.elapsed().as_secs_f64();
+                let r = timed_frame(f, n, || run(&input))?;
                 done(f);
-                Ok((out, m, wall))
+                Ok(r)
             };
         if n == 1 {
             return Ok(vec![frame(0, &mut |i| self.run(kind, i, cfg))?]);
@@ -432,22 +426,37 @@ impl TransportArgs {
         let mut out = Vec::with_capacity(frames);
         for (f, scene) in scenes.iter().enumerate() {
             crate::base::cancel::checkpoint();
-            let t = std::time::Instant::now();
-            let (o, m) = c
-                .run_pieces(pieces, scene, cfg)
-                .with_context(|| format!("frame {f} of {frames}"))?;
-            out.push((o, m, t.elapsed().as_secs_f64()));
+            out.push(timed_frame(f, frames, || c.run_pieces(pieces, scene, cfg))?);
             done(f);
         }
         if let Some(mut w) = workers {
             if !serving {
-                let bad = w.finish(Duration::from_secs(10));
-                anyhow::ensure!(
-                    bad.is_empty(),
-                    "worker processes {bad:?} did not exit cleanly"
-                );
+                finished(&mut w)?;
             }
         }
         Ok(out)
     }
+}
+
+/// Frame `f` of `n` run by `run`: its outcome, what the transport measured
+/// and its wall seconds; an error names the frame.
+fn timed_frame(
+    f: usize,
+    n: usize,
+    run: impl FnOnce() -> anyhow::Result<(ClusterOutcome, Measured)>,
+) -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
+    let t = std::time::Instant::now();
+    let (out, m) = run().with_context(|| format!("frame {f} of {n}"))?;
+    Ok((out, m, t.elapsed().as_secs_f64()))
+}
+
+/// Waits for one-session worker processes to exit after a good frame; an
+/// error names those that did not exit cleanly.
+fn finished(workers: &mut LocalWorkers) -> anyhow::Result<()> {
+    let bad = workers.finish(Duration::from_secs(10));
+    anyhow::ensure!(
+        bad.is_empty(),
+        "worker processes {bad:?} did not exit cleanly"
+    );
+    Ok(())
 }
