@@ -3,20 +3,17 @@
 //! partitioner's properties, and bad input (each a clear error naming the
 //! piece, a non-zero exit, no panic).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
+
+mod cli_support;
+use cli_support::{copy_vtk_pieces, data, pvrsim};
 
 use proptest::prelude::*;
 use pvrsim::data::io::pvtu::write::{write_pvtu, Encoding};
 use pvrsim::data::io::read_mesh;
 use pvrsim::data::partition::{partition, partition_points};
 use pvrsim::data::{Field, TetMesh};
-
-fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(p)
-}
 
 /// Each tetrahedron as its four sorted vertex positions (bits), sorted:
 /// equal for two meshes with the same cells whatever their numbering.
@@ -75,17 +72,6 @@ fn vtk_pieces_union_is_the_unpartitioned_mesh() {
     }
 }
 
-fn pvrsim(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pvrsim"))
-        .args(args)
-        .env_remove("PVRSIM_DATA_FILE_ANYWHERE")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!err.contains("panicked"), "{err}");
-    (out.status.success(), err)
-}
-
 /// A copy of VTK's zlib pieces (appended base64) in a temporary folder, `edit`ed.
 fn copy_pieces(edit: impl FnOnce(&Path)) -> tempfile::TempDir {
     copy_encoded("zlib", edit)
@@ -94,15 +80,7 @@ fn copy_pieces(edit: impl FnOnce(&Path)) -> tempfile::TempDir {
 /// A copy of VTK's `enc` (raw, zlib) pieces as `a.pvtu`, `edit`ed.
 fn copy_encoded(enc: &str, edit: impl FnOnce(&Path)) -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
-    for k in 0..4 {
-        let n = format!("aorta-small-{enc}_{k}.vtu");
-        std::fs::copy(data(&format!("pieces/{n}")), d.path().join(&n)).unwrap();
-    }
-    std::fs::copy(
-        data(&format!("pieces/aorta-small-{enc}.pvtu")),
-        d.path().join("a.pvtu"),
-    )
-    .unwrap();
+    copy_vtk_pieces(enc, d.path());
     edit(d.path());
     d
 }

@@ -4,40 +4,16 @@
 //! duplicated across pieces). The image equals the single-process render of
 //! the union bit for bit; bad pieces fail with the piece named.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
-fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(p)
-}
-
-/// Runs pvrsim; (success, stderr). A panic fails the test.
-fn pvrsim(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pvrsim"))
-        .args(args)
-        .env_remove("PVRSIM_DATA_FILE_ANYWHERE")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!err.contains("panicked"), "{err}");
-    (out.status.success(), err)
-}
+mod cli_support;
+use cli_support::{copy_vtk_pieces, data, pvrsim};
 
 /// VTK's `enc` (raw, zlib) pieces as `a.pvtu` with view B's scene
 /// `scene.toml`, then `edit`ed.
 fn pieces_scene(enc: &str, edit: impl FnOnce(&Path)) -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
-    for k in 0..4 {
-        let n = format!("aorta-small-{enc}_{k}.vtu");
-        std::fs::copy(data(&format!("pieces/{n}")), d.path().join(&n)).unwrap();
-    }
-    std::fs::copy(
-        data(&format!("pieces/aorta-small-{enc}.pvtu")),
-        d.path().join("a.pvtu"),
-    )
-    .unwrap();
+    copy_vtk_pieces(enc, d.path());
     let scene = std::fs::read_to_string(data("aorta-small-view-b.toml")).unwrap();
     let scene = scene.replace("path  = \"aorta-small.vtk\"", "path  = \"a.pvtu\"");
     assert!(scene.contains("a.pvtu"));

@@ -1,5 +1,6 @@
 //! Helpers of the command-line tests (`tests/cli_options.rs`,
-//! `tests/cli_outputs.rs`): run the binary in a directory, read its output.
+//! `tests/cli_outputs.rs`, `tests/pieces.rs`, `tests/pieces_workers.rs`):
+//! run the binary, read its output, copy VTK's pieces.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -50,4 +51,31 @@ pub fn fails_with(o: &Output, needles: &[&str]) {
 /// A JSON file.
 pub fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Runs `pvrsim ARGS` (data files outside a scene's folder refused, the
+/// default): (success, stderr). A panic fails the test.
+pub fn pvrsim(args: &[&str]) -> (bool, String) {
+    let out = Command::new(EXE)
+        .args(args)
+        .env_remove("PVRSIM_DATA_FILE_ANYWHERE")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!err.contains("panicked"), "{err}");
+    (out.status.success(), err)
+}
+
+/// VTK 9.7.2's `enc` (`raw`, `zlib`) pieces of the small aorta
+/// (`tests/data/pieces/`) copied into `dir`: `a.pvtu` and its four `.vtu`.
+pub fn copy_vtk_pieces(enc: &str, dir: &Path) {
+    for k in 0..4 {
+        let n = format!("aorta-small-{enc}_{k}.vtu");
+        std::fs::copy(data(&format!("pieces/{n}")), dir.join(&n)).unwrap();
+    }
+    std::fs::copy(
+        data(&format!("pieces/aorta-small-{enc}.pvtu")),
+        dir.join("a.pvtu"),
+    )
+    .unwrap();
 }
