@@ -28,13 +28,8 @@ pub struct MeshFrame {
 /// configuration and checks memory and the transport's set-up.
 pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
     super::grid_args::refuse_on_mesh(&a.grid)?;
-    let load = || -> anyhow::Result<RenderInput> {
-        let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
-        let mut input = RenderInput::new(scene, std::sync::Arc::new(mesh))?;
-        input.pieces = pieces.map(std::sync::Arc::from);
-        Ok(input)
-    };
-    let mut input = load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    let (mut input, _) = RenderInput::read(scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }

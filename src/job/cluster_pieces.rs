@@ -1,7 +1,7 @@
 //! A mesh cluster job whose workers read their own pieces: the scene's data
 //! is a `.pvtu` and the frame runs on `--transport processes` or `tcp`
 //! without `--placement` ([`reads_pieces`]). The coordinator reads the
-//! `.pvtu` and the pieces' vertices (bounds, the field's range), never the
+//! `.pvtu` and the pieces' vertices (the field's and depth ranges), never the
 //! cells ([`crate::cluster::remote::pieces`]); the pieces are the initial
 //! placement. Frames of an orbit (`--frames`, `--turn`) run on the same
 //! workers, each frame reading its pieces again.

@@ -16,14 +16,8 @@ use crate::scene::Scene;
 /// warning (when `quiet`); [`super::run`] hands mesh scenes here.
 pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
     refuse_grid_options(a)?;
-    let load = || -> anyhow::Result<(RenderInput, f64)> {
-        let t = std::time::Instant::now();
-        let mesh = crate::data::io::read_mesh(&scene.data.path)?;
-        let load_s = t.elapsed().as_secs_f64();
-        Ok((RenderInput::new(scene, std::sync::Arc::new(mesh))?, load_s))
-    };
-    let (mut input, load_s) =
-        load().with_context(|| format!("cannot load scene {}", a.scene.display()))?;
+    let (mut input, load_s) = RenderInput::read(scene)
+        .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }

@@ -23,6 +23,20 @@ pub struct RenderInput {
     pub pieces: Option<Arc<[u64]>>,
 }
 
+/// A raw scalar `s` on the transfer function's `[0, 1]` scale for the
+/// field's `range` (not clamped: the TF clamps); every value is 0 when the
+/// range is empty. The one formula wherever vertices are normalised (a
+/// whole mesh here, a worker's own pieces), so that they agree bit for bit.
+#[inline]
+pub fn normalised(s: f64, range: [f64; 2]) -> f64 {
+    let span = range[1] - range[0];
+    if span > 0.0 {
+        (s - range[0]) / span
+    } else {
+        0.0
+    }
+}
+
 impl RenderInput {
     /// Normalises `scene.data.field` of `mesh`. A constant field with no
     /// explicit range maps every vertex to `s_norm = 0`.
@@ -40,12 +54,7 @@ impl RenderInput {
                 }
             }
         };
-        let span = range[1] - range[0];
-        let s_norm = if span > 0.0 {
-            raw.iter().map(|s| (s - range[0]) / span).collect()
-        } else {
-            vec![0.0; raw.len()]
-        };
+        let s_norm = raw.iter().map(|&s| normalised(s, range)).collect();
         Ok(RenderInput {
             scene,
             mesh,
@@ -60,7 +69,13 @@ impl RenderInput {
     /// Reads the scene file and its mesh; returns the input and the seconds
     /// spent reading the mesh.
     pub fn load(scene_path: &std::path::Path) -> Result<(RenderInput, f64)> {
-        let scene = Scene::load(scene_path)?;
+        RenderInput::read(Scene::load(scene_path)?)
+    }
+
+    /// Reads `scene`'s mesh (a `.pvtu`'s pieces noted in
+    /// [`RenderInput::pieces`]); returns the input and the seconds spent
+    /// reading the mesh.
+    pub fn read(scene: Scene) -> Result<(RenderInput, f64)> {
         let t = std::time::Instant::now();
         let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
         let load_s = t.elapsed().as_secs_f64();

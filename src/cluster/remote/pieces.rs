@@ -1,8 +1,8 @@
 //! Partitioned data read where it is used: a scene whose data is a `.pvtu`
 //! runs on worker processes or TCP workers with **each worker reading its
 //! own pieces** ([`load`]); the coordinator reads the `.pvtu` and each
-//! piece's vertices for their bounds and the field's range
-//! ([`PieceSet::open`]), never the cells. The pieces are the initial
+//! piece's vertices for the field's range and the scene's depth range, in
+//! one pass ([`PieceSet::open`]), never the cells. The pieces are the initial
 //! placement, as the paper's nodes held what the simulation wrote: node `k`
 //! gets a contiguous run of pieces ([`PieceSet::parts`]); DLB then moves
 //! cells with their vertices as with any partitioned data.
@@ -78,16 +78,25 @@ pub struct PieceSet {
     pub range: [f64; 2],
     /// Per piece: `(vertex_base, cell_base, cells_max)`.
     bases: Vec<(u32, u32, u32)>,
+    /// The depth extent of every vertex for the view the set was opened
+    /// with (a frame of that view, or a retry after a loss, reads no
+    /// vertex again).
+    depths: (crate::scene::View, (f64, f64)),
     /// The `.pvtu`'s absolute path, as the workers are told it (whatever
     /// folder they run in).
     absolute: PathBuf,
 }
 
 impl PieceSet {
-    /// Reads the `.pvtu` of `scene`'s data and its pieces' vertices.
+    /// Reads the `.pvtu` of `scene`'s data and its pieces' vertices (once:
+    /// the field's range and the depth extent for `scene`'s camera).
     pub fn open(scene: &Scene) -> anyhow::Result<PieceSet> {
         let path = &scene.data.path;
-        let summary = pvtu::summary::summarize(path, &scene.data.field)?;
+        let view = scene.view();
+        let (summary, extents) =
+            pvtu::summary::summarize(path, &scene.data.field, EMPTY, |acc, p| {
+                *acc = union(*acc, crate::cluster::phase1::depth_extent(&view, p));
+            })?;
         let range = match scene.data.range {
             Some(r) => r,
             None => summary.scalar_range().unwrap_or([0.0, 1.0]),
@@ -122,6 +131,7 @@ impl PieceSet {
             field: scene.data.field.clone(),
             range,
             bases,
+            depths: (view, extents.into_iter().fold(EMPTY, union)),
             absolute,
         })
     }
@@ -167,25 +177,30 @@ impl PieceSet {
     }
 
     /// The frame's depth range for `scene`'s camera over every piece's
-    /// vertices (read again, a piece per thread), as
-    /// [`crate::cluster::phase1::depth_range`] gives it for a whole mesh.
+    /// vertices, as [`crate::cluster::phase1::depth_range`] gives it for a
+    /// whole mesh: from [`PieceSet::open`]'s pass for its view, else the
+    /// vertices read again (a piece per thread).
     pub fn depth_range(&self, scene: &Scene) -> anyhow::Result<[f32; 2]> {
         let view = scene.view();
-        let ext = pvtu::summary::fold_points(
-            &self.summary,
-            (f64::INFINITY, f64::NEG_INFINITY),
-            |acc, p| {
-                let (lo, hi) = crate::cluster::phase1::depth_extent(&view, p);
-                *acc = (acc.0.min(lo), acc.1.max(hi));
-            },
-        )?;
-        Ok(crate::cluster::phase1::padded_depths(
-            ext.into_iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |a, b| {
-                    (a.0.min(b.0), a.1.max(b.1))
-                }),
-        ))
+        let ext = if view == self.depths.0 {
+            self.depths.1
+        } else {
+            pvtu::summary::fold_points(&self.summary, EMPTY, |acc, p| {
+                *acc = union(*acc, crate::cluster::phase1::depth_extent(&view, p));
+            })?
+            .into_iter()
+            .fold(EMPTY, union)
+        };
+        Ok(crate::cluster::phase1::padded_depths(ext))
     }
+}
+
+/// The extent of no depth.
+const EMPTY: (f64, f64) = (f64::INFINITY, f64::NEG_INFINITY);
+
+/// The union of two depth extents.
+fn union(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0.min(b.0), a.1.max(b.1))
 }
 
 /// A worker's cells: reads its pieces of `src` (checked as the full reader
@@ -193,7 +208,6 @@ impl PieceSet {
 pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
     let path = PathBuf::from(&src.pvtu);
     let head = pvtu::read_header(&path)?;
-    let span = src.range[1] - src.range[0];
     let mut unit = WorkUnit::default();
     let mut last: Option<u32> = None;
     for wp in &src.pieces {
@@ -236,14 +250,10 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
             .extend((0..mesh.points.len() as u32).map(|v| wp.vertex_base + v));
         unit.positions.extend_from_slice(&mesh.points);
         // As RenderInput normalises (f64), then the unit's f32.
-        unit.scalars.extend(s.iter().map(|&x| {
-            let n = if span > 0.0 {
-                (x - src.range[0]) / span
-            } else {
-                0.0
-            };
-            n as f32
-        }));
+        unit.scalars.extend(
+            s.iter()
+                .map(|&x| crate::render::input::normalised(x, src.range) as f32),
+        );
         unit.cells.extend(
             mesh.tets
                 .iter()

@@ -167,7 +167,7 @@ pub struct PiecesSection {
     pub pvtu: String,
     /// Its pieces.
     pub pieces: usize,
-    /// Vertices the coordinator read of them (bounds, the field's range).
+    /// Vertices the coordinator read of them (the field's and depth ranges).
     pub vertices_read_by_coordinator: u64,
     /// Per node of the run that completed, the pieces it read.
     pub parts: Vec<Vec<u32>>,

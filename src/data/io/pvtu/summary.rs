@@ -1,8 +1,9 @@
 //! What a coordinator knows of a partitioned mesh without reading its
-//! cells: per piece, its vertex count, declared cell count, bounds and the
-//! range of the rendered field ([`summarize`]); and the pieces' points
-//! again when a frame's depth range is wanted ([`fold_points`]). The cells
-//! stay in the pieces, for the workers that render them to read.
+//! cells: per piece, its vertex count, declared cell count and the range of
+//! the rendered field, with the caller's fold over its points in the same
+//! pass ([`summarize`]); and the pieces' points again when another fold is
+//! wanted ([`fold_points`]). The cells stay in the pieces, for the workers
+//! that render them to read.
 //!
 //! Every piece is checked against the `.pvtu`'s declaration as the full
 //! reader checks it ([`super::check_piece`]); errors name the piece.
@@ -20,17 +21,11 @@ use crate::error::{Error, Result};
 pub struct PieceInfo {
     /// Its `Source` as the `.pvtu` writes it.
     pub source: String,
-    /// The path it resolves to.
-    pub path: PathBuf,
     /// Its vertices.
     pub points: u64,
     /// Its cells as declared (`NumberOfCells`: before other cell types are
     /// made tetrahedra).
     pub cells_declared: u64,
-    /// Bounding box of its vertices, min corner (`+inf` when it has none).
-    pub lo: [f64; 3],
-    /// Bounding box, max corner (`-inf` when it has none).
-    pub hi: [f64; 3],
     /// Smallest and largest value of the field's scalar (a vector's
     /// magnitude), `None` when it has no vertices.
     pub scalar_range: Option<[f64; 2]>,
@@ -53,11 +48,6 @@ impl Summary {
         self.pieces.iter().map(|p| p.points).sum()
     }
 
-    /// Every piece's declared cells.
-    pub fn cells_declared(&self) -> u64 {
-        self.pieces.iter().map(|p| p.cells_declared).sum()
-    }
-
     /// The field's range over every piece (`None`: no vertices at all).
     pub fn scalar_range(&self) -> Option<[f64; 2]> {
         self.pieces
@@ -70,51 +60,51 @@ impl Summary {
 /// Reads the `.pvtu` at `path` and each piece's points and field `field`
 /// (in parallel, one piece per thread, a chunk at a time: never the cells,
 /// never a piece's vertices at once), checking each against the
-/// declaration.
-pub fn summarize(path: &Path, field: &str) -> Result<Summary> {
+/// declaration; folds `f` over each piece's points from `init` in the same
+/// pass (one result per piece, in the pieces' order).
+pub fn summarize<T: Send + Clone + Sync>(
+    path: &Path,
+    field: &str,
+    init: T,
+    f: impl Fn(&mut T, &[[f64; 3]]) + Sync,
+) -> Result<(Summary, Vec<T>)> {
     let head = read_header(path)?;
-    let pieces = (0..head.pieces.len())
+    let (pieces, folded): (Vec<PieceInfo>, Vec<T>) = (0..head.pieces.len())
         .into_par_iter()
         .map(|k| {
-            let mut lo = [f64::INFINITY; 3];
-            let mut hi = [f64::NEG_INFINITY; 3];
+            let mut acc = init.clone();
             let mut range = [f64::INFINITY, f64::NEG_INFINITY];
             let n = fold(
                 path,
                 &head,
                 k,
                 Some(field),
-                |pts| {
-                    for q in pts {
-                        for a in 0..3 {
-                            lo[a] = lo[a].min(q[a]);
-                            hi[a] = hi[a].max(q[a]);
-                        }
-                    }
-                },
+                |pts| f(&mut acc, pts),
                 |v, c| {
                     for x in crate::data::mesh::scalar_of(v, c) {
                         range = [range[0].min(x), range[1].max(x)];
                     }
                 },
             )?;
-            let (src, p) = &head.pieces[k];
-            Ok(PieceInfo {
-                source: src.clone(),
-                path: p.clone(),
+            let info = PieceInfo {
+                source: head.pieces[k].0.clone(),
                 points: n.points,
                 cells_declared: n.cells_declared,
-                lo,
-                hi,
                 scalar_range: (n.points > 0).then_some(range),
-            })
+            };
+            Ok((info, acc))
         })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(Summary {
-        path: path.to_path_buf(),
-        head,
-        pieces,
-    })
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    Ok((
+        Summary {
+            path: path.to_path_buf(),
+            head,
+            pieces,
+        },
+        folded,
+    ))
 }
 
 /// `f` folded over each piece's points (in parallel, one piece per

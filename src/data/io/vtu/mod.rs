@@ -54,7 +54,19 @@ pub(crate) fn read_declared_keeping(
 ) -> Result<(TetMesh, Option<NumType>, Declared)> {
     let data = FileBytes::open(path)?;
     let mut s = scan(&data, path, "UnstructuredGrid")?;
-    let first = s.pieces.first();
+    let (points, decl) = declared(&s.pieces);
+    if let Some(keep) = keep {
+        for p in &mut s.pieces {
+            p.point_data.retain(|a| a.name == keep);
+        }
+    }
+    Ok((assemble(&s.ctx, s.pieces)?, points, decl))
+}
+
+/// The points' type and the point-data arrays the first of `pieces`
+/// declares.
+fn declared(pieces: &[PieceDesc]) -> (Option<NumType>, Declared) {
+    let first = pieces.first();
     let points = first.and_then(|p| p.points.as_ref()).map(|a| a.ty);
     let decl = first.map_or(Vec::new(), |p| {
         p.point_data
@@ -62,12 +74,7 @@ pub(crate) fn read_declared_keeping(
             .map(|a| (a.name.clone(), a.ty, a.ncomp))
             .collect()
     });
-    if let Some(keep) = keep {
-        for p in &mut s.pieces {
-            p.point_data.retain(|a| a.name == keep);
-        }
-    }
-    Ok((assemble(&s.ctx, s.pieces)?, points, decl))
+    (points, decl)
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]

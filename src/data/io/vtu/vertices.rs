@@ -17,8 +17,6 @@ const CHUNK: usize = 1 << 16;
 pub struct VertexCounts {
     /// Vertices, every piece's.
     pub points: u64,
-    /// Components of the field (0 without one).
-    pub components: usize,
     /// Cells the file declares (`NumberOfCells`, before tetrahedra are made
     /// of other cell types).
     pub cells_declared: u64,
@@ -38,14 +36,7 @@ pub(crate) fn fold_vertices(
 ) -> Result<(VertexCounts, Option<NumType>, Declared)> {
     let data = FileBytes::open(path)?;
     let s = scan(&data, path, "UnstructuredGrid")?;
-    let first = s.pieces.first();
-    let pty = first.and_then(|p| p.points.as_ref()).map(|a| a.ty);
-    let decl: Declared = first.map_or(Vec::new(), |p| {
-        p.point_data
-            .iter()
-            .map(|a| (a.name.clone(), a.ty, a.ncomp))
-            .collect()
-    });
+    let (pty, decl) = declared(&s.pieces);
     let mut n = VertexCounts::default();
     let mut xyz: Vec<[f64; 3]> = Vec::new();
     for (pi, p) in s.pieces.iter().enumerate() {
@@ -94,7 +85,6 @@ pub(crate) fn fold_vertices(
                     ),
                 )
             })?;
-        n.components = a.ncomp;
         chunks(&s.ctx, a, p.npoints.saturating_mul(a.ncomp), a.ncomp, |v| {
             on_values(v, a.ncomp)
         })?;
