@@ -242,6 +242,13 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
             mesh.tets.len(),
             wp.cells_max as u64 / TETS_PER_CELL
         );
+        // An untrusted set-up's ids must not wrap (the counts were just
+        // checked against the piece).
+        let end = |base: u32, n: u32| base as u64 + n as u64 <= 1 << 32;
+        anyhow::ensure!(
+            end(wp.vertex_base, wp.points) && end(wp.cell_base, wp.cells_max),
+            "the set-up numbers piece {k}'s vertices or cells past 2^32"
+        );
         let s = mesh
             .scalar(&src.field)
             .with_context(|| format!("{}: <Piece> {k} Source=\"{src_name}\"", path.display()))?;
@@ -267,4 +274,44 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
     unit.validate()
         .map_err(|e| anyhow::anyhow!("{}: the pieces read: {e}", path.display()))?;
     Ok(unit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A set-up from a hostile or broken coordinator: ids that would wrap,
+    /// pieces out of order or not in the file are errors, not panics.
+    #[test]
+    fn a_bad_set_up_is_an_error() {
+        let pvtu = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/pieces/aorta-small-raw.pvtu"
+        );
+        let head = pvtu::read_header(Path::new(pvtu)).unwrap();
+        let points = pvtu::read_piece(Path::new(pvtu), &head, 0)
+            .unwrap()
+            .points
+            .len() as u32;
+        let piece = |index, vertex_base| WirePiece {
+            index,
+            points,
+            vertex_base,
+            cell_base: 0,
+            cells_max: 6 * 6000,
+        };
+        let src = |pieces| PieceSource {
+            pvtu: pvtu.into(),
+            field: "speed".into(),
+            range: [0.0, 1.0],
+            pieces,
+        };
+        assert!(load(&src(vec![piece(0, 0)])).is_ok());
+        let e = load(&src(vec![piece(0, u32::MAX - 3)])).unwrap_err();
+        assert!(format!("{e:#}").contains("past 2^32"), "{e:#}");
+        let e = load(&src(vec![piece(0, 0), piece(0, 0)])).unwrap_err();
+        assert!(format!("{e:#}").contains("not ascending"), "{e:#}");
+        let e = load(&src(vec![piece(9, 0)])).unwrap_err();
+        assert!(format!("{e:#}").contains("piece 9 was asked for"), "{e:#}");
+    }
 }
