@@ -8,6 +8,7 @@
 
 pub mod cancel;
 pub mod canonical;
+pub mod pages;
 pub mod rect;
 pub mod segment;
 

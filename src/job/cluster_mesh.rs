@@ -45,7 +45,10 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         ),
         _ => {}
     }
-    let (inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
+    let (mut inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
+    if let [one] = inputs.as_mut_slice() {
+        one.release_fields();
+    }
     Ok(MeshFrame {
         inputs,
         cfg,

@@ -40,6 +40,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
     if !quiet {
         super::warn_field(&input);
     }
+    input.release_fields();
     let mut say = Vec::new();
     let opts = CellOptions {
         integrator: a.integrator,
@@ -73,8 +74,11 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
                 super::with_threads(a.threads, || cell::render(&input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
-            cell_summary(a, &input, &stats, &mut say);
-            (image, serde_json::to_value(&stats)?)
+            let peak = crate::net::cpu::peak_rss_bytes();
+            cell_summary(a, &input, &stats, peak, &mut say);
+            let mut v = serde_json::to_value(&stats)?;
+            v["peak_rss_bytes"] = serde_json::to_value(peak)?;
+            (image, v)
         }
         RendererKind::Reference => {
             let adjacency = input.mesh.adjacency();
@@ -159,7 +163,13 @@ fn refuse_grid_options(a: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// The lines `pvrsim render` prints about a cell-projection frame.
-fn cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats, say: &mut Vec<String>) {
+fn cell_summary(
+    a: &RenderArgs,
+    input: &RenderInput,
+    s: &cell::CellStats,
+    peak_rss: Option<u64>,
+    say: &mut Vec<String>,
+) {
     let sc = &input.scene.image;
     say.push(format!(
         "cell projection of {} ({}x{}, {} integrator, {} order, partial composition {}, {})",
@@ -195,6 +205,19 @@ fn cell_summary(a: &RenderArgs, input: &RenderInput, s: &cell::CellStats, say: &
         rate(s.cells_projected),
         s.time_composite_s,
         s.time_total_s
+    ));
+    let per_tet = |b: u64| b as f64 / s.cells_total.max(1) as f64;
+    say.push(format!(
+        "  memory: mesh {} ({:.1} B a tetrahedron), frame {} ({:.1} B){}",
+        crate::budget::human(s.mesh_bytes),
+        per_tet(s.mesh_bytes),
+        crate::budget::human(s.frame_bytes),
+        per_tet(s.frame_bytes),
+        peak_rss.map_or(String::new(), |p| format!(
+            "; peak resident {} ({:.1} B a tetrahedron)",
+            crate::budget::human(p),
+            per_tet(p)
+        ))
     ));
     if s.ert_threshold < 1.0 {
         say.push(format!(

@@ -84,6 +84,17 @@ impl RenderInput {
         Ok((input, load_s))
     }
 
+    /// Frees the mesh's point-data fields: a frame reads only
+    /// [`RenderInput::s_norm`] (a solver's files carry several fields: the
+    /// 20 M-tet demo's are 139 MB, 7 B a tetrahedron). Does nothing while the
+    /// mesh is shared (a series' other time steps may render another field).
+    /// Callers that report the field (its components) do so first.
+    pub fn release_fields(&mut self) {
+        if let Some(mesh) = Arc::get_mut(&mut self.mesh) {
+            mesh.fields = Vec::new();
+        }
+    }
+
     /// The same input with the image size replaced (camera unchanged: an
     /// orthographic view keeps its world height).
     pub fn with_size(mut self, width: u32, height: u32) -> RenderInput {

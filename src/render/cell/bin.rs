@@ -101,16 +101,42 @@ pub fn bin_cells(
 /// A cell in a tile's bin: what [`Binning::records`] cannot cheaply
 /// recompute from the vertices.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 pub struct BinEntry {
     /// Order key: [`near_key`] of the nearest depth.
     pub key: u32,
     /// Cell index in the mesh.
     pub cell: u32,
-    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
-    pub range: [u32; 4],
+    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`
+    /// (an image side is at most 65536 pixels, so a pixel index fits 16
+    /// bits: the entry is 32 bytes, not 40; [`BinEntry::range`] widens it).
+    range16: [u16; 4],
     /// Global vertex ids (carried along: reading them back from the mesh in
     /// depth order would be a cache miss per cell).
     pub ids: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<BinEntry>() == 32);
+
+impl BinEntry {
+    /// Entry of a cell with order key `key` covering pixel range `range`
+    /// (inclusive, every index below 65536).
+    #[inline]
+    pub fn new(key: u32, cell: u32, range: [u32; 4], ids: [u32; 4]) -> BinEntry {
+        debug_assert!(range.iter().all(|&r| r <= u16::MAX as u32));
+        BinEntry {
+            key,
+            cell,
+            range16: range.map(|r| r as u16),
+            ids,
+        }
+    }
+
+    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
+    #[inline(always)]
+    pub fn range(&self) -> [u32; 4] {
+        self.range16.map(u32::from)
+    }
 }
 
 /// A bin's storage, written by several binning tasks at disjoint slots.
@@ -182,12 +208,8 @@ pub fn bin_cells_rect(
                                 *n += 1;
                             }
                         }
-                        part.survivors.push(BinEntry {
-                            key: near_key(rec.near),
-                            cell,
-                            range: rec.range,
-                            ids,
-                        })
+                        part.survivors
+                            .push(BinEntry::new(near_key(rec.near), cell, rec.range, ids))
                     }
                     Err(Culled::Empty) => part.empty += 1,
                     Err(Culled::Offscreen) => part.off += 1,
@@ -225,7 +247,7 @@ pub fn bin_cells_rect(
             survivors, counts, ..
         } = p;
         for e in survivors.iter() {
-            for (a, b) in tile_rows(e.range) {
+            for (a, b) in tile_rows(e.range()) {
                 let r = a as usize..=b as usize;
                 for (slot, n) in slots[r.clone()].iter().zip(&mut counts[r]) {
                     // SAFETY: slot `n` of this bin lies below the bin's
@@ -236,6 +258,9 @@ pub fn bin_cells_rect(
                 }
             }
         }
+        // Copied: its pages go back now, so the bins filling and the parts
+        // not yet copied are never resident twice over.
+        crate::base::pages::release(std::mem::take(survivors));
     });
     for (b, &n) in bins.iter_mut().zip(&next) {
         // SAFETY: the parts wrote every slot `0..n` of the bin above.
@@ -280,6 +305,12 @@ pub fn near_key(near: f32) -> u32 {
 }
 
 impl Binning {
+    /// Bytes the bins hold.
+    pub fn heap_bytes(&self) -> usize {
+        self.bins.iter().map(|b| b.capacity()).sum::<usize>() * std::mem::size_of::<BinEntry>()
+            + self.bins.capacity() * std::mem::size_of::<Vec<BinEntry>>()
+    }
+
     /// The number of (cell, tile) pairs: cells counted once per tile they touch.
     pub fn pairs(&self) -> u64 {
         self.bins.iter().map(|b| b.len() as u64).sum()
@@ -289,18 +320,85 @@ impl Binning {
     /// (cleared first). `pv` must be the vertices binned.
     pub fn records(&self, t: usize, pv: &ProjectedVertices, out: &mut Vec<CellRecord>) {
         out.clear();
-        out.extend(self.bins[t].iter().map(|e| {
-            let ids = e.ids;
-            let pos = ids.map(|v| pv.pos[v as usize]);
-            CellRecord {
-                near: near_depth(&pos, pv.perspective),
-                cell: e.cell,
-                range: e.range,
-                ids,
-                pos,
-                s: ids.map(|v| pv.s[v as usize]),
-            }
-        }));
+        out.extend(self.bins[t].iter().map(|e| record_of(e, pv)));
+    }
+}
+
+/// Cells handed to scan conversion by [`TileCells::run`] at a time: a
+/// tile's records are built a run at a time, so they stay in cache and the
+/// frame never holds a whole tile's 104-byte records (a 20 M-tet frame's
+/// biggest tiles hold 100 k cells and more).
+pub const RUN: usize = 4096;
+
+/// A tile's cells in scan order, handed out a run at a time.
+pub trait TileCells {
+    /// How many cells.
+    fn len(&self) -> usize;
+    /// Whether there are none.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The records of cells `range` (indices into the tile's order).
+    fn run(&mut self, range: std::ops::Range<usize>) -> &[CellRecord];
+}
+
+impl TileCells for &[CellRecord] {
+    fn len(&self) -> usize {
+        <[CellRecord]>::len(self)
+    }
+    fn run(&mut self, range: std::ops::Range<usize>) -> &[CellRecord] {
+        &self[range]
+    }
+}
+
+/// A bin's cells, their records rebuilt from the projected vertices a run
+/// at a time into a reused buffer.
+pub struct BinCells<'a> {
+    entries: &'a [BinEntry],
+    pv: &'a ProjectedVertices,
+    buf: &'a mut Vec<CellRecord>,
+}
+
+impl<'a> BinCells<'a> {
+    /// The cells of bin `t` of `binning`, whose vertices are `pv`.
+    pub fn new(
+        binning: &'a Binning,
+        t: usize,
+        pv: &'a ProjectedVertices,
+        buf: &'a mut Vec<CellRecord>,
+    ) -> BinCells<'a> {
+        BinCells {
+            entries: &binning.bins[t],
+            pv,
+            buf,
+        }
+    }
+}
+
+impl TileCells for BinCells<'_> {
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+    fn run(&mut self, range: std::ops::Range<usize>) -> &[CellRecord] {
+        self.buf.clear();
+        self.buf
+            .extend(self.entries[range].iter().map(|e| record_of(e, self.pv)));
+        self.buf
+    }
+}
+
+/// The record of bin entry `e` (`pv` the vertices binned).
+#[inline]
+fn record_of(e: &BinEntry, pv: &ProjectedVertices) -> CellRecord {
+    let ids = e.ids;
+    let pos = ids.map(|v| pv.pos[v as usize]);
+    CellRecord {
+        near: near_depth(&pos, pv.perspective),
+        cell: e.cell,
+        range: e.range(),
+        ids,
+        pos,
+        s: ids.map(|v| pv.s[v as usize]),
     }
 }
 
@@ -339,7 +437,7 @@ pub fn cell_record(
     if pos.iter().all(|p| p[2] <= 0.0) {
         return Err(Culled::Offscreen); // behind the eye
     }
-    let px = ids.map(|v| pv.pixel[v as usize]);
+    let px = ids.map(|v| pv.pixel(v as usize));
     let range = if px.iter().any(|p| p[0].is_nan()) {
         // Straddles the eye plane (perspective): bound by the screen.
         Some((0, w - 1, 0, h - 1))

@@ -137,6 +137,13 @@ pub struct CellStats {
     pub time_composite_s: f64,
     /// Everything from projection to the finished image (plus load if set).
     pub time_total_s: f64,
+    /// Bytes the input holds: the mesh (vertices, tetrahedra, the fields
+    /// still loaded) and the normalised scalars.
+    pub mesh_bytes: u64,
+    /// Bytes of the frame's own lasting structures: the projected vertices
+    /// and the bins' entries (a tile's records, built a run at a time, and
+    /// its lists come and go with the tile).
+    pub frame_bytes: u64,
     /// Worker threads used.
     pub threads: usize,
     /// Integrator name.
@@ -282,15 +289,15 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     let mut results: Vec<(usize, TileResult, Option<ert::ErtTileStats>)> = queue
         .into_iter()
         .par_bridge()
-        .map_init(Vec::new, |cells, t| {
+        .map_init(Vec::new, |buf, t| {
             crate::base::cancel::checkpoint();
             let rect = binning.tiles[t];
-            binning.records(t, &pv, cells);
+            let cells = bin::BinCells::new(&binning, t, &pv, buf);
             if ert_on {
                 let (r, e) = ert::scan_tile_ert(persp, &tf, opts, rect, cells, entry_px, tile_dims);
                 (t, r, Some(e))
             } else {
-                (t, scan_tile(persp, &tf, opts, rect, cells), None)
+                (t, scan_cells(persp, &tf, opts, rect, cells), None)
             }
         })
         .collect();
@@ -384,6 +391,9 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     };
     stats.cells_projected =
         stats.cells_total - stats.cells_culled_empty - stats.cells_culled_offscreen;
+    stats.mesh_bytes =
+        (input.mesh.heap_bytes() + input.s_norm.capacity() * std::mem::size_of::<f64>()) as u64;
+    stats.frame_bytes = (frame.vertices.heap_bytes() + binning.heap_bytes()) as u64;
     for t in tiles {
         counts.add(&t.counts);
         stats.cells_degenerate += t.degenerate;
@@ -440,6 +450,17 @@ pub fn scan_tile(
     rect: crate::base::Rect,
     cells: &[bin::CellRecord],
 ) -> TileResult {
+    scan_cells(perspective, tf, opts, rect, cells)
+}
+
+/// [`scan_tile`] of cells handed out a run at a time.
+fn scan_cells(
+    perspective: Option<project::PerspRays>,
+    tf: &PreparedTf,
+    opts: &CellOptions,
+    rect: crate::base::Rect,
+    mut cells: impl bin::TileCells,
+) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
@@ -453,8 +474,11 @@ pub fn scan_tile(
             opts.canonical,
             &mut counts,
         );
-        for c in cells {
-            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+        for start in (0..cells.len()).step_by(bin::RUN) {
+            let end = (start + bin::RUN).min(cells.len());
+            for c in cells.run(start..end) {
+                degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+            }
         }
         // Segments are integrated in batches that span cells: finish the last one.
         target.flush();

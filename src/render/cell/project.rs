@@ -21,8 +21,10 @@ pub struct ProjectedVertices {
     pub perspective: bool,
     /// Screen space (orthographic) or camera frame (perspective), f32.
     pub pos: Vec<[f32; 3]>,
-    /// Continuous pixel coordinates; `[NaN, NaN]` for vertices at or behind the eye.
-    pub pixel: Vec<[f32; 2]>,
+    /// Perspective: continuous pixel coordinates, `[NaN, NaN]` for vertices
+    /// at or behind the eye. Empty in orthographic views, where they are
+    /// `pos`'s first two (read them with [`ProjectedVertices::pixel`]).
+    pixel: Vec<[f32; 2]>,
     /// Normalised scalar per vertex.
     pub s: Vec<f32>,
     /// Image width and height.
@@ -35,8 +37,17 @@ impl ProjectedVertices {
     /// Transforms `points` (world) for `view` and rounds the scalars to f32.
     pub fn new(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
         let perspective = matches!(view.projection, Projection::Perspective { .. });
-        let (pos, pixel): (Vec<[f32; 3]>, Vec<[f32; 2]>) =
-            points.par_iter().map(|&p| project_vertex(view, p)).unzip();
+        let (pos, pixel) = if perspective {
+            points.par_iter().map(|&p| project_vertex(view, p)).unzip()
+        } else {
+            (
+                points
+                    .par_iter()
+                    .map(|&p| project_vertex(view, p).0)
+                    .collect(),
+                Vec::new(),
+            )
+        };
         ProjectedVertices {
             perspective,
             pos,
@@ -50,14 +61,39 @@ impl ProjectedVertices {
     /// Like [`ProjectedVertices::new`], on the calling thread only (the
     /// result is identical: every vertex is transformed independently).
     pub fn new_sequential(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
-        let (pos, pixel) = points.iter().map(|&p| project_vertex(view, p)).unzip();
+        let perspective = matches!(view.projection, Projection::Perspective { .. });
+        let (pos, pixel) = if perspective {
+            points.iter().map(|&p| project_vertex(view, p)).unzip()
+        } else {
+            (
+                points.iter().map(|&p| project_vertex(view, p).0).collect(),
+                Vec::new(),
+            )
+        };
         ProjectedVertices {
-            perspective: matches!(view.projection, Projection::Perspective { .. }),
+            perspective,
             pos,
             pixel,
             s: s_norm.iter().map(|&s| s as f32).collect(),
             size: (view.width, view.height),
             pixel_size: view.pixel_size as f32,
+        }
+    }
+
+    /// Bytes the vertices hold.
+    pub fn heap_bytes(&self) -> usize {
+        self.pos.capacity() * 12 + self.pixel.capacity() * 8 + self.s.capacity() * 4
+    }
+
+    /// Continuous pixel coordinates of vertex `v`; `[NaN, NaN]` for a
+    /// vertex at or behind the eye.
+    #[inline(always)]
+    pub fn pixel(&self, v: usize) -> [f32; 2] {
+        if self.perspective {
+            self.pixel[v]
+        } else {
+            let p = self.pos[v];
+            [p[0], p[1]]
         }
     }
 

@@ -7,7 +7,11 @@
 //! equal keys stay in the order they came in (cell id order), which makes the
 //! result identical to sorting by `(key, cell id)`.
 
-/// Sorts `items` by `key`, stably. `scratch` is reused between calls.
+/// Sorts `items` by `key`, stably. `scratch` is reused between calls; the
+/// result is always in `items`' own buffer (after an odd number of passes
+/// it is copied back rather than the buffers swapped: swapping would hand
+/// each sorted bin the scratch's buffer and leave its own, once freed, as
+/// resident garbage the size of every bin).
 pub fn sort_by_key_u32<T: Copy + Default>(
     items: &mut Vec<T>,
     scratch: &mut Vec<T>,
@@ -27,6 +31,7 @@ pub fn sort_by_key_u32<T: Copy + Default>(
     }
     scratch.clear();
     scratch.resize(n, T::default());
+    let mut swapped = false;
     for (b, c) in counts.iter().enumerate() {
         // Every key has the same byte here: this pass would not move anything.
         if c.contains(&n) {
@@ -44,6 +49,11 @@ pub fn sort_by_key_u32<T: Copy + Default>(
             scratch[offsets[d]] = it;
             offsets[d] += 1;
         }
+        std::mem::swap(items, scratch);
+        swapped = !swapped;
+    }
+    if swapped {
+        scratch.copy_from_slice(items);
         std::mem::swap(items, scratch);
     }
 }

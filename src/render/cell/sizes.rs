@@ -108,7 +108,7 @@ pub fn cell_sizes(binning: &Binning) -> CellSizes {
     let mut extents = Counts::default();
     for (rect, cells) in binning.tiles.iter().zip(&binning.bins) {
         for c in cells {
-            let [i0, i1, j0, j1] = c.range;
+            let [i0, i1, j0, j1] = c.range();
             if !(rect.x0 <= i0 && i0 < rect.x1 && rect.y0 <= j0 && j0 < rect.y1) {
                 continue;
             }

@@ -8,7 +8,7 @@ use super::table::FlatTable;
 use super::termination::termination_depth;
 use super::{ErtSpan, ErtStructure};
 use crate::base::Rect;
-use crate::render::cell::bin::CellRecord;
+use crate::render::cell::bin::{CellRecord, TileCells, RUN};
 use crate::render::cell::integrate::PreparedTf;
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::PerspRays;
@@ -94,7 +94,7 @@ pub fn scan_tile_ert(
     tf: &PreparedTf,
     opts: &CellOptions,
     rect: Rect,
-    cells: &[CellRecord],
+    mut cells: impl TileCells,
     entry: (u32, u32),
     tile: (u32, u32),
 ) -> (TileResult, ErtTileStats) {
@@ -124,8 +124,7 @@ pub fn scan_tile_ert(
         .into_iter()
         .enumerate()
     {
-        let batch = &cells[range];
-        skip.clear();
+        let mut gate_now = None;
         if b > 0 {
             let t0 = (gate(min_depth) < f32::INFINITY).then(Instant::now);
             lists.drain_changed(|idx, list| {
@@ -141,19 +140,9 @@ pub fn scan_tile_ert(
                 // Marks exist only once a depth is finite: nothing to rebuild before.
                 let t0 = t0.unwrap_or_else(Instant::now);
                 st.rebuild(&depth);
-                let t1 = Instant::now();
-                let mut tested = 0u64;
-                skip.extend(batch.iter().map(|c| {
-                    c.near > gate && {
-                        tested += 1;
-                        st.skip(c, rect)
-                    }
-                }));
-                let t2 = Instant::now();
-                stats.update_s += (t1 - t0).as_secs_f64();
-                stats.tests_s += (t2 - t1).as_secs_f64();
+                stats.update_s += t0.elapsed().as_secs_f64();
                 stats.updates += 1;
-                stats.tests += tested;
+                gate_now = Some(gate);
             }
         }
         let mut target = ScanTarget::new(
@@ -165,18 +154,37 @@ pub fn scan_tile_ert(
             opts.canonical,
             &mut counts,
         );
-        for (k, c) in batch.iter().enumerate() {
-            if skip.get(k) == Some(&true) {
-                let [i0, i1, j0, j1] = c.range;
-                let tiles = (i1 / tile.0 - i0 / tile.0 + 1) * (j1 / tile.1 - j0 / tile.1 + 1);
-                if tiles == 1 {
-                    stats.skipped_whole += 1;
-                } else {
-                    stats.skipped_spanning.push((c.cell, tiles));
-                }
-                continue;
+        // The batch a run at a time: the structure is not rebuilt inside a
+        // batch, so testing each run before scanning it decides as testing
+        // the whole batch first would.
+        for start in range.clone().step_by(RUN) {
+            let batch = cells.run(start..(start + RUN).min(range.end));
+            skip.clear();
+            if let Some(gate) = gate_now {
+                let t1 = Instant::now();
+                let mut tested = 0u64;
+                skip.extend(batch.iter().map(|c| {
+                    c.near > gate && {
+                        tested += 1;
+                        st.skip(c, rect)
+                    }
+                }));
+                stats.tests_s += t1.elapsed().as_secs_f64();
+                stats.tests += tested;
             }
-            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+            for (k, c) in batch.iter().enumerate() {
+                if skip.get(k) == Some(&true) {
+                    let [i0, i1, j0, j1] = c.range;
+                    let tiles = (i1 / tile.0 - i0 / tile.0 + 1) * (j1 / tile.1 - j0 / tile.1 + 1);
+                    if tiles == 1 {
+                        stats.skipped_whole += 1;
+                    } else {
+                        stats.skipped_spanning.push((c.cell, tiles));
+                    }
+                    continue;
+                }
+                degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+            }
         }
         target.flush();
     }
