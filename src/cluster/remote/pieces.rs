@@ -29,7 +29,8 @@ use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use crate::data::io::pvtu::{self, summary::Summary};
-use crate::node::WorkUnit;
+use crate::node::renderer::NodeRenderer;
+use crate::node::work::WorkCell;
 use crate::scene::Scene;
 
 /// Most tetrahedra one VTK cell becomes (a hexahedron: 6).
@@ -204,12 +205,15 @@ fn union(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
 }
 
 /// A worker's cells: reads its pieces of `src` (checked as the full reader
-/// checks them) and numbers them as the module docs say.
-pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
+/// checks them), numbers them as the module docs say and adds them to
+/// `node` a piece at a time ([`NodeRenderer::add_cells`]: only one piece's
+/// mesh is resident beside the node's cells, and no work unit is built).
+/// Returns the tetrahedra read.
+pub fn load_into(src: &PieceSource, node: &mut NodeRenderer) -> anyhow::Result<u64> {
     let path = PathBuf::from(&src.pvtu);
     let head = pvtu::read_header(&path)?;
-    let mut unit = WorkUnit::default();
     let mut last: Option<u32> = None;
+    let mut cells = 0u64;
     for wp in &src.pieces {
         anyhow::ensure!(
             last.is_none_or(|l| l < wp.index),
@@ -224,8 +228,16 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
             path.display(),
             head.pieces.len()
         );
+        // An untrusted set-up's ids must not wrap (checked before reading,
+        // against the counts it declares; the piece is then held to them).
+        let end = |base: u32, n: u32| base as u64 + n as u64 <= 1 << 32;
+        anyhow::ensure!(
+            end(wp.vertex_base, wp.points) && end(wp.cell_base, wp.cells_max),
+            "the set-up numbers piece {k}'s vertices or cells past 2^32"
+        );
         let mesh = pvtu::read_piece_keeping(&path, &head, k, Some(&src.field))?;
         let src_name = &head.pieces[k].0;
+        let at = || format!("{}: <Piece> {k} Source=\"{src_name}\"", path.display());
         anyhow::ensure!(
             mesh.points.len() as u64 == wp.points as u64,
             "{}: <Piece> {k} Source=\"{src_name}\" has {} vertices here, the coordinator read {} \
@@ -242,38 +254,32 @@ pub fn load(src: &PieceSource) -> anyhow::Result<WorkUnit> {
             mesh.tets.len(),
             wp.cells_max as u64 / TETS_PER_CELL
         );
-        // An untrusted set-up's ids must not wrap (the counts were just
-        // checked against the piece).
-        let end = |base: u32, n: u32| base as u64 + n as u64 <= 1 << 32;
-        anyhow::ensure!(
-            end(wp.vertex_base, wp.points) && end(wp.cell_base, wp.cells_max),
-            "the set-up numbers piece {k}'s vertices or cells past 2^32"
-        );
-        let s = mesh
-            .scalar(&src.field)
-            .with_context(|| format!("{}: <Piece> {k} Source=\"{src_name}\"", path.display()))?;
-        let offset = unit.vertex_ids.len() as u32;
-        unit.vertex_ids
-            .extend((0..mesh.points.len() as u32).map(|v| wp.vertex_base + v));
-        unit.positions.extend_from_slice(&mesh.points);
-        // As RenderInput normalises (f64), then the unit's f32.
-        unit.scalars.extend(
-            s.iter()
-                .map(|&x| crate::render::input::normalised(x, src.range) as f32),
-        );
-        unit.cells.extend(
-            mesh.tets
-                .iter()
-                .enumerate()
-                .map(|(c, t)| crate::node::work::WorkCell {
-                    id: wp.cell_base + c as u32,
-                    v: t.map(|v| v + offset),
-                }),
-        );
+        let raw = mesh.scalar(&src.field).with_context(at)?;
+        // As RenderInput normalises (f64), then the node's f32.
+        let scalars: Vec<f32> = raw
+            .iter()
+            .map(|&x| crate::render::input::normalised(x, src.range) as f32)
+            .collect();
+        drop(raw);
+        if let Some(v) = scalars.iter().position(|x| !x.is_finite()) {
+            anyhow::bail!(
+                "{}: vertex {v}'s scalar is not finite on the range {:?}",
+                at(),
+                src.range
+            );
+        }
+        // Ascending and unique by construction, as a unit's are; the
+        // reader checked every index against the piece's vertices.
+        let ids: Vec<u32> = (0..wp.points).map(|v| wp.vertex_base + v).collect();
+        let crate::data::TetMesh { points, tets, .. } = mesh;
+        let cell = tets.iter().enumerate().map(|(c, t)| WorkCell {
+            id: wp.cell_base + c as u32,
+            v: *t,
+        });
+        node.add_cells(&ids, std::borrow::Cow::Owned(points), &scalars, cell);
+        cells += tets.len() as u64;
     }
-    unit.validate()
-        .map_err(|e| anyhow::anyhow!("{}: the pieces read: {e}", path.display()))?;
-    Ok(unit)
+    Ok(cells)
 }
 
 #[cfg(test)]
@@ -306,7 +312,39 @@ mod tests {
             range: [0.0, 1.0],
             pieces,
         };
-        assert!(load(&src(vec![piece(0, 0)])).is_ok());
+        let load = |src: &PieceSource| {
+            // Looking along +y at the whole mesh (x -46..41, z -200..133).
+            let scene = crate::scene::Scene::parse(
+                r#"
+[data]
+path = "aorta-small-raw.pvtu"
+field = "speed"
+[camera]
+eye = [0.0, -300.0, -30.0]
+target = [0.0, 0.0, -30.0]
+up = [1.0, 0.0, 0.0]
+projection = "orthographic"
+height = 120.0
+[image]
+width = 200
+height = 64
+background = [0.0, 0.0, 0.0]
+[transfer]
+unit_distance = 1.0
+points = [[0.0, 0.0, 0.0, 1.0, 0.3], [1.0, 1.0, 0.0, 0.0, 0.3]]
+"#,
+                Path::new("s.toml"),
+            )
+            .unwrap();
+            let mut node = NodeRenderer::new(
+                scene.view(),
+                crate::render::cell::PreparedTf::new(&scene.transfer),
+                Default::default(),
+            );
+            load_into(src, &mut node).map(|n| (n, node.remaining()))
+        };
+        let (n, kept) = load(&src(vec![piece(0, 0)])).unwrap();
+        assert!(n > 0 && kept > 0 && kept as u64 <= n, "{n} {kept}");
         let e = load(&src(vec![piece(0, u32::MAX - 3)])).unwrap_err();
         assert!(format!("{e:#}").contains("past 2^32"), "{e:#}");
         let e = load(&src(vec![piece(0, 0), piece(0, 0)])).unwrap_err();

@@ -2,13 +2,15 @@
 //! as work units with their vertices (partitioned data) or as cell ids
 //! (replicated data, [`crate::node::replica`]).
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
+use super::cells::NodeCell;
 use super::NodeRenderer;
 use crate::node::ops::OpCounts;
 use crate::node::replica::{IdUnit, Replica};
-use crate::node::work::{WorkError, WorkUnit};
-use crate::render::cell::bin::{cell_record, CellRecord, Culled};
+use crate::node::work::{WorkCell, WorkError, WorkUnit};
+use crate::render::cell::bin::{cell_record, Culled};
 use crate::render::cell::ert::ErtSpan;
 use crate::render::cell::project::ProjectedVertices;
 use crate::render::cell::CellOrder;
@@ -96,22 +98,20 @@ impl NodeRenderer {
 
     /// Tests `cells` (taken out of the queue) against the table and the
     /// pyramid; keeps the skipped ones as processed, returns the others.
-    fn skip_before_giving(&mut self, cells: Vec<CellRecord>) -> Vec<CellRecord> {
+    fn skip_before_giving(&mut self, cells: Vec<NodeCell>) -> Vec<NodeCell> {
         let span = self.opts.ert.span;
         let flat = self.flat_table();
         let mut ops = OpCounts::default();
         let mut keep = Vec::with_capacity(cells.len());
         for c in cells {
             ops.cells_tested += 1;
+            let range = c.range();
             let skip = (flat
                 && match span {
-                    ErtSpan::Single => self.table.skip_single(c.range, c.near),
-                    ErtSpan::Multi => self.table.skip_multi(c.range, c.near),
+                    ErtSpan::Single => self.table.skip_single(range, c.near),
+                    ErtSpan::Multi => self.table.skip_multi(range, c.near),
                 })
-                || self
-                    .pyramid
-                    .as_ref()
-                    .is_some_and(|p| p.skip(c.range, c.near));
+                || self.pyramid.as_ref().is_some_and(|p| p.skip(range, c.near));
             if skip {
                 ops.cells_skipped_ert += 1;
                 self.pre_skipped.push(c.cell);
@@ -151,7 +151,7 @@ impl NodeRenderer {
 
     /// Takes `floor(remaining * fraction)` unprocessed cells out of the
     /// queue: the first ones with `front`, else the last ones.
-    fn take_out(&mut self, fraction: f64, front: bool) -> Vec<CellRecord> {
+    fn take_out(&mut self, fraction: f64, front: bool) -> Vec<NodeCell> {
         let rem = self.remaining();
         let k = ((rem as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(rem);
         if front {
@@ -164,35 +164,62 @@ impl NodeRenderer {
     /// Adds a unit of cells (initial placement); validates it first.
     pub fn add_work(&mut self, unit: &WorkUnit) -> Result<OpCounts, WorkError> {
         unit.validate()?;
+        Ok(self.add_cells(
+            &unit.vertex_ids,
+            Cow::Borrowed(&unit.positions),
+            &unit.scalars,
+            unit.cells.iter().copied(),
+        ))
+    }
+
+    /// Adds cells whose vertices are `vertex_ids`, `positions` and
+    /// `scalars` (indexed by the cells' `v`), as [`NodeRenderer::add_work`]
+    /// adds a unit's: the caller vouches for what [`WorkUnit::validate`]
+    /// checks (a worker's own pieces, read and checked by the reader, are
+    /// added so without building a unit: a unit and the piece it came from
+    /// would be resident together; their positions are moved in).
+    pub fn add_cells(
+        &mut self,
+        vertex_ids: &[u32],
+        positions: Cow<'_, [[f64; 3]]>,
+        scalars: &[f32],
+        cells: impl ExactSizeIterator<Item = WorkCell>,
+    ) -> OpCounts {
         let mut ops = OpCounts::default();
-        let s: Vec<f64> = unit.scalars.iter().map(|&s| s as f64).collect();
-        let pv = ProjectedVertices::new_sequential(&self.view, &unit.positions, &s);
-        ops.vertices_projected = unit.vertex_ids.len() as u64;
-        ops.cells_received = unit.len() as u64;
+        let s: Vec<f64> = scalars.iter().map(|&s| s as f64).collect();
+        let mut pv = ProjectedVertices::new_sequential(&self.view, &positions, &s);
+        drop(s);
+        ops.vertices_projected = vertex_ids.len() as u64;
+        ops.cells_received = cells.len() as u64;
+        // The vertices join the table (below, once culled: moved where the
+        // table is empty); the cells index them there.
+        let base = self.verts.len() as u32;
         if self.replica.is_none() {
-            // Partitioned data: keep the vertices to give cells away with.
-            for (k, &g) in unit.vertex_ids.iter().enumerate() {
-                self.vertices
-                    .insert(g, (unit.positions[k], unit.scalars[k]));
-            }
+            // Partitioned data: keep the world positions to give cells away with.
+            join(&mut self.verts.world, positions);
         }
         let from = self.records.len();
-        for c in &unit.cells {
+        self.records.reserve(cells.len());
+        for c in cells {
             match cell_record(c.id, c.v, &pv, &self.tf, self.full) {
-                Ok(mut rec) => {
-                    rec.ids = c.v.map(|l| unit.vertex_ids[l as usize]);
+                Ok(rec) => {
                     let f = &mut self.footprint;
                     f[0] = f[0].min(rec.range[0]);
                     f[1] = f[1].max(rec.range[1]);
                     f[2] = f[2].min(rec.range[2]);
                     f[3] = f[3].max(rec.range[3]);
-                    self.records.push(rec);
+                    self.records
+                        .push(NodeCell::new(&rec, c.v.map(|l| base + l)));
                 }
                 Err(Culled::Empty | Culled::Offscreen | Culled::NoPixelCentre) => {
                     ops.cells_culled += 1
                 }
             }
         }
+        let t = &mut self.verts;
+        t.ids.extend_from_slice(vertex_ids);
+        join(&mut t.pos, Cow::Owned(std::mem::take(&mut pv.pos)));
+        join(&mut t.s, Cow::Owned(std::mem::take(&mut pv.s)));
         if self.release_ordered() {
             self.sort_released(from, &mut ops);
         } else {
@@ -204,7 +231,7 @@ impl NodeRenderer {
             }
         }
         self.totals.add(&ops);
-        Ok(ops)
+        ops
     }
 
     /// Takes a unit given by another node (DLB): [`NodeRenderer::add_work`],
@@ -226,11 +253,22 @@ impl NodeRenderer {
 
     /// Packs cells taken out of the queue into a work unit with their
     /// vertices, counting them in `work_cells_moved`.
-    fn pack(&mut self, given: &[CellRecord]) -> WorkUnit {
-        let (vertices, replica) = (&self.vertices, &self.replica);
-        let unit = WorkUnit::gather(given.iter().map(|c| (c.cell, c.ids)), |g| match replica {
+    fn pack(&mut self, given: &[NodeCell]) -> WorkUnit {
+        let (t, replica) = (&self.verts, &self.replica);
+        // Where in the table each global vertex of the cells given is.
+        let mut at = std::collections::HashMap::new();
+        for c in given {
+            for (g, l) in t.global_ids(c).into_iter().zip(c.v()) {
+                at.insert(g, l as usize);
+            }
+        }
+        let cells = given.iter().map(|c| (c.cell, t.global_ids(c)));
+        let unit = WorkUnit::gather(cells, |g| match replica {
             Some(r) => (r.mesh.points[g as usize], r.s_norm[g as usize] as f32),
-            None => vertices[&g],
+            None => {
+                let l = at[&g];
+                (t.world[l], t.s[l])
+            }
         });
         self.totals.work_cells_moved += given.len() as u64;
         unit
@@ -244,5 +282,17 @@ impl NodeRenderer {
     pub fn give_front_work(&mut self, fraction: f64) -> WorkUnit {
         let given = self.take_out(fraction, true);
         self.pack(&given)
+    }
+}
+
+/// Appends `more` to `v`, moving an owned `more` into an empty `v` instead
+/// of copying it.
+fn join<T: Clone>(v: &mut Vec<T>, more: Cow<'_, [T]>)
+where
+    [T]: ToOwned<Owned = Vec<T>>,
+{
+    match more {
+        Cow::Owned(m) if v.is_empty() => *v = m,
+        m => v.extend_from_slice(&m),
     }
 }

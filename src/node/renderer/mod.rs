@@ -3,9 +3,12 @@
 //!
 //! ## Model
 //!
-//! The node owns its cells as [`CellRecord`]s (built when a `WorkUnit`
-//! arrives: vertices projected, empty and off-screen cells culled, exactly as
-//! the single-machine binning does — the same function, `cell_record`),
+//! The node owns its cells as compact [`cells::NodeCell`]s over a table of
+//! their projected vertices (built when a `WorkUnit` arrives: vertices
+//! projected, empty and off-screen cells culled, exactly as the
+//! single-machine binning does — the same function, `cell_record`; the
+//! [`CellRecord`](crate::render::cell::bin::CellRecord) scan conversion
+//! takes is rebuilt from them, `cells.rs`),
 //! kept in processing order: front to back by `(nearest depth, cell id)` by
 //! default, the order every tile of the single-machine renderer uses, or by
 //! cell id ("stored"). Cells `[0, next)` are processed, `[next, len)` are not.
@@ -58,11 +61,11 @@
 //! them into simulated seconds with [`super::cost`]. Nothing here reads a
 //! clock, spawns a thread or does I/O.
 
+mod cells;
 mod grant;
 mod release;
 mod sharing;
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
 pub use grant::Given;
@@ -75,7 +78,6 @@ use super::replica::Replica;
 use super::table::{NodeTable, SharedTable, TableError};
 use crate::base::segment::Segment;
 use crate::base::Rect;
-use crate::render::cell::bin::CellRecord;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
@@ -201,10 +203,10 @@ pub struct NodeRenderer {
     full: Rect,
     persp: Option<PerspRays>,
     /// Cells, processed ones first.
-    records: Vec<CellRecord>,
+    records: Vec<cells::NodeCell>,
     next: usize,
-    /// Global vertex id → (world position, normalised scalar), for giving work away.
-    vertices: HashMap<u32, ([f64; 3], f32)>,
+    /// The vertices `records` index.
+    verts: cells::VertexTable,
     lists: SegmentLists,
     /// Per pixel, cached termination depth (`+inf`: not terminated).
     depth: Vec<f32>,
@@ -252,7 +254,7 @@ impl NodeRenderer {
             persp: persp.perspective.then(|| persp.rays()),
             records: Vec::new(),
             next: 0,
-            vertices: HashMap::new(),
+            verts: cells::VertexTable::default(),
             lists,
             depth: if ert {
                 vec![f32::INFINITY; (w * h) as usize]
@@ -349,6 +351,7 @@ impl NodeRenderer {
         {
             let Self {
                 records,
+                verts,
                 lists,
                 table,
                 pyramid,
@@ -370,19 +373,21 @@ impl NodeRenderer {
             for c in &records[self.next..end] {
                 if ert.enabled() {
                     ops.cells_tested += 1;
+                    let range = c.range();
                     let skip = (flat
                         && match ert.span {
-                            ErtSpan::Single => table.skip_single(c.range, c.near),
-                            ErtSpan::Multi => table.skip_multi(c.range, c.near),
+                            ErtSpan::Single => table.skip_single(range, c.near),
+                            ErtSpan::Multi => table.skip_multi(range, c.near),
                         })
-                        || pyramid.as_ref().is_some_and(|p| p.skip(c.range, c.near));
+                        || pyramid.as_ref().is_some_and(|p| p.skip(range, c.near));
                     if skip {
                         ops.cells_skipped_ert += 1;
                         continue;
                     }
                 }
                 ops.cells_projected += 1;
-                ops.cells_degenerate += scan_cell(c, *full, persp.as_ref(), &mut target);
+                let rec = verts.record(c);
+                ops.cells_degenerate += scan_cell(&rec, *full, persp.as_ref(), &mut target);
             }
             target.flush();
         }

@@ -3,11 +3,11 @@
 
 use std::collections::HashMap;
 
+use super::cells::NodeCell;
 use super::NodeRenderer;
 use crate::node::ops::OpCounts;
 use crate::node::release::{BlockMap, ReleaseMap, ReleaseReply, ReleaseShare, BUCKETS};
 use crate::node::table::TableError;
-use crate::render::cell::bin::CellRecord;
 
 /// A node's release-ordering state.
 #[derive(Debug, Clone)]
@@ -62,7 +62,7 @@ impl NodeRenderer {
         let rest = &self.records[self.next..];
         for (i, c) in rest.iter().enumerate() {
             let (z, r) = (quant.up(c.near), rank_code(i, rest.len()));
-            let br = bm.blocks(c.range);
+            let br = bm.blocks(c.range());
             for by in br[2]..=br[3] {
                 for bx in br[0]..=br[1] {
                     let b = (by * bm.bw + bx) as usize;
@@ -105,10 +105,10 @@ impl NodeRenderer {
         };
         let map = reply.into_map();
         let n = self.records.len() - self.next;
-        let rest: Vec<CellRecord> = self.records.drain(self.next..).collect();
-        let mut keyed: Vec<(u16, CellRecord)> = Vec::with_capacity(n);
+        let rest: Vec<NodeCell> = self.records.drain(self.next..).collect();
+        let mut keyed: Vec<(u16, NodeCell)> = Vec::with_capacity(n);
         for (i, c) in rest.into_iter().enumerate() {
-            let (t, seen) = map.release(bm.blocks(c.range), quant.up(c.near));
+            let (t, seen) = map.release(bm.blocks(c.range()), quant.up(c.near));
             ops.table_pixels_read += seen;
             let key = if t == 0 {
                 rank_code(i, n)
@@ -147,7 +147,7 @@ impl NodeRenderer {
             return;
         };
         for c in &self.records[from..] {
-            let (t, seen) = map.release(rel.blocks.blocks(c.range), quant.up(c.near));
+            let (t, seen) = map.release(rel.blocks.blocks(c.range()), quant.up(c.near));
             ops.table_pixels_read += seen;
             let key = if t == 0 { 0 } else { t.saturating_add(rel.lag) };
             rel.bucket

@@ -268,16 +268,14 @@ pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor
         let [z0, z1] = setup.depth_range;
         r.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
     }
-    let unit = match &setup.pieces {
-        Some(src) => crate::cluster::remote::pieces::load(src)?,
-        None => WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?,
+    let cells_initial = match &setup.pieces {
+        Some(src) => crate::cluster::remote::pieces::load_into(src, &mut r)?,
+        None => {
+            let unit = WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+            r.add_work(&unit)?;
+            setup.cells_initial
+        }
     };
-    let cells_initial = match setup.pieces {
-        Some(_) => unit.len() as u64,
-        None => setup.cells_initial,
-    };
-    r.add_work(&unit)?;
-    drop(unit);
     let nc = NodeConfig {
         rank: setup.rank as usize,
         manager: setup.nodes as usize,

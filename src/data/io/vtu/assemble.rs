@@ -75,10 +75,12 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
                 ));
             }
             let v = ctx.f64s(pa, p.npoints.saturating_mul(3))?;
+            ctx.release(pa);
             points.extend(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         }
         for a in &p.point_data {
             let v = ctx.f64s(a, p.npoints.saturating_mul(a.ncomp))?;
+            ctx.release(a);
             if pi == 0 {
                 fields.push(Field {
                     name: a.name.clone(),
@@ -102,12 +104,15 @@ pub(super) fn assemble(ctx: &Ctx, pieces: Vec<PieceDesc>) -> Result<TetMesh> {
                 continue;
             }
             let offs = ctx.i64s(oa, p.ncells)?;
+            ctx.release(oa);
             let types = ctx.i64s(ta, p.ncells)?;
+            ctx.release(ta);
             let nconn = *offs.last().unwrap_or(&0);
             if nconn < 0 || offs.windows(2).any(|w| w[1] < w[0]) || offs[0] < 0 {
                 return Err(ctx.err(oa, "offsets must be non-negative and non-decreasing"));
             }
             let conn = ctx.i64s(ca, nconn as usize)?;
+            ctx.release(ca);
             cells.push((
                 Part::Cells(PieceCells {
                     types,
@@ -216,11 +221,14 @@ fn direct_tets(
     if !(binary(oa) && binary(ta) && binary(ca)) {
         return Ok(None);
     }
-    if !all_values(ctx, oa, ncells, |i, e| e == 4 * (i as i64 + 1))?
-        || !all_values(ctx, ta, ncells, |_, t| t == 10)?
-    {
+    if !all_values(ctx, oa, ncells, |i, e| e == 4 * (i as i64 + 1))? {
         return Ok(None);
     }
+    ctx.release(oa);
+    if !all_values(ctx, ta, ncells, |_, t| t == 10)? {
+        return Ok(None);
+    }
+    ctx.release(ta);
     let b = ctx.bytes(ca)?;
     if b.len() % ca.ty.size() != 0 || b.len() / ca.ty.size() != 4 * ncells {
         return Ok(None);
@@ -229,6 +237,8 @@ fn direct_tets(
     else {
         return Ok(None);
     };
+    drop(b);
+    ctx.release(ca);
     if base != 0 {
         use rayon::prelude::*;
         let base = base as u32;
