@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 use std::sync::Arc;
 
-use super::cells::NodeCell;
+use super::cells::{NodeCell, TableVertex};
 use super::NodeRenderer;
 use crate::node::ops::OpCounts;
 use crate::node::replica::{IdUnit, Replica};
@@ -187,12 +187,12 @@ impl NodeRenderer {
     ) -> OpCounts {
         let mut ops = OpCounts::default();
         let s: Vec<f64> = scalars.iter().map(|&s| s as f64).collect();
-        let mut pv = ProjectedVertices::new_sequential(&self.view, &positions, &s);
+        let pv = ProjectedVertices::new_sequential(&self.view, &positions, &s);
         drop(s);
         ops.vertices_projected = vertex_ids.len() as u64;
         ops.cells_received = cells.len() as u64;
-        // The vertices join the table (below, once culled: moved where the
-        // table is empty); the cells index them there.
+        // The vertices join the table (below, once culled); the cells index
+        // them there.
         let base = self.verts.len() as u32;
         if self.replica.is_none() {
             // Partitioned data: keep the world positions to give cells away with.
@@ -216,10 +216,13 @@ impl NodeRenderer {
                 }
             }
         }
-        let t = &mut self.verts;
-        t.ids.extend_from_slice(vertex_ids);
-        join(&mut t.pos, Cow::Owned(std::mem::take(&mut pv.pos)));
-        join(&mut t.s, Cow::Owned(std::mem::take(&mut pv.s)));
+        self.verts.v.extend(
+            vertex_ids
+                .iter()
+                .zip(pv.pos.iter().zip(&pv.s))
+                .map(|(&id, (&pos, &s))| TableVertex { pos, s, id }),
+        );
+        drop(pv);
         if self.release_ordered() {
             self.sort_released(from, &mut ops);
         } else {
@@ -267,7 +270,7 @@ impl NodeRenderer {
             Some(r) => (r.mesh.points[g as usize], r.s_norm[g as usize] as f32),
             None => {
                 let l = at[&g];
-                (t.world[l], t.s[l])
+                (t.world[l], t.v[l].s)
             }
         });
         self.totals.work_cells_moved += given.len() as u64;

@@ -370,7 +370,12 @@ impl NodeRenderer {
                 opts.canonical,
                 &mut counts,
             );
-            for c in &records[self.next..end] {
+            // Vertices are fetched this many cells ahead of their record.
+            const AHEAD: usize = 8;
+            for (k, c) in records[self.next..end].iter().enumerate() {
+                if let Some(ahead) = records.get(self.next + k + AHEAD) {
+                    verts.prefetch(ahead);
+                }
                 if ert.enabled() {
                     ops.cells_tested += 1;
                     let range = c.range();
