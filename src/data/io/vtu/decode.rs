@@ -223,13 +223,7 @@ impl Ctx<'_> {
                     ));
                 }
                 if b64 {
-                    let end = self
-                        .appended_offsets
-                        .iter()
-                        .copied()
-                        .find(|&o| o > a.offset)
-                        .unwrap_or(body.len())
-                        .min(body.len());
+                    let end = self.appended_end(a.offset, body.len());
                     let raw = self.base64(a, &body[a.offset..end])?;
                     Ok(Cow::Owned(self.payload(a, &raw)?.into_owned()))
                 } else {
