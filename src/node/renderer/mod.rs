@@ -81,6 +81,7 @@ use crate::base::Rect;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
+use crate::render::cell::integrate::Batch;
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::{PerspRays, ProjectedVertices};
 use crate::render::cell::{scan_cell, CellOrder, Integrator, PreparedTf};
@@ -229,6 +230,8 @@ pub struct NodeRenderer {
     pre_skipped: Vec<u32>,
     /// Release ordering ([`crate::node::release`]), if on.
     release: Option<release::Release>,
+    /// The integration batch every step's scan target uses.
+    batch: Box<Batch>,
 }
 
 impl NodeRenderer {
@@ -273,6 +276,7 @@ impl NodeRenderer {
             replica: None,
             pre_skipped: Vec::new(),
             release: None,
+            batch: Box::default(),
         }
     }
 
@@ -359,6 +363,7 @@ impl NodeRenderer {
                 opts,
                 full,
                 persp,
+                batch,
                 ..
             } = self;
             let mut target = ScanTarget::new(
@@ -369,6 +374,7 @@ impl NodeRenderer {
                 opts.partial_composition,
                 opts.canonical,
                 &mut counts,
+                batch,
             );
             // Vertices are fetched this many cells ahead of their record.
             const AHEAD: usize = 8;

@@ -464,6 +464,7 @@ fn scan_cells(
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
+    let mut batch = integrate::Batch::default();
     {
         let mut target = ScanTarget::new(
             &mut lists,
@@ -473,6 +474,7 @@ fn scan_cells(
             opts.partial_composition,
             opts.canonical,
             &mut counts,
+            &mut batch,
         );
         for start in (0..cells.len()).step_by(bin::RUN) {
             let end = (start + bin::RUN).min(cells.len());

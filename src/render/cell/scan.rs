@@ -278,6 +278,7 @@ mod tests {
         ));
         let mut lists = SegmentLists::new(tile.width(), tile.height());
         let mut counts = ScanCounts::default();
+        let mut batch = crate::render::cell::integrate::Batch::default();
         let mut t = ScanTarget::new(
             &mut lists,
             tile,
@@ -286,6 +287,7 @@ mod tests {
             false,
             false,
             &mut counts,
+            &mut batch,
         );
         t.simd = simd;
         for (k, (p, s)) in tets.iter().enumerate() {

@@ -50,8 +50,11 @@ pub struct ScanTarget<'a> {
     pub canonical: bool,
     /// Counters.
     pub counts: &'a mut ScanCounts,
-    /// Segments waiting to be integrated.
-    pub batch: Batch,
+    /// Segments waiting to be integrated: the caller's buffers, kept from
+    /// one target to the next (a batch is a few KB of lanes plus vectors
+    /// that grow to their size once; a target per ERT update batch or per
+    /// node step built and grew them anew each time).
+    pub batch: &'a mut Batch,
     /// Their local pixel index.
     pub pend_idx: [u32; BATCH],
     /// Their `z_front`.
@@ -68,7 +71,9 @@ pub struct ScanTarget<'a> {
 
 impl<'a> ScanTarget<'a> {
     /// A target writing into `lists` (the lists of `tile`), with partial
-    /// composition if `partial`, in canonical form if `canonical`.
+    /// composition if `partial`, in canonical form if `canonical`,
+    /// integrating in `batch` (empty: the target before it was flushed).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         lists: &'a mut SegmentLists,
         tile: Rect,
@@ -77,7 +82,9 @@ impl<'a> ScanTarget<'a> {
         partial: bool,
         canonical: bool,
         counts: &'a mut ScanCounts,
+        batch: &'a mut Batch,
     ) -> Self {
+        debug_assert_eq!(batch.n, 0, "a target left segments unflushed");
         ScanTarget {
             lists,
             tile,
@@ -86,7 +93,7 @@ impl<'a> ScanTarget<'a> {
             partial,
             canonical,
             counts,
-            batch: Batch::default(),
+            batch,
             pend_idx: [0; BATCH],
             pend_zf: [0.0; BATCH],
             pend_zb: [0.0; BATCH],
@@ -128,7 +135,7 @@ impl<'a> ScanTarget<'a> {
         if n == 0 {
             return;
         }
-        self.tf.integrate_batch(self.integrator, &mut self.batch);
+        self.tf.integrate_batch(self.integrator, self.batch);
         self.counts.segments_generated += n as u64;
         self.counts.segment_pieces += self.batch.pieces as u64;
         if self.partial && !self.canonical {

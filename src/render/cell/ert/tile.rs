@@ -112,7 +112,8 @@ pub fn scan_tile_ert(
     let mut stats = ErtTileStats::default();
     let mut skip: Vec<bool> = Vec::new();
     let mut min_depth = f32::INFINITY;
-    let mut spare: Option<crate::render::cell::integrate::Batch> = None;
+    // One integration batch for every target of the tile (see ScanTarget::batch).
+    let mut batch = crate::render::cell::integrate::Batch::default();
     // Without back-off every cell is tested after every rebuild.
     let gate = |min_depth: f32| {
         if ert.backoff {
@@ -154,12 +155,8 @@ pub fn scan_tile_ert(
             opts.partial_composition,
             opts.canonical,
             &mut counts,
+            &mut batch,
         );
-        // The integration buffers of the batch before (their vectors keep
-        // their capacity: a target per batch allocated them anew each time).
-        if let Some(b) = spare.take() {
-            target.batch = b;
-        }
         // The batch a run at a time: the structure is not rebuilt inside a
         // batch, so testing each run before scanning it decides as testing
         // the whole batch first would.
@@ -193,7 +190,6 @@ pub fn scan_tile_ert(
             }
         }
         target.flush();
-        spare = Some(std::mem::take(&mut target.batch));
     }
     (
         TileResult {
