@@ -95,9 +95,7 @@ impl PieceSet {
         let path = &scene.data.path;
         let view = scene.view();
         let (summary, extents) =
-            pvtu::summary::summarize(path, &scene.data.field, EMPTY, |acc, p| {
-                *acc = union(*acc, crate::cluster::phase1::depth_extent(&view, p));
-            })?;
+            pvtu::summary::summarize(path, &scene.data.field, EMPTY, fold_depths(&view))?;
         let range = match scene.data.range {
             Some(r) => r,
             None => summary.scalar_range().unwrap_or([0.0, 1.0]),
@@ -186,11 +184,9 @@ impl PieceSet {
         let ext = if view == self.depths.0 {
             self.depths.1
         } else {
-            pvtu::summary::fold_points(&self.summary, EMPTY, |acc, p| {
-                *acc = union(*acc, crate::cluster::phase1::depth_extent(&view, p));
-            })?
-            .into_iter()
-            .fold(EMPTY, union)
+            pvtu::summary::fold_points(&self.summary, EMPTY, fold_depths(&view))?
+                .into_iter()
+                .fold(EMPTY, union)
         };
         Ok(crate::cluster::phase1::padded_depths(ext))
     }
@@ -202,6 +198,11 @@ const EMPTY: (f64, f64) = (f64::INFINITY, f64::NEG_INFINITY);
 /// The union of two depth extents.
 fn union(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
     (a.0.min(b.0), a.1.max(b.1))
+}
+
+/// Folds a chunk of points' depth extent for `view` into an extent.
+fn fold_depths(view: &crate::scene::View) -> impl Fn(&mut (f64, f64), &[[f64; 3]]) + Sync + '_ {
+    move |acc, p| *acc = union(*acc, crate::cluster::phase1::depth_extent(view, p))
 }
 
 /// A worker's cells: reads its pieces of `src` (checked as the full reader

@@ -12,7 +12,7 @@
 //! takes, as the single-machine renderer rebuilds a tile's records from its
 //! bins. The record is the same one, so the image is the same bit for bit.
 
-use crate::render::cell::bin::{near_key, CellRecord};
+use crate::render::cell::bin::{order_key, CellRecord, Range16};
 
 /// One cell a node holds. See the module docs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,9 +22,8 @@ pub struct NodeCell {
     pub near: f32,
     /// Global cell id.
     pub cell: u32,
-    /// Covered pixel range, inclusive (`i0, i1, j0, j1`; an image side is
-    /// at most 65536 pixels).
-    range16: [u16; 4],
+    /// Covered pixel range.
+    range16: Range16,
     /// Its vertices, as indices into the node's [`VertexTable`].
     v: [u32; 4],
 }
@@ -38,7 +37,7 @@ impl NodeCell {
         NodeCell {
             near: rec.near,
             cell: rec.cell,
-            range16: rec.range.map(|r| r.min(u16::MAX as u32) as u16),
+            range16: Range16::new(rec.range),
             v,
         }
     }
@@ -46,7 +45,7 @@ impl NodeCell {
     /// Covered pixel range, inclusive: `i0, i1, j0, j1`.
     #[inline(always)]
     pub fn range(&self) -> [u32; 4] {
-        self.range16.map(u32::from)
+        self.range16.get()
     }
 
     /// Its vertices' indices in the table.
@@ -59,7 +58,7 @@ impl NodeCell {
     /// ([`CellRecord::order_key`]).
     #[inline]
     pub fn order_key(&self) -> u64 {
-        (near_key(self.near) as u64) << 32 | self.cell as u64
+        order_key(self.near, self.cell)
     }
 }
 

@@ -196,7 +196,12 @@ impl NodeRenderer {
         let base = self.verts.len() as u32;
         if self.replica.is_none() {
             // Partitioned data: keep the world positions to give cells away with.
-            join(&mut self.verts.world, positions);
+            let world = &mut self.verts.world;
+            match positions {
+                // A worker's first piece: moved in, not copied.
+                Cow::Owned(p) if world.is_empty() => *world = p,
+                p => world.extend_from_slice(&p),
+            }
         }
         let from = self.records.len();
         self.records.reserve(cells.len());
@@ -285,17 +290,5 @@ impl NodeRenderer {
     pub fn give_front_work(&mut self, fraction: f64) -> WorkUnit {
         let given = self.take_out(fraction, true);
         self.pack(&given)
-    }
-}
-
-/// Appends `more` to `v`, moving an owned `more` into an empty `v` instead
-/// of copying it.
-fn join<T: Clone>(v: &mut Vec<T>, more: Cow<'_, [T]>)
-where
-    [T]: ToOwned<Owned = Vec<T>>,
-{
-    match more {
-        Cow::Owned(m) if v.is_empty() => *v = m,
-        m => v.extend_from_slice(&m),
     }
 }

@@ -45,7 +45,7 @@ impl CellRecord {
     /// Sort key for front-to-back order: nearest depth, then cell id.
     #[inline]
     pub fn order_key(&self) -> u64 {
-        (near_key(self.near) as u64) << 32 | self.cell as u64
+        order_key(self.near, self.cell)
     }
 }
 
@@ -107,10 +107,9 @@ pub struct BinEntry {
     pub key: u32,
     /// Cell index in the mesh.
     pub cell: u32,
-    /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`
-    /// (an image side is at most 65536 pixels, so a pixel index fits 16
-    /// bits: the entry is 32 bytes, not 40; [`BinEntry::range`] widens it).
-    range16: [u16; 4],
+    /// Covered pixel range in the whole image (16 bits an index: the entry
+    /// is 32 bytes, not 40; [`BinEntry::range`] widens it).
+    range16: Range16,
     /// Global vertex ids (carried along: reading them back from the mesh in
     /// depth order would be a cache miss per cell).
     pub ids: [u32; 4],
@@ -123,11 +122,10 @@ impl BinEntry {
     /// (inclusive, every index below 65536).
     #[inline]
     pub fn new(key: u32, cell: u32, range: [u32; 4], ids: [u32; 4]) -> BinEntry {
-        debug_assert!(range.iter().all(|&r| r <= u16::MAX as u32));
         BinEntry {
             key,
             cell,
-            range16: range.map(|r| r as u16),
+            range16: Range16::new(range),
             ids,
         }
     }
@@ -135,8 +133,37 @@ impl BinEntry {
     /// Covered pixel range in the whole image, inclusive: `i0, i1, j0, j1`.
     #[inline(always)]
     pub fn range(&self) -> [u32; 4] {
-        self.range16.map(u32::from)
+        self.range16.get()
     }
+}
+
+/// An inclusive pixel range `i0, i1, j0, j1` in 16 bits an index (an image
+/// side is at most 65536 pixels): how bins and cluster nodes keep a cell's
+/// range for the whole frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Range16([u16; 4]);
+
+impl Range16 {
+    /// `range`, every index below 65536.
+    #[inline]
+    pub fn new(range: [u32; 4]) -> Range16 {
+        debug_assert!(range.iter().all(|&r| r <= u16::MAX as u32));
+        Range16(range.map(|r| r as u16))
+    }
+
+    /// The range, widened.
+    #[inline(always)]
+    pub fn get(self) -> [u32; 4] {
+        self.0.map(u32::from)
+    }
+}
+
+/// The front-to-back sort key of a cell with nearest depth `near`: the
+/// depth, then the cell id. The one key every tile and every cluster node
+/// orders by, so that they agree bit for bit.
+#[inline]
+pub fn order_key(near: f32, cell: u32) -> u64 {
+    (near_key(near) as u64) << 32 | cell as u64
 }
 
 /// A bin's storage, written by several binning tasks at disjoint slots.
