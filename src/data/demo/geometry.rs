@@ -67,6 +67,11 @@ pub(super) struct Tube {
     pub(super) chunks: Vec<Chunk>,
     pub(super) open_start: bool,
     pub(super) open_end: bool,
+    /// Chunk boxes reach this far beyond the centreline plus radius.
+    pub(super) cull: f64,
+    /// Smallest and largest radius.
+    pub(super) rmin: f64,
+    pub(super) rmax: f64,
 }
 
 /// What one tube says about a point.
@@ -148,7 +153,19 @@ impl Tube {
             chunks,
             open_start,
             open_end,
+            cull,
+            rmin: r0.min(r1),
+            rmax: r0.max(r1),
         }
+    }
+
+    /// A lower bound of `sdf - |q - p|` at every point `q`, from this tube's
+    /// hit at `p`: the computed wall distance is at least the distance to the
+    /// whole centreline minus the largest radius, that distance is
+    /// 1-Lipschitz, and chunks whose box misses `p` are farther than their
+    /// radius plus `cull` (a miss: every chunk).
+    fn sdf_floor(&self, hit: &Hit) -> f64 {
+        hit.dist.min(self.rmin + self.cull) - self.rmax
     }
 
     /// Closest centreline point among the chunks whose box holds `p`.
@@ -331,6 +348,21 @@ impl Geometry {
         let trunk = smin(d[PARENT], d[SIDE], K_SIDE);
         let crown = smin(d[DAUGHTER_A], d[DAUGHTER_B], K_CARINA);
         smin(trunk, crown, K_JUNCTION)
+    }
+
+    /// How far from `p`, whose hits are `h`, every point is certainly
+    /// outside (`phi > 0`); 0 when that is not known. Each tube's signed
+    /// distance is at least [`Tube::sdf_floor`] less the distance moved, and
+    /// each smooth minimum takes at most `k / 4` off the smaller of its two
+    /// values; `1e-6` mm covers rounding.
+    pub(super) fn clearance(&self, h: &[Hit; 4]) -> f64 {
+        let floor = self
+            .tubes
+            .iter()
+            .zip(h)
+            .map(|(t, x)| t.sdf_floor(x))
+            .fold(f64::INFINITY, f64::min);
+        (floor - (K_SIDE.max(K_CARINA) + K_JUNCTION) / 4.0 - 1e-6).max(0.0)
     }
 
     /// Signed distance (negative inside).

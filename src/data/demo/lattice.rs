@@ -89,6 +89,35 @@ impl Lattice {
     }
 }
 
+/// The lattice tetrahedra whose four vertices are inside, one flag each:
+/// per cube, from its eight corners, layer by layer.
+pub(super) fn select(lat: &Lattice, inside: &[bool]) -> Vec<bool> {
+    let c = lat.cubes();
+    // Corner bit of each template corner.
+    let bits = lat
+        .templates
+        .map(|tpl| tpl.iter().fold(0u8, |m, o| m | 1 << (o[0] + 2 * o[1] + 4 * o[2])));
+    let mut keep = vec![false; c[0] * c[1] * c[2] * 6];
+    keep.par_chunks_mut(c[0] * c[1] * 6)
+        .enumerate()
+        .for_each(|(k, layer)| {
+            for j in 0..c[1] {
+                for i in 0..c[0] {
+                    let mut corners = 0u8;
+                    for corner in 0..8 {
+                        let v = lat.vid(i + (corner & 1), j + (corner >> 1 & 1), k + (corner >> 2));
+                        corners |= (inside[v] as u8) << corner;
+                    }
+                    let cube = &mut layer[(i + c[0] * j) * 6..][..6];
+                    for (flag, &b) in cube.iter_mut().zip(&bits) {
+                        *flag = corners & b == b;
+                    }
+                }
+            }
+        });
+    keep
+}
+
 /// A mesh cut out of the lattice, with each mesh vertex's lattice id.
 pub(super) struct Extracted {
     pub(super) mesh: TetMesh,
@@ -137,9 +166,12 @@ pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
     }
 }
 
+/// Per template and face: the other tetrahedron's cube offset and template.
+pub(super) type FaceTable = [[([i64; 3], usize); 4]; 6];
+
 /// For lattice template `m` and its face `f` (opposite corner `f`): the
 /// cube offset and template of the other lattice tetrahedron with that face.
-fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
+pub(super) fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> FaceTable {
     let mut out = [[([0i64; 3], 0usize); 4]; 6];
     for (m, tpl) in templates.iter().enumerate() {
         for (f, slot) in out[m].iter_mut().enumerate() {
@@ -178,26 +210,8 @@ fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> [[([i64; 3], usize); 4]; 6] {
 /// it is kept. A subset of a conforming lattice has no face shared by more
 /// than two tetrahedra.
 pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) -> Adjacency {
-    // Rank of a kept lattice tetrahedron = its mesh index: a bitset of
-    // `keep` and the count of kept ones before each 64-bit word.
-    let words: Vec<u64> = keep
-        .par_chunks(64)
-        .map(|c| {
-            c.iter()
-                .enumerate()
-                .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
-        })
-        .collect();
-    let mut before = Vec::with_capacity(words.len());
-    let mut acc = 0u32;
-    for w in &words {
-        before.push(acc);
-        acc += w.count_ones();
-    }
-    let rank = |t: usize| -> u32 {
-        let (w, b) = (t / 64, t % 64);
-        before[w] + (words[w] & ((1u64 << b) - 1)).count_ones()
-    };
+    // Rank of a kept lattice tetrahedron = its mesh index.
+    let ranks = super::clean::Ranks::new(keep);
     let table = face_table(&lat.templates);
     let c = lat.cubes();
     let neighbors = ex
@@ -217,7 +231,7 @@ pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) ->
                 }
                 let nt = (n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2;
                 if keep[nt] {
-                    rank(nt)
+                    ranks.of(nt)
                 } else {
                     NO_NEIGHBOR
                 }

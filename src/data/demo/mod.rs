@@ -112,6 +112,7 @@ impl Default for DemoParams {
     }
 }
 
+mod clean;
 mod fields;
 mod geometry;
 mod lattice;
@@ -123,6 +124,7 @@ mod tests;
 mod topology;
 mod vec;
 
+use clean::*;
 use fields::*;
 use geometry::*;
 use lattice::*;
@@ -174,52 +176,49 @@ pub fn generate(p: &DemoParams) -> TetMesh {
         n,
         templates: kuhn_templates(),
     };
-    let phi: Vec<f64> = (0..n[2])
+    // Which lattice vertices are inside (`phi < 0`), row by row along x;
+    // past a point, phi is not evaluated where its clearance shows the
+    // point is outside.
+    let inside: Vec<bool> = (0..n[2])
         .into_par_iter()
         .flat_map_iter(|k| {
-            let lat = &lat;
-            let geo = &geo;
-            (0..n[1]).flat_map(move |j| (0..n[0]).map(move |i| geo.phi(lat.pos(lat.vid(i, j, k)))))
+            let (lat, geo) = (&lat, &geo);
+            (0..n[1]).flat_map(move |j| {
+                let mut clear_to = f64::NEG_INFINITY;
+                (0..n[0]).map(move |i| {
+                    let p = lat.pos(lat.vid(i, j, k));
+                    if p[0] < clear_to {
+                        return false;
+                    }
+                    let hits = geo.hits(p);
+                    clear_to = p[0] + geo.clearance(&hits);
+                    Geometry::phi_of(&hits) < 0.0
+                })
+            })
         })
         .collect();
     phase("level set");
 
-    // Keep tetrahedra whose mean vertex value is inside.
-    let c = lat.cubes();
-    let ntets = c[0] * c[1] * c[2] * 6;
-    let mut keep: Vec<bool> = (0..ntets)
-        .into_par_iter()
-        .map(|t| lat.tet(t).iter().all(|&v| phi[v as usize] < 0.0))
-        .collect();
+    let mut kept = KeptSet::new(select(&lat, &inside));
+    drop(inside);
 
     // Repair pinches and keep the largest component; then peel off the
     // tetrahedra whose four vertices all lie on the boundary (they would be
     // flattened by snapping), and repair again.
     phase("lattice selection");
-    let (mut ex, mut adj) = clean(&lat, &mut keep);
+    clean(&lat, &mut kept);
     phase("first clean-up");
     for _ in 0..3 {
-        let mut on_boundary = vec![false; ex.mesh.points.len()];
-        for tri in boundary_triangles(&ex.mesh, &adj) {
-            for v in tri {
-                on_boundary[v as usize] = true;
-            }
-        }
-        let mut peeled = 0;
-        for (i, tet) in ex.mesh.tets.iter().enumerate() {
-            if tet.iter().all(|&v| on_boundary[v as usize])
-                && adj.neighbors[i].contains(&NO_NEIGHBOR)
-            {
-                keep[ex.lattice_tet[i]] = false;
-                peeled += 1;
-            }
-        }
-        if peeled == 0 {
+        if peel(&lat, &mut kept) == 0 {
             break;
         }
-        (ex, adj) = clean(&lat, &mut keep);
+        clean(&lat, &mut kept);
         phase("peel and clean-up");
     }
+    let keep = kept.keep;
+    let ex = extract(&lat, &keep);
+    let adj = lattice_adjacency(&lat, &keep, &ex);
+    phase("extraction");
     let Extracted {
         mut mesh,
         lattice_vertex,
@@ -249,58 +248,6 @@ pub fn generate(p: &DemoParams) -> TetMesh {
     mesh
 }
 
-/// Repairs boundary pinches of the kept set (all lattice tetrahedra around a
-/// bad edge or vertex are added or removed, by majority) and drops all but the
-/// largest face-connected component; returns the extracted mesh.
-fn clean(lat: &Lattice, keep: &mut [bool]) -> (Extracted, Adjacency) {
-    let mut ex = extract(lat, keep);
-    let mut adj = lattice_adjacency(lat, keep, &ex);
-    for _ in 0..50 {
-        let (bad_e, bad_v) = boundary_defects(&ex.mesh, &adj);
-        if bad_e.is_empty() && bad_v.is_empty() {
-            break;
-        }
-        let mut groups: Vec<Vec<usize>> = Vec::new();
-        for e in &bad_e {
-            let a = lat.tets_around(ex.lattice_vertex[e[0] as usize]);
-            let b = lat.tets_around(ex.lattice_vertex[e[1] as usize]);
-            groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
-        }
-        for &v in &bad_v {
-            groups.push(lat.tets_around(ex.lattice_vertex[v as usize]));
-        }
-        for g in groups {
-            let kept = g.iter().filter(|&&t| keep[t]).count();
-            let fill = 2 * kept >= g.len();
-            for t in g {
-                keep[t] = fill;
-            }
-        }
-        ex = extract(lat, keep);
-        adj = lattice_adjacency(lat, keep, &ex);
-    }
-    let (comp, ncomp) = components(&adj);
-    if ncomp > 1 {
-        let mut size = vec![0usize; ncomp];
-        for &c in &comp {
-            size[c as usize] += 1;
-        }
-        let largest = (0..ncomp)
-            .max_by_key(|&c| (size[c], std::cmp::Reverse(c)))
-            .unwrap_or(0) as u32;
-        for (i, &t) in ex.lattice_tet.iter().enumerate() {
-            if comp[i] != largest {
-                keep[t] = false;
-            }
-        }
-        ex = extract(lat, keep);
-        adj = lattice_adjacency(lat, keep, &ex);
-    }
-    (ex, adj)
-}
-
-/// Moves boundary vertices onto the surface and smooths the interior layer
-/// next to it, colour class by colour class (see the module documentation).
 /// The demo mesh and its scene text (see [`generate`] and [`demo_scene_toml`]).
 pub fn demo_mesh_and_scene(p: &DemoParams, data_file_name: &str) -> (TetMesh, String) {
     let mesh = generate(p);

@@ -74,19 +74,29 @@ impl Incidence {
     }
 }
 
-/// Worst quality of the tetrahedra around `v` if `v` were at `q`.
-pub(super) fn worst_around(mesh: &TetMesh, inc: &Incidence, v: usize, q: V3) -> f64 {
-    let mut worst = 1.0f64;
-    for &t in inc.of(v) {
-        let tet = mesh.tets[t as usize];
-        let p = tet.map(|w| {
-            if w as usize == v {
-                q
-            } else {
-                mesh.points[w as usize]
-            }
-        });
-        worst = worst.min(tet_quality(p));
-    }
-    worst
+/// The qualities of the tetrahedra around `v` (in [`Incidence::of`] order)
+/// if `v` were at `q`, when `ok` accepts every one (NaN qualities pass, as
+/// `f64::min` skips them when the worst is taken); `None` at the first
+/// that fails.
+pub(super) fn qualities_around(
+    mesh: &TetMesh,
+    inc: &Incidence,
+    v: usize,
+    q: V3,
+    ok: impl Fn(f64) -> bool,
+) -> Option<Vec<f64>> {
+    inc.of(v)
+        .iter()
+        .map(|&t| {
+            let p = mesh.tets[t as usize].map(|w| {
+                if w as usize == v {
+                    q
+                } else {
+                    mesh.points[w as usize]
+                }
+            });
+            let x = tet_quality(p);
+            (x.is_nan() || ok(x)).then_some(x)
+        })
+        .collect()
 }

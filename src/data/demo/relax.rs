@@ -54,35 +54,31 @@ pub(super) fn relax(
     }
     let bverts: Vec<usize> = (0..nv).filter(|&v| on_boundary[v]).collect();
     let mut target = vec![[0.0; 3]; nv];
+    // Qualities are read only around boundary and band vertices: the other
+    // tetrahedra (most of a large mesh) are never evaluated.
     let mut quality: Vec<f64> = mesh
         .tets
         .par_iter()
-        .map(|t| tet_quality(t.map(|v| mesh.points[v as usize])))
+        .map(|t| {
+            if t.iter().any(|&v| on_boundary[v as usize] || band[v as usize]) {
+                tet_quality(t.map(|v| mesh.points[v as usize]))
+            } else {
+                f64::NAN
+            }
+        })
         .collect();
     let floor = -p.quality_floor_deg.to_radians().cos();
     let smooth_below = -35f64.to_radians().cos();
 
-    // Applies one colour class's moves and refreshes the cached qualities.
-    // Two vertices of one class never share a tetrahedron, so each
-    // tetrahedron is refreshed at most once: in parallel, same result.
-    let apply = |mesh: &mut TetMesh, quality: &mut Vec<f64>, moves: Vec<(usize, V3)>| {
-        for &(v, q) in &moves {
+    // Applies one colour class's moves with the qualities computed when
+    // each was accepted. Two vertices of one class never share a
+    // tetrahedron, so those are the qualities after the whole class moved.
+    let apply = |mesh: &mut TetMesh, quality: &mut Vec<f64>, moves: Vec<(usize, V3, Vec<f64>)>| {
+        for (v, q, fresh) in moves {
             mesh.points[v] = q;
-        }
-        let m: &TetMesh = mesh;
-        let fresh: Vec<(u32, f64)> = moves
-            .par_iter()
-            .flat_map_iter(|&(v, _)| {
-                inc.of(v).iter().map(move |&t| {
-                    (
-                        t,
-                        tet_quality(m.tets[t as usize].map(|w| m.points[w as usize])),
-                    )
-                })
-            })
-            .collect();
-        for (t, q) in fresh {
-            quality[t as usize] = q;
+            for (&t, x) in inc.of(v).iter().zip(fresh) {
+                quality[t as usize] = x;
+            }
         }
     };
     let worst_cached = |quality: &[f64], v: usize| {
@@ -116,7 +112,7 @@ pub(super) fn relax(
         }
         for class in &boundary_by_colour {
             let m: &TetMesh = mesh;
-            let moves: Vec<(usize, V3)> = class
+            let moves: Vec<(usize, V3, Vec<f64>)> = class
                 .par_iter()
                 .filter_map(|&v| {
                     let cur = m.points[v];
@@ -124,11 +120,13 @@ pub(super) fn relax(
                     if dot(step, step) < 1e-20 {
                         return None;
                     }
-                    let old = worst_cached(&quality, v);
+                    // Accepted when the worst quality around is at least
+                    // the floor (or the old worst) and the volumes positive
+                    // (quality -2 otherwise).
+                    let at_least = floor.min(worst_cached(&quality, v)).max(-1.5);
                     [1.0, 0.5, 0.25, 0.125].iter().find_map(|&a| {
                         let q = add(cur, scale(step, a));
-                        let new = worst_around(m, &inc, v, q);
-                        (new > -1.5 && new >= floor.min(old)).then_some((v, q))
+                        qualities_around(m, &inc, v, q, |x| x >= at_least).map(|f| (v, q, f))
                     })
                 })
                 .collect();
@@ -136,7 +134,7 @@ pub(super) fn relax(
         }
         for class in &band_by_colour {
             let m: &TetMesh = mesh;
-            let moves: Vec<(usize, V3)> = class
+            let moves: Vec<(usize, V3, Vec<f64>)> = class
                 .par_iter()
                 .filter_map(|&v| {
                     let old = worst_cached(&quality, v);
@@ -151,7 +149,7 @@ pub(super) fn relax(
                         }
                     }
                     let q = scale(c, 1.0 / (4 * ts.len()) as f64);
-                    (worst_around(m, &inc, v, q) > old).then_some((v, q))
+                    qualities_around(m, &inc, v, q, |x| x > old).map(|f| (v, q, f))
                 })
                 .collect();
             apply(mesh, &mut quality, moves);

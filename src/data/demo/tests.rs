@@ -74,7 +74,7 @@ fn valid_conforming_mesh() {
     m.validate(std::path::Path::new("demo")).unwrap();
     let adj = m.adjacency();
     assert_eq!(adj.nonmanifold_faces, 0);
-    let (bad_edges, bad_vertices) = boundary_defects(m, &adj);
+    let (bad_edges, bad_vertices) = boundary_defects(&boundary_triangles(m, &adj));
     assert!(
         bad_edges.is_empty() && bad_vertices.is_empty(),
         "boundary not a closed manifold: {} edges, {} vertices",

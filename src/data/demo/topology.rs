@@ -18,13 +18,12 @@ pub(super) fn boundary_triangles(mesh: &TetMesh, adj: &Adjacency) -> Vec<[u32; 3
     out
 }
 
-/// Where the boundary is not a closed 2-manifold: edges not shared by exactly
-/// two boundary triangles, and vertices whose boundary triangles form more
-/// than one fan.
-pub(super) fn boundary_defects(mesh: &TetMesh, adj: &Adjacency) -> (Vec<[u32; 2]>, Vec<u32>) {
-    let tris = boundary_triangles(mesh, adj);
+/// Where the boundary triangles `tris` are not a closed 2-manifold: edges
+/// not shared by exactly two triangles, and vertices whose triangles form
+/// more than one fan; both sorted.
+pub(super) fn boundary_defects(tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<u32>) {
     let mut edges: Vec<[u32; 2]> = Vec::with_capacity(tris.len() * 3);
-    for t in &tris {
+    for t in tris {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             edges.push([a.min(b), a.max(b)]);
         }
@@ -44,7 +43,7 @@ pub(super) fn boundary_defects(mesh: &TetMesh, adj: &Adjacency) -> (Vec<[u32; 2]
     }
     // Vertex links: for each boundary vertex, the opposite edges of its triangles.
     let mut link: Vec<(u32, u32, u32)> = Vec::with_capacity(tris.len() * 3);
-    for t in &tris {
+    for t in tris {
         link.push((t[0], t[1], t[2]));
         link.push((t[1], t[2], t[0]));
         link.push((t[2], t[0], t[1]));
@@ -90,7 +89,9 @@ pub(super) fn boundary_defects(mesh: &TetMesh, adj: &Adjacency) -> (Vec<[u32; 2]
 }
 
 /// Face-connected components: a component id per tetrahedron, numbered in
-/// order of their first tetrahedron.
+/// order of their first tetrahedron (the generator's own check works on the
+/// lattice: `clean.rs`).
+#[cfg(test)]
 pub(super) fn components(adj: &Adjacency) -> (Vec<u32>, usize) {
     let n = adj.neighbors.len();
     let mut comp = vec![u32::MAX; n];

@@ -1,0 +1,426 @@
+//! Step 3 of the generator, worked on the lattice itself: pinch repair,
+//! peeling and the largest component, read straight from the kept set
+//! (`keep`, one flag a lattice tetrahedron) with lattice vertex ids. Nothing
+//! is extracted until the kept set is final: extracting 20 M tetrahedra
+//! (1.3 s) at every repair round was most of the generator's time.
+//!
+//! The results are the same as repairing an extracted mesh: extraction
+//! numbers vertices and tetrahedra in lattice order, so every sorted list
+//! (bad edges, bad vertices, components in order of their first
+//! tetrahedron) comes out in the same order.
+
+use super::*;
+
+/// Cube-ordered walk over the kept tetrahedra: `visit(t, ijk, m)` for each
+/// kept lattice tetrahedron `t` (cube `ijk`, template `m`), the cube layers
+/// split over the pool; the per-layer results are concatenated in order.
+fn per_layer<T: Send>(
+    lat: &Lattice,
+    keep: &[bool],
+    visit: impl Fn(usize, [usize; 3], usize, &mut Vec<T>) + Sync,
+) -> Vec<T> {
+    let c = lat.cubes();
+    let layers: Vec<Vec<T>> = (0..c[2])
+        .into_par_iter()
+        .map(|k| {
+            let mut out = Vec::new();
+            for j in 0..c[1] {
+                for i in 0..c[0] {
+                    let cube = i + c[0] * (j + c[1] * k);
+                    for m in 0..6 {
+                        let t = cube * 6 + m;
+                        if keep[t] {
+                            visit(t, [i, j, k], m, &mut out);
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut all = Vec::with_capacity(layers.iter().map(Vec::len).sum());
+    for mut layer in layers {
+        all.append(&mut layer);
+    }
+    all
+}
+
+/// The lattice tetrahedron across face `f` of template `m` in cube `ijk`,
+/// or `None` outside the lattice.
+fn across(lat: &Lattice, table: &FaceTable, ijk: [usize; 3], m: usize, f: usize) -> Option<usize> {
+    let c = lat.cubes();
+    let (d, m2) = table[m][f];
+    let mut n = [0usize; 3];
+    for k in 0..3 {
+        let v = ijk[k] as i64 + d[k];
+        if v < 0 || v >= c[k] as i64 {
+            return None;
+        }
+        n[k] = v as usize;
+    }
+    Some((n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2)
+}
+
+/// The kept tetrahedra with a face on the boundary of the kept set, each
+/// with the mask of those faces (bit `f`: face opposite corner `f`).
+fn boundary_tets(lat: &Lattice, keep: &[bool]) -> Vec<(usize, u8)> {
+    let table = face_table(&lat.templates);
+    per_layer(lat, keep, |t, ijk, m, out| {
+        let mut mask = 0u8;
+        for f in 0..4 {
+            if !across(lat, &table, ijk, m, f).is_some_and(|nt| keep[nt]) {
+                mask |= 1 << f;
+            }
+        }
+        if mask != 0 {
+            out.push((t, mask));
+        }
+    })
+}
+
+/// The boundary triangles of the kept set, in lattice vertex ids.
+fn triangles(lat: &Lattice, faces: &[(usize, u8)]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    for &(t, mask) in faces {
+        let tet = lat.tet(t);
+        for (f, s) in FACE_VERTICES.iter().enumerate() {
+            if mask & (1 << f) != 0 {
+                out.push([tet[s[0]], tet[s[1]], tet[s[2]]]);
+            }
+        }
+    }
+    out
+}
+
+/// The kept lattice tetrahedra, and which flags changed since the set was
+/// last made one face-connected component (`None`: not known to be).
+pub(super) struct KeptSet {
+    pub(super) keep: Vec<bool>,
+    since_connected: Option<Vec<usize>>,
+}
+
+impl KeptSet {
+    pub(super) fn new(keep: Vec<bool>) -> KeptSet {
+        KeptSet {
+            keep,
+            since_connected: None,
+        }
+    }
+
+    fn set(&mut self, t: usize, kept: bool) {
+        if self.keep[t] != kept {
+            self.keep[t] = kept;
+            if let Some(changed) = &mut self.since_connected {
+                changed.push(t);
+            }
+        }
+    }
+}
+
+/// Repairs boundary pinches of the kept set (all lattice tetrahedra around a
+/// bad edge or vertex are added or removed, by majority) and drops all but
+/// the largest face-connected component.
+pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet) {
+    for _ in 0..50 {
+        let tris = triangles(lat, &boundary_tets(lat, &kept.keep));
+        let (bad_e, bad_v) = boundary_defects(&tris);
+        if bad_e.is_empty() && bad_v.is_empty() {
+            break;
+        }
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        for e in &bad_e {
+            let a = lat.tets_around(e[0] as usize);
+            let b = lat.tets_around(e[1] as usize);
+            groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
+        }
+        for &v in &bad_v {
+            groups.push(lat.tets_around(v as usize));
+        }
+        for g in groups {
+            let n = g.iter().filter(|&&t| kept.keep[t]).count();
+            let fill = 2 * n >= g.len();
+            for t in g {
+                kept.set(t, fill);
+            }
+        }
+    }
+    match kept.since_connected.take() {
+        Some(changed) if still_connected(lat, &kept.keep, &changed) => {}
+        _ => keep_largest_component(lat, &mut kept.keep),
+    }
+    kept.since_connected = Some(Vec::new());
+}
+
+/// Removes the kept tetrahedra whose four vertices all lie on the boundary
+/// and that have a boundary face (snapping would flatten them); how many.
+pub(super) fn peel(lat: &Lattice, kept: &mut KeptSet) -> usize {
+    let faces = boundary_tets(lat, &kept.keep);
+    let mut on_boundary = vec![false; lat.n[0] * lat.n[1] * lat.n[2]];
+    for tri in triangles(lat, &faces) {
+        for v in tri {
+            on_boundary[v as usize] = true;
+        }
+    }
+    let mut peeled = 0;
+    for &(t, _) in &faces {
+        if lat.tet(t).iter().all(|&v| on_boundary[v as usize]) {
+            kept.set(t, false);
+            peeled += 1;
+        }
+    }
+    peeled
+}
+
+/// Union-find whose roots are the smallest members.
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn new(n: usize) -> UnionFind {
+        UnionFind((0..n as u32).collect())
+    }
+    fn find(&mut self, mut a: u32) -> u32 {
+        let p = &mut self.0;
+        while p[a as usize] != a {
+            let up = p[p[a as usize] as usize];
+            p[a as usize] = up;
+            a = up;
+        }
+        a
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (a, b) = (self.find(a), self.find(b));
+        let (lo, hi) = (a.min(b), a.max(b));
+        self.0[hi as usize] = lo;
+    }
+}
+
+/// How far (in cubes) around a cluster of changed tetrahedra
+/// [`still_connected`] looks for paths between its seeds.
+const REACH: usize = 2;
+/// Clusters whose box would hold more lattice tetrahedra than this are not
+/// checked locally.
+const MAX_BOX_TETS: usize = 1 << 21;
+
+/// Whether a kept set that was one face-connected component is still one
+/// after the flags of `changed` flipped, shown locally (`false` when it
+/// cannot be shown, not necessarily split). Clusters are the face-connected
+/// groups of changed tetrahedra; a cluster's seeds are the kept tetrahedra
+/// among or next to it. Any old path between two surviving tetrahedra
+/// leaves and re-enters the kept set only through seeds of one cluster, so
+/// it suffices that each cluster's seeds are connected (here: inside the
+/// cluster's box grown by [`REACH`] cubes) and that at least one of them is
+/// unchanged (added tetrahedra then join the old set).
+fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
+    let mut sorted = changed.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    let c = lat.cubes();
+    let table = face_table(&lat.templates);
+    let ijk_of = |t: usize| {
+        let cube = t / 6;
+        [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])]
+    };
+    let neighbours = |t: usize| {
+        let ijk = ijk_of(t);
+        (0..4).filter_map(move |f| across(lat, &table, ijk, t % 6, f))
+    };
+    let mut clusters = UnionFind::new(sorted.len());
+    for (a, &t) in sorted.iter().enumerate() {
+        for nt in neighbours(t) {
+            if let Ok(b) = sorted.binary_search(&nt) {
+                clusters.union(a as u32, b as u32);
+            }
+        }
+    }
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); sorted.len()];
+    for (a, &t) in sorted.iter().enumerate() {
+        members[clusters.find(a as u32) as usize].push(t);
+    }
+    members.par_iter().filter(|m| !m.is_empty()).all(|cluster| {
+        // The cluster's box, grown by REACH cubes and clipped to the lattice.
+        let mut lo = [usize::MAX; 3];
+        let mut hi = [0usize; 3];
+        for &t in cluster {
+            let ijk = ijk_of(t);
+            for k in 0..3 {
+                lo[k] = lo[k].min(ijk[k].saturating_sub(REACH));
+                hi[k] = hi[k].max((ijk[k] + REACH).min(c[k] - 1));
+            }
+        }
+        let size = [0, 1, 2].map(|k| hi[k] - lo[k] + 1);
+        if size[0] * size[1] * size[2] * 6 > MAX_BOX_TETS {
+            return false;
+        }
+        let local = |t: usize| {
+            let ijk = ijk_of(t);
+            if (0..3).any(|k| ijk[k] < lo[k] || ijk[k] > hi[k]) {
+                return None;
+            }
+            let [i, j, k] = [0, 1, 2].map(|a| ijk[a] - lo[a]);
+            Some(((k * size[1] + j) * size[0] + i) * 6 + t % 6)
+        };
+        let mut seeds = Vec::new();
+        let mut unchanged = false;
+        for &t in cluster {
+            for s in std::iter::once(t).chain(neighbours(t)) {
+                if keep[s] {
+                    seeds.push(s);
+                    unchanged |= sorted.binary_search(&s).is_err();
+                }
+            }
+        }
+        if seeds.is_empty() {
+            return true;
+        }
+        if !unchanged {
+            return false;
+        }
+        // Flood the kept tetrahedra of the box from the first seed.
+        let mut reached = vec![false; size[0] * size[1] * size[2] * 6];
+        let mut stack = vec![seeds[0]];
+        if let Some(l) = local(seeds[0]) {
+            reached[l] = true;
+        }
+        while let Some(t) = stack.pop() {
+            for nt in neighbours(t) {
+                if let (true, Some(l)) = (keep[nt], local(nt)) {
+                    if !reached[l] {
+                        reached[l] = true;
+                        stack.push(nt);
+                    }
+                }
+            }
+        }
+        seeds.iter().all(|&s| local(s).is_some_and(|l| reached[l]))
+    })
+}
+
+/// Index of each kept lattice tetrahedron among the kept ones, in lattice
+/// order (its index in the extracted mesh): a bitset of `keep` and the count
+/// of kept ones before each 64-bit word.
+pub(super) struct Ranks {
+    words: Vec<u64>,
+    before: Vec<u32>,
+}
+
+impl Ranks {
+    pub(super) fn new(keep: &[bool]) -> Ranks {
+        let words: Vec<u64> = keep
+            .par_chunks(64)
+            .map(|c| {
+                c.iter()
+                    .enumerate()
+                    .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
+            })
+            .collect();
+        let mut before = Vec::with_capacity(words.len());
+        let mut acc = 0u32;
+        for w in &words {
+            before.push(acc);
+            acc += w.count_ones();
+        }
+        Ranks { words, before }
+    }
+
+    /// Kept tetrahedra in all.
+    pub(super) fn count(&self) -> u32 {
+        self.before.last().copied().unwrap_or(0) + self.words.last().map_or(0, |w| w.count_ones())
+    }
+
+    /// Kept tetrahedra before lattice tetrahedron `t`.
+    pub(super) fn of(&self, t: usize) -> u32 {
+        let (w, b) = (t / 64, t % 64);
+        self.before[w] + (self.words[w] & ((1u64 << b) - 1)).count_ones()
+    }
+}
+
+/// Calls `visit(t, cube_on_border)` for each kept lattice tetrahedron in
+/// lattice order, without divisions; `cube_on_border[axis]` says whether
+/// the cube is first (bit 0) or last (bit 1) along that axis.
+fn for_each_kept(lat: &Lattice, keep: &[bool], mut visit: impl FnMut(usize, [u8; 3])) {
+    let c = lat.cubes();
+    let edge = |i: usize, n: usize| (i == 0) as u8 | ((i + 1 == n) as u8) << 1;
+    let mut t = 0;
+    for k in 0..c[2] {
+        for j in 0..c[1] {
+            for i in 0..c[0] {
+                let border = [edge(i, c[0]), edge(j, c[1]), edge(k, c[2])];
+                for (m, &kept) in keep[t..t + 6].iter().enumerate() {
+                    if kept {
+                        visit(t + m, border);
+                    }
+                }
+                t += 6;
+            }
+        }
+    }
+}
+
+/// Keeps only the largest face-connected component of the kept set (ties:
+/// the one whose first tetrahedron comes first), by union-find in lattice
+/// order over mesh indices (ranks): each face joins a tetrahedron to the
+/// earlier one across it, and every set's root is its first tetrahedron.
+fn keep_largest_component(lat: &Lattice, keep: &mut [bool]) {
+    let ranks = Ranks::new(keep);
+    let table = face_table(&lat.templates);
+    let c = lat.cubes();
+    // Per template: the faces whose other side comes earlier in lattice
+    // order, with its offset in lattice tetrahedra and the border bits that
+    // put it outside the lattice.
+    let stride = [6i64, 6 * c[0] as i64, 6 * (c[0] * c[1]) as i64];
+    let earlier: [Vec<(i64, [u8; 3])>; 6] = std::array::from_fn(|m| {
+        table[m]
+            .iter()
+            .map(|&(d, m2)| {
+                let delta = (0..3).map(|k| d[k] * stride[k]).sum::<i64>() + m2 as i64 - m as i64;
+                let out = d.map(|x| if x < 0 { 1u8 } else if x > 0 { 2 } else { 0 });
+                (delta, out)
+            })
+            .filter(|&(delta, _)| delta < 0)
+            .collect()
+    });
+    let n = ranks.count() as usize;
+    let mut sets = UnionFind::new(n);
+    let mut r = 0u32;
+    for_each_kept(lat, keep, |t, border| {
+        for &(delta, out) in &earlier[t % 6] {
+            if (0..3).any(|k| border[k] & out[k] != 0) {
+                continue;
+            }
+            let nt = (t as i64 + delta) as usize;
+            if keep[nt] {
+                sets.union(r, ranks.of(nt));
+            }
+        }
+        r += 1;
+    });
+    // Every set's root is its smallest member: in increasing order, each
+    // element's parent already points at its root after one step.
+    let parent = &mut sets.0;
+    let mut size = vec![0u32; n];
+    let mut roots = 0usize;
+    for r in 0..n {
+        let root = parent[parent[r] as usize];
+        parent[r] = root;
+        roots += (root as usize == r) as usize;
+        size[root as usize] += 1;
+    }
+    if roots <= 1 {
+        return;
+    }
+    // Largest, and among equals the first: roots are first tetrahedra.
+    let largest = (0..n)
+        .max_by_key(|&r| (size[r], std::cmp::Reverse(r)))
+        .unwrap_or(0) as u32;
+    let mut drop = Vec::new();
+    let mut r = 0usize;
+    for_each_kept(lat, keep, |t, _| {
+        if parent[r] != largest {
+            drop.push(t);
+        }
+        r += 1;
+    });
+    for t in drop {
+        keep[t] = false;
+    }
+}
