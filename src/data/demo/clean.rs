@@ -14,7 +14,7 @@ use super::*;
 /// Cube-ordered walk over the kept tetrahedra: `visit(t, ijk, m)` for each
 /// kept lattice tetrahedron `t` (cube `ijk`, template `m`), the cube layers
 /// split over the pool; the per-layer results are concatenated in order.
-fn per_layer<T: Send>(
+pub(super) fn per_layer<T: Send>(
     lat: &Lattice,
     keep: &[bool],
     visit: impl Fn(usize, [usize; 3], usize, &mut Vec<T>) + Sync,
@@ -373,7 +373,15 @@ fn keep_largest_component(lat: &Lattice, keep: &mut [bool]) {
             .iter()
             .map(|&(d, m2)| {
                 let delta = (0..3).map(|k| d[k] * stride[k]).sum::<i64>() + m2 as i64 - m as i64;
-                let out = d.map(|x| if x < 0 { 1u8 } else if x > 0 { 2 } else { 0 });
+                let out = d.map(|x| {
+                    if x < 0 {
+                        1u8
+                    } else if x > 0 {
+                        2
+                    } else {
+                        0
+                    }
+                });
                 (delta, out)
             })
             .filter(|&(delta, _)| delta < 0)

@@ -65,6 +65,8 @@ pub(super) struct Tube {
     pub(super) flow: Vec<f64>,
     pub(super) pres: Vec<f64>,
     pub(super) chunks: Vec<Chunk>,
+    /// Per segment: its vector and that vector's squared length.
+    pub(super) segs: Vec<(V3, f64)>,
     pub(super) open_start: bool,
     pub(super) open_end: bool,
     /// Chunk boxes reach this far beyond the centreline plus radius.
@@ -143,6 +145,12 @@ impl Tube {
             });
             first = end;
         }
+        let segs = (0..n - 1)
+            .map(|s| {
+                let ab = sub(pts[s + 1], pts[s]);
+                (ab, dot(ab, ab))
+            })
+            .collect();
         Tube {
             pts,
             tan,
@@ -151,6 +159,7 @@ impl Tube {
             flow: vec![0.0; n],
             pres: vec![0.0; n],
             chunks,
+            segs,
             open_start,
             open_end,
             cull,
@@ -177,8 +186,8 @@ impl Tube {
             }
             for s in c.first_seg..c.end_seg {
                 let a = self.pts[s];
-                let ab = sub(self.pts[s + 1], a);
-                let u = (dot(sub(p, a), ab) / dot(ab, ab)).clamp(0.0, 1.0);
+                let (ab, ab2) = self.segs[s];
+                let u = (dot(sub(p, a), ab) / ab2).clamp(0.0, 1.0);
                 let d2 = {
                     let q = sub(p, add(a, scale(ab, u)));
                     dot(q, q)

@@ -94,9 +94,10 @@ impl Lattice {
 pub(super) fn select(lat: &Lattice, inside: &[bool]) -> Vec<bool> {
     let c = lat.cubes();
     // Corner bit of each template corner.
-    let bits = lat
-        .templates
-        .map(|tpl| tpl.iter().fold(0u8, |m, o| m | 1 << (o[0] + 2 * o[1] + 4 * o[2])));
+    let bits = lat.templates.map(|tpl| {
+        tpl.iter()
+            .fold(0u8, |m, o| m | 1 << (o[0] + 2 * o[1] + 4 * o[2]))
+    });
     let mut keep = vec![false; c[0] * c[1] * c[2] * 6];
     keep.par_chunks_mut(c[0] * c[1] * 6)
         .enumerate()
@@ -126,29 +127,64 @@ pub(super) struct Extracted {
 }
 
 pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    let nv = lat.n[0] * lat.n[1] * lat.n[2];
-    let lattice_tet: Vec<usize> = (0..keep.len())
-        .into_par_iter()
-        .filter(|&t| keep[t])
+    let c = lat.cubes();
+    let lattice_tet: Vec<usize> = super::clean::per_layer(lat, keep, |t, _, _, out| out.push(t));
+    // Used vertices, one lattice layer at a time: vertex layer k is touched
+    // by the cube layers k - 1 and k.
+    let layer = lat.n[0] * lat.n[1];
+    let mut used = vec![false; layer * lat.n[2]];
+    used.par_chunks_mut(layer)
+        .enumerate()
+        .for_each(|(k, flags)| {
+            for ck in [k.wrapping_sub(1), k] {
+                if ck >= c[2] {
+                    continue;
+                }
+                for j in 0..c[1] {
+                    for i in 0..c[0] {
+                        let cube = i + c[0] * (j + c[1] * ck);
+                        for (m, tpl) in lat.templates.iter().enumerate() {
+                            if !keep[cube * 6 + m] {
+                                continue;
+                            }
+                            for o in tpl {
+                                if ck + o[2] == k {
+                                    flags[i + o[0] + lat.n[0] * (j + o[1])] = true;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    // Mesh vertex ids in lattice order: per-layer counts, then a prefix.
+    let counts: Vec<u32> = used
+        .par_chunks(layer)
+        .map(|f| f.iter().filter(|&&u| u).count() as u32)
         .collect();
-    let used: Vec<AtomicBool> = (0..nv)
-        .into_par_iter()
-        .map(|_| AtomicBool::new(false))
-        .collect();
-    lattice_tet.par_iter().for_each(|&t| {
-        for v in lat.tet(t) {
-            used[v as usize].store(true, Ordering::Relaxed);
-        }
-    });
-    let mut map = vec![u32::MAX; nv];
-    let mut lattice_vertex = Vec::new();
-    for v in 0..nv {
-        if used[v].load(Ordering::Relaxed) {
-            map[v] = lattice_vertex.len() as u32;
-            lattice_vertex.push(v);
-        }
+    let mut first = Vec::with_capacity(counts.len());
+    let mut acc = 0u32;
+    for n in &counts {
+        first.push(acc);
+        acc += n;
     }
+    let mut map = vec![u32::MAX; used.len()];
+    map.par_chunks_mut(layer)
+        .zip(used.par_chunks(layer))
+        .zip(&first)
+        .for_each(|((ids, flags), &start)| {
+            let mut next = start;
+            for (id, &u) in ids.iter_mut().zip(flags) {
+                if u {
+                    *id = next;
+                    next += 1;
+                }
+            }
+        });
+    let lattice_vertex: Vec<usize> = (0..used.len())
+        .into_par_iter()
+        .filter(|&v| used[v])
+        .collect();
     drop(used);
     let tets = lattice_tet
         .par_iter()

@@ -49,11 +49,20 @@ pub(super) struct Incidence {
 }
 
 impl Incidence {
-    pub(super) fn new(mesh: &TetMesh) -> Incidence {
+    /// The incidence of the vertices `wanted` marks (the others' lists
+    /// are empty), each list in increasing tetrahedron order.
+    pub(super) fn new(mesh: &TetMesh, wanted: impl Fn(usize) -> bool + Sync) -> Incidence {
         let mut count = vec![0u32; mesh.points.len() + 1];
+        let mut marked = vec![false; mesh.points.len()];
+        marked
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(v, m)| *m = wanted(v));
         for t in &mesh.tets {
             for &v in t {
-                count[v as usize + 1] += 1;
+                if marked[v as usize] {
+                    count[v as usize + 1] += 1;
+                }
             }
         }
         for i in 1..count.len() {
@@ -63,8 +72,10 @@ impl Incidence {
         let mut tets = vec![0u32; count[mesh.points.len()] as usize];
         for (t, tet) in mesh.tets.iter().enumerate() {
             for &v in tet {
-                tets[fill[v as usize] as usize] = t as u32;
-                fill[v as usize] += 1;
+                if marked[v as usize] {
+                    tets[fill[v as usize] as usize] = t as u32;
+                    fill[v as usize] += 1;
+                }
             }
         }
         Incidence { start: count, tets }
@@ -85,18 +96,28 @@ pub(super) fn qualities_around(
     q: V3,
     ok: impl Fn(f64) -> bool,
 ) -> Option<Vec<f64>> {
-    inc.of(v)
-        .iter()
-        .map(|&t| {
-            let p = mesh.tets[t as usize].map(|w| {
-                if w as usize == v {
-                    q
-                } else {
-                    mesh.points[w as usize]
-                }
-            });
-            let x = tet_quality(p);
-            (x.is_nan() || ok(x)).then_some(x)
-        })
-        .collect()
+    // Filled on the stack and copied out only when every one passes (most
+    // vertices have at most 24 tetrahedra: the lattice's star).
+    let ts = inc.of(v);
+    let mut stack = [0.0f64; 32];
+    let mut heap = Vec::new();
+    for (i, &t) in ts.iter().enumerate() {
+        let p = mesh.tets[t as usize].map(|w| {
+            if w as usize == v {
+                q
+            } else {
+                mesh.points[w as usize]
+            }
+        });
+        let x = tet_quality(p);
+        if !(x.is_nan() || ok(x)) {
+            return None;
+        }
+        match stack.get_mut(i) {
+            Some(slot) => *slot = x,
+            None => heap.push(x),
+        }
+    }
+    let head = &stack[..ts.len().min(stack.len())];
+    Some(head.iter().copied().chain(heap).collect())
 }

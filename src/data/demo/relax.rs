@@ -13,7 +13,6 @@ pub(super) fn relax(
     p: &DemoParams,
 ) {
     let nv = mesh.points.len();
-    let inc = Incidence::new(mesh);
     // Interior vertices that share a tetrahedron with a boundary vertex.
     let mut band = vec![false; nv];
     for t in &mesh.tets {
@@ -23,6 +22,8 @@ pub(super) fn relax(
             }
         }
     }
+    // Only boundary and band vertices move or are looked around.
+    let inc = Incidence::new(mesh, |v| on_boundary[v] || band[v]);
     let colour = |v: usize| {
         let [i, j, k] = lat.vijk(lattice_vertex[v]);
         (i & 1) | (j & 1) << 1 | (k & 1) << 2
@@ -60,7 +61,9 @@ pub(super) fn relax(
         .tets
         .par_iter()
         .map(|t| {
-            if t.iter().any(|&v| on_boundary[v as usize] || band[v as usize]) {
+            if t.iter()
+                .any(|&v| on_boundary[v as usize] || band[v as usize])
+            {
                 tet_quality(t.map(|v| mesh.points[v as usize]))
             } else {
                 f64::NAN
