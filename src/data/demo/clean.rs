@@ -119,11 +119,17 @@ impl KeptSet {
 
 /// Repairs boundary pinches of the kept set (all lattice tetrahedra around a
 /// bad edge or vertex are added or removed, by majority) and drops all but
-/// the largest face-connected component.
-pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet) {
+/// the largest face-connected component. `touched`: the tetrahedra set
+/// since the kept set was last free of defects (after a [`peel`]), `None`
+/// for a first look at the whole set.
+pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet, mut touched: Option<Vec<usize>>) {
+    // After the first round, defects can only be at the vertices and edges
+    // of what the previous round's groups set.
     for _ in 0..50 {
-        let tris = triangles(lat, &boundary_tets(lat, &kept.keep));
-        let (bad_e, bad_v) = boundary_defects(&tris);
+        let (bad_e, bad_v) = match &touched {
+            None => boundary_defects(&triangles(lat, &boundary_tets(lat, &kept.keep))),
+            Some(ts) => defects_near(lat, &kept.keep, ts),
+        };
         if bad_e.is_empty() && bad_v.is_empty() {
             break;
         }
@@ -136,13 +142,16 @@ pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet) {
         for &v in &bad_v {
             groups.push(lat.tets_around(v as usize));
         }
+        let mut round = Vec::new();
         for g in groups {
             let n = g.iter().filter(|&&t| kept.keep[t]).count();
             let fill = 2 * n >= g.len();
-            for t in g {
+            for &t in &g {
                 kept.set(t, fill);
             }
+            round.extend(g);
         }
+        touched = Some(round);
     }
     match kept.since_connected.take() {
         Some(changed) if still_connected(lat, &kept.keep, &changed) => {}
@@ -151,9 +160,62 @@ pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet) {
     kept.since_connected = Some(Vec::new());
 }
 
+/// The boundary defects (as [`boundary_defects`] finds them on the whole
+/// kept set) at the vertices and edges of the lattice tetrahedra `touched`,
+/// from the boundary triangles around those vertices. A vertex's or edge's
+/// triangles are faces of the tetrahedra around it, so where none of those
+/// changed since a defect-free check (every earlier defect's own group is
+/// among `touched`), nothing changed: the lists equal the global ones.
+fn defects_near(lat: &Lattice, keep: &[bool], touched: &[usize]) -> (Vec<[u32; 2]>, Vec<u32>) {
+    let mut verts: Vec<u32> = Vec::new();
+    let mut edges: Vec<[u32; 2]> = Vec::new();
+    for &t in touched {
+        let v = lat.tet(t);
+        verts.extend(v);
+        for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+            edges.push([v[a].min(v[b]), v[a].max(v[b])]);
+        }
+    }
+    verts.sort_unstable();
+    verts.dedup();
+    edges.sort_unstable();
+    edges.dedup();
+    let table = face_table(&lat.templates);
+    let c = lat.cubes();
+    // Every boundary face of a kept tetrahedron around a candidate vertex, once.
+    let mut faces: Vec<(usize, u8)> = Vec::new();
+    for &v in &verts {
+        for t in lat.tets_around(v as usize) {
+            if !keep[t] {
+                continue;
+            }
+            let cube = t / 6;
+            let ijk = [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])];
+            for f in 0..4 {
+                if !across(lat, &table, ijk, t % 6, f).is_some_and(|nt| keep[nt]) {
+                    faces.push((t, 1 << f));
+                }
+            }
+        }
+    }
+    faces.sort_unstable();
+    faces.dedup();
+    let (bad_e, bad_v) = boundary_defects(&triangles(lat, &faces));
+    (
+        bad_e
+            .into_iter()
+            .filter(|e| edges.binary_search(e).is_ok())
+            .collect(),
+        bad_v
+            .into_iter()
+            .filter(|v| verts.binary_search(v).is_ok())
+            .collect(),
+    )
+}
+
 /// Removes the kept tetrahedra whose four vertices all lie on the boundary
-/// and that have a boundary face (snapping would flatten them); how many.
-pub(super) fn peel(lat: &Lattice, kept: &mut KeptSet) -> usize {
+/// and that have a boundary face (snapping would flatten them); which.
+pub(super) fn peel(lat: &Lattice, kept: &mut KeptSet) -> Vec<usize> {
     let faces = boundary_tets(lat, &kept.keep);
     let mut on_boundary = vec![false; lat.n[0] * lat.n[1] * lat.n[2]];
     for tri in triangles(lat, &faces) {
@@ -161,11 +223,11 @@ pub(super) fn peel(lat: &Lattice, kept: &mut KeptSet) -> usize {
             on_boundary[v as usize] = true;
         }
     }
-    let mut peeled = 0;
+    let mut peeled = Vec::new();
     for &(t, _) in &faces {
         if lat.tet(t).iter().all(|&v| on_boundary[v as usize]) {
             kept.set(t, false);
-            peeled += 1;
+            peeled.push(t);
         }
     }
     peeled

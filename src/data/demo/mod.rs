@@ -206,13 +206,14 @@ pub fn generate(p: &DemoParams) -> TetMesh {
     // tetrahedra whose four vertices all lie on the boundary (they would be
     // flattened by snapping), and repair again.
     phase("lattice selection");
-    clean(&lat, &mut kept);
+    clean(&lat, &mut kept, None);
     phase("first clean-up");
     for _ in 0..3 {
-        if peel(&lat, &mut kept) == 0 {
+        let peeled = peel(&lat, &mut kept);
+        if peeled.is_empty() {
             break;
         }
-        clean(&lat, &mut kept);
+        clean(&lat, &mut kept, Some(peeled));
         phase("peel and clean-up");
     }
     let keep = kept.keep;
