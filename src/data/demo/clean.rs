@@ -45,22 +45,6 @@ pub(super) fn per_layer<T: Send>(
     all
 }
 
-/// The lattice tetrahedron across face `f` of template `m` in cube `ijk`,
-/// or `None` outside the lattice.
-fn across(lat: &Lattice, table: &FaceTable, ijk: [usize; 3], m: usize, f: usize) -> Option<usize> {
-    let c = lat.cubes();
-    let (d, m2) = table[m][f];
-    let mut n = [0usize; 3];
-    for k in 0..3 {
-        let v = ijk[k] as i64 + d[k];
-        if v < 0 || v >= c[k] as i64 {
-            return None;
-        }
-        n[k] = v as usize;
-    }
-    Some((n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2)
-}
-
 /// The kept tetrahedra with a face on the boundary of the kept set, each
 /// with the mask of those faces (bit `f`: face opposite corner `f`).
 fn boundary_tets(lat: &Lattice, keep: &[bool]) -> Vec<(usize, u8)> {
@@ -68,7 +52,7 @@ fn boundary_tets(lat: &Lattice, keep: &[bool]) -> Vec<(usize, u8)> {
     per_layer(lat, keep, |t, ijk, m, out| {
         let mut mask = 0u8;
         for f in 0..4 {
-            if !across(lat, &table, ijk, m, f).is_some_and(|nt| keep[nt]) {
+            if !lat.across(&table, ijk, m, f).is_some_and(|nt| keep[nt]) {
                 mask |= 1 << f;
             }
         }
@@ -181,7 +165,6 @@ fn defects_near(lat: &Lattice, keep: &[bool], touched: &[usize]) -> (Vec<[u32; 2
     edges.sort_unstable();
     edges.dedup();
     let table = face_table(&lat.templates);
-    let c = lat.cubes();
     // Every boundary face of a kept tetrahedron around a candidate vertex, once.
     let mut faces: Vec<(usize, u8)> = Vec::new();
     for &v in &verts {
@@ -189,10 +172,9 @@ fn defects_near(lat: &Lattice, keep: &[bool], touched: &[usize]) -> (Vec<[u32; 2
             if !keep[t] {
                 continue;
             }
-            let cube = t / 6;
-            let ijk = [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])];
+            let ijk = lat.cube_of(t);
             for f in 0..4 {
-                if !across(lat, &table, ijk, t % 6, f).is_some_and(|nt| keep[nt]) {
+                if !lat.across(&table, ijk, t % 6, f).is_some_and(|nt| keep[nt]) {
                     faces.push((t, 1 << f));
                 }
             }
@@ -278,13 +260,10 @@ fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
     sorted.dedup();
     let c = lat.cubes();
     let table = face_table(&lat.templates);
-    let ijk_of = |t: usize| {
-        let cube = t / 6;
-        [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])]
-    };
+    let ijk_of = |t: usize| lat.cube_of(t);
     let neighbours = |t: usize| {
         let ijk = ijk_of(t);
-        (0..4).filter_map(move |f| across(lat, &table, ijk, t % 6, f))
+        (0..4).filter_map(move |f| lat.across(&table, ijk, t % 6, f))
     };
     let mut clusters = UnionFind::new(sorted.len());
     for (a, &t) in sorted.iter().enumerate() {

@@ -59,6 +59,34 @@ impl Lattice {
         let (i, j, k) = (cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1]));
         self.templates[t % 6].map(|o| self.vid(i + o[0], j + o[1], k + o[2]) as u32)
     }
+    /// The cube (lattice indices of its first corner) of lattice
+    /// tetrahedron `t`.
+    pub(super) fn cube_of(&self, t: usize) -> [usize; 3] {
+        let c = self.cubes();
+        let cube = t / 6;
+        [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])]
+    }
+    /// The lattice tetrahedron across face `f` of template `m` in cube
+    /// `ijk`, or `None` outside the lattice.
+    pub(super) fn across(
+        &self,
+        table: &FaceTable,
+        ijk: [usize; 3],
+        m: usize,
+        f: usize,
+    ) -> Option<usize> {
+        let c = self.cubes();
+        let (d, m2) = table[m][f];
+        let mut n = [0usize; 3];
+        for k in 0..3 {
+            let v = ijk[k] as i64 + d[k];
+            if v < 0 || v >= c[k] as i64 {
+                return None;
+            }
+            n[k] = v as usize;
+        }
+        Some((n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2)
+    }
     /// Lattice tetrahedra that have lattice vertex `v` as a corner.
     pub(super) fn tets_around(&self, v: usize) -> Vec<usize> {
         let [i, j, k] = self.vijk(v);
@@ -249,28 +277,14 @@ pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) ->
     // Rank of a kept lattice tetrahedron = its mesh index.
     let ranks = super::clean::Ranks::new(keep);
     let table = face_table(&lat.templates);
-    let c = lat.cubes();
     let neighbors = ex
         .lattice_tet
         .par_iter()
         .map(|&t| {
-            let cube = t / 6;
-            let ijk = [cube % c[0], (cube / c[0]) % c[1], cube / (c[0] * c[1])];
-            table[t % 6].map(|(d, m2)| {
-                let mut n = [0usize; 3];
-                for k in 0..3 {
-                    let v = ijk[k] as i64 + d[k];
-                    if v < 0 || v >= c[k] as i64 {
-                        return NO_NEIGHBOR;
-                    }
-                    n[k] = v as usize;
-                }
-                let nt = (n[0] + c[0] * (n[1] + c[1] * n[2])) * 6 + m2;
-                if keep[nt] {
-                    ranks.of(nt)
-                } else {
-                    NO_NEIGHBOR
-                }
+            let ijk = lat.cube_of(t);
+            std::array::from_fn(|f| match lat.across(&table, ijk, t % 6, f) {
+                Some(nt) if keep[nt] => ranks.of(nt),
+                _ => NO_NEIGHBOR,
             })
         })
         .collect();
