@@ -473,3 +473,120 @@ fn keep_largest_component(lat: &Lattice, keep: &mut [bool]) {
         keep[t] = false;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lattice(n: [usize; 3]) -> Lattice {
+        Lattice {
+            origin: [0.0; 3],
+            h: 1.0,
+            n,
+            templates: kuhn_templates(),
+        }
+    }
+
+    /// A ball of lattice tetrahedra with a ragged boundary (pinches and
+    /// loose pieces), from a hash of each tetrahedron's index.
+    fn ragged_ball(lat: &Lattice, seed: usize) -> Vec<bool> {
+        let c = lat.cubes();
+        let mid = c.map(|x| x as f64 / 2.0);
+        (0..c[0] * c[1] * c[2] * 6)
+            .map(|t| {
+                let ijk = lat.cube_of(t);
+                let r2: f64 = (0..3).map(|k| (ijk[k] as f64 + 0.5 - mid[k]).powi(2)).sum();
+                let noise = ((t + seed) * 2_654_435_761 % 1000) as f64 / 1000.0;
+                r2 < 9.0 + 8.0 * noise
+            })
+            .collect()
+    }
+
+    fn global_defects(lat: &Lattice, keep: &[bool]) -> (Vec<[u32; 2]>, Vec<u32>) {
+        boundary_defects(&triangles(lat, &boundary_tets(lat, keep)))
+    }
+
+    fn pieces(lat: &Lattice, keep: &[bool]) -> usize {
+        let ex = extract(lat, keep);
+        components(&lattice_adjacency(lat, keep, &ex)).1
+    }
+
+    #[test]
+    fn defects_near_a_repair_round_equal_the_global_ones() {
+        let lat = lattice([12, 11, 10]);
+        let mut rounds_with_defects = 0;
+        for seed in 0..6 {
+            let mut keep = ragged_ball(&lat, seed);
+            for _ in 0..20 {
+                let (bad_e, bad_v) = global_defects(&lat, &keep);
+                if bad_e.is_empty() && bad_v.is_empty() {
+                    break;
+                }
+                rounds_with_defects += 1;
+                let mut groups: Vec<Vec<usize>> = Vec::new();
+                for e in &bad_e {
+                    let b = lat.tets_around(e[1] as usize);
+                    let a = lat.tets_around(e[0] as usize);
+                    groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
+                }
+                for &v in &bad_v {
+                    groups.push(lat.tets_around(v as usize));
+                }
+                let mut touched = Vec::new();
+                for g in groups {
+                    let fill = 2 * g.iter().filter(|&&t| keep[t]).count() >= g.len();
+                    for &t in &g {
+                        keep[t] = fill;
+                    }
+                    touched.extend(g);
+                }
+                assert_eq!(
+                    defects_near(&lat, &keep, &touched),
+                    global_defects(&lat, &keep)
+                );
+            }
+        }
+        assert!(rounds_with_defects >= 6, "the ragged balls have defects");
+    }
+
+    #[test]
+    fn the_local_proof_of_one_piece_holds_and_sees_a_cut() {
+        let lat = lattice([12, 11, 10]);
+        let mut keep = ragged_ball(&lat, 1);
+        keep_largest_component(&lat, &mut keep);
+        assert_eq!(pieces(&lat, &keep), 1);
+        // One tetrahedron deep inside: still one piece, and shown so.
+        let inner = (0..keep.len())
+            .find(|&t| keep[t] && lat.cube_of(t) == [5, 5, 4])
+            .unwrap();
+        let mut one = keep.clone();
+        one[inner] = false;
+        assert!(still_connected(&lat, &one, &[inner]));
+        // A whole layer of cubes removed: two pieces, never called one.
+        let layer: Vec<usize> = (0..keep.len())
+            .filter(|&t| keep[t] && lat.cube_of(t)[2] == 4)
+            .collect();
+        let mut cut = keep.clone();
+        for &t in &layer {
+            cut[t] = false;
+        }
+        assert!(pieces(&lat, &cut) > 1);
+        assert!(!still_connected(&lat, &cut, &layer));
+        // Random removals: whenever the proof says one piece, it is one.
+        let mut shown = 0;
+        for seed in 0..40usize {
+            let removed: Vec<usize> = (0..keep.len())
+                .filter(|&t| keep[t] && (t + seed) * 2_654_435_761 % 97 == 0)
+                .collect();
+            let mut k = keep.clone();
+            for &t in &removed {
+                k[t] = false;
+            }
+            if still_connected(&lat, &k, &removed) {
+                shown += 1;
+                assert_eq!(pieces(&lat, &k), 1, "seed {seed}");
+            }
+        }
+        assert!(shown > 0);
+    }
+}
