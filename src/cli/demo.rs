@@ -45,10 +45,12 @@ pub struct DemoArgs {
 /// Fewest tetrahedra `--cells` accepts: below this the vessel's lattice is
 /// too coarse to hold a lumen (100 gives no cell at all; 1,000 gives 926).
 pub const MIN_CELLS: usize = 1_000;
-/// Most tetrahedra `--cells` accepts (about 5 GB of mesh and lists).
+/// Most tetrahedra `--cells` accepts (the whole `demo` command peaks at about
+/// 1.6 GB there: docs/experiments/scaling.md).
 pub const MAX_CELLS: usize = 20_000_000;
 /// Most tetrahedra `--cells` accepts with `--pieces` and `--nodes 0` (the
-/// generator's ~160 B a tetrahedron: 16 GB); the pieces are not rendered.
+/// generator's peak, about 77 B a tetrahedron: 7.7 GB at 100 M, measured in
+/// docs/experiments/scaling.md); the pieces are not rendered.
 pub const MAX_CELLS_PIECES: usize = 100_000_000;
 
 impl Validate for DemoArgs {
