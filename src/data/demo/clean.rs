@@ -11,51 +11,21 @@
 
 use super::*;
 
-/// Cube-ordered walk over the kept tetrahedra: `visit(t, ijk, m)` for each
-/// kept lattice tetrahedron `t` (cube `ijk`, template `m`), the cube layers
-/// split over the pool; the per-layer results are concatenated in order.
-pub(super) fn per_layer<T: Send>(
-    lat: &Lattice,
-    keep: &[bool],
-    visit: impl Fn(usize, [usize; 3], usize, &mut Vec<T>) + Sync,
-) -> Vec<T> {
-    let c = lat.cubes();
-    let layers: Vec<Vec<T>> = (0..c[2])
-        .into_par_iter()
-        .map(|k| {
-            let mut out = Vec::new();
-            for j in 0..c[1] {
-                for i in 0..c[0] {
-                    let cube = i + c[0] * (j + c[1] * k);
-                    for m in 0..6 {
-                        let t = cube * 6 + m;
-                        if keep[t] {
-                            visit(t, [i, j, k], m, &mut out);
-                        }
-                    }
-                }
-            }
-            out
-        })
-        .collect();
-    let mut all = Vec::with_capacity(layers.iter().map(Vec::len).sum());
-    for mut layer in layers {
-        all.append(&mut layer);
-    }
-    all
+/// Which faces of template `m` in cube `ijk` lie on the boundary of the
+/// kept set (bit `f`: the face opposite corner `f`, whose other side is not
+/// kept or outside the lattice).
+fn boundary_mask(lat: &Lattice, table: &FaceTable, keep: &[bool], ijk: [usize; 3], m: usize) -> u8 {
+    (0..4)
+        .filter(|&f| !lat.across(table, ijk, m, f).is_some_and(|nt| keep[nt]))
+        .fold(0, |mask, f| mask | 1 << f)
 }
 
 /// The kept tetrahedra with a face on the boundary of the kept set, each
-/// with the mask of those faces (bit `f`: face opposite corner `f`).
+/// with its [`boundary_mask`].
 fn boundary_tets(lat: &Lattice, keep: &[bool]) -> Vec<(usize, u8)> {
     let table = face_table(&lat.templates);
     per_layer(lat, keep, |t, ijk, m, out| {
-        let mut mask = 0u8;
-        for f in 0..4 {
-            if !lat.across(&table, ijk, m, f).is_some_and(|nt| keep[nt]) {
-                mask |= 1 << f;
-            }
-        }
+        let mask = boundary_mask(lat, &table, keep, ijk, m);
         if mask != 0 {
             out.push((t, mask));
         }
@@ -117,31 +87,38 @@ pub(super) fn clean(lat: &Lattice, kept: &mut KeptSet, mut touched: Option<Vec<u
         if bad_e.is_empty() && bad_v.is_empty() {
             break;
         }
-        let mut groups: Vec<Vec<usize>> = Vec::new();
-        for e in &bad_e {
-            let a = lat.tets_around(e[0] as usize);
-            let b = lat.tets_around(e[1] as usize);
-            groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
-        }
-        for &v in &bad_v {
-            groups.push(lat.tets_around(v as usize));
-        }
-        let mut round = Vec::new();
-        for g in groups {
-            let n = g.iter().filter(|&&t| kept.keep[t]).count();
-            let fill = 2 * n >= g.len();
-            for &t in &g {
-                kept.set(t, fill);
-            }
-            round.extend(g);
-        }
-        touched = Some(round);
+        touched = Some(repair(lat, kept, &bad_e, &bad_v));
     }
     match kept.since_connected.take() {
         Some(changed) if still_connected(lat, &kept.keep, &changed) => {}
         _ => keep_largest_component(lat, &mut kept.keep),
     }
     kept.since_connected = Some(Vec::new());
+}
+
+/// One repair round: the lattice tetrahedra around each bad edge, then
+/// around each bad vertex, all added or all removed by majority, in that
+/// order; returns every tetrahedron of those groups.
+fn repair(lat: &Lattice, kept: &mut KeptSet, bad_e: &[[u32; 2]], bad_v: &[u32]) -> Vec<usize> {
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for e in bad_e {
+        let a = lat.tets_around(e[0] as usize);
+        let b = lat.tets_around(e[1] as usize);
+        groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
+    }
+    for &v in bad_v {
+        groups.push(lat.tets_around(v as usize));
+    }
+    let mut round = Vec::new();
+    for g in groups {
+        let n = g.iter().filter(|&&t| kept.keep[t]).count();
+        let fill = 2 * n >= g.len();
+        for &t in &g {
+            kept.set(t, fill);
+        }
+        round.extend(g);
+    }
+    round
 }
 
 /// The boundary defects (as [`boundary_defects`] finds them on the whole
@@ -165,17 +142,15 @@ fn defects_near(lat: &Lattice, keep: &[bool], touched: &[usize]) -> (Vec<[u32; 2
     edges.sort_unstable();
     edges.dedup();
     let table = face_table(&lat.templates);
-    // Every boundary face of a kept tetrahedron around a candidate vertex, once.
+    // Every kept tetrahedron with a boundary face around a candidate
+    // vertex, once.
     let mut faces: Vec<(usize, u8)> = Vec::new();
     for &v in &verts {
         for t in lat.tets_around(v as usize) {
-            if !keep[t] {
-                continue;
-            }
-            let ijk = lat.cube_of(t);
-            for f in 0..4 {
-                if !lat.across(&table, ijk, t % 6, f).is_some_and(|nt| keep[nt]) {
-                    faces.push((t, 1 << f));
+            if keep[t] {
+                let mask = boundary_mask(lat, &table, keep, lat.cube_of(t), t % 6);
+                if mask != 0 {
+                    faces.push((t, mask));
                 }
             }
         }
@@ -260,9 +235,8 @@ fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
     sorted.dedup();
     let c = lat.cubes();
     let table = face_table(&lat.templates);
-    let ijk_of = |t: usize| lat.cube_of(t);
     let neighbours = |t: usize| {
-        let ijk = ijk_of(t);
+        let ijk = lat.cube_of(t);
         (0..4).filter_map(move |f| lat.across(&table, ijk, t % 6, f))
     };
     let mut clusters = UnionFind::new(sorted.len());
@@ -282,7 +256,7 @@ fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
         let mut lo = [usize::MAX; 3];
         let mut hi = [0usize; 3];
         for &t in cluster {
-            let ijk = ijk_of(t);
+            let ijk = lat.cube_of(t);
             for k in 0..3 {
                 lo[k] = lo[k].min(ijk[k].saturating_sub(REACH));
                 hi[k] = hi[k].max((ijk[k] + REACH).min(c[k] - 1));
@@ -293,7 +267,7 @@ fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
             return false;
         }
         let local = |t: usize| {
-            let ijk = ijk_of(t);
+            let ijk = lat.cube_of(t);
             if (0..3).any(|k| ijk[k] < lo[k] || ijk[k] > hi[k]) {
                 return None;
             }
@@ -334,45 +308,6 @@ fn still_connected(lat: &Lattice, keep: &[bool], changed: &[usize]) -> bool {
         }
         seeds.iter().all(|&s| local(s).is_some_and(|l| reached[l]))
     })
-}
-
-/// Index of each kept lattice tetrahedron among the kept ones, in lattice
-/// order (its index in the extracted mesh): a bitset of `keep` and the count
-/// of kept ones before each 64-bit word.
-pub(super) struct Ranks {
-    words: Vec<u64>,
-    before: Vec<u32>,
-}
-
-impl Ranks {
-    pub(super) fn new(keep: &[bool]) -> Ranks {
-        let words: Vec<u64> = keep
-            .par_chunks(64)
-            .map(|c| {
-                c.iter()
-                    .enumerate()
-                    .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
-            })
-            .collect();
-        let mut before = Vec::with_capacity(words.len());
-        let mut acc = 0u32;
-        for w in &words {
-            before.push(acc);
-            acc += w.count_ones();
-        }
-        Ranks { words, before }
-    }
-
-    /// Kept tetrahedra in all.
-    pub(super) fn count(&self) -> u32 {
-        self.before.last().copied().unwrap_or(0) + self.words.last().map_or(0, |w| w.count_ones())
-    }
-
-    /// Kept tetrahedra before lattice tetrahedron `t`.
-    pub(super) fn of(&self, t: usize) -> u32 {
-        let (w, b) = (t / 64, t % 64);
-        self.before[w] + (self.words[w] & ((1u64 << b) - 1)).count_ones()
-    }
 }
 
 /// Calls `visit(t, cube_on_border)` for each kept lattice tetrahedron in
@@ -516,33 +451,17 @@ mod tests {
         let lat = lattice([12, 11, 10]);
         let mut rounds_with_defects = 0;
         for seed in 0..6 {
-            let mut keep = ragged_ball(&lat, seed);
+            let mut kept = KeptSet::new(ragged_ball(&lat, seed));
             for _ in 0..20 {
-                let (bad_e, bad_v) = global_defects(&lat, &keep);
+                let (bad_e, bad_v) = global_defects(&lat, &kept.keep);
                 if bad_e.is_empty() && bad_v.is_empty() {
                     break;
                 }
                 rounds_with_defects += 1;
-                let mut groups: Vec<Vec<usize>> = Vec::new();
-                for e in &bad_e {
-                    let b = lat.tets_around(e[1] as usize);
-                    let a = lat.tets_around(e[0] as usize);
-                    groups.push(a.into_iter().filter(|t| b.contains(t)).collect());
-                }
-                for &v in &bad_v {
-                    groups.push(lat.tets_around(v as usize));
-                }
-                let mut touched = Vec::new();
-                for g in groups {
-                    let fill = 2 * g.iter().filter(|&&t| keep[t]).count() >= g.len();
-                    for &t in &g {
-                        keep[t] = fill;
-                    }
-                    touched.extend(g);
-                }
+                let touched = repair(&lat, &mut kept, &bad_e, &bad_v);
                 assert_eq!(
-                    defects_near(&lat, &keep, &touched),
-                    global_defects(&lat, &keep)
+                    defects_near(&lat, &kept.keep, &touched),
+                    global_defects(&lat, &kept.keep)
                 );
             }
         }

@@ -147,6 +147,79 @@ pub(super) fn select(lat: &Lattice, inside: &[bool]) -> Vec<bool> {
     keep
 }
 
+/// Cube-ordered walk over the kept tetrahedra: `visit(t, ijk, m)` for each
+/// kept lattice tetrahedron `t` (cube `ijk`, template `m`), the cube layers
+/// split over the pool; the per-layer results are concatenated in order.
+pub(super) fn per_layer<T: Send>(
+    lat: &Lattice,
+    keep: &[bool],
+    visit: impl Fn(usize, [usize; 3], usize, &mut Vec<T>) + Sync,
+) -> Vec<T> {
+    let c = lat.cubes();
+    let layers: Vec<Vec<T>> = (0..c[2])
+        .into_par_iter()
+        .map(|k| {
+            let mut out = Vec::new();
+            for j in 0..c[1] {
+                for i in 0..c[0] {
+                    let cube = i + c[0] * (j + c[1] * k);
+                    for m in 0..6 {
+                        let t = cube * 6 + m;
+                        if keep[t] {
+                            visit(t, [i, j, k], m, &mut out);
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut all = Vec::with_capacity(layers.iter().map(Vec::len).sum());
+    for mut layer in layers {
+        all.append(&mut layer);
+    }
+    all
+}
+
+/// Index of each kept lattice tetrahedron among the kept ones, in lattice
+/// order (its index in the extracted mesh): a bitset of `keep` and the count
+/// of kept ones before each 64-bit word.
+pub(super) struct Ranks {
+    words: Vec<u64>,
+    before: Vec<u32>,
+}
+
+impl Ranks {
+    pub(super) fn new(keep: &[bool]) -> Ranks {
+        let words: Vec<u64> = keep
+            .par_chunks(64)
+            .map(|c| {
+                c.iter()
+                    .enumerate()
+                    .fold(0u64, |w, (i, &k)| w | (k as u64) << i)
+            })
+            .collect();
+        let mut before = Vec::with_capacity(words.len());
+        let mut acc = 0u32;
+        for w in &words {
+            before.push(acc);
+            acc += w.count_ones();
+        }
+        Ranks { words, before }
+    }
+
+    /// Kept tetrahedra in all.
+    pub(super) fn count(&self) -> u32 {
+        self.before.last().copied().unwrap_or(0) + self.words.last().map_or(0, |w| w.count_ones())
+    }
+
+    /// Kept tetrahedra before lattice tetrahedron `t`.
+    pub(super) fn of(&self, t: usize) -> u32 {
+        let (w, b) = (t / 64, t % 64);
+        self.before[w] + (self.words[w] & ((1u64 << b) - 1)).count_ones()
+    }
+}
+
 /// A mesh cut out of the lattice, with each mesh vertex's lattice id.
 pub(super) struct Extracted {
     pub(super) mesh: TetMesh,
@@ -156,7 +229,7 @@ pub(super) struct Extracted {
 
 pub(super) fn extract(lat: &Lattice, keep: &[bool]) -> Extracted {
     let c = lat.cubes();
-    let lattice_tet: Vec<usize> = super::clean::per_layer(lat, keep, |t, _, _, out| out.push(t));
+    let lattice_tet: Vec<usize> = per_layer(lat, keep, |t, _, _, out| out.push(t));
     // Used vertices, one lattice layer at a time: vertex layer k is touched
     // by the cube layers k - 1 and k.
     let layer = lat.n[0] * lat.n[1];
@@ -275,7 +348,7 @@ pub(super) fn face_table(templates: &[[[usize; 3]; 4]; 6]) -> FaceTable {
 /// than two tetrahedra.
 pub(super) fn lattice_adjacency(lat: &Lattice, keep: &[bool], ex: &Extracted) -> Adjacency {
     // Rank of a kept lattice tetrahedron = its mesh index.
-    let ranks = super::clean::Ranks::new(keep);
+    let ranks = Ranks::new(keep);
     let table = face_table(&lat.templates);
     let neighbors = ex
         .lattice_tet

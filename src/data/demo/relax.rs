@@ -23,7 +23,8 @@ pub(super) fn relax(
         }
     }
     // Only boundary and band vertices move or are looked around.
-    let inc = Incidence::new(mesh, |v| on_boundary[v] || band[v]);
+    let moving = |v: usize| on_boundary[v] || band[v];
+    let inc = Incidence::new(mesh, moving);
     let colour = |v: usize| {
         let [i, j, k] = lat.vijk(lattice_vertex[v]);
         (i & 1) | (j & 1) << 1 | (k & 1) << 2
@@ -61,9 +62,7 @@ pub(super) fn relax(
         .tets
         .par_iter()
         .map(|t| {
-            if t.iter()
-                .any(|&v| on_boundary[v as usize] || band[v as usize])
-            {
+            if t.iter().any(|&v| moving(v as usize)) {
                 tet_quality(t.map(|v| mesh.points[v as usize]))
             } else {
                 f64::NAN
