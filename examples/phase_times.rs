@@ -43,6 +43,7 @@ fn main() -> anyhow::Result<()> {
                 32,
                 32,
                 cell::CellOrder::FrontToBack,
+                true,
             );
             let t2 = Instant::now();
             std::hint::black_box(&b);

@@ -60,26 +60,21 @@ fn main() -> anyhow::Result<()> {
         tile,
         tile,
         cell::CellOrder::FrontToBack,
+        true,
     );
-    let persp = pv.perspective.then(|| pv.rays());
     let mut cells = Vec::new();
     let mut times = vec![0.0f64; binning.tiles.len()];
     for _ in 0..3 {
-        for (t, rect) in binning.tiles.iter().enumerate() {
+        for (t, best) in times.iter_mut().enumerate() {
             let t0 = Instant::now();
-            binning.records(t, &pv, &mut cells);
-            std::hint::black_box(cell::scan_tile(persp, &tf, &opts, *rect, &cells));
+            std::hint::black_box(cell::scan_bin(&binning, t, &pv, &tf, &opts, &mut cells));
             let dt = t0.elapsed().as_secs_f64();
-            times[t] = if times[t] == 0.0 {
-                dt
-            } else {
-                times[t].min(dt)
-            };
+            *best = if *best == 0.0 { dt } else { best.min(dt) };
         }
     }
     let total_t: f64 = times.iter().sum();
     let mut queue: Vec<usize> = (0..times.len()).collect();
-    queue.sort_by_key(|&t| std::cmp::Reverse(binning.bins[t].len()));
+    queue.sort_by_key(|&t| std::cmp::Reverse(binning.bins[t].len() + binning.segs(t).len()));
     for n in [2usize, 4, 8] {
         let mut load = vec![0.0f64; n];
         for &t in &queue {

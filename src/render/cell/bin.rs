@@ -14,11 +14,17 @@
 
 use rayon::prelude::*;
 
+pub use super::cull::Culled;
+use super::cull::VertexBounds;
+use super::fastmath::{fmax, fmin};
+use super::grid::TileGrid;
+pub use super::grid::{tiles, tiles_rect};
 use super::integrate::PreparedTf;
 use super::order::CellOrder;
 use super::project::ProjectedVertices;
 use super::radix;
-use super::scan::covered_pixels;
+use super::scan::box_pixels;
+use super::single::{OnePixel, OnePixelQueue, OnePixelSink, PixelSeg};
 use crate::base::Rect;
 
 /// Cells per binning task.
@@ -63,28 +69,15 @@ pub struct Binning {
     pub culled_offscreen: u64,
     /// Cells inside the image whose bounding box contains no pixel centre.
     pub no_pixel_centre: u64,
-}
-
-/// Splits a `width x height` image into `tile x tile` rectangles, row-major.
-pub fn tiles(width: u32, height: u32, tile: u32) -> Vec<Rect> {
-    tiles_rect(width, height, tile, tile)
-}
-
-/// Splits a `width x height` image into `tw x th` rectangles, row-major
-/// (early ray termination aligns tiles to its table entries).
-pub fn tiles_rect(width: u32, height: u32, tw: u32, th: u32) -> Vec<Rect> {
-    let mut out = Vec::new();
-    for y0 in (0..height).step_by(th as usize) {
-        for x0 in (0..width).step_by(tw as usize) {
-            out.push(Rect {
-                x0,
-                y0,
-                x1: (x0 + tw).min(width),
-                y1: (y0 + th).min(height),
-            });
-        }
-    }
-    out
+    /// For each tile, the finished segments of its cells with one pixel
+    /// centre, in the binning's order (empty unless the binning made them,
+    /// see [`super::single`]).
+    pub segs: Vec<Vec<PixelSeg>>,
+    /// Cells with one pixel centre scan-converted at binning (hit or
+    /// missed): each is one (cell, tile) pair not in `bins`.
+    pub one_pixel_cells: u64,
+    /// Of those, cells without volume (counted as degenerate).
+    pub one_pixel_degenerate: u64,
 }
 
 /// Culls `tets` and bins the rest into `tile x tile` tiles.
@@ -95,7 +88,7 @@ pub fn bin_cells(
     tile: u32,
     order: CellOrder,
 ) -> Binning {
-    bin_cells_rect(tets, pv, tf, tile, tile, order)
+    bin_cells_rect(tets, pv, tf, tile, tile, order, false)
 }
 
 /// A cell in a tile's bin: what [`Binning::records`] cannot cheaply
@@ -154,7 +147,8 @@ impl Range16 {
     /// The range, widened.
     #[inline(always)]
     pub fn get(self) -> [u32; 4] {
-        self.0.map(u32::from)
+        let r = self.0;
+        [r[0].into(), r[1].into(), r[2].into(), r[3].into()]
     }
 }
 
@@ -167,9 +161,9 @@ pub fn order_key(near: f32, cell: u32) -> u64 {
 }
 
 /// A bin's storage, written by several binning tasks at disjoint slots.
-struct BinSlots(*mut BinEntry);
-// SAFETY: the tasks write disjoint slots of the bin (see `bin_cells_rect`).
-unsafe impl Sync for BinSlots {}
+struct BinSlots<T>(*mut T);
+// SAFETY: the tasks write disjoint slots of the bin (see `scatter`).
+unsafe impl<T: Send> Sync for BinSlots<T> {}
 
 /// Culls `tets` and bins the rest into `tw x th` tiles, each tile's cells in
 /// `order`.
@@ -192,6 +186,7 @@ pub fn bin_cells_rect(
     tw: u32,
     th: u32,
     order: CellOrder,
+    one_pixel_segments: bool,
 ) -> Binning {
     let (w, h) = pv.size;
     let rects = tiles_rect(w, h, tw, th);
@@ -202,109 +197,266 @@ pub fn bin_cells_rect(
         x1: w,
         y1: h,
     };
-    // The tiles of a range, as `(row of tiles, first column, last column)`.
-    let tile_rows = |r: [u32; 4]| {
-        (r[2] / th..=r[3] / th).map(move |ty| (ty * tiles_x + r[0] / tw, ty * tiles_x + r[1] / tw))
-    };
+    let grid = TileGrid::new(tw, th, tiles_x);
+    let vb = VertexBounds::new(pv);
+    // Tile-local pixel indices of one-pixel segments are 16 bits.
+    let fast = one_pixel_segments
+        && vb.is_some()
+        && !pv.perspective
+        && u64::from(tw) * u64::from(th) <= 1 << 16;
     let n_tiles = rects.len();
-    struct Part {
-        survivors: Vec<BinEntry>,
-        /// Per tile, how many of `survivors` touch it.
-        counts: Vec<usize>,
-        empty: u64,
-        off: u64,
-        none: u64,
-    }
-    let mut parts: Vec<Part> = tets
+    let t0 = std::time::Instant::now();
+    let parts: Vec<Part> = tets
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, chunk)| {
-            let mut part = Part {
-                survivors: Vec::with_capacity(chunk.len()),
-                counts: vec![0; n_tiles],
-                empty: 0,
-                off: 0,
-                none: 0,
+            let mut part = Part::new(chunk.len(), n_tiles, fast);
+            let mut queue = OnePixelQueue::default();
+            let mut sink = SegSink {
+                bins: &mut part.segs,
+                grid: &grid,
+                rects: &rects,
             };
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
-                match cell_record(cell, ids, pv, tf, full) {
-                    Ok(rec) => {
-                        for (a, b) in tile_rows(rec.range) {
-                            for n in &mut part.counts[a as usize..=b as usize] {
-                                *n += 1;
-                            }
-                        }
-                        part.survivors
-                            .push(BinEntry::new(near_key(rec.near), cell, rec.range, ids))
+                let kept = match &vb {
+                    Some(vb) => cull(ids, pv, tf, vb),
+                    None => cell_record(cell, ids, pv, tf, full).map(|r| (r.range, r.pos, r.s)),
+                };
+                let (range, pos, s) = match kept {
+                    Ok(kept) => kept,
+                    Err(Culled::Empty) => {
+                        part.empty += 1;
+                        continue;
                     }
-                    Err(Culled::Empty) => part.empty += 1,
-                    Err(Culled::Offscreen) => part.off += 1,
-                    Err(Culled::NoPixelCentre) => part.none += 1,
+                    Err(Culled::Offscreen) => {
+                        part.off += 1;
+                        continue;
+                    }
+                    Err(Culled::NoPixelCentre) => {
+                        part.none += 1;
+                        continue;
+                    }
+                };
+                let key = near_key(near_depth(&pos, pv.perspective));
+                let [i0, i1, j0, j1] = range;
+                if fast && i0 == i1 && j0 == j1 {
+                    queue.push((cell, key), ids, &pos, &s, (i0, j0), tf, &mut sink);
+                    continue;
                 }
+                grid.for_each_row(range, |a, b| {
+                    for n in &mut part.cells.counts[a..b] {
+                        *n += 1;
+                    }
+                });
+                part.cells.items.push(BinEntry::new(key, cell, range, ids))
             }
+            queue.finish(tf, &mut sink);
             part
         })
         .collect();
+    drop(vb);
+    let t1 = std::time::Instant::now();
     let mut out = Binning {
         tiles: rects,
         ..Default::default()
     };
-    // Each part's first slot in each bin: the parts before it, in cell
-    // order, fill the bin's front. The parts then write their entries in
-    // parallel, each into its own disjoint slots, so a bin holds its cells
-    // in cell order, as a sequential pass would.
-    let mut bins: Vec<Vec<BinEntry>> = (0..n_tiles)
+    for p in &parts {
+        out.culled_empty += p.empty;
+        out.culled_offscreen += p.off;
+        out.no_pixel_centre += p.none;
+        out.one_pixel_cells += p.segs.cells;
+        out.one_pixel_degenerate += p.segs.degenerate;
+    }
+    let (mut cells, mut segs): (Vec<_>, Vec<_>) =
+        parts.into_iter().map(|p| (p.cells, p.segs.items)).unzip();
+    let mut bins = scatter(&mut cells, n_tiles, &grid);
+    let mut seg_bins = scatter(&mut segs, n_tiles, &grid);
+    let t2 = std::time::Instant::now();
+    if order == CellOrder::FrontToBack {
+        bins.par_iter_mut().for_each_init(Vec::new, |scratch, b| {
+            radix::sort_by_key_u32(b, scratch, |e| e.key)
+        });
+        seg_bins
+            .par_iter_mut()
+            .for_each_init(Vec::new, |scratch, b| {
+                radix::sort_by_key_u32(b, scratch, |e| e.key)
+            });
+    }
+    tracing::debug!(
+        cull_s = (t1 - t0).as_secs_f64(),
+        scatter_s = (t2 - t1).as_secs_f64(),
+        sort_s = t2.elapsed().as_secs_f64(),
+        one_pixel_cells = out.one_pixel_cells,
+        "binning"
+    );
+    out.bins = bins;
+    out.segs = if fast { seg_bins } else { Vec::new() };
+    out
+}
+
+/// One binning task's result: its survivors and its cull counts.
+struct Part {
+    /// Cells kept as bin entries.
+    cells: Items<BinEntry>,
+    /// One-pixel cells scan-converted here.
+    segs: OnePixelBins,
+    empty: u64,
+    off: u64,
+    none: u64,
+}
+
+impl Part {
+    fn new(cells: usize, n_tiles: usize, fast: bool) -> Part {
+        Part {
+            cells: Items {
+                items: Vec::with_capacity(cells),
+                counts: vec![0; n_tiles],
+            },
+            segs: OnePixelBins {
+                items: Items {
+                    items: Vec::with_capacity(if fast { cells / 2 } else { 0 }),
+                    counts: vec![0; if fast { n_tiles } else { 0 }],
+                },
+                cells: 0,
+                degenerate: 0,
+            },
+            empty: 0,
+            off: 0,
+            none: 0,
+        }
+    }
+}
+
+/// A binning task's one-pixel cells: their segments, each with its tile.
+struct OnePixelBins {
+    items: Items<(u32, PixelSeg)>,
+    /// Cells set up (hit, missed or degenerate).
+    cells: u64,
+    /// Of those, without volume.
+    degenerate: u64,
+}
+
+/// Files one-pixel results into a task's [`OnePixelBins`].
+struct SegSink<'a> {
+    bins: &'a mut OnePixelBins,
+    grid: &'a TileGrid,
+    rects: &'a [Rect],
+}
+
+impl OnePixelSink for SegSink<'_> {
+    #[inline(always)]
+    fn take(&mut self, cell: u32, key: u32, (i, j): (u32, u32), found: OnePixel) {
+        self.bins.cells += 1;
+        match found {
+            OnePixel::Degenerate => self.bins.degenerate += 1,
+            OnePixel::Miss => {}
+            OnePixel::Hit(seg) => {
+                let t = self.grid.tile_of(i, j);
+                let r = self.rects[t];
+                let idx = (j - r.y0) * r.width() + (i - r.x0);
+                let items = &mut self.bins.items;
+                items.counts[t] += 1;
+                items.items.push((
+                    t as u32,
+                    PixelSeg {
+                        key,
+                        cell,
+                        idx: idx as u16,
+                        ..seg
+                    },
+                ));
+            }
+        }
+    }
+}
+
+/// A binning task's items of one kind, in cell order.
+struct Items<T> {
+    items: Vec<T>,
+    /// Per tile, how many of `items` touch it.
+    counts: Vec<usize>,
+}
+
+/// What goes into a bin: the item as binned, and the tiles it touches.
+trait Binned: Copy + Send + Sync {
+    /// The bin's element.
+    type Out: Copy + Send;
+    /// Calls `f(first, end)` for each row of tiles it touches.
+    fn rows(&self, grid: &TileGrid, f: impl FnMut(usize, usize));
+    /// The element.
+    fn out(&self) -> Self::Out;
+}
+
+impl Binned for BinEntry {
+    type Out = BinEntry;
+    #[inline(always)]
+    fn rows(&self, grid: &TileGrid, f: impl FnMut(usize, usize)) {
+        grid.for_each_row(self.range(), f)
+    }
+    #[inline(always)]
+    fn out(&self) -> BinEntry {
+        *self
+    }
+}
+
+impl Binned for (u32, PixelSeg) {
+    type Out = PixelSeg;
+    #[inline(always)]
+    fn rows(&self, _: &TileGrid, mut f: impl FnMut(usize, usize)) {
+        f(self.0 as usize, self.0 as usize + 1)
+    }
+    #[inline(always)]
+    fn out(&self) -> PixelSeg {
+        self.1
+    }
+}
+
+/// Moves the parts' items into per-tile bins. Each part's first slot in
+/// each bin is where the parts before it (in cell order) end; the parts
+/// then write in parallel, each into its own disjoint slots, so a bin holds
+/// its items in cell order, as a sequential pass would. Each part's items
+/// are released as soon as they are copied, so the bins filling and the
+/// parts not yet copied are never resident twice over.
+fn scatter<T: Binned>(parts: &mut [Items<T>], n_tiles: usize, grid: &TileGrid) -> Vec<Vec<T::Out>> {
+    if parts.iter().all(|p| p.items.is_empty()) {
+        return vec![Vec::new(); n_tiles];
+    }
+    let mut bins: Vec<Vec<T::Out>> = (0..n_tiles)
         .map(|t| Vec::with_capacity(parts.iter().map(|p| p.counts[t]).sum()))
         .collect();
     let mut next = vec![0usize; n_tiles];
-    for p in &mut parts {
+    for p in parts.iter_mut() {
         for (n, c) in next.iter_mut().zip(&mut p.counts) {
             let first = *n;
             *n += *c;
             *c = first;
         }
     }
-    let slots: Vec<BinSlots> = bins
+    let slots: Vec<BinSlots<T::Out>> = bins
         .iter_mut()
         .map(|b| BinSlots(b.spare_capacity_mut().as_mut_ptr().cast()))
         .collect();
     parts.par_iter_mut().for_each(|p| {
-        let Part {
-            survivors, counts, ..
-        } = p;
-        for e in survivors.iter() {
-            for (a, b) in tile_rows(e.range()) {
-                let r = a as usize..=b as usize;
-                for (slot, n) in slots[r.clone()].iter().zip(&mut counts[r]) {
+        let Items { items, counts } = p;
+        for e in items.iter() {
+            e.rows(grid, |a, b| {
+                for (slot, n) in slots[a..b].iter().zip(&mut counts[a..b]) {
                     // SAFETY: slot `n` of this bin lies below the bin's
                     // capacity (the sum of all parts' counts) and belongs
                     // to this part alone (its prefix range).
-                    unsafe { slot.0.add(*n).write(*e) };
+                    unsafe { slot.0.add(*n).write(e.out()) };
                     *n += 1;
                 }
-            }
+            });
         }
-        // Copied: its pages go back now, so the bins filling and the parts
-        // not yet copied are never resident twice over.
-        crate::base::pages::release(std::mem::take(survivors));
+        crate::base::pages::release(std::mem::take(items));
     });
     for (b, &n) in bins.iter_mut().zip(&next) {
         // SAFETY: the parts wrote every slot `0..n` of the bin above.
         unsafe { b.set_len(n) };
     }
-    for p in &parts {
-        out.culled_empty += p.empty;
-        out.culled_offscreen += p.off;
-        out.no_pixel_centre += p.none;
-    }
-    if order == CellOrder::FrontToBack {
-        bins.par_iter_mut().for_each_init(Vec::new, |scratch, b| {
-            radix::sort_by_key_u32(b, scratch, |e| e.key)
-        });
-    }
-    out.bins = bins;
-    out
+    bins
 }
 
 /// The nearest depth of a cell's vertices: screen depth (orthographic) or
@@ -336,11 +488,19 @@ impl Binning {
     pub fn heap_bytes(&self) -> usize {
         self.bins.iter().map(|b| b.capacity()).sum::<usize>() * std::mem::size_of::<BinEntry>()
             + self.bins.capacity() * std::mem::size_of::<Vec<BinEntry>>()
+            + self.segs.iter().map(|b| b.capacity()).sum::<usize>()
+                * std::mem::size_of::<PixelSeg>()
+            + self.segs.capacity() * std::mem::size_of::<Vec<PixelSeg>>()
     }
 
     /// The number of (cell, tile) pairs: cells counted once per tile they touch.
     pub fn pairs(&self) -> u64 {
-        self.bins.iter().map(|b| b.len() as u64).sum()
+        self.bins.iter().map(|b| b.len() as u64).sum::<u64>() + self.one_pixel_cells
+    }
+
+    /// Tile `t`'s one-pixel segments (empty when the binning made none).
+    pub fn segs(&self, t: usize) -> &[PixelSeg] {
+        self.segs.get(t).map_or(&[], |v| v)
     }
 
     /// Rebuilds the records of tile `t`'s cells, in bin order, into `out`
@@ -418,26 +578,42 @@ impl TileCells for BinCells<'_> {
 #[inline]
 fn record_of(e: &BinEntry, pv: &ProjectedVertices) -> CellRecord {
     let ids = e.ids;
-    let pos = ids.map(|v| pv.pos[v as usize]);
+    let [a, b, c, d] = ids.map(|v| v as usize);
+    let pos = [pv.pos[a], pv.pos[b], pv.pos[c], pv.pos[d]];
     CellRecord {
         near: near_depth(&pos, pv.perspective),
         cell: e.cell,
         range: e.range(),
         ids,
         pos,
-        s: ids.map(|v| pv.s[v as usize]),
+        s: [pv.s[a], pv.s[b], pv.s[c], pv.s[d]],
     }
 }
 
-/// Why a cell was not turned into a [`CellRecord`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Culled {
-    /// Its scalar interval has zero opacity.
-    Empty,
-    /// Outside the image or behind the eye.
-    Offscreen,
-    /// Inside the image, but its bounding box holds no pixel centre.
-    NoPixelCentre,
+/// A kept cell's pixel range, vertex positions and scalars.
+type Kept = ([u32; 4], [[f32; 3]; 4], [f32; 4]);
+
+/// [`cell_record`]'s verdict and the kept cell's `(range, positions,
+/// scalars)`, by the per-vertex bounds `vb` (see [`super::cull`]).
+#[inline(always)]
+fn cull(
+    ids: [u32; 4],
+    pv: &ProjectedVertices,
+    tf: &PreparedTf,
+    vb: &VertexBounds,
+) -> Result<Kept, Culled> {
+    let [a, b, c, d] = ids.map(|v| v as usize);
+    let s = [pv.s[a], pv.s[b], pv.s[c], pv.s[d]];
+    // Scalars are finite (the loader checks the field).
+    let (lo, hi) = (
+        fmin(fmin(s[0], s[1]), fmin(s[2], s[3])),
+        fmax(fmax(s[0], s[1]), fmax(s[2], s[3])),
+    );
+    if tf.is_transparent(lo, hi) {
+        return Err(Culled::Empty);
+    }
+    let range = vb.range(ids)?;
+    Ok((range, [pv.pos[a], pv.pos[b], pv.pos[c], pv.pos[d]], s))
 }
 
 /// Culls cell `cell` with vertex ids `ids` (indices into `pv`) or gathers
@@ -452,9 +628,10 @@ pub fn cell_record(
     full: Rect,
 ) -> Result<CellRecord, Culled> {
     let s = ids.map(|v| pv.s[v as usize]);
+    // Scalars are finite (the loader checks the field).
     let (lo, hi) = (
-        s.iter().cloned().fold(f32::INFINITY, f32::min),
-        s.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+        fmin(fmin(s[0], s[1]), fmin(s[2], s[3])),
+        fmax(fmax(s[0], s[1]), fmax(s[2], s[3])),
     );
     if tf.is_transparent(lo, hi) {
         return Err(Culled::Empty);
@@ -465,22 +642,19 @@ pub fn cell_record(
         return Err(Culled::Offscreen); // behind the eye
     }
     let px = ids.map(|v| pv.pixel(v as usize));
-    let range = if px.iter().any(|p| p[0].is_nan()) {
+    let range = if px.iter().any(|p| p[0].is_nan() || p[1].is_nan()) {
         // Straddles the eye plane (perspective): bound by the screen.
         Some((0, w - 1, 0, h - 1))
     } else {
-        let (xl, xh) = (
-            px.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min),
-            px.iter().map(|p| p[0]).fold(f32::NEG_INFINITY, f32::max),
-        );
-        let (yl, yh) = (
-            px.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min),
-            px.iter().map(|p| p[1]).fold(f32::NEG_INFINITY, f32::max),
-        );
+        // No NaN left: plain min/max (the NaN-aware ones cost a blend each).
+        let pick =
+            |k: usize, f: fn(f32, f32) -> f32| f(f(px[0][k], px[1][k]), f(px[2][k], px[3][k]));
+        let bbox = [pick(0, fmin), pick(0, fmax), pick(1, fmin), pick(1, fmax)];
+        let [xl, xh, yl, yh] = bbox;
         if xh < 0.0 || yh < 0.0 || xl > w as f32 || yl > h as f32 {
             return Err(Culled::Offscreen);
         }
-        covered_pixels(&px, full)
+        box_pixels(bbox, full)
     };
     let Some((i0, i1, j0, j1)) = range else {
         return Err(Culled::NoPixelCentre);

@@ -22,9 +22,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bin;
+pub mod cull;
 pub mod ert;
 pub mod fastmath;
 pub mod floor;
+pub mod grid;
 pub mod integrate;
 pub mod list;
 pub mod order;
@@ -33,6 +35,8 @@ pub mod radix;
 pub mod scan;
 pub mod scan_box;
 pub mod setup;
+pub mod single;
+pub mod single_x8;
 pub mod sizes;
 pub mod target;
 
@@ -256,6 +260,10 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     let view = scene.view();
     let tf = PreparedTf::new(&scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
+    tracing::debug!(
+        vertices_s = t0.elapsed().as_secs_f64(),
+        "projected the vertices"
+    );
     let ert_on = opts.ert.enabled();
     let tile = opts.tile_size.max(1);
     let (tile_dims, entry_px) = if ert_on {
@@ -273,6 +281,9 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
         tile_dims.0,
         tile_dims.1,
         opts.cell_order,
+        // ERT tests cells between rebuilds counted in cells, and the
+        // oracle replays the bins: both need every cell binned.
+        !ert_on && !opts.oracle,
     );
     let t1 = Instant::now();
     crate::base::cancel::checkpoint();
@@ -285,19 +296,19 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
     // cell count; ties keep the tile order. The image does not depend on
     // this order: tiles are independent.
     let mut queue: Vec<usize> = (0..binning.tiles.len()).collect();
-    queue.sort_by_key(|&t| std::cmp::Reverse(binning.bins[t].len()));
+    queue.sort_by_key(|&t| std::cmp::Reverse(binning.bins[t].len() + binning.segs(t).len()));
     let mut results: Vec<(usize, TileResult, Option<ert::ErtTileStats>)> = queue
         .into_iter()
         .par_bridge()
         .map_init(Vec::new, |buf, t| {
             crate::base::cancel::checkpoint();
-            let rect = binning.tiles[t];
-            let cells = bin::BinCells::new(&binning, t, &pv, buf);
             if ert_on {
+                let rect = binning.tiles[t];
+                let cells = bin::BinCells::new(&binning, t, &pv, buf);
                 let (r, e) = ert::scan_tile_ert(persp, &tf, opts, rect, cells, entry_px, tile_dims);
                 (t, r, Some(e))
             } else {
-                (t, scan_cells(persp, &tf, opts, rect, cells), None)
+                (t, scan_bin(&binning, t, &pv, &tf, opts, buf), None)
             }
         })
         .collect();
@@ -374,6 +385,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         cells_culled_empty: binning.culled_empty,
         cells_culled_offscreen: binning.culled_offscreen,
         cells_no_pixel_centre: binning.no_pixel_centre,
+        cells_degenerate: binning.one_pixel_degenerate,
         cell_tile_pairs: binning.pairs(),
         threads,
         integrator: opts.integrator.to_string(),
@@ -442,6 +454,22 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
     (image, stats)
 }
 
+/// Scan-converts tile `t` of `binning` without early ray termination: its
+/// binned cells (records rebuilt from `pv`, the vertices binned, in `buf`)
+/// and the segments its one-pixel cells got at binning.
+pub fn scan_bin(
+    binning: &bin::Binning,
+    t: usize,
+    pv: &project::ProjectedVertices,
+    tf: &PreparedTf,
+    opts: &CellOptions,
+    buf: &mut Vec<bin::CellRecord>,
+) -> TileResult {
+    let persp = pv.perspective.then(|| pv.rays());
+    let cells = bin::BinCells::new(binning, t, pv, buf);
+    scan_cells(persp, tf, opts, binning.tiles[t], cells, binning.segs(t))
+}
+
 /// Scan-converts the cells of one tile, in the given order, into fresh lists.
 pub fn scan_tile(
     perspective: Option<project::PerspRays>,
@@ -450,16 +478,20 @@ pub fn scan_tile(
     rect: crate::base::Rect,
     cells: &[bin::CellRecord],
 ) -> TileResult {
-    scan_cells(perspective, tf, opts, rect, cells)
+    scan_cells(perspective, tf, opts, rect, cells, &[])
 }
 
-/// [`scan_tile`] of cells handed out a run at a time.
+/// [`scan_tile`] of cells handed out a run at a time, merged with the
+/// segments of the tile's one-pixel cells (`segs`, made at binning, see
+/// [`single`]) in the cells' order, so that each list receives its
+/// segments as if every cell had been scanned here.
 fn scan_cells(
     perspective: Option<project::PerspRays>,
     tf: &PreparedTf,
     opts: &CellOptions,
     rect: crate::base::Rect,
     mut cells: impl bin::TileCells,
+    segs: &[single::PixelSeg],
 ) -> TileResult {
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
@@ -476,11 +508,29 @@ fn scan_cells(
             &mut counts,
             &mut batch,
         );
+        // Both sequences are sorted by the order's key; ties cannot occur
+        // (a cell is in one of them).
+        let key: fn(u64) -> u64 = match opts.cell_order {
+            CellOrder::FrontToBack => |k| k,
+            CellOrder::Stored => |k| k & u64::from(u32::MAX),
+        };
+        let mut segs = segs.iter().peekable();
+        let mut emit_before = |k: u64, target: &mut ScanTarget| {
+            while let Some(s) = segs.next_if(|s| key(s.order_key()) < k) {
+                target.counts.pixels_tested += 1;
+                target.emit_local(u32::from(s.idx), s.emitted(), s.piece);
+            }
+        };
         for start in (0..cells.len()).step_by(bin::RUN) {
             let end = (start + bin::RUN).min(cells.len());
             for c in cells.run(start..end) {
+                emit_before(key(bin::order_key(c.near, c.cell)), &mut target);
                 degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
             }
+        }
+        for s in segs {
+            target.counts.pixels_tested += 1;
+            target.emit_local(u32::from(s.idx), s.emitted(), s.piece);
         }
         // Segments are integrated in batches that span cells: finish the last one.
         target.flush();

@@ -33,6 +33,14 @@ pub fn covered_pixels(pts: &[[f32; 2]; 4], clip: Rect) -> Option<(u32, u32, u32,
         yl = yl.min(p[1]);
         yh = yh.max(p[1]);
     }
+    box_pixels([xl, xh, yl, yh], clip)
+}
+
+/// Pixel range `[i0, i1] x [j0, j1]` (inclusive) whose centres lie in the
+/// box `[xl, xh] x [yl, yh]` (continuous pixel coordinates), clipped to
+/// `clip`. `None` if no pixel centre is inside (or the box is empty or NaN).
+#[inline(always)]
+pub fn box_pixels([xl, xh, yl, yh]: [f32; 4], clip: Rect) -> Option<(u32, u32, u32, u32)> {
     // Centre i + 0.5 in [xl, xh]  <=>  i in [ceil(xl - 0.5), floor(xh - 0.5)].
     // Clamping to the clip rectangle (padded by one) first keeps the integer
     // conversions in range, NaN included (it fails every comparison below).
@@ -67,6 +75,96 @@ fn outside_edge_on(v: f32, a: f32, b: f32) -> bool {
     v > 0.0 || (v == 0.0 && (a < 0.0 || (a == 0.0 && b <= 0.0)))
 }
 
+/// A tet's faces as depth planes `Z = a X + b Y + c` in screen space
+/// (orthographic): at most three entering and three leaving (unused slots
+/// at `-inf` / `+inf`), and the faces seen exactly edge-on as half-planes.
+struct OrthoPlanes {
+    ent: [[f32; 3]; 3],
+    ext: [[f32; 3]; 3],
+    edge: [[f32; 3]; 4],
+    /// Entering, leaving and edge-on faces.
+    ne: usize,
+    nx: usize,
+    nedge: usize,
+}
+
+impl OrthoPlanes {
+    /// `None` when the tet has no entering or no leaving face (or more
+    /// than three of either: numerically flat), so covers no pixel.
+    #[inline(always)]
+    fn new(t: &TetSetup) -> Option<OrthoPlanes> {
+        // The coefficients are odd/odd ratios of (n, h), so both tets
+        // sharing a face get identical ones.
+        let mut p = OrthoPlanes {
+            ent: [[0.0, 0.0, f32::NEG_INFINITY]; 3],
+            ext: [[0.0, 0.0, f32::INFINITY]; 3],
+            edge: [[0.0f32; 3]; 4],
+            ne: 0,
+            nx: 0,
+            nedge: 0,
+        };
+        for f in &t.faces {
+            let [x, y, z] = f.n;
+            if z == 0.0 {
+                // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h.
+                p.edge[p.nedge] = [f.sigma * x, f.sigma * y, f.sigma * f.h];
+                p.nedge += 1;
+                continue;
+            }
+            let plane = [-x / z, -y / z, f.h / z];
+            if f.sigma * z > 0.0 {
+                if p.nx == 3 {
+                    return None;
+                }
+                p.ext[p.nx] = plane;
+                p.nx += 1;
+            } else {
+                if p.ne == 3 {
+                    return None;
+                }
+                p.ent[p.ne] = plane;
+                p.ne += 1;
+            }
+        }
+        (p.ne > 0 && p.nx > 0).then_some(p)
+    }
+
+    /// Row set-up: the planes' `b y + c` at the row's `y`, entering then
+    /// leaving. (Written out: `array::map` is not always inlined here.)
+    #[inline(always)]
+    fn row(&self, y: f32) -> ([f32; 3], [f32; 3]) {
+        let (ent, ext) = (&self.ent, &self.ext);
+        (
+            [
+                ent[0][1] * y + ent[0][2],
+                ent[1][1] * y + ent[1][2],
+                ent[2][1] * y + ent[2][2],
+            ],
+            [
+                ext[0][1] * y + ext[0][2],
+                ext[1][1] * y + ext[1][2],
+                ext[2][1] * y + ext[2][2],
+            ],
+        )
+    }
+}
+
+/// The ray segment of one pixel through a tet: `(z_in, z_out, s_in, s_out)`.
+pub type PixelSegment = (f32, f32, f32, f32);
+
+/// The segment of pixel `(i, j)` through the tet `t` (orthographic), or
+/// `None` if its centre is not covered: [`scan_ortho`]'s test and
+/// values for that pixel, bit for bit (the binning computes the segments
+/// of cells with one pixel centre with it).
+#[inline(always)]
+pub fn ortho_segment(t: &TetSetup, i: u32, j: u32) -> Option<PixelSegment> {
+    let p = OrthoPlanes::new(t)?;
+    let y = j as f32 + 0.5;
+    let (re, rx) = p.row(y);
+    let s_row = t.s0 + t.grad[1] * (y - t.v0[1]);
+    pixel_test(t, &p, (re, rx, s_row), i, y)
+}
+
 /// Scans one tet in screen space (orthographic), over the pixels of
 /// `range = (i0, i1, j0, j1)`.
 #[inline]
@@ -74,67 +172,41 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
     // Scalars are clamped to the cell's range: its segments stay in one
     // transfer-function piece if the range does.
     out.cell_piece = out.tf.single_piece(t.s_min, t.s_max);
-    // Each non-edge-on face as a depth plane Z = a X + b Y + c. The
-    // coefficients are odd/odd ratios of (n, h), so both tets sharing a face get
-    // identical ones. Unused slots hold planes at -inf (entries) / +inf (exits).
-    let mut ent = [[0.0, 0.0, f32::NEG_INFINITY]; 3];
-    let mut ext = [[0.0, 0.0, f32::INFINITY]; 3];
-    let mut edge = [[0.0f32; 3]; 4];
-    let (mut ne, mut nx, mut nedge) = (0, 0, 0);
-    for f in &t.faces {
-        let [x, y, z] = f.n;
-        if z == 0.0 {
-            // Edge-on: inside iff sigma (n_x X + n_y Y) <= sigma h.
-            edge[nedge] = [f.sigma * x, f.sigma * y, f.sigma * f.h];
-            nedge += 1;
-            continue;
-        }
-        let plane = [-x / z, -y / z, f.h / z];
-        if f.sigma * z > 0.0 {
-            if nx == 3 {
-                return;
-            }
-            ext[nx] = plane;
-            nx += 1;
-        } else {
-            if ne == 3 {
-                return;
-            }
-            ent[ne] = plane;
-            ne += 1;
-        }
-    }
-    if ne == 0 || nx == 0 {
+    let Some(p) = OrthoPlanes::new(t) else {
         return;
-    }
+    };
     let (i0, i1, j0, j1) = range;
     if i0 > i1 || j0 > j1 {
         return;
     }
+    if i0 == i1 && j0 == j1 {
+        // One pixel centre in the box (most cells of a large mesh): the
+        // per-pixel test alone, without the row's span or the box kernel's
+        // set-up. The same expressions, so the same segment bit for bit.
+        let y = j0 as f32 + 0.5;
+        let (re, rx) = p.row(y);
+        let s_row = t.s0 + t.grad[1] * (y - t.v0[1]);
+        if let Some(seg) = pixel_test(t, &p, (re, rx, s_row), i0, y) {
+            emit(out, i0, j0, seg);
+        }
+        return;
+    }
+    let (ent, ext, ne, nx) = (&p.ent, &p.ext, p.ne, p.nx);
     #[cfg(target_arch = "x86_64")]
     if out.simd
-        && nedge == 0
+        && p.nedge == 0
         && u64::from(i1 - i0 + 1) * u64::from(j1 - j0 + 1)
             <= u64::from(super::scan_box::MAX_BOX_PIXELS)
     {
         // SAFETY: `simd` is set only where the CPU has AVX2; the box is
         // inside the tile and small enough.
-        unsafe { super::scan_box::scan_box_avx2(t, &ent, &ext, range, out) };
+        unsafe { super::scan_box::scan_box_avx2(t, ent, ext, range, out) };
         return;
     }
     let x_max = i1 as f32 + 1.0;
     for j in j0..=j1 {
         let y = j as f32 + 0.5;
-        let re = [
-            ent[0][1] * y + ent[0][2],
-            ent[1][1] * y + ent[1][2],
-            ent[2][1] * y + ent[2][2],
-        ];
-        let rx = [
-            ext[0][1] * y + ext[0][2],
-            ext[1][1] * y + ext[1][2],
-            ext[2][1] * y + ext[2][2],
-        ];
+        let (re, rx) = p.row(y);
         // The row's covered span: z_in(X) < z_out(X) holds iff every entering
         // plane lies in front of every leaving one, a linear inequality in X per
         // pair. The span is widened by a pixel and every pixel is still tested
@@ -172,35 +244,59 @@ pub fn scan_ortho(t: &TetSetup, range: (u32, u32, u32, u32), out: &mut ScanTarge
         let dy = y - t.v0[1];
         let s_row = t.s0 + t.grad[1] * dy;
         for i in first as u32..=last as u32 {
-            let x = i as f32 + 0.5;
-            // Depth is measured from the eye plane: nothing behind it is seen.
-            let z_in = fmax(
-                fmax(
-                    fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]),
-                    ent[2][0] * x + re[2],
-                ),
-                0.0,
-            );
-            let z_out = fmin(
-                fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]),
-                ext[2][0] * x + rx[2],
-            );
-            if !(z_in < z_out) {
-                continue;
+            if let Some(seg) = pixel_test(t, &p, (re, rx, s_row), i, y) {
+                emit(out, i, j, seg);
             }
-            if edge[..nedge]
-                .iter()
-                .any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1]))
-            {
-                continue;
-            }
-            out.counts.pixels_tested += 1;
-            let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
-            let s_in = fclamp(s_xy + t.grad[2] * (z_in - t.v0[2]), t.s_min, t.s_max);
-            let s_out = fclamp(s_xy + t.grad[2] * (z_out - t.v0[2]), t.s_min, t.s_max);
-            out.emit(i, j, z_in, z_out, s_in, s_out, z_out - z_in);
         }
     }
+}
+
+/// The per-pixel test and segment of [`scan_ortho`]: pixel column `i` of
+/// a row at `y` whose planes were evaluated there (`re`, `rx`: `b y + c`
+/// of the entering and leaving planes; `s_row`: the scalar at `(v0.x, y)`).
+#[inline(always)]
+fn pixel_test(
+    t: &TetSetup,
+    p: &OrthoPlanes,
+    (re, rx, s_row): ([f32; 3], [f32; 3], f32),
+    i: u32,
+    y: f32,
+) -> Option<PixelSegment> {
+    let (ent, ext) = (&p.ent, &p.ext);
+    let x = i as f32 + 0.5;
+    // Depth is measured from the eye plane: nothing behind it is seen.
+    let z_in = fmax(
+        fmax(
+            fmax(ent[0][0] * x + re[0], ent[1][0] * x + re[1]),
+            ent[2][0] * x + re[2],
+        ),
+        0.0,
+    );
+    let z_out = fmin(
+        fmin(ext[0][0] * x + rx[0], ext[1][0] * x + rx[1]),
+        ext[2][0] * x + rx[2],
+    );
+    if !(z_in < z_out) {
+        return None;
+    }
+    if p.edge[..p.nedge]
+        .iter()
+        .any(|e| outside_edge_on(e[0] * x + e[1] * y - e[2], e[0], e[1]))
+    {
+        return None;
+    }
+    let s_xy = s_row + t.grad[0] * (x - t.v0[0]);
+    let s_in = fclamp(s_xy + t.grad[2] * (z_in - t.v0[2]), t.s_min, t.s_max);
+    let s_out = fclamp(s_xy + t.grad[2] * (z_out - t.v0[2]), t.s_min, t.s_max);
+    Some((z_in, z_out, s_in, s_out))
+}
+
+/// Emits pixel `(i, j)`'s covered segment (orthographic: its length is
+/// `z_out - z_in`).
+#[inline(always)]
+fn emit(out: &mut ScanTarget, i: u32, j: u32, (z_in, z_out, s_in, s_out): PixelSegment) {
+    out.counts.pixels_tested += 1;
+    out.emit(i, j, z_in, z_out, s_in, s_out, z_out - z_in);
 }
 
 /// Scans one tet in the camera frame (perspective): the ray of pixel `(X, Y)`

@@ -97,7 +97,7 @@ pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetS
             o.swap(a, b);
         }
     }
-    let q = o.map(|slot| p[slot]);
+    let q = [p[o[0]], p[o[1]], p[o[2]], p[o[3]]];
     let (e01, e02, e03) = (sub(q[1], q[0]), sub(q[2], q[0]), sub(q[3], q[0]));
     // Face k (in sorted order) leaves out q[k]: `(a, normal)` with `a` its
     // lowest vertex, the normal `(b - a) x (c - a)` of its sorted triple.

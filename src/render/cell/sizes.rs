@@ -51,11 +51,15 @@ struct Counts(Vec<u64>);
 
 impl Counts {
     fn add(&mut self, v: u64) {
+        self.add_n(v, 1);
+    }
+
+    fn add_n(&mut self, v: u64, n: u64) {
         let v = v as usize;
         if v >= self.0.len() {
             self.0.resize(v + 1, 0);
         }
-        self.0[v] += 1;
+        self.0[v] += n;
     }
 
     fn total(&self) -> u64 {
@@ -106,6 +110,9 @@ impl Counts {
 pub fn cell_sizes(binning: &Binning) -> CellSizes {
     let mut pixels = Counts::default();
     let mut extents = Counts::default();
+    // Cells with one pixel centre scan-converted at binning (not binned).
+    pixels.add_n(1, binning.one_pixel_cells);
+    extents.add_n(1, binning.one_pixel_cells);
     for (rect, cells) in binning.tiles.iter().zip(&binning.bins) {
         for c in cells {
             let [i0, i1, j0, j1] = c.range();

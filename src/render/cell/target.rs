@@ -115,12 +115,23 @@ impl<'a> ScanTarget<'a> {
         s_out: f32,
         length: f32,
     ) {
+        let idx = (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0);
+        let piece = self.cell_piece;
+        self.emit_local(idx, [z_in, z_out, s_in, s_out, length], piece);
+    }
+
+    /// Queues the segment `[z_in, z_out, s_in, s_out, length]` of the
+    /// tile's pixel `idx` (row-major) in transfer-function piece `piece`
+    /// (or `NO_PIECE`); integrates and inserts when the batch is full.
+    #[inline(always)]
+    pub fn emit_local(&mut self, idx: u32, seg: [f32; 5], piece: u16) {
+        let [z_in, z_out, s_in, s_out, length] = seg;
         let n = self.batch.n;
         self.batch.s_in[n] = s_in;
         self.batch.s_out[n] = s_out;
         self.batch.len[n] = length;
-        self.batch.piece_hint[n] = self.cell_piece;
-        self.pend_idx[n] = (j - self.tile.y0) * self.tile.width() + (i - self.tile.x0);
+        self.batch.piece_hint[n] = piece;
+        self.pend_idx[n] = idx;
         self.pend_zf[n] = z_in;
         self.pend_zb[n] = z_out;
         self.batch.n = n + 1;
@@ -171,8 +182,9 @@ impl<'a> ScanTarget<'a> {
     }
 }
 
-/// Whether this CPU can run [`super::scan_box`]'s AVX2 kernel.
-fn simd_available() -> bool {
+/// Whether this CPU can run the AVX2 kernels ([`super::scan_box`],
+/// [`super::single_x8`]).
+pub fn simd_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")
