@@ -221,10 +221,10 @@ pub fn bin_cells_rect(
                 let cell = (c * CHUNK + k) as u32;
                 let kept = match &vb {
                     Some(vb) => cull(ids, pv, tf, vb),
-                    None => cell_record(cell, ids, pv, tf, full).map(|r| (r.range, r.pos, r.s)),
+                    None => cell_record(cell, ids, pv, tf, full).map(|r| r.range),
                 };
-                let (range, pos, s) = match kept {
-                    Ok(kept) => kept,
+                let range = match kept {
+                    Ok(range) => range,
                     Err(Culled::Empty) => {
                         part.empty += 1;
                         continue;
@@ -238,10 +238,14 @@ pub fn bin_cells_rect(
                         continue;
                     }
                 };
-                let key = near_key(near_depth(&pos, pv.perspective));
+                let key = near_key(near_of(ids, pv));
                 let [i0, i1, j0, j1] = range;
                 if fast && i0 == i1 && j0 == j1 {
-                    queue.push((cell, key), ids, &pos, &s, (i0, j0), tf, &mut sink);
+                    let vertex = |k: usize| {
+                        let v = ids[k] as usize;
+                        (pv.pos[v], pv.s[v])
+                    };
+                    queue.push((cell, key), ids, vertex, (i0, j0), tf, &mut sink);
                     continue;
                 }
                 grid.for_each_row(range, |a, b| {
@@ -590,18 +594,15 @@ fn record_of(e: &BinEntry, pv: &ProjectedVertices) -> CellRecord {
     }
 }
 
-/// A kept cell's pixel range, vertex positions and scalars.
-type Kept = ([u32; 4], [[f32; 3]; 4], [f32; 4]);
-
-/// [`cell_record`]'s verdict and the kept cell's `(range, positions,
-/// scalars)`, by the per-vertex bounds `vb` (see [`super::cull`]).
+/// [`cell_record`]'s verdict and the kept cell's pixel range, by the
+/// per-vertex bounds `vb` (see [`super::cull`]).
 #[inline(always)]
 fn cull(
     ids: [u32; 4],
     pv: &ProjectedVertices,
     tf: &PreparedTf,
     vb: &VertexBounds,
-) -> Result<Kept, Culled> {
+) -> Result<[u32; 4], Culled> {
     let [a, b, c, d] = ids.map(|v| v as usize);
     let s = [pv.s[a], pv.s[b], pv.s[c], pv.s[d]];
     // Scalars are finite (the loader checks the field).
@@ -612,8 +613,20 @@ fn cull(
     if tf.is_transparent(lo, hi) {
         return Err(Culled::Empty);
     }
-    let range = vb.range(ids)?;
-    Ok((range, [pv.pos[a], pv.pos[b], pv.pos[c], pv.pos[d]], s))
+    vb.range(ids)
+}
+
+/// [`near_depth`] of the cell with vertex ids `ids`, reading only what it
+/// needs (orthographic: the four depths).
+#[inline(always)]
+fn near_of(ids: [u32; 4], pv: &ProjectedVertices) -> f32 {
+    if pv.perspective {
+        near_depth(&ids.map(|v| pv.pos[v as usize]), true)
+    } else {
+        ids.iter()
+            .map(|&v| pv.pos[v as usize][2])
+            .fold(f32::INFINITY, f32::min)
+    }
 }
 
 /// Culls cell `cell` with vertex ids `ids` (indices into `pv`) or gathers

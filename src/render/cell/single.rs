@@ -139,35 +139,44 @@ pub trait OnePixelSink {
 
 impl OnePixelQueue {
     /// Queues the cell `cell` (order key `key`) with vertex ids `ids`,
-    /// positions `pos` and scalars `s` and the one pixel centre `pixel`;
-    /// results go to `sink` (in order, eight at a time with AVX2).
+    /// vertex slot `k`'s position and scalar `vertex(k)`, and the one pixel
+    /// centre `pixel`; results go to `sink` (in order, eight at a time with
+    /// AVX2). (The vertices are read where they are: gathered into arrays
+    /// first, they were stored and reloaded through the stack, which cost
+    /// more than the rest of the binning.)
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn push(
         &mut self,
         (cell, key): (u32, u32),
         ids: [u32; 4],
-        pos: &[[f32; 3]; 4],
-        s: &[f32; 4],
+        vertex: impl Fn(usize) -> ([f32; 3], f32),
         pixel: (u32, u32),
         tf: &PreparedTf,
         sink: &mut impl OnePixelSink,
     ) {
         if !self.simd {
-            sink.take(cell, key, pixel, one_pixel(ids, pos, s, pixel, tf));
+            let pos = std::array::from_fn(|k| vertex(k).0);
+            let s = std::array::from_fn(|k| vertex(k).1);
+            sink.take(cell, key, pixel, one_pixel(ids, &pos, &s, pixel, tf));
             return;
         }
         let l = self.lanes.n;
         let lanes = &mut self.lanes;
-        for k in 0..4 {
-            for (c, axis) in lanes.pos[k].iter_mut().enumerate() {
-                axis[l] = pos[k][c];
-            }
-            lanes.ids[k][l] = ids[k];
-            lanes.s[k][l] = s[k];
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for (k, &id) in ids.iter().enumerate() {
+            let (p, s) = vertex(k);
+            lanes.pos[k][0][l] = p[0];
+            lanes.pos[k][1][l] = p[1];
+            lanes.pos[k][2][l] = p[2];
+            lanes.ids[k][l] = id;
+            lanes.s[k][l] = s;
+            // As `setup_tet` folds them.
+            lo = lo.min(s);
+            hi = hi.max(s);
         }
-        lanes.s_min[l] = s.iter().cloned().fold(f32::INFINITY, f32::min);
-        lanes.s_max[l] = s.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
+        lanes.s_min[l] = lo;
+        lanes.s_max[l] = hi;
         lanes.x[l] = pixel.0 as f32 + 0.5;
         lanes.y[l] = pixel.1 as f32 + 0.5;
         self.meta[l] = (cell, key, pixel);
@@ -288,7 +297,7 @@ mod tests {
                     ids[3] = ids[1];
                 }
                 let key = 7 * k as u32;
-                queue.push((k as u32, key), ids, &p, &s, pixel, &tf, &mut got);
+                queue.push((k as u32, key), ids, |v| (p[v], s[v]), pixel, &tf, &mut got);
                 want.push((k as u32, key, pixel, one_pixel(ids, &p, &s, pixel, &tf)));
             }
             queue.finish(&tf, &mut got);
