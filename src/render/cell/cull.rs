@@ -88,7 +88,7 @@ impl VertexBounds {
             let [x, y] = pv.pixel(v);
             let mut bits = 0u8;
             bits |= BEHIND * u8::from(pv.pos[v][2] <= 0.0);
-            if x.is_nan() {
+            if x.is_nan() || y.is_nan() {
                 bits |= NO_PIXEL;
                 bounds.push([0; 4]);
             } else {

@@ -32,6 +32,7 @@ pub mod list;
 pub mod order;
 pub mod project;
 pub mod radix;
+pub mod record;
 pub mod scan;
 pub mod scan_box;
 pub mod setup;

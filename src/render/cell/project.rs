@@ -80,6 +80,19 @@ impl ProjectedVertices {
         }
     }
 
+    /// Orthographic vertices given in screen space (`pos`: pixel `x`, `y`
+    /// and depth), with scalars `s`, in a `size` image.
+    pub fn screen(pos: Vec<[f32; 3]>, s: Vec<f32>, size: (u32, u32)) -> ProjectedVertices {
+        ProjectedVertices {
+            perspective: false,
+            pos,
+            pixel: Vec::new(),
+            s,
+            size,
+            pixel_size: 1.0,
+        }
+    }
+
     /// Bytes the vertices hold.
     pub fn heap_bytes(&self) -> usize {
         self.pos.capacity() * 12 + self.pixel.capacity() * 8 + self.s.capacity() * 4
