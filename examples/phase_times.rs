@@ -43,7 +43,7 @@ fn main() -> anyhow::Result<()> {
                 32,
                 32,
                 cell::CellOrder::FrontToBack,
-                true,
+                cell::single::OnePixelMode::Hits,
             );
             let t2 = Instant::now();
             std::hint::black_box(&b);

@@ -60,7 +60,7 @@ fn main() -> anyhow::Result<()> {
         tile,
         tile,
         cell::CellOrder::FrontToBack,
-        true,
+        cell::single::OnePixelMode::Hits,
     );
     let mut cells = Vec::new();
     let mut times = vec![0.0f64; binning.tiles.len()];

@@ -6,8 +6,10 @@
 
 use std::path::Path;
 
+use pvrsim::render::cell::single::OnePixelMode;
 use pvrsim::render::cell::{
-    bin, project, scan_bin, CellOptions, CellOrder, ErtOptions, Integrator, PreparedTf,
+    bin, ert, project, scan_bin, CellOptions, CellOrder, ErtOptions, ErtSpan, ErtStructure,
+    Integrator, PreparedTf, TileResult,
 };
 use pvrsim::render::RenderInput;
 
@@ -29,7 +31,28 @@ struct Scanned {
     degenerate: u64,
 }
 
-fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: bool) -> (Scanned, u64) {
+fn bits(r: &TileResult) -> Vec<Vec<[u32; 6]>> {
+    r.lists
+        .lists()
+        .iter()
+        .map(|l| {
+            l.iter()
+                .map(|s| {
+                    [
+                        s.z_front.to_bits(),
+                        s.z_back.to_bits(),
+                        s.rgba.rgb[0].to_bits(),
+                        s.rgba.rgb[1].to_bits(),
+                        s.rgba.rgb[2].to_bits(),
+                        s.rgba.a.to_bits(),
+                    ]
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Scanned, u64) {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
@@ -57,26 +80,7 @@ fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: bool) -> (Scanned, u
         out.segments_generated += r.counts.segments_generated;
         out.segments_merged += r.counts.segments_merged;
         out.degenerate += r.degenerate;
-        out.lists.push(
-            r.lists
-                .lists()
-                .iter()
-                .map(|l| {
-                    l.iter()
-                        .map(|s| {
-                            [
-                                s.z_front.to_bits(),
-                                s.z_back.to_bits(),
-                                s.rgba.rgb[0].to_bits(),
-                                s.rgba.rgb[1].to_bits(),
-                                s.rgba.rgb[2].to_bits(),
-                                s.rgba.a.to_bits(),
-                            ]
-                        })
-                        .collect()
-                })
-                .collect(),
-        );
+        out.lists.push(bits(&r));
     }
     (out, binning.one_pixel_cells)
 }
@@ -111,8 +115,8 @@ fn one_pixel_segments_equal_scanned_cells() {
         for (w, h) in [(40, 30), (96, 80), (300, 300)] {
             let input = load(scene).with_size(w, h);
             for opts in &variants {
-                let (with, fast_cells) = scan(&input, opts, true);
-                let (without, none) = scan(&input, opts, false);
+                let (with, fast_cells) = scan(&input, opts, OnePixelMode::Hits);
+                let (without, none) = scan(&input, opts, OnePixelMode::Binned);
                 assert_eq!(none, 0);
                 // The smallest image makes most cells one-pixel ones.
                 if (w, h) == (40, 30) {
@@ -126,6 +130,129 @@ fn one_pixel_segments_equal_scanned_cells() {
                     with == without,
                     "{scene} {w}x{h} {opts:?}: one-pixel segments change the lists or counts"
                 );
+            }
+        }
+    }
+}
+
+/// What an ERT scan of a frame produced: lists, counters and ERT's own counts.
+#[derive(Debug, PartialEq)]
+struct ErtScanned {
+    scanned: Scanned,
+    updates: u64,
+    tests: u64,
+    skipped_whole: u64,
+    skipped_spanning: Vec<(u32, u32)>,
+}
+
+fn scan_ert(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (ErtScanned, u64) {
+    let view = input.scene.view();
+    let tf = PreparedTf::new(&input.scene.transfer);
+    let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
+    let dims = opts.ert.tile_dims(opts.tile_size, view.width, view.height);
+    let entry = opts.ert.entry_px(view.width, view.height);
+    let binning = bin::bin_cells_rect(
+        &input.mesh.tets,
+        &pv,
+        &tf,
+        dims.0,
+        dims.1,
+        opts.cell_order,
+        one_pixel,
+    );
+    let mut out = ErtScanned {
+        scanned: Scanned {
+            lists: Vec::new(),
+            pairs: binning.pairs(),
+            pixels_tested: 0,
+            segments_generated: 0,
+            segments_merged: 0,
+            degenerate: binning.one_pixel_degenerate,
+        },
+        updates: 0,
+        tests: 0,
+        skipped_whole: 0,
+        skipped_spanning: Vec::new(),
+    };
+    let mut buf = Vec::new();
+    for t in 0..binning.tiles.len() {
+        let cells = bin::BinCells::new(&binning, t, &pv, &mut buf);
+        let (r, e) = ert::scan_tile_ert(
+            None,
+            &tf,
+            opts,
+            binning.tiles[t],
+            cells,
+            binning.segs(t),
+            entry,
+            dims,
+        );
+        let s = &mut out.scanned;
+        s.pixels_tested += r.counts.pixels_tested;
+        s.segments_generated += r.counts.segments_generated;
+        s.segments_merged += r.counts.segments_merged;
+        s.degenerate += r.degenerate;
+        s.lists.push(bits(&r));
+        out.updates += e.updates;
+        out.tests += e.tests;
+        out.skipped_whole += e.skipped_whole;
+        out.skipped_spanning.extend(e.skipped_spanning);
+    }
+    (out, binning.one_pixel_cells)
+}
+
+/// With early ray termination the binning keeps every one-pixel cell (misses
+/// and flat ones marked), so ERT rebuilds, tests and skips exactly where it
+/// did with every cell binned: the same lists, counters and ERT counts.
+#[test]
+fn one_pixel_segments_keep_ert_bit_for_bit() {
+    let ert = |threshold, structure, span| ErtOptions {
+        threshold,
+        structure,
+        span,
+        update_c: 7,
+        ..ErtOptions::DEFAULT
+    };
+    let variants = [
+        ert(0.9, ErtStructure::Pyramid, ErtSpan::Multi),
+        ert(0.5, ErtStructure::Flat, ErtSpan::Single),
+        ert(0.7, ErtStructure::Flat, ErtSpan::Multi),
+    ];
+    for scene in ["aorta-small-view-a.toml", "aorta-small-view-b.toml"] {
+        for (w, h) in [(40, 30), (120, 100)] {
+            // Flat cells mixed in (every 40th tetrahedron again with its
+            // first vertex twice): ERT counts them, and scans them as
+            // degenerate where it does not skip them.
+            let plain = load(scene).with_size(w, h);
+            let mut mesh = (*plain.mesh).clone();
+            let flat: Vec<[u32; 4]> = mesh
+                .tets
+                .iter()
+                .step_by(40)
+                .map(|t| [t[0], t[1], t[2], t[0]])
+                .collect();
+            mesh.tets.extend(flat);
+            let input = RenderInput::new(plain.scene.clone(), std::sync::Arc::new(mesh))
+                .expect("the same field");
+            for e in variants {
+                for cell_order in [CellOrder::FrontToBack, CellOrder::Stored] {
+                    let opts = CellOptions {
+                        ert: e,
+                        cell_order,
+                        ..CellOptions::default()
+                    };
+                    let (with, fast_cells) = scan_ert(&input, &opts, OnePixelMode::All);
+                    let (without, _) = scan_ert(&input, &opts, OnePixelMode::Binned);
+                    if (w, h) == (40, 30) {
+                        assert!(fast_cells > 1000, "{scene}: {fast_cells} one-pixel cells");
+                        assert!(with.skipped_whole > 0, "{scene} {e:?}: ERT skipped nothing");
+                        assert!(with.scanned.degenerate > 0, "{scene}: no flat cell scanned");
+                    }
+                    assert!(
+                        with == without,
+                        "{scene} {w}x{h} {e:?} {cell_order:?}: one-pixel segments change ERT"
+                    );
+                }
             }
         }
     }

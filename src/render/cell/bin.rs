@@ -25,7 +25,7 @@ use super::project::ProjectedVertices;
 use super::radix;
 pub use super::record::{cell_record, near_key, order_key, BinEntry, CellRecord, Range16};
 use super::record::{near_of, record_of};
-use super::single::{OnePixel, OnePixelQueue, OnePixelSink, PixelSeg};
+use super::single::{OnePixel, OnePixelMode, OnePixelQueue, OnePixelSink, PixelSeg, FLAT, MISSED};
 use crate::base::Rect;
 
 /// Cells per binning task.
@@ -64,7 +64,7 @@ pub fn bin_cells(
     tile: u32,
     order: CellOrder,
 ) -> Binning {
-    bin_cells_rect(tets, pv, tf, tile, tile, order, false)
+    bin_cells_rect(tets, pv, tf, tile, tile, order, OnePixelMode::Binned)
 }
 
 /// A bin's storage, written by several binning tasks at disjoint slots.
@@ -93,7 +93,7 @@ pub fn bin_cells_rect(
     tw: u32,
     th: u32,
     order: CellOrder,
-    one_pixel_segments: bool,
+    one_pixel: OnePixelMode,
 ) -> Binning {
     let (w, h) = pv.size;
     let rects = tiles_rect(w, h, tw, th);
@@ -107,10 +107,14 @@ pub fn bin_cells_rect(
     let grid = TileGrid::new(tw, th, tiles_x);
     let vb = VertexBounds::new(pv);
     // Tile-local pixel indices of one-pixel segments are 16 bits.
-    let fast = one_pixel_segments
+    // Tile-local pixel indices of one-pixel segments are 16 bits, piece
+    // indices below the markers.
+    let fast = one_pixel != OnePixelMode::Binned
         && vb.is_some()
         && !pv.perspective
-        && u64::from(tw) * u64::from(th) <= 1 << 16;
+        && u64::from(tw) * u64::from(th) <= 1 << 16
+        && tf.piece_count() < usize::from(FLAT);
+    let keep_misses = one_pixel == OnePixelMode::All;
     let n_tiles = rects.len();
     let t0 = std::time::Instant::now();
     let parts: Vec<Part> = tets
@@ -123,6 +127,7 @@ pub fn bin_cells_rect(
                 bins: &mut part.segs,
                 grid: &grid,
                 rects: &rects,
+                keep_misses,
             };
             for (k, &ids) in chunk.iter().enumerate() {
                 let cell = (c * CHUNK + k) as u32;
@@ -253,32 +258,42 @@ struct SegSink<'a> {
     bins: &'a mut OnePixelBins,
     grid: &'a TileGrid,
     rects: &'a [Rect],
+    /// Bin misses and flat cells too, marked ([`OnePixelMode::All`]).
+    keep_misses: bool,
 }
 
 impl OnePixelSink for SegSink<'_> {
     #[inline(always)]
     fn take(&mut self, cell: u32, key: u32, (i, j): (u32, u32), found: OnePixel) {
         self.bins.cells += 1;
-        match found {
-            OnePixel::Degenerate => self.bins.degenerate += 1,
-            OnePixel::Miss => {}
-            OnePixel::Hit(seg) => {
-                let t = self.grid.tile_of(i, j);
-                let r = self.rects[t];
-                let idx = (j - r.y0) * r.width() + (i - r.x0);
-                let items = &mut self.bins.items;
-                items.counts[t] += 1;
-                items.items.push((
-                    t as u32,
-                    PixelSeg {
-                        key,
-                        cell,
-                        idx: idx as u16,
-                        ..seg
-                    },
-                ));
+        let marked = |piece| PixelSeg {
+            piece,
+            ..PixelSeg::default()
+        };
+        let seg = match found {
+            OnePixel::Hit(seg) => seg,
+            OnePixel::Miss if self.keep_misses => marked(MISSED),
+            OnePixel::Degenerate if self.keep_misses => marked(FLAT),
+            OnePixel::Miss => return,
+            OnePixel::Degenerate => {
+                self.bins.degenerate += 1;
+                return;
             }
-        }
+        };
+        let t = self.grid.tile_of(i, j);
+        let r = self.rects[t];
+        let idx = (j - r.y0) * r.width() + (i - r.x0);
+        let items = &mut self.bins.items;
+        items.counts[t] += 1;
+        items.items.push((
+            t as u32,
+            PixelSeg {
+                key,
+                cell,
+                idx: idx as u16,
+                ..seg
+            },
+        ));
     }
 }
 
@@ -414,6 +429,8 @@ pub trait TileCells {
     }
     /// The records of cells `range` (indices into the tile's order).
     fn run(&mut self, range: std::ops::Range<usize>) -> &[CellRecord];
+    /// The front-to-back order key ([`order_key`]) of cell `i`.
+    fn order_key(&self, i: usize) -> u64;
 }
 
 impl TileCells for &[CellRecord] {
@@ -422,6 +439,9 @@ impl TileCells for &[CellRecord] {
     }
     fn run(&mut self, range: std::ops::Range<usize>) -> &[CellRecord] {
         &self[range]
+    }
+    fn order_key(&self, i: usize) -> u64 {
+        self[i].order_key()
     }
 }
 
@@ -458,6 +478,10 @@ impl TileCells for BinCells<'_> {
         self.buf
             .extend(self.entries[range].iter().map(|e| record_of(e, self.pv)));
         self.buf
+    }
+    fn order_key(&self, i: usize) -> u64 {
+        let e = &self.entries[i];
+        (e.key as u64) << 32 | e.cell as u64
     }
 }
 

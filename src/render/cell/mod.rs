@@ -282,9 +282,15 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
         tile_dims.0,
         tile_dims.1,
         opts.cell_order,
-        // ERT tests cells between rebuilds counted in cells, and the
-        // oracle replays the bins: both need every cell binned.
-        !ert_on && !opts.oracle,
+        // ERT counts cells between rebuilds: it needs the misses too. The
+        // oracle replays the bins' records.
+        if opts.oracle {
+            single::OnePixelMode::Binned
+        } else if ert_on {
+            single::OnePixelMode::All
+        } else {
+            single::OnePixelMode::Hits
+        },
     );
     let t1 = Instant::now();
     crate::base::cancel::checkpoint();
@@ -306,7 +312,9 @@ pub fn scan_frame(input: &RenderInput, opts: &CellOptions) -> Frame {
             if ert_on {
                 let rect = binning.tiles[t];
                 let cells = bin::BinCells::new(&binning, t, &pv, buf);
-                let (r, e) = ert::scan_tile_ert(persp, &tf, opts, rect, cells, entry_px, tile_dims);
+                let segs = binning.segs(t);
+                let (r, e) =
+                    ert::scan_tile_ert(persp, &tf, opts, rect, cells, segs, entry_px, tile_dims);
                 (t, r, Some(e))
             } else {
                 (t, scan_bin(&binning, t, &pv, &tf, opts, buf), None)

@@ -23,6 +23,7 @@ use super::scan::ortho_segment;
 use super::setup::setup_tet;
 use super::single_x8::Lanes;
 use super::target::simd_available;
+use crate::base::Rect;
 
 /// The finished ray segment of a cell with one pixel centre, in its tile's
 /// bin (28 bytes).
@@ -50,11 +51,33 @@ pub struct PixelSeg {
 
 const _: () = assert!(std::mem::size_of::<PixelSeg>() == 28);
 
+/// [`PixelSeg::piece`] of a cell that missed its pixel centre, binned only
+/// for early ray termination (which counts every cell between rebuilds).
+pub const MISSED: u16 = u16::MAX - 1;
+/// [`PixelSeg::piece`] of a cell without volume, binned likewise (counted as
+/// degenerate where it is not skipped).
+pub const FLAT: u16 = u16::MAX - 2;
+
 impl PixelSeg {
     /// Front-to-back order: [`super::bin::order_key`] of its cell.
     #[inline(always)]
     pub fn order_key(&self) -> u64 {
         (self.key as u64) << 32 | self.cell as u64
+    }
+
+    /// The cell's pixel range (one pixel, whole image) in tile `rect`, and its
+    /// nearest depth (the key's depth, bit for bit), for the ERT tests.
+    #[inline(always)]
+    pub fn range_near(&self, rect: Rect) -> ([u32; 4], f32) {
+        let w = rect.width();
+        let (i, j) = (
+            rect.x0 + u32::from(self.idx) % w,
+            rect.y0 + u32::from(self.idx) / w,
+        );
+        // Inverse of `near_key`.
+        let k = self.key;
+        let near = f32::from_bits(if k >> 31 == 1 { k & 0x7fff_ffff } else { !k });
+        ([i, i, j, j], near)
     }
 
     /// `[z_in, z_out, s_in, s_out, length]` as the scan emits it
@@ -69,6 +92,18 @@ impl PixelSeg {
             self.z_out - self.z_in,
         ]
     }
+}
+
+/// What the binning does with cells that hold one pixel centre.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnePixelMode {
+    /// Bins them as any other cell (the scan sets them up).
+    Binned,
+    /// Sets them up and bins the hits as segments; misses are dropped.
+    Hits,
+    /// Sets them up and bins every one as a segment, misses and flat cells
+    /// marked ([`MISSED`], [`FLAT`]): early ray termination counts cells.
+    All,
 }
 
 /// What [`one_pixel`] found.

@@ -11,8 +11,10 @@ use crate::base::Rect;
 use crate::render::cell::bin::{CellRecord, TileCells, RUN};
 use crate::render::cell::integrate::PreparedTf;
 use crate::render::cell::list::SegmentLists;
+use crate::render::cell::order::CellOrder;
 use crate::render::cell::project::PerspRays;
 use crate::render::cell::scan::{ScanCounts, ScanTarget};
+use crate::render::cell::single::{PixelSeg, FLAT, MISSED};
 use crate::render::cell::{scan_cell, CellOptions, TileResult};
 
 /// What ERT did in one tile.
@@ -58,7 +60,14 @@ impl Structure {
     /// Whether cell `c` can be skipped in tile `rect`.
     #[inline]
     fn skip(&self, c: &CellRecord, rect: Rect) -> bool {
-        let [i0, i1, j0, j1] = c.range;
+        self.skip_range(c.range, c.near, rect)
+    }
+
+    /// Whether a cell with pixel range `range` (inclusive, whole image) and
+    /// nearest depth `near` can be skipped in tile `rect`.
+    #[inline]
+    fn skip_range(&self, range: [u32; 4], near: f32, rect: Rect) -> bool {
+        let [i0, i1, j0, j1] = range;
         let local = [
             i0.max(rect.x0) - rect.x0,
             i1.min(rect.x1 - 1) - rect.x0,
@@ -70,10 +79,51 @@ impl Structure {
                 // The whole projection must fit one entry; entries never straddle
                 // tiles, so a cell leaving the tile spans several.
                 let inside = rect.x0 <= i0 && i1 < rect.x1 && rect.y0 <= j0 && j1 < rect.y1;
-                inside && t.skip_single(local, c.near)
+                inside && t.skip_single(local, near)
             }
-            Structure::Flat(t, ErtSpan::Multi) => t.skip_multi(local, c.near),
-            Structure::Pyramid(p) => p.skip(local, c.near),
+            Structure::Flat(t, ErtSpan::Multi) => t.skip_multi(local, near),
+            Structure::Pyramid(p) => p.skip(local, near),
+        }
+    }
+}
+
+/// Counts cell `cell` with pixel range `range`, skipped in this tile.
+#[inline]
+fn note_skipped(stats: &mut ErtTileStats, cell: u32, range: [u32; 4], tile: (u32, u32)) {
+    let [i0, i1, j0, j1] = range;
+    let tiles = (i1 / tile.0 - i0 / tile.0 + 1) * (j1 / tile.1 - j0 / tile.1 + 1);
+    if tiles == 1 {
+        stats.skipped_whole += 1;
+    } else {
+        stats.skipped_spanning.push((cell, tiles));
+    }
+}
+
+/// A tile's scan order when some of its cells came from the binning as
+/// one-pixel segments ([`PixelSeg`]): item `k < SEG` is the tile's `k`-th
+/// binned cell, `SEG | k` its `k`-th segment.
+const SEG: u32 = 1 << 31;
+
+/// The merge of the tile's binned cells (keys `cell_key(i)`) and its
+/// segments by the cell order's key (`key` masks it).
+fn merge_order(
+    n_cells: usize,
+    cell_key: impl Fn(usize) -> u64,
+    segs: &[PixelSeg],
+    key: fn(u64) -> u64,
+    out: &mut Vec<u32>,
+) {
+    out.clear();
+    let (mut c, mut s) = (0, 0);
+    while c < n_cells || s < segs.len() {
+        let take_cell =
+            s == segs.len() || (c < n_cells && key(cell_key(c)) < key(segs[s].order_key()));
+        if take_cell {
+            out.push(c as u32);
+            c += 1;
+        } else {
+            out.push(SEG | s as u32);
+            s += 1;
         }
     }
 }
@@ -89,12 +139,14 @@ impl Structure {
 /// structure is neither rebuilt nor are the tests timed. Every skip decision
 /// is the one the full test would make, so the image is the same bit for bit. `entry` is the entry (or level-0 block) size in pixels,
 /// `tile` the nominal tile size (for counting cells that span tiles).
+#[allow(clippy::too_many_arguments)]
 pub fn scan_tile_ert(
     perspective: Option<PerspRays>,
     tf: &PreparedTf,
     opts: &CellOptions,
     rect: Rect,
     mut cells: impl TileCells,
+    segs: &[PixelSeg],
     entry: (u32, u32),
     tile: (u32, u32),
 ) -> (TileResult, ErtTileStats) {
@@ -122,10 +174,20 @@ pub fn scan_tile_ert(
             f32::NEG_INFINITY
         }
     };
-    for (b, range) in schedule::batches(cells.len(), ert.update_c)
-        .into_iter()
-        .enumerate()
-    {
+    // With one-pixel segments from the binning (each cell of the tile, hit,
+    // missed or flat, is one of them or a binned cell), the scan order is
+    // the merge of both; batches count cells either way, so ERT rebuilds and
+    // tests where it did with every cell binned.
+    let mut order = Vec::new();
+    if !segs.is_empty() {
+        let key: fn(u64) -> u64 = match opts.cell_order {
+            CellOrder::FrontToBack => |k| k,
+            CellOrder::Stored => |k| k & u64::from(u32::MAX),
+        };
+        merge_order(cells.len(), |i| cells.order_key(i), segs, key, &mut order);
+    }
+    let n = cells.len() + segs.len();
+    for (b, range) in schedule::batches(n, ert.update_c).into_iter().enumerate() {
         let mut gate_now = None;
         if b > 0 {
             let t0 = (gate(min_depth) < f32::INFINITY).then(Instant::now);
@@ -161,7 +223,66 @@ pub fn scan_tile_ert(
         // batch, so testing each run before scanning it decides as testing
         // the whole batch first would.
         for start in range.clone().step_by(RUN) {
-            let batch = cells.run(start..(start + RUN).min(range.end));
+            let end = (start + RUN).min(range.end);
+            if !order.is_empty() {
+                let items = &order[start..end];
+                // The binned cells among the items are consecutive ones.
+                let n_cells = items.iter().filter(|&&it| it & SEG == 0).count();
+                let recs = match items.iter().find(|&&it| it & SEG == 0) {
+                    Some(&first) => cells.run(first as usize..first as usize + n_cells),
+                    None => &[],
+                };
+                let seg_of = |it: u32| &segs[(it & !SEG) as usize];
+                skip.clear();
+                if let Some(gate) = gate_now {
+                    let t1 = Instant::now();
+                    let mut tested = 0u64;
+                    let mut r = 0;
+                    skip.extend(items.iter().map(|&it| {
+                        let (range, near) = if it & SEG == 0 {
+                            r += 1;
+                            (recs[r - 1].range, recs[r - 1].near)
+                        } else {
+                            seg_of(it).range_near(rect)
+                        };
+                        near > gate && {
+                            tested += 1;
+                            st.skip_range(range, near, rect)
+                        }
+                    }));
+                    stats.tests_s += t1.elapsed().as_secs_f64();
+                    stats.tests += tested;
+                }
+                let mut r = 0;
+                for (k, &it) in items.iter().enumerate() {
+                    let skipped = skip.get(k) == Some(&true);
+                    if it & SEG == 0 {
+                        let c = &recs[r];
+                        r += 1;
+                        if skipped {
+                            note_skipped(&mut stats, c.cell, c.range, tile);
+                        } else {
+                            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
+                        }
+                        continue;
+                    }
+                    let sg = seg_of(it);
+                    if skipped {
+                        stats.skipped_whole += 1;
+                        continue;
+                    }
+                    match sg.piece {
+                        MISSED => {}
+                        FLAT => degenerate += 1,
+                        piece => {
+                            target.counts.pixels_tested += 1;
+                            target.emit_local(u32::from(sg.idx), sg.emitted(), piece);
+                        }
+                    }
+                }
+                continue;
+            }
+            let batch = cells.run(start..end);
             skip.clear();
             if let Some(gate) = gate_now {
                 let t1 = Instant::now();
@@ -177,13 +298,7 @@ pub fn scan_tile_ert(
             }
             for (k, c) in batch.iter().enumerate() {
                 if skip.get(k) == Some(&true) {
-                    let [i0, i1, j0, j1] = c.range;
-                    let tiles = (i1 / tile.0 - i0 / tile.0 + 1) * (j1 / tile.1 - j0 / tile.1 + 1);
-                    if tiles == 1 {
-                        stats.skipped_whole += 1;
-                    } else {
-                        stats.skipped_spanning.push((c.cell, tiles));
-                    }
+                    note_skipped(&mut stats, c.cell, c.range, tile);
                     continue;
                 }
                 degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);

@@ -219,6 +219,11 @@ impl PreparedTf {
         )
     }
 
+    /// How many pieces (so a piece index is below it).
+    pub fn piece_count(&self) -> usize {
+        self.pieces.len()
+    }
+
     /// The piece holding the whole scalar interval `[lo, hi]`, if one does
     /// (then no segment with scalars in it crosses a control point).
     pub fn single_piece(&self, lo: f32, hi: f32) -> u16 {
