@@ -6,6 +6,7 @@
 
 use std::path::Path;
 
+use pvrsim::base::Segment;
 use pvrsim::render::cell::single::OnePixelMode;
 use pvrsim::render::cell::{
     bin, ert, project, scan_bin, CellOptions, CellOrder, ErtOptions, ErtSpan, ErtStructure,
@@ -31,25 +32,21 @@ struct Scanned {
     degenerate: u64,
 }
 
-fn bits(r: &TileResult) -> Vec<Vec<[u32; 6]>> {
-    r.lists
-        .lists()
-        .iter()
-        .map(|l| {
-            l.iter()
-                .map(|s| {
-                    [
-                        s.z_front.to_bits(),
-                        s.z_back.to_bits(),
-                        s.rgba.rgb[0].to_bits(),
-                        s.rgba.rgb[1].to_bits(),
-                        s.rgba.rgb[2].to_bits(),
-                        s.rgba.a.to_bits(),
-                    ]
-                })
-                .collect()
-        })
-        .collect()
+impl Scanned {
+    /// Adds a tile's lists and counters.
+    fn add(&mut self, r: &TileResult) {
+        self.pixels_tested += r.counts.pixels_tested;
+        self.segments_generated += r.counts.segments_generated;
+        self.segments_merged += r.counts.segments_merged;
+        self.degenerate += r.degenerate;
+        self.lists.push(
+            r.lists
+                .lists()
+                .iter()
+                .map(|l| l.iter().map(Segment::bits).collect())
+                .collect(),
+        );
+    }
 }
 
 fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Scanned, u64) {
@@ -75,12 +72,7 @@ fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Sc
     };
     let mut buf = Vec::new();
     for t in 0..binning.tiles.len() {
-        let r = scan_bin(&binning, t, &pv, &tf, opts, &mut buf);
-        out.pixels_tested += r.counts.pixels_tested;
-        out.segments_generated += r.counts.segments_generated;
-        out.segments_merged += r.counts.segments_merged;
-        out.degenerate += r.degenerate;
-        out.lists.push(bits(&r));
+        out.add(&scan_bin(&binning, t, &pv, &tf, opts, &mut buf));
     }
     (out, binning.one_pixel_cells)
 }
@@ -187,12 +179,7 @@ fn scan_ert(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) ->
             entry,
             dims,
         );
-        let s = &mut out.scanned;
-        s.pixels_tested += r.counts.pixels_tested;
-        s.segments_generated += r.counts.segments_generated;
-        s.segments_merged += r.counts.segments_merged;
-        s.degenerate += r.degenerate;
-        s.lists.push(bits(&r));
+        out.scanned.add(&r);
         out.updates += e.updates;
         out.tests += e.tests;
         out.skipped_whole += e.skipped_whole;

@@ -49,6 +49,19 @@ pub struct Segment {
 }
 
 impl Segment {
+    /// Its six floats' bits (`z_front`, `z_back`, r, g, b, a): what tests
+    /// compare when they require the same segment bit for bit.
+    pub fn bits(&self) -> [u32; 6] {
+        [
+            self.z_front.to_bits(),
+            self.z_back.to_bits(),
+            self.rgba.rgb[0].to_bits(),
+            self.rgba.rgb[1].to_bits(),
+            self.rgba.rgb[2].to_bits(),
+            self.rgba.a.to_bits(),
+        ]
+    }
+
     /// `self` in front of `back`, covering both depth ranges (used when they touch).
     #[inline(always)]
     pub fn merged_with(self, back: Segment) -> Segment {

@@ -402,20 +402,7 @@ mod tests {
 
     fn bits(l: &[Vec<Segment>]) -> Vec<Vec<[u32; 6]>> {
         l.iter()
-            .map(|v| {
-                v.iter()
-                    .map(|s| {
-                        [
-                            s.z_front.to_bits(),
-                            s.z_back.to_bits(),
-                            s.rgba.rgb[0].to_bits(),
-                            s.rgba.rgb[1].to_bits(),
-                            s.rgba.rgb[2].to_bits(),
-                            s.rgba.a.to_bits(),
-                        ]
-                    })
-                    .collect()
-            })
+            .map(|v| v.iter().map(Segment::bits).collect())
             .collect()
     }
 

@@ -5,18 +5,20 @@
 //! centre in their bounding box hold exactly one, and half of those miss
 //! it. Binning such a cell as a [`BinEntry`](super::bin::BinEntry), sorting
 //! it, and gathering its vertices again in depth order to find that out
-//! costs more than the answer. So in orthographic frames without early ray
-//! termination the binning pass, which has the cell's vertices in hand,
-//! sets the cell up and tests its one pixel at once ([`one_pixel`]): a miss
-//! is dropped, a hit is binned as its finished ray segment ([`PixelSeg`]).
+//! costs more than the answer. So in orthographic frames the binning pass,
+//! which has the cell's vertices in hand, sets the cell up and tests its one
+//! pixel at once ([`one_pixel`], eight at a time with AVX2): a hit is binned
+//! as its finished ray segment ([`PixelSeg`]), a miss dropped.
 //! The scan merges each tile's segments with its other cells by the same
 //! `(nearest depth, cell id)` order ([`PixelSeg::order_key`]), so every
 //! list receives the same segments in the same order as before and the
 //! image is the same bit for bit.
 //!
 //! Early ray termination tests cells between rebuilds of its table, counted
-//! in cells, so it keeps every cell binned; perspective frames count every
-//! pixel tested, covered or not, so they keep theirs too.
+//! in cells: with it the misses and flat cells are binned too, marked
+//! ([`MISSED`], [`FLAT`]; [`OnePixelMode::All`]), so that it rebuilds, tests
+//! and skips where it did with every cell binned. Perspective frames count
+//! every pixel tested, covered or not, so they bin their cells as before.
 
 use super::integrate::PreparedTf;
 use super::scan::ortho_segment;
