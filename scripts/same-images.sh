@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Bit-identity check of two pvrsim binaries: renders the same scenes and
-# options with both and compares the PNGs byte for byte (`cmp`). Exit 1 if
+# options (ERT off and on: thresholds, structures, spans, update rates)
+# with both and compares the PNGs byte for byte (`cmp`). Exit 1 if
 # any differ or fail. DATA is the shared data folder (the aorta scenes);
 # BIG, if given, a large scene (e.g. the 20 M demo) rendered on 2 threads.
 # Usage: scripts/same-images.sh BIN_A BIN_B [DATA] [BIG]
@@ -36,6 +37,15 @@ $W/persp-b.toml|--threads 1 --ert 1
 $W/persp-b.toml|--threads 2
 $W/big-b.toml|--threads 2 --ert 1
 tests/data/spx.toml|--threads 1 --ert 1
+$DATA/aorta-view-a.toml|--threads 1
+$DATA/aorta-view-a.toml|--threads 1 --ert 0.5 --ert-structure flat
+$DATA/aorta-view-a.toml|--threads 1 --ert 0.999 --integrator midpoint
+$DATA/aorta-view-b.toml|--threads 2 --ert 0.9 --canonical
+$DATA/aorta-view-b.toml|--threads 1 --ert 0.95 --no-partial-composition
+$DATA/aorta-view-b.toml|--threads 1 --ert 0.9 --tile 7 --ert-update 10
+$DATA/aorta-view-b.toml|--threads 1 --ert 0.8 --ert-structure flat --ert-span single
+$W/persp-b.toml|--threads 2 --ert 0.9
+tests/data/spx.toml|--threads 1 --ert 0.9
 ${BIG:+$BIG|--threads 2 --ert 1}
 LIST
 exit $fail

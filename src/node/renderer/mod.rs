@@ -81,11 +81,11 @@ use crate::base::Rect;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
-use crate::render::cell::integrate::Batch;
+
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::project::{PerspRays, ProjectedVertices};
 use crate::render::cell::{scan_cell, CellOrder, Integrator, PreparedTf};
-use crate::render::cell::{ScanCounts, ScanTarget};
+use crate::render::cell::{Pending, ScanCounts, ScanTarget};
 use crate::scene::View;
 
 /// Early ray termination on a node.
@@ -231,7 +231,7 @@ pub struct NodeRenderer {
     /// Release ordering ([`crate::node::release`]), if on.
     release: Option<release::Release>,
     /// The integration batch every step's scan target uses.
-    batch: Box<Batch>,
+    batch: Box<Pending>,
 }
 
 impl NodeRenderer {

@@ -7,6 +7,7 @@
 //! light (over is associative), keeps lists short, and a merged segment's alpha
 //! only grows — which is what early ray termination feeds on.
 
+use super::watch::TerminationWatch;
 use crate::base::segment::{touches, Rgba, Segment};
 
 /// The ray-segment lists of a rectangle of pixels (a screen tile).
@@ -23,6 +24,9 @@ pub struct SegmentLists {
     changed_flag: Vec<bool>,
     /// The changed pixels, each once.
     changed: Vec<u32>,
+    /// With [`SegmentLists::track_terminations`]: which changes to record
+    /// (else every one).
+    watch: Option<TerminationWatch>,
 }
 
 /// What one insertion did.
@@ -55,6 +59,16 @@ impl SegmentLists {
         self.changed_flag = vec![false; self.lists.len()];
     }
 
+    /// From now on, record only the changes of lists that can have reached
+    /// `threshold` (below 1), as the ERT scan's drain needs them: see
+    /// [`TerminationWatch`]. Lists far from terminating are neither
+    /// listed nor walked, and the depths drained are the same as with
+    /// [`SegmentLists::track_changes`].
+    pub fn track_terminations(&mut self, threshold: f32) {
+        self.track_changes();
+        self.watch = Some(TerminationWatch::new(self.lists.len(), threshold));
+    }
+
     /// Calls `f(idx, list)` for every pixel whose list changed since the last
     /// call (or since tracking began), then forgets them.
     pub fn drain_changed(&mut self, mut f: impl FnMut(usize, &[Segment])) {
@@ -66,11 +80,44 @@ impl SegmentLists {
         self.changed.clear();
     }
 
+    /// After inserting a segment of opacity `alpha` into pixel `idx`:
+    /// records the change (see [`SegmentLists::track_terminations`]).
     #[inline(always)]
-    fn note_change(&mut self, idx: usize) {
-        if !self.changed_flag[idx] {
+    fn noted(&mut self, idx: usize, alpha: f32) {
+        let record = match &mut self.watch {
+            _ if !self.track => false,
+            Some(w) => w.inserted(idx, alpha),
+            None => true,
+        };
+        if record && !self.changed_flag[idx] {
             self.changed_flag[idx] = true;
             self.changed.push(idx as u32);
+        }
+    }
+
+    /// Whether inserting the queued segments of pixels `idx`, `len[l]`
+    /// world units long, of optical depth at most `depth(len[l])`, may
+    /// record a change, or changes wait to be drained: if not, they can
+    /// stay queued past the next drain. Always true unless tracking
+    /// terminations; see [`TerminationWatch::may_record`].
+    pub fn may_record(
+        &mut self,
+        idx: &[u32],
+        len: &[f32],
+        depth: impl Fn(f32) -> f32,
+        queued_max: usize,
+    ) -> bool {
+        match &mut self.watch {
+            Some(w) if self.changed.is_empty() => w.may_record(idx, len, depth, queued_max),
+            _ => true,
+        }
+    }
+
+    /// Forgets what [`SegmentLists::may_record`] summed for the queued
+    /// segments of pixels `idx` (being inserted).
+    pub fn forget_queued(&mut self, idx: &[u32]) {
+        if let Some(w) = &mut self.watch {
+            w.forget_queued(idx);
         }
     }
 
@@ -89,10 +136,9 @@ impl SegmentLists {
     /// neighbours when `partial` is on.
     #[inline]
     pub fn insert(&mut self, idx: usize, seg: Segment, partial: bool) -> Inserted {
-        if self.track {
-            self.note_change(idx);
-        }
-        insert_sorted(&mut self.lists[idx], seg, partial)
+        let done = insert_sorted(&mut self.lists[idx], seg, partial);
+        self.noted(idx, seg.rgba.a);
+        done
     }
 
     /// Inserts the segments `(idx[l], z_front[l], z_back[l], rgba(l))` in
@@ -109,37 +155,34 @@ impl SegmentLists {
         z_back: &[f32],
         rgba: impl Fn(usize) -> Rgba,
     ) -> u64 {
-        let mut merged = 0;
-        for (l, ((&i, &zf), &zb)) in idx.iter().zip(z_front).zip(z_back).enumerate() {
-            let i = i as usize;
-            if self.track {
-                self.note_change(i);
+        let Self {
+            lists,
+            track,
+            changed_flag,
+            changed,
+            watch,
+            ..
+        } = self;
+        let mut record = |i: usize| {
+            if !changed_flag[i] {
+                changed_flag[i] = true;
+                changed.push(i as u32);
             }
-            let seg = Segment {
-                z_front: zf,
-                z_back: zb,
-                rgba: rgba(l),
-            };
-            let list = &mut self.lists[i];
-            match list.last_mut() {
-                Some(last) if last.z_front <= zf => {
-                    if touches(last.z_back, zf) {
-                        *last = last.merged_with(seg);
-                        merged += 1;
-                    } else {
-                        list.push(seg);
+        };
+        // One loop for each way of recording, so none decides per segment.
+        let run = (idx, z_front, z_back);
+        match (*track, watch) {
+            (false, _) => partial_run(lists, run, rgba, |_, _| {}),
+            (true, None) => partial_run(lists, run, rgba, |i, _| record(i)),
+            (true, Some(w)) => {
+                let mut w = w.recorder();
+                partial_run(lists, run, rgba, |i, a| {
+                    if w.inserted(i, a) {
+                        record(i)
                     }
-                }
-                _ => {
-                    merged += match insert_sorted(list, seg, true) {
-                        Inserted::New => 0,
-                        Inserted::Merged => 1,
-                        Inserted::MergedBoth => 2,
-                    }
-                }
+                })
             }
         }
-        merged
     }
 
     /// Inserts `seg` into the list of local pixel `idx` in canonical form
@@ -147,11 +190,50 @@ impl SegmentLists {
     /// composition removed.
     #[inline]
     pub fn insert_canonical(&mut self, idx: usize, seg: Segment, partial: bool) -> usize {
-        if self.track {
-            self.note_change(idx);
-        }
-        crate::base::canonical::insert(&mut self.lists[idx], seg, partial)
+        let removed = crate::base::canonical::insert(&mut self.lists[idx], seg, partial);
+        self.noted(idx, seg.rgba.a);
+        removed
     }
+}
+
+/// [`SegmentLists::insert_partial_run`] into `lists`, calling
+/// `after(pixel, alpha)` after each segment.
+#[inline(always)]
+fn partial_run(
+    lists: &mut [Vec<Segment>],
+    (idx, z_front, z_back): (&[u32], &[f32], &[f32]),
+    rgba: impl Fn(usize) -> Rgba,
+    mut after: impl FnMut(usize, f32),
+) -> u64 {
+    let mut merged = 0;
+    for (l, ((&i, &zf), &zb)) in idx.iter().zip(z_front).zip(z_back).enumerate() {
+        let i = i as usize;
+        let seg = Segment {
+            z_front: zf,
+            z_back: zb,
+            rgba: rgba(l),
+        };
+        let list = &mut lists[i];
+        match list.last_mut() {
+            Some(last) if last.z_front <= zf => {
+                if touches(last.z_back, zf) {
+                    *last = last.merged_with(seg);
+                    merged += 1;
+                } else {
+                    list.push(seg);
+                }
+            }
+            _ => {
+                merged += match insert_sorted(list, seg, true) {
+                    Inserted::New => 0,
+                    Inserted::Merged => 1,
+                    Inserted::MergedBoth => 2,
+                }
+            }
+        }
+        after(i, seg.rgba.a);
+    }
+    merged
 }
 
 /// Inserts `seg` into `list` (sorted by `z_front`), with partial composition if `partial`.

@@ -40,6 +40,7 @@ pub mod single;
 pub mod single_x8;
 pub mod sizes;
 pub mod target;
+pub mod watch;
 
 use std::time::Instant;
 
@@ -52,7 +53,7 @@ pub use order::CellOrder;
 
 use crate::image::Image;
 use crate::render::RenderInput;
-pub use scan::{ScanCounts, ScanTarget};
+pub use scan::{Pending, ScanCounts, ScanTarget};
 
 /// Options of the cell-projection renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -505,7 +506,7 @@ fn scan_cells(
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
-    let mut batch = integrate::Batch::default();
+    let mut batch = scan::Pending::default();
     {
         let mut target = ScanTarget::new(
             &mut lists,

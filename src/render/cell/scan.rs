@@ -13,7 +13,7 @@
 use super::fastmath::{ceil_i, fclamp, floor_i, fmax, fmin};
 use super::project::PerspRays;
 use super::setup::TetSetup;
-pub use super::target::{ScanCounts, ScanTarget};
+pub use super::target::{Pending, ScanCounts, ScanTarget};
 use crate::base::Rect;
 
 /// Pixel range `[i0, i1] x [j0, j1]` (inclusive) whose centres lie in the
@@ -374,7 +374,7 @@ mod tests {
         ));
         let mut lists = SegmentLists::new(tile.width(), tile.height());
         let mut counts = ScanCounts::default();
-        let mut batch = crate::render::cell::integrate::Batch::default();
+        let mut batch = crate::render::cell::scan::Pending::default();
         let mut t = ScanTarget::new(
             &mut lists,
             tile,

@@ -107,7 +107,7 @@ pub unsafe fn scan_box_avx2(
     let mut covered = 0u64;
     let mut start = 0;
     // Each chunk stores eight lanes at `batch.n`: keep room for them.
-    if out.batch.n > BATCH - 8 {
+    if out.pending.lanes.n > BATCH - 8 {
         out.flush();
     }
     while start < total {
@@ -166,22 +166,22 @@ pub unsafe fn scan_box_avx2(
         );
         let perm = _mm256_loadu_si256(COMPRESS[m].as_ptr() as *const __m256i);
         let pack = |v: __m256| _mm256_permutevar8x32_ps(v, perm);
-        let n = out.batch.n;
+        let n = out.pending.lanes.n;
         // n <= BATCH - 8: the batch is flushed below before it gets closer.
-        let b = &mut out.batch;
+        let b = &mut out.pending.lanes;
         _mm256_storeu_ps(b.s_in.as_mut_ptr().add(n), pack(s_in));
         _mm256_storeu_ps(b.s_out.as_mut_ptr().add(n), pack(s_out));
         _mm256_storeu_ps(b.len.as_mut_ptr().add(n), pack(len));
         _mm_storeu_si128(b.piece_hint.as_mut_ptr().add(n) as *mut __m128i, hint);
-        _mm256_storeu_ps(out.pend_zf.as_mut_ptr().add(n), pack(z_in));
-        _mm256_storeu_ps(out.pend_zb.as_mut_ptr().add(n), pack(z_out));
+        _mm256_storeu_ps(out.pending.z_front.as_mut_ptr().add(n), pack(z_in));
+        _mm256_storeu_ps(out.pending.z_back.as_mut_ptr().add(n), pack(z_out));
         _mm256_storeu_si256(
-            out.pend_idx.as_mut_ptr().add(n) as *mut __m256i,
+            out.pending.idx.as_mut_ptr().add(n) as *mut __m256i,
             _mm256_permutevar8x32_epi32(idx, perm),
         );
         let c = m.count_ones() as usize;
         covered += c as u64;
-        out.batch.n = n + c;
+        out.pending.lanes.n = n + c;
         if n + c > BATCH - 8 {
             out.flush();
         }

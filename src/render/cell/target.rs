@@ -33,6 +33,38 @@ impl ScanCounts {
     }
 }
 
+/// Segments queued for integration and insertion: the integration lanes
+/// and each segment's pixel and depths. The caller's, kept from one
+/// [`ScanTarget`] to the next: about 6 KB of lanes plus vectors that grow
+/// to their size once, which a target per ERT update batch or per node
+/// step would otherwise clear and grow anew each time.
+#[derive(Debug, Clone)]
+pub struct Pending {
+    /// The integration lanes (`lanes.n` segments queued).
+    pub lanes: Batch,
+    /// Each queued segment's local pixel index.
+    pub idx: [u32; BATCH],
+    /// Its `z_front`.
+    pub z_front: [f32; BATCH],
+    /// Its `z_back`.
+    pub z_back: [f32; BATCH],
+    /// How many of them [`ScanTarget::settle`] passed to
+    /// [`SegmentLists::may_record`] (kept queued).
+    pub passed: usize,
+}
+
+impl Default for Pending {
+    fn default() -> Self {
+        Pending {
+            lanes: Batch::default(),
+            idx: [0; BATCH],
+            z_front: [0.0; BATCH],
+            z_back: [0.0; BATCH],
+            passed: 0,
+        }
+    }
+}
+
 /// Everything a scan needs besides the tet.
 pub struct ScanTarget<'a> {
     /// The tile's lists.
@@ -50,17 +82,9 @@ pub struct ScanTarget<'a> {
     pub canonical: bool,
     /// Counters.
     pub counts: &'a mut ScanCounts,
-    /// Segments waiting to be integrated: the caller's buffers, kept from
-    /// one target to the next (a batch is a few KB of lanes plus vectors
-    /// that grow to their size once; a target per ERT update batch or per
-    /// node step built and grew them anew each time).
-    pub batch: &'a mut Batch,
-    /// Their local pixel index.
-    pub pend_idx: [u32; BATCH],
-    /// Their `z_front`.
-    pub pend_zf: [f32; BATCH],
-    /// Their `z_back`.
-    pub pend_zb: [f32; BATCH],
+    /// Segments waiting to be integrated and inserted: the caller's
+    /// buffers, kept from one target to the next (see [`Pending`]).
+    pub pending: &'a mut Pending,
     /// Whether the CPU runs the vectorised box scan ([`super::scan_box`]).
     pub simd: bool,
     /// The transfer-function piece of the cell being scanned when its whole
@@ -72,7 +96,7 @@ pub struct ScanTarget<'a> {
 impl<'a> ScanTarget<'a> {
     /// A target writing into `lists` (the lists of `tile`), with partial
     /// composition if `partial`, in canonical form if `canonical`,
-    /// integrating in `batch` (empty: the target before it was flushed).
+    /// queueing in `pending` (empty: the target before it was flushed).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         lists: &'a mut SegmentLists,
@@ -82,9 +106,9 @@ impl<'a> ScanTarget<'a> {
         partial: bool,
         canonical: bool,
         counts: &'a mut ScanCounts,
-        batch: &'a mut Batch,
+        pending: &'a mut Pending,
     ) -> Self {
-        debug_assert_eq!(batch.n, 0, "a target left segments unflushed");
+        debug_assert_eq!(pending.lanes.n, 0, "a target left segments unflushed");
         ScanTarget {
             lists,
             tile,
@@ -93,10 +117,7 @@ impl<'a> ScanTarget<'a> {
             partial,
             canonical,
             counts,
-            batch,
-            pend_idx: [0; BATCH],
-            pend_zf: [0.0; BATCH],
-            pend_zb: [0.0; BATCH],
+            pending,
             simd: simd_available(),
             cell_piece: NO_PIECE,
         }
@@ -126,46 +147,73 @@ impl<'a> ScanTarget<'a> {
     #[inline(always)]
     pub fn emit_local(&mut self, idx: u32, seg: [f32; 5], piece: u16) {
         let [z_in, z_out, s_in, s_out, length] = seg;
-        let n = self.batch.n;
-        self.batch.s_in[n] = s_in;
-        self.batch.s_out[n] = s_out;
-        self.batch.len[n] = length;
-        self.batch.piece_hint[n] = piece;
-        self.pend_idx[n] = idx;
-        self.pend_zf[n] = z_in;
-        self.pend_zb[n] = z_out;
-        self.batch.n = n + 1;
+        let p = &mut *self.pending;
+        let n = p.lanes.n;
+        p.lanes.s_in[n] = s_in;
+        p.lanes.s_out[n] = s_out;
+        p.lanes.len[n] = length;
+        p.lanes.piece_hint[n] = piece;
+        p.idx[n] = idx;
+        p.z_front[n] = z_in;
+        p.z_back[n] = z_out;
+        p.lanes.n = n + 1;
         if n + 1 == BATCH {
             self.flush();
         }
     }
 
+    /// At an ERT rebuild point: integrates and inserts the queued segments
+    /// unless that cannot record a change for the drain (see
+    /// [`SegmentLists::may_record`]), in which case they stay queued for the
+    /// next target. Returns whether the lists have changes to drain.
+    pub fn settle(&mut self) -> bool {
+        let p = &mut *self.pending;
+        let n = p.lanes.n;
+        let tf = self.tf;
+        let may = self.lists.may_record(
+            &p.idx[p.passed..n],
+            &p.lanes.len[p.passed..n],
+            |len| tf.optical_depth_bound(len),
+            BATCH,
+        );
+        p.passed = n;
+        if !may {
+            return false;
+        }
+        self.flush();
+        true
+    }
+
     /// Integrates the queued segments and inserts them into their lists.
     pub fn flush(&mut self) {
-        let n = self.batch.n;
+        let p = &mut *self.pending;
+        let n = p.lanes.n;
         if n == 0 {
             return;
         }
-        self.tf.integrate_batch(self.integrator, self.batch);
+        if p.passed > 0 {
+            self.lists.forget_queued(&p.idx[..p.passed]);
+            p.passed = 0;
+        }
+        self.tf.integrate_batch(self.integrator, &mut p.lanes);
+        p.lanes.n = 0;
         self.counts.segments_generated += n as u64;
-        self.counts.segment_pieces += self.batch.pieces as u64;
+        self.counts.segment_pieces += p.lanes.pieces as u64;
         if self.partial && !self.canonical {
-            let batch = &self.batch;
-            self.counts.segments_merged += self.lists.insert_partial_run(
-                &self.pend_idx[..n],
-                &self.pend_zf[..n],
-                &self.pend_zb[..n],
-                |l| batch.result(l),
-            );
-            self.batch.n = 0;
+            let lanes = &p.lanes;
+            self.counts.segments_merged +=
+                self.lists
+                    .insert_partial_run(&p.idx[..n], &p.z_front[..n], &p.z_back[..n], |l| {
+                        lanes.result(l)
+                    });
             return;
         }
         for l in 0..n {
-            let idx = self.pend_idx[l];
+            let idx = p.idx[l];
             let seg = Segment {
-                z_front: self.pend_zf[l],
-                z_back: self.pend_zb[l],
-                rgba: self.batch.result(l),
+                z_front: p.z_front[l],
+                z_back: p.z_back[l],
+                rgba: p.lanes.result(l),
             };
             if self.canonical {
                 self.counts.segments_merged +=
@@ -178,7 +226,6 @@ impl<'a> ScanTarget<'a> {
                 Inserted::MergedBoth => self.counts.segments_merged += 2,
             }
         }
-        self.batch.n = 0;
     }
 }
 

@@ -73,4 +73,63 @@ mod tests {
         assert!((error_bound(0.9, 0.5, [0.0; 3]) - 0.05).abs() < 1e-12);
         assert!((error_bound(0.9, 0.5, [1.0, 0.0, 0.0]) - 0.1).abs() < 1e-12);
     }
+
+    /// The smallest termination depth per pixel over the drains so far.
+    fn drain_min(lists: &mut crate::render::cell::list::SegmentLists, depth: &mut [f32], thr: f32) {
+        lists.drain_changed(|idx, list| depth[idx] = depth[idx].min(termination_depth(list, thr)));
+    }
+
+    proptest::proptest! {
+        /// Recording only the changes that can lower a termination depth
+        /// (`track_terminations`) gives the ERT scan the same depths, drain
+        /// after drain, as recording every change: appends, merges with the
+        /// last segment (also a few ulps short of it and zero-length ones),
+        /// insertions in front, general insertions, opacity 0 and 1.
+        #[test]
+        fn tracking_terminations_keeps_every_drained_depth(
+            thr in proptest::sample::select(vec![0.3f32, 0.9, 0.99]),
+            ops in proptest::collection::vec(
+                (0u8..5, 0u32..3, 0u8..10, 0u8..3, 0u8..3,
+                 proptest::sample::select(vec![0.0f32, 0.2, 0.5, 0.9, 0.995, 1.0])),
+                1..60),
+        ) {
+            use crate::render::cell::list::SegmentLists;
+            let (mut all, mut crossing) = (SegmentLists::new(3, 1), SegmentLists::new(3, 1));
+            all.track_changes();
+            crossing.track_terminations(thr);
+            let (mut d_all, mut d_crossing) = ([f32::INFINITY; 3], [f32::INFINITY; 3]);
+            let mut run: (Vec<u32>, Vec<f32>, Vec<f32>, Vec<Rgba>) = Default::default();
+            for &(kind, px, z, len, jitter, a) in &ops {
+                let zf = match jitter {
+                    0 => z as f32,
+                    1 => f32::from_bits((z as f32).to_bits().saturating_sub(1)),
+                    _ => f32::from_bits((z as f32).to_bits() + 1),
+                };
+                let s = seg(zf, zf + len as f32, a);
+                match kind {
+                    // Queue for a run (the scan's batched insertion).
+                    0..=2 => {
+                        run.0.push(px);
+                        run.1.push(s.z_front);
+                        run.2.push(s.z_back);
+                        run.3.push(s.rgba);
+                    }
+                    3 => {
+                        all.insert(px as usize, s, true);
+                        crossing.insert(px as usize, s, true);
+                    }
+                    _ => {
+                        for l in [&mut all, &mut crossing] {
+                            l.insert_partial_run(&run.0, &run.1, &run.2, |k| run.3[k]);
+                        }
+                        run = Default::default();
+                        drain_min(&mut all, &mut d_all, thr);
+                        drain_min(&mut crossing, &mut d_crossing, thr);
+                        proptest::prop_assert_eq!(d_all.map(f32::to_bits), d_crossing.map(f32::to_bits));
+                    }
+                }
+            }
+            proptest::prop_assert_eq!(all.lists(), crossing.lists());
+        }
+    }
 }

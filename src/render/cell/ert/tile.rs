@@ -153,7 +153,7 @@ pub fn scan_tile_ert(
     let (w, h) = (rect.width(), rect.height());
     let ert = &opts.ert;
     let mut lists = SegmentLists::new(w, h);
-    lists.track_changes();
+    lists.track_terminations(ert.threshold);
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
     let mut depth = vec![f32::INFINITY; (w * h) as usize];
@@ -165,7 +165,7 @@ pub fn scan_tile_ert(
     let mut skip: Vec<bool> = Vec::new();
     let mut min_depth = f32::INFINITY;
     // One integration batch for every target of the tile (see ScanTarget::batch).
-    let mut batch = crate::render::cell::integrate::Batch::default();
+    let mut batch = crate::render::cell::scan::Pending::default();
     // Without back-off every cell is tested after every rebuild.
     let gate = |min_depth: f32| {
         if ert.backoff {
@@ -187,18 +187,23 @@ pub fn scan_tile_ert(
         merge_order(cells.len(), |i| cells.order_key(i), segs, key, &mut order);
     }
     let n = cells.len() + segs.len();
+    // Whether the last batch left changes to drain (segments that cannot
+    // change a termination depth may stay queued past a rebuild point).
+    let mut to_drain = false;
     for (b, range) in schedule::batches(n, ert.update_c).into_iter().enumerate() {
         let mut gate_now = None;
         if b > 0 {
             let t0 = (gate(min_depth) < f32::INFINITY).then(Instant::now);
-            lists.drain_changed(|idx, list| {
-                let d = termination_depth(list, ert.threshold);
-                if d < depth[idx] {
-                    depth[idx] = d;
-                    min_depth = min_depth.min(d);
-                    st.mark(idx as u32 % w, idx as u32 / w);
-                }
-            });
+            if to_drain {
+                lists.drain_changed(|idx, list| {
+                    let d = termination_depth(list, ert.threshold);
+                    if d < depth[idx] {
+                        depth[idx] = d;
+                        min_depth = min_depth.min(d);
+                        st.mark(idx as u32 % w, idx as u32 / w);
+                    }
+                });
+            }
             let gate = gate(min_depth);
             if gate < f32::INFINITY {
                 // Marks exist only once a depth is finite: nothing to rebuild before.
@@ -304,7 +309,11 @@ pub fn scan_tile_ert(
                 degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
             }
         }
-        target.flush();
+        if range.end == n {
+            target.flush();
+        } else {
+            to_drain = target.settle();
+        }
     }
     (
         TileResult {

@@ -57,6 +57,22 @@ impl std::fmt::Display for Integrator {
     }
 }
 
+/// [`PreparedTf::optical_depth_bound`]'s factor: the largest extinction
+/// of the pieces' opacities (as the integrators clamp them), per world
+/// unit, rounded up by a relative 1e-6.
+fn depth_per_length(pieces: &[Piece], unit_distance: f64) -> f32 {
+    let o_max = pieces
+        .iter()
+        .flat_map(|p| [p.o0, p.o1])
+        .fold(0.0f64, |m, o| m.max(f64::from(o)));
+    let lambda = -(1.0 - o_max.min(OPACITY_MAX)).ln() / unit_distance;
+    if lambda.is_finite() {
+        (lambda * (1.0 + 1e-6)) as f32
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// One linear stretch of the transfer function, `[s0, s1]`, in f32.
 #[derive(Debug, Clone, Copy)]
 struct Piece {
@@ -118,6 +134,10 @@ pub struct PreparedTf {
     /// scalar range lies inside one.
     zero_runs: Vec<(f32, f32)>,
     inv_unit_distance: f32,
+    /// Optical depth a world unit can hold at most: `-ln(1 - o_max) /
+    /// unit_distance` over the opacities of the pieces, rounded up
+    /// (infinite if an opacity reaches 1).
+    depth_per_length: f32,
 }
 
 impl PreparedTf {
@@ -179,9 +199,19 @@ impl PreparedTf {
             lut_scale,
             table: PieceTable::new(&pieces),
             zero_runs: runs,
+            depth_per_length: depth_per_length(&pieces, tf.unit_distance),
             pieces,
             inv_unit_distance: (1.0 / tf.unit_distance) as f32,
         }
+    }
+
+    /// An upper bound on the optical depth `D` of any segment `length` world
+    /// units long, whatever its scalars: each integrator's `1 - alpha` is
+    /// `e^{-D}` (a product of such factors where the exact one cuts a
+    /// segment), computed to a relative error far below 1e-3.
+    #[inline(always)]
+    pub fn optical_depth_bound(&self, length: f32) -> f32 {
+        length * self.depth_per_length
     }
 
     /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).

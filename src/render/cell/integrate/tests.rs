@@ -212,3 +212,51 @@ fn batch_matches_scalar_bit_for_bit() {
         }
     }
 }
+
+proptest::proptest! {
+    /// `optical_depth_bound` bounds what both integrators make of any
+    /// segment, one at a time and batched: `1 - alpha >= e^{-bound} (1 -
+    /// 1e-5)` (the rounding `TerminationWatch::may_record` allows a
+    /// segment) wherever the bound is below 1 (a larger one never lets a
+    /// segment wait), on transfer functions with opacities up to 1 and
+    /// lengths up to many unit distances.
+    #[test]
+    fn optical_depth_bound_holds(
+        ops in proptest::collection::vec(proptest::sample::select(vec![0.0f64, 0.1, 0.5, 0.9, 0.999, 1.0]), 2..6),
+        unit in proptest::sample::select(vec![0.5f64, 1.0, 5.0]),
+        segs in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, 0.0f32..20.0), 1..40),
+    ) {
+        let n = ops.len();
+        let points = (0..n)
+            .map(|i| ControlPoint {
+                s: i as f64 / (n - 1) as f64,
+                rgb: [0.5, 0.5, 0.5],
+                opacity: ops[i],
+            })
+            .collect();
+        let p = PreparedTf::new(&TransferFunction { points, unit_distance: unit });
+        for integrator in [Integrator::Exact, Integrator::Midpoint] {
+            let mut b = Batch::default();
+            for (l, &(sa, sb, len)) in segs.iter().enumerate() {
+                b.s_in[l] = sa;
+                b.s_out[l] = sb;
+                b.len[l] = len;
+            }
+            b.n = segs.len();
+            p.integrate_batch(integrator, &mut b);
+            for (l, &(sa, sb, len)) in segs.iter().enumerate() {
+                let x = p.optical_depth_bound(len) as f64;
+                if x >= 1.0 {
+                    continue;
+                }
+                let floor = (-x).exp() * (1.0 - 1e-5);
+                for a in [p.integrate(integrator, sa, sb, len).a, b.result(l).a] {
+                    proptest::prop_assert!(
+                        (1.0 - a as f64) >= floor,
+                        "{integrator:?} s {sa}..{sb} length {len}: 1 - alpha {} < {floor}", 1.0 - a
+                    );
+                }
+            }
+        }
+    }
+}
