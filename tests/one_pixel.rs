@@ -49,7 +49,14 @@ impl Scanned {
     }
 }
 
-fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Scanned, u64) {
+/// The frame's transfer function, projected vertices and binning into
+/// `tile` tiles, with the one-pixel path in `one_pixel`.
+fn binned(
+    input: &RenderInput,
+    opts: &CellOptions,
+    tile: (u32, u32),
+    one_pixel: OnePixelMode,
+) -> (PreparedTf, project::ProjectedVertices, bin::Binning) {
     let view = input.scene.view();
     let tf = PreparedTf::new(&input.scene.transfer);
     let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
@@ -57,11 +64,16 @@ fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Sc
         &input.mesh.tets,
         &pv,
         &tf,
-        opts.tile_size,
-        opts.tile_size,
+        tile.0,
+        tile.1,
         opts.cell_order,
         one_pixel,
     );
+    (tf, pv, binning)
+}
+
+fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Scanned, u64) {
+    let (tf, pv, binning) = binned(input, opts, (opts.tile_size, opts.tile_size), one_pixel);
     let mut out = Scanned {
         lists: Vec::new(),
         pairs: binning.pairs(),
@@ -139,19 +151,9 @@ struct ErtScanned {
 
 fn scan_ert(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (ErtScanned, u64) {
     let view = input.scene.view();
-    let tf = PreparedTf::new(&input.scene.transfer);
-    let pv = project::ProjectedVertices::new(&view, &input.mesh.points, &input.s_norm);
     let dims = opts.ert.tile_dims(opts.tile_size, view.width, view.height);
     let entry = opts.ert.entry_px(view.width, view.height);
-    let binning = bin::bin_cells_rect(
-        &input.mesh.tets,
-        &pv,
-        &tf,
-        dims.0,
-        dims.1,
-        opts.cell_order,
-        one_pixel,
-    );
+    let (tf, pv, binning) = binned(input, opts, dims, one_pixel);
     let mut out = ErtScanned {
         scanned: Scanned {
             lists: Vec::new(),

@@ -106,7 +106,6 @@ pub fn bin_cells_rect(
     };
     let grid = TileGrid::new(tw, th, tiles_x);
     let vb = VertexBounds::new(pv);
-    // Tile-local pixel indices of one-pixel segments are 16 bits.
     // Tile-local pixel indices of one-pixel segments are 16 bits, piece
     // indices below the markers.
     let fast = one_pixel != OnePixelMode::Binned
@@ -190,14 +189,8 @@ pub fn bin_cells_rect(
     let mut seg_bins = scatter(&mut segs, n_tiles, &grid);
     let t2 = std::time::Instant::now();
     if order == CellOrder::FrontToBack {
-        bins.par_iter_mut().for_each_init(Vec::new, |scratch, b| {
-            radix::sort_by_key_u32(b, scratch, |e| e.key)
-        });
-        seg_bins
-            .par_iter_mut()
-            .for_each_init(Vec::new, |scratch, b| {
-                radix::sort_by_key_u32(b, scratch, |e| e.key)
-            });
+        sort_bins(&mut bins, |e| e.key);
+        sort_bins(&mut seg_bins, |e| e.key);
     }
     tracing::debug!(
         cull_s = (t1 - t0).as_secs_f64(),
@@ -336,6 +329,13 @@ impl Binned for (u32, PixelSeg) {
     fn out(&self) -> PixelSeg {
         self.1
     }
+}
+
+/// Sorts each bin by `key` (front to back), the bins in parallel.
+fn sort_bins<T: Copy + Default + Send>(bins: &mut [Vec<T>], key: impl Fn(&T) -> u32 + Sync) {
+    bins.par_iter_mut().for_each_init(Vec::new, |scratch, b| {
+        radix::sort_by_key_u32(b, scratch, &key)
+    });
 }
 
 /// Moves the parts' items into per-tile bins. Each part's first slot in

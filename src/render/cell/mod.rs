@@ -527,8 +527,7 @@ fn scan_cells(
         let mut segs = segs.iter().peekable();
         let mut emit_before = |k: u64, target: &mut ScanTarget| {
             while let Some(s) = segs.next_if(|s| key(s.order_key()) < k) {
-                target.counts.pixels_tested += 1;
-                target.emit_local(u32::from(s.idx), s.emitted(), s.piece);
+                s.emit(target);
             }
         };
         for start in (0..cells.len()).step_by(bin::RUN) {
@@ -539,8 +538,7 @@ fn scan_cells(
             }
         }
         for s in segs {
-            target.counts.pixels_tested += 1;
-            target.emit_local(u32::from(s.idx), s.emitted(), s.piece);
+            s.emit(&mut target);
         }
         // Segments are integrated in batches that span cells: finish the last one.
         target.flush();

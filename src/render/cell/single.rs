@@ -24,7 +24,7 @@ use super::integrate::PreparedTf;
 use super::scan::ortho_segment;
 use super::setup::setup_tet;
 use super::single_x8::Lanes;
-use super::target::simd_available;
+use super::target::{simd_available, ScanTarget};
 use crate::base::Rect;
 
 /// The finished ray segment of a cell with one pixel centre, in its tile's
@@ -93,6 +93,14 @@ impl PixelSeg {
             self.s_out,
             self.z_out - self.z_in,
         ]
+    }
+
+    /// Queues this segment (a hit: its piece is no marker) into `target`,
+    /// counting its pixel as tested, as the scan of its cell would.
+    #[inline(always)]
+    pub fn emit(&self, target: &mut ScanTarget) {
+        target.counts.pixels_tested += 1;
+        target.emit_local(u32::from(self.idx), self.emitted(), self.piece);
     }
 }
 

@@ -279,10 +279,7 @@ pub fn scan_tile_ert(
                     match sg.piece {
                         MISSED => {}
                         FLAT => degenerate += 1,
-                        piece => {
-                            target.counts.pixels_tested += 1;
-                            target.emit_local(u32::from(sg.idx), sg.emitted(), piece);
-                        }
+                        _ => sg.emit(&mut target),
                     }
                 }
                 continue;
