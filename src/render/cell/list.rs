@@ -175,7 +175,7 @@ impl SegmentLists {
             (false, _) => partial_run(lists, run, rgba, |_, _| {}),
             (true, None) => partial_run(lists, run, rgba, |i, _| record(i)),
             (true, Some(w)) => {
-                let mut w = w.recorder();
+                let mut w = w.recorder(lists.len());
                 partial_run(lists, run, rgba, |i, a| {
                     if w.inserted(i, a) {
                         record(i)

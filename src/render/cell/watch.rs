@@ -65,15 +65,17 @@ impl TerminationWatch {
     /// threshold).
     #[inline(always)]
     pub fn inserted(&mut self, i: usize, alpha: f32) -> bool {
-        self.recorder().inserted(i, alpha)
+        self.recorder(self.trans.len()).inserted(i, alpha)
     }
 
-    /// [`TerminationWatch::inserted`] for a run of segments: the state in
-    /// locals, so that the loop keeps it in registers.
+    /// [`TerminationWatch::inserted`] for a run of segments into a
+    /// rectangle of `pixels` pixels (all of them): the state in locals, so
+    /// that the loop keeps it in registers, and the pixel count the
+    /// caller's own bound checks already compare with.
     #[inline(always)]
-    pub fn recorder(&mut self) -> Recorder<'_> {
+    pub fn recorder(&mut self, pixels: usize) -> Recorder<'_> {
         Recorder {
-            trans: &mut self.trans,
+            trans: &mut self.trans[..pixels],
             q: self.q,
             limit: self.limit,
         }
@@ -107,7 +109,9 @@ impl TerminationWatch {
             self.keep = (queued_max, (self.q * (1.0 - 2e-5)).powi(queued_max as i32));
         }
         let floor = self.limit / self.keep.1;
-        let (trans, queued) = (&self.trans[..], &mut self.queued[..]);
+        // Both the same length, so one bound check covers both.
+        let trans = &self.trans[..];
+        let queued = &mut self.queued[..trans.len()];
         let mut may = false;
         for (&i, &len) in idx.iter().zip(len) {
             let i = i as usize;
