@@ -2,8 +2,9 @@
 # What ERT costs where it skips (almost) nothing: alternates one pvrsim
 # binary's `render SCENE` at `--ert 1` (off) and at the default threshold
 # (0.99), and prints per setting the median whole-process wall time
-# (`/usr/bin/time`) and project + scan (the `time:` line's phases), then the
-# median per-pair ratios default / off. One thread by default.
+# (`/usr/bin/time`, 10 ms resolution), the frame's total and project + scan
+# (the `time:` line), then the median per-pair ratios default / off. One
+# thread by default.
 # Usage: scripts/ert-cost.sh BIN [PAIRS] [SCENE] [RENDER ARGS...]
 # e.g.   scripts/ert-cost.sh target/release/pvrsim 25 ../shared/data/aorta-view-a.toml
 set -euo pipefail
@@ -15,18 +16,21 @@ for i in $(seq "$PAIRS"); do
   for ert in 1 0.99; do
     /usr/bin/time -f '%e' -o "$W/wall" "$BIN" render "$SCENE" "${ARGS[@]}" --ert "$ert" \
       -o "$W/x.png" > "$W/out" 2>/dev/null
-    phases=$(grep 'time:' "$W/out" | sed 's/.*project \([0-9.]*\) s, scan \([0-9.]*\) s.*/\1 \2/')
+    phases=$(grep 'time:' "$W/out" |
+      sed 's/.*project \([0-9.]*\) s, scan \([0-9.]*\) s.*total \([0-9.]*\) s.*/\1 \2 \3/')
     echo "$ert $(cat "$W/wall") $phases" >> "$W/times"
   done
 done
 python3 - "$W/times" <<'PY'
 import sys, statistics as st
 rows = [l.split() for l in open(sys.argv[1])]
-runs = {e: [(float(w), float(p) + float(s)) for t, w, p, s in rows if t == e] for e in ("1", "0.99")}
+runs = {e: [(float(w), float(tot), float(p) + float(s)) for t, w, p, s, tot in rows if t == e]
+        for e in ("1", "0.99")}
 for e, name in (("1", "--ert 1   "), ("0.99", "--ert 0.99")):
-    print(f"{name}: wall median {st.median(w for w, _ in runs[e]):.3f} s, "
-          f"project+scan median {st.median(ps for _, ps in runs[e]):.4f} s ({len(runs[e])} runs)")
-for k, what in ((0, "wall"), (1, "project+scan")):
+    print(f"{name}: wall median {st.median(r[0] for r in runs[e]):.3f} s, "
+          f"frame total {st.median(r[1] for r in runs[e]):.4f} s, "
+          f"project+scan {st.median(r[2] for r in runs[e]):.4f} s ({len(runs[e])} runs)")
+for k, what in ((0, "wall"), (1, "frame total"), (2, "project+scan")):
     r = [b[k] / a[k] for a, b in zip(runs["1"], runs["0.99"])]
     print(f"0.99 / 1 per pair, {what}: median {st.median(r):.3f} ({min(r):.2f}-{max(r):.2f})")
 PY
