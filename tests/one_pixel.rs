@@ -33,6 +33,19 @@ struct Scanned {
 }
 
 impl Scanned {
+    /// Nothing scanned yet of `binning`'s frame: its pairs and the flat
+    /// one-pixel cells the binning counted.
+    fn new(binning: &bin::Binning) -> Scanned {
+        Scanned {
+            lists: Vec::new(),
+            pairs: binning.pairs(),
+            pixels_tested: 0,
+            segments_generated: 0,
+            segments_merged: 0,
+            degenerate: binning.one_pixel_degenerate,
+        }
+    }
+
     /// Adds a tile's lists and counters.
     fn add(&mut self, r: &TileResult) {
         self.pixels_tested += r.counts.pixels_tested;
@@ -74,14 +87,7 @@ fn binned(
 
 fn scan(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) -> (Scanned, u64) {
     let (tf, pv, binning) = binned(input, opts, (opts.tile_size, opts.tile_size), one_pixel);
-    let mut out = Scanned {
-        lists: Vec::new(),
-        pairs: binning.pairs(),
-        pixels_tested: 0,
-        segments_generated: 0,
-        segments_merged: 0,
-        degenerate: binning.one_pixel_degenerate,
-    };
+    let mut out = Scanned::new(&binning);
     let mut buf = Vec::new();
     for t in 0..binning.tiles.len() {
         out.add(&scan_bin(&binning, t, &pv, &tf, opts, &mut buf));
@@ -155,14 +161,7 @@ fn scan_ert(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) ->
     let entry = opts.ert.entry_px(view.width, view.height);
     let (tf, pv, binning) = binned(input, opts, dims, one_pixel);
     let mut out = ErtScanned {
-        scanned: Scanned {
-            lists: Vec::new(),
-            pairs: binning.pairs(),
-            pixels_tested: 0,
-            segments_generated: 0,
-            segments_merged: 0,
-            degenerate: binning.one_pixel_degenerate,
-        },
+        scanned: Scanned::new(&binning),
         updates: 0,
         tests: 0,
         skipped_whole: 0,

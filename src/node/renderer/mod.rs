@@ -230,8 +230,8 @@ pub struct NodeRenderer {
     pre_skipped: Vec<u32>,
     /// Release ordering ([`crate::node::release`]), if on.
     release: Option<release::Release>,
-    /// The integration batch every step's scan target uses.
-    batch: Box<Pending>,
+    /// The queue every step's scan target uses.
+    pending: Box<Pending>,
 }
 
 impl NodeRenderer {
@@ -276,7 +276,7 @@ impl NodeRenderer {
             replica: None,
             pre_skipped: Vec::new(),
             release: None,
-            batch: Box::default(),
+            pending: Box::default(),
         }
     }
 
@@ -363,7 +363,7 @@ impl NodeRenderer {
                 opts,
                 full,
                 persp,
-                batch,
+                pending,
                 ..
             } = self;
             let mut target = ScanTarget::new(
@@ -374,7 +374,7 @@ impl NodeRenderer {
                 opts.partial_composition,
                 opts.canonical,
                 &mut counts,
-                batch,
+                pending,
             );
             // Vertices are fetched this many cells ahead of their record.
             const AHEAD: usize = 8;

@@ -89,9 +89,8 @@ impl SegmentLists {
             Some(w) => w.inserted(idx, alpha),
             None => true,
         };
-        if record && !self.changed_flag[idx] {
-            self.changed_flag[idx] = true;
-            self.changed.push(idx as u32);
+        if record {
+            record_change(&mut self.changed_flag, &mut self.changed, idx);
         }
     }
 
@@ -163,12 +162,7 @@ impl SegmentLists {
             watch,
             ..
         } = self;
-        let mut record = |i: usize| {
-            if !changed_flag[i] {
-                changed_flag[i] = true;
-                changed.push(i as u32);
-            }
-        };
+        let mut record = |i: usize| record_change(changed_flag, changed, i);
         // One loop for each way of recording, so none decides per segment.
         let run = (idx, z_front, z_back);
         match (*track, watch) {
@@ -193,6 +187,15 @@ impl SegmentLists {
         let removed = crate::base::canonical::insert(&mut self.lists[idx], seg, partial);
         self.noted(idx, seg.rgba.a);
         removed
+    }
+}
+
+/// Records that pixel `i`'s list changed (once until the next drain).
+#[inline(always)]
+fn record_change(flag: &mut [bool], changed: &mut Vec<u32>, i: usize) {
+    if !flag[i] {
+        flag[i] = true;
+        changed.push(i as u32);
     }
 }
 

@@ -506,7 +506,7 @@ fn scan_cells(
     let mut lists = SegmentLists::new(rect.width(), rect.height());
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
-    let mut batch = scan::Pending::default();
+    let mut pending = scan::Pending::default();
     {
         let mut target = ScanTarget::new(
             &mut lists,
@@ -516,7 +516,7 @@ fn scan_cells(
             opts.partial_composition,
             opts.canonical,
             &mut counts,
-            &mut batch,
+            &mut pending,
         );
         // Both sequences are sorted by the order's key; ties cannot occur
         // (a cell is in one of them).

@@ -374,7 +374,7 @@ mod tests {
         ));
         let mut lists = SegmentLists::new(tile.width(), tile.height());
         let mut counts = ScanCounts::default();
-        let mut batch = crate::render::cell::scan::Pending::default();
+        let mut pending = crate::render::cell::scan::Pending::default();
         let mut t = ScanTarget::new(
             &mut lists,
             tile,
@@ -383,7 +383,7 @@ mod tests {
             false,
             false,
             &mut counts,
-            &mut batch,
+            &mut pending,
         );
         t.simd = simd;
         for (k, (p, s)) in tets.iter().enumerate() {

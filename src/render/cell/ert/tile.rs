@@ -164,8 +164,8 @@ pub fn scan_tile_ert(
     let mut stats = ErtTileStats::default();
     let mut skip: Vec<bool> = Vec::new();
     let mut min_depth = f32::INFINITY;
-    // One integration batch for every target of the tile (see ScanTarget::batch).
-    let mut batch = crate::render::cell::scan::Pending::default();
+    // One queue for every target of the tile (see ScanTarget::pending).
+    let mut pending = crate::render::cell::scan::Pending::default();
     // Without back-off every cell is tested after every rebuild.
     let gate = |min_depth: f32| {
         if ert.backoff {
@@ -222,7 +222,7 @@ pub fn scan_tile_ert(
             opts.partial_composition,
             opts.canonical,
             &mut counts,
-            &mut batch,
+            &mut pending,
         );
         // The batch a run at a time: the structure is not rebuilt inside a
         // batch, so testing each run before scanning it decides as testing
