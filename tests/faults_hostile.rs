@@ -103,8 +103,13 @@ fn a_coordinator_killed_mid_frame_leaves_the_pool_ready() {
             .stderr(Stdio::null())
             .spawn()
             .unwrap();
+        // At set-up every healthy worker must hold its set-up before the
+        // kill (a worker the killed coordinator never reached has no frame
+        // to give up, and the check below would wait for a "failed" that
+        // cannot come).
         let seen = if hooks.is_empty() {
             h[0].wait_line("a set-up from", Duration::from_secs(20))
+                && h[1].wait_line("a set-up from", Duration::from_secs(5))
                 && h[2].wait_line("a set-up from", Duration::from_secs(5))
         } else {
             v.wait_line("stopping itself", Duration::from_secs(20))
