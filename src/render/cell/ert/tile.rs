@@ -57,12 +57,6 @@ impl Structure {
         }
     }
 
-    /// Whether cell `c` can be skipped in tile `rect`.
-    #[inline]
-    fn skip(&self, c: &CellRecord, rect: Rect) -> bool {
-        self.skip_range(c.range, c.near, rect)
-    }
-
     /// Whether a cell with pixel range `range` (inclusive, whole image) and
     /// nearest depth `near` can be skipped in tile `rect`.
     #[inline]
@@ -103,6 +97,40 @@ fn note_skipped(stats: &mut ErtTileStats, cell: u32, range: [u32; 4], tile: (u32
 /// one-pixel segments ([`PixelSeg`]): item `k < SEG` is the tile's `k`-th
 /// binned cell, `SEG | k` its `k`-th segment.
 const SEG: u32 = 1 << 31;
+
+/// One item of a tile's scan order.
+enum Item<'a> {
+    /// A binned cell.
+    Cell(&'a CellRecord),
+    /// A cell the binning made a one-pixel segment.
+    Seg(&'a PixelSeg),
+}
+
+/// Calls `f` on the items of one run in scan order: the binned cells
+/// `recs` (consecutive cells of the tile) alone, or merged with the
+/// segments as `items` orders them ([`SEG`] marks a segment).
+#[inline(always)]
+fn for_each_item<'a>(
+    recs: &'a [CellRecord],
+    items: Option<&[u32]>,
+    segs: &'a [PixelSeg],
+    mut f: impl FnMut(Item<'a>),
+) {
+    match items {
+        None => recs.iter().for_each(|c| f(Item::Cell(c))),
+        Some(items) => {
+            let mut r = 0;
+            for &it in items {
+                if it & SEG == 0 {
+                    f(Item::Cell(&recs[r]));
+                    r += 1;
+                } else {
+                    f(Item::Seg(&segs[(it & !SEG) as usize]));
+                }
+            }
+        }
+    }
+}
 
 /// The merge of the tile's binned cells (keys `cell_key(i)`) and its
 /// segments by the cell order's key (`key` masks it).
@@ -156,11 +184,21 @@ pub fn scan_tile_ert(
     lists.track_terminations(ert.threshold);
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
-    let mut depth = vec![f32::INFINITY; (w * h) as usize];
-    let mut st = match ert.structure {
-        ErtStructure::Flat => Structure::Flat(FlatTable::new(w, h, entry.0, entry.1), ert.span),
-        ErtStructure::Pyramid => Structure::Pyramid(Pyramid::new(w, h, entry.0, entry.1)),
+    // The pixels' termination depths and the structure over them, made
+    // when the first pixel terminates (in most tiles of most scenes none
+    // does).
+    let mut terminated: Option<(Vec<f32>, Structure)> = None;
+    let structure = || {
+        let st = match ert.structure {
+            ErtStructure::Flat => Structure::Flat(FlatTable::new(w, h, entry.0, entry.1), ert.span),
+            ErtStructure::Pyramid => Structure::Pyramid(Pyramid::new(w, h, entry.0, entry.1)),
+        };
+        (vec![f32::INFINITY; (w * h) as usize], st)
     };
+    if !ert.backoff {
+        // Rebuilt and tested at every point from the start.
+        terminated = Some(structure());
+    }
     let mut stats = ErtTileStats::default();
     let mut skip: Vec<bool> = Vec::new();
     let mut min_depth = f32::INFINITY;
@@ -197,6 +235,10 @@ pub fn scan_tile_ert(
             if to_drain {
                 lists.drain_changed(|idx, list| {
                     let d = termination_depth(list, ert.threshold);
+                    if d == f32::INFINITY {
+                        return;
+                    }
+                    let (depth, st) = terminated.get_or_insert_with(structure);
                     if d < depth[idx] {
                         depth[idx] = d;
                         min_depth = min_depth.min(d);
@@ -205,10 +247,10 @@ pub fn scan_tile_ert(
                 });
             }
             let gate = gate(min_depth);
-            if gate < f32::INFINITY {
-                // Marks exist only once a depth is finite: nothing to rebuild before.
+            // Marks exist only once a depth is finite: nothing to rebuild before.
+            if let Some((depth, st)) = terminated.as_mut().filter(|_| gate < f32::INFINITY) {
                 let t0 = t0.unwrap_or_else(Instant::now);
-                st.rebuild(&depth);
+                st.rebuild(depth);
                 stats.update_s += t0.elapsed().as_secs_f64();
                 stats.updates += 1;
                 gate_now = Some(gate);
@@ -229,7 +271,9 @@ pub fn scan_tile_ert(
         // the whole batch first would.
         for start in range.clone().step_by(RUN) {
             let end = (start + RUN).min(range.end);
-            if !order.is_empty() {
+            let (recs, items) = if order.is_empty() {
+                (cells.run(start..end), None)
+            } else {
                 let items = &order[start..end];
                 // The binned cells among the items are consecutive ones.
                 let n_cells = items.iter().filter(|&&it| it & SEG == 0).count();
@@ -237,74 +281,44 @@ pub fn scan_tile_ert(
                     Some(&first) => cells.run(first as usize..first as usize + n_cells),
                     None => &[],
                 };
-                let seg_of = |it: u32| &segs[(it & !SEG) as usize];
-                skip.clear();
-                if let Some(gate) = gate_now {
-                    let t1 = Instant::now();
-                    let mut tested = 0u64;
-                    let mut r = 0;
-                    skip.extend(items.iter().map(|&it| {
-                        let (range, near) = if it & SEG == 0 {
-                            r += 1;
-                            (recs[r - 1].range, recs[r - 1].near)
-                        } else {
-                            seg_of(it).range_near(rect)
-                        };
+                (recs, Some(items))
+            };
+            skip.clear();
+            if let (Some(gate), Some((_, st))) = (gate_now, &terminated) {
+                let t1 = Instant::now();
+                let mut tested = 0u64;
+                for_each_item(recs, items, segs, |item| {
+                    let (range, near) = match item {
+                        Item::Cell(c) => (c.range, c.near),
+                        Item::Seg(sg) => sg.range_near(rect),
+                    };
+                    skip.push(
                         near > gate && {
                             tested += 1;
                             st.skip_range(range, near, rect)
-                        }
-                    }));
-                    stats.tests_s += t1.elapsed().as_secs_f64();
-                    stats.tests += tested;
-                }
-                let mut r = 0;
-                for (k, &it) in items.iter().enumerate() {
-                    let skipped = skip.get(k) == Some(&true);
-                    if it & SEG == 0 {
-                        let c = &recs[r];
-                        r += 1;
-                        if skipped {
-                            note_skipped(&mut stats, c.cell, c.range, tile);
-                        } else {
-                            degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
-                        }
-                        continue;
-                    }
-                    let sg = seg_of(it);
-                    if skipped {
-                        stats.skipped_whole += 1;
-                        continue;
-                    }
-                    match sg.piece {
-                        MISSED => {}
-                        FLAT => degenerate += 1,
-                        _ => sg.emit(&mut target),
-                    }
-                }
-                continue;
-            }
-            let batch = cells.run(start..end);
-            skip.clear();
-            if let Some(gate) = gate_now {
-                let t1 = Instant::now();
-                let mut tested = 0u64;
-                skip.extend(batch.iter().map(|c| {
-                    c.near > gate && {
-                        tested += 1;
-                        st.skip(c, rect)
-                    }
-                }));
+                        },
+                    );
+                });
                 stats.tests_s += t1.elapsed().as_secs_f64();
                 stats.tests += tested;
             }
-            for (k, c) in batch.iter().enumerate() {
-                if skip.get(k) == Some(&true) {
-                    note_skipped(&mut stats, c.cell, c.range, tile);
-                    continue;
+            let mut k = 0;
+            for_each_item(recs, items, segs, |item| {
+                let skipped = skip.get(k) == Some(&true);
+                k += 1;
+                match item {
+                    Item::Cell(c) if skipped => note_skipped(&mut stats, c.cell, c.range, tile),
+                    Item::Cell(c) => {
+                        degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target)
+                    }
+                    Item::Seg(_) if skipped => stats.skipped_whole += 1,
+                    Item::Seg(sg) => match sg.piece {
+                        MISSED => {}
+                        FLAT => degenerate += 1,
+                        _ => sg.emit(&mut target),
+                    },
                 }
-                degenerate += scan_cell(c, rect, perspective.as_ref(), &mut target);
-            }
+            });
         }
         if range.end == n {
             target.flush();
