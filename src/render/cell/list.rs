@@ -63,10 +63,20 @@ impl SegmentLists {
     /// `threshold` (below 1), as the ERT scan's drain needs them: see
     /// [`TerminationWatch`]. Lists far from terminating are neither
     /// listed nor walked, and the depths drained are the same as with
-    /// [`SegmentLists::track_changes`].
+    /// [`SegmentLists::track_changes`]. Lists that hold segments already
+    /// and may have crossed are recorded as changed.
     pub fn track_terminations(&mut self, threshold: f32) {
         self.track_changes();
-        self.watch = Some(TerminationWatch::new(self.lists.len(), threshold));
+        let Self {
+            lists,
+            changed_flag,
+            changed,
+            ..
+        } = self;
+        let watch = TerminationWatch::new(lists, threshold, |i| {
+            record_change(changed_flag, changed, i)
+        });
+        self.watch = Some(watch);
     }
 
     /// Calls `f(idx, list)` for every pixel whose list changed since the last

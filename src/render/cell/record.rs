@@ -127,6 +127,12 @@ pub fn near_key(near: f32) -> u32 {
     }
 }
 
+/// The depth whose [`near_key`] is `k`, bit for bit.
+#[inline]
+pub fn near_of_key(k: u32) -> f32 {
+    f32::from_bits(if k >> 31 == 1 { k & 0x7fff_ffff } else { !k })
+}
+
 /// The record of bin entry `e` (`pv` the vertices binned).
 #[inline]
 pub fn record_of(e: &BinEntry, pv: &ProjectedVertices) -> CellRecord {

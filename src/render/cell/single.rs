@@ -76,10 +76,7 @@ impl PixelSeg {
             rect.x0 + u32::from(self.idx) % w,
             rect.y0 + u32::from(self.idx) / w,
         );
-        // Inverse of `near_key`.
-        let k = self.key;
-        let near = f32::from_bits(if k >> 31 == 1 { k & 0x7fff_ffff } else { !k });
-        ([i, i, j, j], near)
+        ([i, i, j, j], super::record::near_of_key(self.key))
     }
 
     /// `[z_in, z_out, s_in, s_out, length]` as the scan emits it

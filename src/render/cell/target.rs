@@ -5,6 +5,7 @@
 
 use super::integrate::{Batch, Integrator, PreparedTf, BATCH, NO_PIECE};
 use super::list::{Inserted, SegmentLists};
+use super::watch::Extent;
 use crate::base::{Rect, Segment};
 
 /// Counters of one scan.
@@ -51,6 +52,11 @@ pub struct Pending {
     /// How many of them [`ScanTarget::settle`] passed to
     /// [`SegmentLists::may_record`] (kept queued).
     pub passed: usize,
+    /// With `Some`: the extent of the segments queued so far, kept while
+    /// the ERT scan waits to start its watch ([`Pending::extent`]).
+    pub spanned: Option<Extent>,
+    /// How many of the queued segments `spanned` holds.
+    pub spanned_upto: usize,
 }
 
 impl Default for Pending {
@@ -61,7 +67,21 @@ impl Default for Pending {
             z_front: [0.0; BATCH],
             z_back: [0.0; BATCH],
             passed: 0,
+            spanned: None,
+            spanned_upto: 0,
         }
+    }
+}
+
+impl Pending {
+    /// Takes the queued segments into `spanned` (if kept) and returns it:
+    /// the extent of the segments queued since it was set.
+    pub fn extent(&mut self) -> Option<Extent> {
+        let (from, n) = (self.spanned_upto, self.lanes.n);
+        let e = self.spanned.as_mut()?;
+        e.add(&self.z_back[from..n]);
+        self.spanned_upto = n;
+        Some(*e)
     }
 }
 
@@ -96,7 +116,8 @@ pub struct ScanTarget<'a> {
 impl<'a> ScanTarget<'a> {
     /// A target writing into `lists` (the lists of `tile`), with partial
     /// composition if `partial`, in canonical form if `canonical`,
-    /// queueing in `pending` (empty: the target before it was flushed).
+    /// queueing in `pending` (where the segments a target left queued at
+    /// [`ScanTarget::settle`] wait, and nothing else).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         lists: &'a mut SegmentLists,
@@ -108,7 +129,7 @@ impl<'a> ScanTarget<'a> {
         counts: &'a mut ScanCounts,
         pending: &'a mut Pending,
     ) -> Self {
-        debug_assert_eq!(pending.lanes.n, 0, "a target left segments unflushed");
+        debug_assert!(pending.passed <= pending.lanes.n);
         ScanTarget {
             lists,
             tile,
@@ -195,6 +216,8 @@ impl<'a> ScanTarget<'a> {
             self.lists.forget_queued(&p.idx[..p.passed]);
             p.passed = 0;
         }
+        p.extent();
+        p.spanned_upto = 0;
         self.tf.integrate_batch(self.integrator, &mut p.lanes);
         p.lanes.n = 0;
         self.counts.segments_generated += n as u64;

@@ -23,6 +23,19 @@
 //! no crossing. So a change is recorded once `t <= 1 - threshold` (or `t`
 //! is NaN). A threshold close to 1 makes `q` small and records changes
 //! early: more walking, never a different depth.
+//!
+//! A watch may start on lists that already hold segments: each pixel's
+//! `t` is then the product of `(1 - alpha) q` over its entries (the walk
+//! reads the entries as they are, so only its own and the product's
+//! rounding count, a step an entry), and the pixels whose `t` is at the
+//! limit already are recorded at once ([`TerminationWatch::new`]).
+//!
+//! Before it starts, [`cannot_cross`] tells when no list can have crossed:
+//! in an orthographic view a ray's segments are disjoint stretches of the
+//! depth range they came from, so their optical depth is at most the
+//! largest extinction times that range's length.
+
+use crate::base::segment::Segment;
 
 /// Per-pixel transmittances and the queued segments' depth bounds of one
 /// rectangle of pixels.
@@ -48,14 +61,34 @@ pub struct TerminationWatch {
 const MARGIN_STEP: f32 = 5e-7;
 
 impl TerminationWatch {
-    /// A watch over `pixels` pixels for ERT threshold `threshold` (below 1).
-    pub fn new(pixels: usize, threshold: f32) -> TerminationWatch {
+    /// A watch over the pixels whose lists are `lists`, for ERT threshold
+    /// `threshold` (below 1); calls `record(pixel)` for each pixel whose
+    /// list may have crossed it already (none of empty lists).
+    pub fn new(
+        lists: &[Vec<Segment>],
+        threshold: f32,
+        mut record: impl FnMut(usize),
+    ) -> TerminationWatch {
         let clear = 1.0 - threshold;
+        let q = (1.0 - MARGIN_STEP / clear).max(0.0);
+        let limit = clear + 1e-6;
+        let trans = lists
+            .iter()
+            .enumerate()
+            .map(|(i, list)| {
+                let t = list.iter().fold(1.0, |t, s| t * ((1.0 - s.rgba.a) * q));
+                // NaN compares false: recorded.
+                if !(t > limit) {
+                    record(i);
+                }
+                t
+            })
+            .collect();
         TerminationWatch {
-            trans: vec![1.0; pixels],
-            queued: vec![0.0; pixels],
-            q: (1.0 - MARGIN_STEP / clear).max(0.0),
-            limit: clear + 1e-6,
+            trans,
+            queued: vec![0.0; lists.len()],
+            q,
+            limit,
             keep: (0, 1.0),
         }
     }
@@ -133,6 +166,80 @@ impl TerminationWatch {
     }
 }
 
+/// The depth range the segments of a rectangle of pixels have spanned so
+/// far (orthographic: a segment's length is its own depth range).
+#[derive(Debug, Clone, Copy)]
+pub struct Extent {
+    /// At most every segment's `z_front` (the nearest vertex depth of the
+    /// rectangle's cells).
+    pub z_min: f32,
+    /// The largest `z_back` taken in.
+    pub z_max: f32,
+}
+
+impl Extent {
+    /// No segment yet, none nearer than `z_min`.
+    pub fn new(z_min: f32) -> Extent {
+        Extent {
+            z_min,
+            z_max: f32::NEG_INFINITY,
+        }
+    }
+
+    /// Takes segments (their `z_back`) in.
+    #[inline]
+    pub fn add(&mut self, z_back: &[f32]) {
+        // Eight lanes at a time, so that the compiler vectorises it
+        // (`maxps`). A NaN segment cannot make a list cross (the walk's
+        // comparisons fail), so skipping one is safe.
+        let mut acc = [self.z_max; 8];
+        let mut chunks = z_back.chunks_exact(8);
+        for c in &mut chunks {
+            for (a, &z) in acc.iter_mut().zip(c) {
+                *a = if z > *a { z } else { *a };
+            }
+        }
+        let max = |m: f32, z: f32| if z > m { z } else { m };
+        let m = chunks
+            .remainder()
+            .iter()
+            .fold(self.z_max, |m, &z| max(m, z));
+        self.z_max = acc.iter().fold(m, |m, &z| max(m, z));
+    }
+}
+
+/// Whether no pixel's list can reach `threshold` yet: its segments lie in
+/// `extent` (orthographic), at most `steps` a pixel, and a world unit
+/// holds an optical depth of at most `depth_per_length`
+/// ([`crate::render::cell::integrate::PreparedTf::optical_depth_bound`]).
+///
+/// A pixel's segments are disjoint stretches of `[z_min, z_max]` (up to
+/// a few ulps of the depths each), so their optical depths sum to at
+/// most `D = depth_per_length (z_max - z_min)` (rounded up), and the
+/// product of their `1 - alpha` is at least `e^{-D} (1 - 1e-5)^steps -
+/// 1.2e-7 steps` (the integrators' accuracy, tested in
+/// `integrate::tests`; Bernoulli for the power). The walk's `1 - alpha`
+/// is that less `2.4e-7` a step (see the module doc); above `1 -
+/// threshold` no list crosses. Computed in f64.
+pub fn cannot_cross(extent: Extent, depth_per_length: f32, steps: u64, threshold: f32) -> bool {
+    if extent.z_min > extent.z_max {
+        // Nothing emitted yet.
+        return true;
+    }
+    let dpl = f64::from(depth_per_length) * (1.0 + 1e-5);
+    let (z0, z1) = (f64::from(extent.z_min), f64::from(extent.z_max));
+    let n = steps as f64;
+    // Each segment's length is its own f32 depths' difference: the
+    // lengths may overlap by a few ulps of the depths a step.
+    let slack = n * 4.0 * f64::from(f32::EPSILON) * z0.abs().max(z1.abs());
+    let span = z1 - z0 + slack;
+    if !span.is_finite() {
+        return false;
+    }
+    let least = (-(span * dpl + 1e-9)).exp() * (1.0 - 1e-5 * n) - n * (1.2e-7 + 2.4e-7);
+    least > 1.0 - f64::from(threshold) + 1e-6
+}
+
 /// A [`TerminationWatch`] borrowed for a run of insertions.
 pub struct Recorder<'a> {
     trans: &'a mut [f32],
@@ -178,7 +285,7 @@ mod tests {
                 [1.0, 0.71, 0.02, 0.15, 0.244],
             ];
             let tf = PreparedTf::new(&TransferFunction::from_rows(&rows, 5.0));
-            let mut w = TerminationWatch::new(4, thr);
+            let mut w = TerminationWatch::new(&vec![Vec::new(); 4], thr, |_| {});
             for &(i, a) in &history {
                 w.inserted(i as usize, a);
             }

@@ -84,7 +84,9 @@ mod tests {
         /// (`track_terminations`) gives the ERT scan the same depths, drain
         /// after drain, as recording every change: appends, merges with the
         /// last segment (also a few ulps short of it and zero-length ones),
-        /// insertions in front, general insertions, opacity 0 and 1.
+        /// insertions in front, general insertions, opacity 0 and 1; also
+        /// when the watch starts on lists that hold segments already (at
+        /// op `start`; the scan drains nothing before).
         #[test]
         fn tracking_terminations_keeps_every_drained_depth(
             thr in proptest::sample::select(vec![0.3f32, 0.9, 0.99]),
@@ -92,14 +94,17 @@ mod tests {
                 (0u8..5, 0u32..3, 0u8..10, 0u8..3, 0u8..3,
                  proptest::sample::select(vec![0.0f32, 0.2, 0.5, 0.9, 0.995, 1.0])),
                 1..60),
+            start in proptest::sample::select(vec![0usize, 0, 5, 20, 40]),
         ) {
             use crate::render::cell::list::SegmentLists;
             let (mut all, mut crossing) = (SegmentLists::new(3, 1), SegmentLists::new(3, 1));
             all.track_changes();
-            crossing.track_terminations(thr);
             let (mut d_all, mut d_crossing) = ([f32::INFINITY; 3], [f32::INFINITY; 3]);
             let mut run: (Vec<u32>, Vec<f32>, Vec<f32>, Vec<Rgba>) = Default::default();
-            for &(kind, px, z, len, jitter, a) in &ops {
+            for (op, &(kind, px, z, len, jitter, a)) in ops.iter().enumerate() {
+                if op == start {
+                    crossing.track_terminations(thr);
+                }
                 let zf = match jitter {
                     0 => z as f32,
                     1 => f32::from_bits((z as f32).to_bits().saturating_sub(1)),
@@ -123,6 +128,9 @@ mod tests {
                             l.insert_partial_run(&run.0, &run.1, &run.2, |k| run.3[k]);
                         }
                         run = Default::default();
+                        if op < start {
+                            continue;
+                        }
                         drain_min(&mut all, &mut d_all, thr);
                         drain_min(&mut crossing, &mut d_crossing, thr);
                         proptest::prop_assert_eq!(d_all.map(f32::to_bits), d_crossing.map(f32::to_bits));
@@ -130,6 +138,64 @@ mod tests {
                 }
             }
             proptest::prop_assert_eq!(all.lists(), crossing.lists());
+        }
+
+        /// When `cannot_cross` says so, no list has crossed: pixels whose
+        /// segments (exact integrator) tile or sparsely fill depth ranges
+        /// around the length the threshold needs at the largest
+        /// extinction, merged as the scan merges them; transfer functions
+        /// of constant opacity (every segment at that extinction: the
+        /// bound is tight) or ramps, depths far from 0 (rounding).
+        #[test]
+        fn cannot_cross_holds(
+            thr in proptest::sample::select(vec![0.5f32, 0.9, 0.99, 0.999]),
+            opacity in proptest::sample::select(vec![0.3f64, 0.7, 0.95, -1.0]),
+            unit in proptest::sample::select(vec![1.0f64, 5.0]),
+            z0 in proptest::sample::select(vec![-200.0f32, 0.0, 150.0]),
+            factor in 0.5f64..1.3,
+            pixels in proptest::collection::vec(
+                proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, 0u8..4), 1..30), 1..4),
+        ) {
+            use crate::render::cell::integrate::{Integrator, PreparedTf};
+            use crate::render::cell::list::SegmentLists;
+            use crate::render::cell::watch::{cannot_cross, Extent};
+            use crate::scene::transfer::TransferFunction;
+            let rows: Vec<[f64; 5]> = if opacity >= 0.0 {
+                vec![[0.0, 0.5, 0.5, 0.5, opacity], [1.0, 0.5, 0.5, 0.5, opacity]]
+            } else {
+                vec![[0.0, 0.2, 0.3, 0.9, 0.0], [0.5, 0.8, 0.3, 0.2, 0.9], [1.0, 0.9, 0.9, 0.1, 0.4]]
+            };
+            let tf = PreparedTf::new(&TransferFunction::from_rows(&rows, unit));
+            let dpl = tf.max_depth_per_length();
+            // The range the threshold needs at the largest extinction, scaled.
+            let span = (-(1.0 - f64::from(thr)).ln() / f64::from(dpl) * factor) as f32;
+            let mut lists = SegmentLists::new(pixels.len() as u32, 1);
+            let mut extent = Extent::new(z0);
+            let mut steps = 0;
+            for (px, cuts) in pixels.iter().enumerate() {
+                // Cut points along [z0, z0 + span]; kind 0 leaves a gap.
+                let mut at: Vec<f32> = cuts.iter().map(|c| c.0).collect();
+                at.sort_by(f32::total_cmp);
+                let mut z_prev = z0;
+                for (k, &(_, scalar, kind)) in cuts.iter().enumerate() {
+                    let z_next = if k + 1 == cuts.len() { z0 + span } else { z0 + span * at[k] };
+                    if kind != 0 && z_next > z_prev {
+                        let len = z_next - z_prev;
+                        let rgba = tf.integrate(Integrator::Exact, scalar, scalar * 0.9, len);
+                        let seg = Segment { z_front: z_prev, z_back: z_next, rgba };
+                        lists.insert(px, seg, true);
+                        extent.add(&[z_next]);
+                    }
+                    z_prev = z_next;
+                }
+                steps = steps.max(cuts.len() as u64);
+            }
+            if cannot_cross(extent, dpl, steps, thr) {
+                for (px, list) in lists.lists().iter().enumerate() {
+                    let d = termination_depth(list, thr);
+                    proptest::prop_assert!(d.is_infinite(), "pixel {px} crossed at {d}: {list:?}");
+                }
+            }
         }
     }
 }

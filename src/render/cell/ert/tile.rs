@@ -13,8 +13,10 @@ use crate::render::cell::integrate::PreparedTf;
 use crate::render::cell::list::SegmentLists;
 use crate::render::cell::order::CellOrder;
 use crate::render::cell::project::PerspRays;
+use crate::render::cell::record::near_of_key;
 use crate::render::cell::scan::{ScanCounts, ScanTarget};
 use crate::render::cell::single::{PixelSeg, FLAT, MISSED};
+use crate::render::cell::watch::{cannot_cross, Extent};
 use crate::render::cell::{scan_cell, CellOptions, TileResult};
 
 /// What ERT did in one tile.
@@ -97,6 +99,25 @@ fn note_skipped(stats: &mut ErtTileStats, cell: u32, range: [u32; 4], tile: (u32
 /// one-pixel segments ([`PixelSeg`]): item `k < SEG` is the tile's `k`-th
 /// binned cell, `SEG | k` its `k`-th segment.
 const SEG: u32 = 1 << 31;
+
+/// The nearest vertex depth of the tile's cells (binned or segments): at
+/// most every segment's `z_front`; `+inf` for none. In front-to-back order
+/// each list's first.
+fn nearest(cells: &impl TileCells, segs: &[PixelSeg], order: CellOrder) -> f32 {
+    let n = match order {
+        CellOrder::FrontToBack => cells.len().min(1),
+        CellOrder::Stored => cells.len(),
+    };
+    let segs = match order {
+        CellOrder::FrontToBack => &segs[..segs.len().min(1)],
+        CellOrder::Stored => segs,
+    };
+    let keys = (0..n).map(|i| cells.order_key(i));
+    match keys.chain(segs.iter().map(PixelSeg::order_key)).min() {
+        Some(k) => near_of_key((k >> 32) as u32),
+        None => f32::INFINITY,
+    }
+}
 
 /// One item of a tile's scan order.
 enum Item<'a> {
@@ -181,7 +202,18 @@ pub fn scan_tile_ert(
     let (w, h) = (rect.width(), rect.height());
     let ert = &opts.ert;
     let mut lists = SegmentLists::new(w, h);
-    lists.track_terminations(ert.threshold);
+    // One queue for every target of the tile (see ScanTarget::pending).
+    let mut pending = crate::render::cell::scan::Pending::default();
+    // In an orthographic view the watch starts once a list may have
+    // crossed the threshold (`cannot_cross` of the depths spanned so far);
+    // until then no change can be drained and the update points have
+    // nothing to settle. In perspective it watches from the start.
+    let mut watching = perspective.is_some();
+    if watching {
+        lists.track_terminations(ert.threshold);
+    } else {
+        pending.spanned = Some(Extent::new(nearest(&cells, segs, opts.cell_order)));
+    }
     let mut counts = ScanCounts::default();
     let mut degenerate = 0;
     // The pixels' termination depths and the structure over them, made
@@ -202,8 +234,6 @@ pub fn scan_tile_ert(
     let mut stats = ErtTileStats::default();
     let mut skip: Vec<bool> = Vec::new();
     let mut min_depth = f32::INFINITY;
-    // One queue for every target of the tile (see ScanTarget::pending).
-    let mut pending = crate::render::cell::scan::Pending::default();
     // Without back-off every cell is tested after every rebuild.
     let gate = |min_depth: f32| {
         if ert.backoff {
@@ -322,9 +352,21 @@ pub fn scan_tile_ert(
         }
         if range.end == n {
             target.flush();
-        } else {
-            to_drain = target.settle();
+            continue;
         }
+        if !watching {
+            let dpl = tf.max_depth_per_length();
+            let steps = range.end as u64;
+            let spanned = target.pending.extent();
+            if spanned.is_some_and(|e| cannot_cross(e, dpl, steps, ert.threshold)) {
+                continue;
+            }
+            // Records the lists that may have crossed already.
+            target.lists.track_terminations(ert.threshold);
+            target.pending.spanned = None;
+            watching = true;
+        }
+        to_drain = target.settle();
     }
     (
         TileResult {

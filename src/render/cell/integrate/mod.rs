@@ -214,6 +214,12 @@ impl PreparedTf {
         length * self.depth_per_length
     }
 
+    /// The largest optical depth a world unit can hold, whatever the
+    /// scalars ([`PreparedTf::optical_depth_bound`] of a unit length).
+    pub fn max_depth_per_length(&self) -> f32 {
+        self.depth_per_length
+    }
+
     /// Index of the piece holding `s` (`s` in `[breaks[i-1], breaks[i])`).
     #[inline(always)]
     fn piece_index(&self, s: f32) -> usize {
