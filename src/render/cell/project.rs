@@ -36,25 +36,37 @@ pub struct ProjectedVertices {
 impl ProjectedVertices {
     /// Transforms `points` (world) for `view` and rounds the scalars to f32.
     pub fn new(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
-        Self::project(view, points, s_norm, 1)
+        let perspective = matches!(view.projection, Projection::Perspective { .. });
+        let (pos, pixel) = if perspective {
+            points.par_iter().map(|&p| project_vertex(view, p)).unzip()
+        } else {
+            (
+                points
+                    .par_iter()
+                    .map(|&p| project_vertex(view, p).0)
+                    .collect(),
+                Vec::new(),
+            )
+        };
+        ProjectedVertices {
+            perspective,
+            pos,
+            pixel,
+            s: s_norm.iter().map(|&s| s as f32).collect(),
+            size: (view.width, view.height),
+            pixel_size: view.pixel_size as f32,
+        }
     }
 
     /// Like [`ProjectedVertices::new`], on the calling thread only (the
     /// result is identical: every vertex is transformed independently).
     pub fn new_sequential(view: &View, points: &[[f64; 3]], s_norm: &[f64]) -> ProjectedVertices {
-        // Never split: one piece, run where it is called.
-        Self::project(view, points, s_norm, usize::MAX)
-    }
-
-    /// [`ProjectedVertices::new`] in pieces of at least `min_len` vertices.
-    fn project(view: &View, points: &[[f64; 3]], s_norm: &[f64], min_len: usize) -> Self {
         let perspective = matches!(view.projection, Projection::Perspective { .. });
-        let vertices = points.par_iter().with_min_len(min_len);
         let (pos, pixel) = if perspective {
-            vertices.map(|&p| project_vertex(view, p)).unzip()
+            points.iter().map(|&p| project_vertex(view, p)).unzip()
         } else {
             (
-                vertices.map(|&p| project_vertex(view, p).0).collect(),
+                points.iter().map(|&p| project_vertex(view, p).0).collect(),
                 Vec::new(),
             )
         };
