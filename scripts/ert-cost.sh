@@ -2,7 +2,7 @@
 # What ERT costs where it skips (almost) nothing: alternates one pvrsim
 # binary's `render SCENE` at `--ert 1` (off) and at the default threshold
 # (0.99), and prints per setting the median whole-process wall time
-# (`/usr/bin/time`, 10 ms resolution), the frame's total and project + scan
+# (bash's EPOCHREALTIME, microseconds), the frame's total and project + scan
 # (the `time:` line), then the median per-pair ratios default / off. One
 # thread by default.
 # Usage: scripts/ert-cost.sh BIN [PAIRS] [SCENE] [RENDER ARGS...]
@@ -14,8 +14,10 @@ if [ $# -gt 3 ]; then shift 3; ARGS=("$@"); else ARGS=(--threads 1); fi
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
 for i in $(seq "$PAIRS"); do
   for ert in 1 0.99; do
-    /usr/bin/time -f '%e' -o "$W/wall" "$BIN" render "$SCENE" "${ARGS[@]}" --ert "$ert" \
-      -o "$W/x.png" > "$W/out" 2>/dev/null
+    t0=$EPOCHREALTIME
+    "$BIN" render "$SCENE" "${ARGS[@]}" --ert "$ert" -o "$W/x.png" > "$W/out" 2>/dev/null
+    t1=$EPOCHREALTIME
+    python3 -c "print(f'{$t1 - $t0:.6f}')" > "$W/wall"
     phases=$(grep 'time:' "$W/out" |
       sed 's/.*project \([0-9.]*\) s, scan \([0-9.]*\) s.*total \([0-9.]*\) s.*/\1 \2 \3/')
     echo "$ert $(cat "$W/wall") $phases" >> "$W/times"
