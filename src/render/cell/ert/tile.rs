@@ -104,16 +104,15 @@ const SEG: u32 = 1 << 31;
 /// most every segment's `z_front`; `+inf` for none. In front-to-back order
 /// each list's first.
 fn nearest(cells: &impl TileCells, segs: &[PixelSeg], order: CellOrder) -> f32 {
-    let n = match order {
-        CellOrder::FrontToBack => cells.len().min(1),
-        CellOrder::Stored => cells.len(),
+    let (n_cells, n_segs) = match order {
+        CellOrder::FrontToBack => (cells.len().min(1), segs.len().min(1)),
+        CellOrder::Stored => (cells.len(), segs.len()),
     };
-    let segs = match order {
-        CellOrder::FrontToBack => &segs[..segs.len().min(1)],
-        CellOrder::Stored => segs,
-    };
-    let keys = (0..n).map(|i| cells.order_key(i));
-    match keys.chain(segs.iter().map(PixelSeg::order_key)).min() {
+    let keys = (0..n_cells).map(|i| cells.order_key(i));
+    match keys
+        .chain(segs[..n_segs].iter().map(PixelSeg::order_key))
+        .min()
+    {
         Some(k) => near_of_key((k >> 32) as u32),
         None => f32::INFINITY,
     }
@@ -205,11 +204,11 @@ pub fn scan_tile_ert(
     // One queue for every target of the tile (see ScanTarget::pending).
     let mut pending = crate::render::cell::scan::Pending::default();
     // In an orthographic view the watch starts once a list may have
-    // crossed the threshold (`cannot_cross` of the depths spanned so far);
-    // until then no change can be drained and the update points have
-    // nothing to settle. In perspective it watches from the start.
-    let mut watching = perspective.is_some();
-    if watching {
+    // crossed the threshold (`cannot_cross` of the depths spanned so far,
+    // kept in `pending.spanned` until then); until then no change can be
+    // drained and the update points have nothing to settle. In
+    // perspective it watches from the start.
+    if perspective.is_some() {
         lists.track_terminations(ert.threshold);
     } else {
         pending.spanned = Some(Extent::new(nearest(&cells, segs, opts.cell_order)));
@@ -354,17 +353,14 @@ pub fn scan_tile_ert(
             target.flush();
             continue;
         }
-        if !watching {
+        if let Some(spanned) = target.pending.extent() {
             let dpl = tf.max_depth_per_length();
-            let steps = range.end as u64;
-            let spanned = target.pending.extent();
-            if spanned.is_some_and(|e| cannot_cross(e, dpl, steps, ert.threshold)) {
+            if cannot_cross(spanned, dpl, range.end as u64, ert.threshold) {
                 continue;
             }
             // Records the lists that may have crossed already.
             target.lists.track_terminations(ert.threshold);
             target.pending.spanned = None;
-            watching = true;
         }
         to_drain = target.settle();
     }
