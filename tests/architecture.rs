@@ -64,6 +64,7 @@ const FRONTEND_PLAIN: &[&str] = &["job", "experiment", "bench", "error", "text",
 const ARROWS: &[(&str, &str, &str)] = &[
     // ---- frontends
     ("cli", "experiment", ""),
+    ("cli", "base", ""),
     ("cli", "bench", ""),
     ("cli", "job", ""),
     ("cli", "text", ""),

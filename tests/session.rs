@@ -154,7 +154,7 @@ fn session_frames_equal_one_off_frames() {
         let cams: Vec<_> = turned.drain(..).collect();
         let mut tf = base.transfer.clone();
         for p in &mut tf.points {
-            p[4] *= 0.5;
+            p.opacity *= 0.5;
         }
         let reqs = [
             FrameRequest::default(),
@@ -254,7 +254,7 @@ fn sigint_keeps_finished_frames_and_resume_finishes_the_series() {
         v
     };
     let stopped = dir.path().join("s-%02d.png");
-    let mut child = Command::new(EXE)
+    let child = Command::new(EXE)
         .args(args(&stopped))
         .env("TMPDIR", dir.path())
         .stdout(Stdio::null())

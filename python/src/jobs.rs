@@ -201,7 +201,16 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
         Ok::<_, JobError>(ClusterOut { result, warnings })
     });
     let out = out?.map_err(err)?;
-    let r = &out.result;
+    cluster_dict(py, &out.result, &out.warnings)
+}
+
+/// A cluster result as the dict [`cluster`] returns (also each frame of a
+/// [`crate::session::NativeSession`]).
+pub fn cluster_dict<'py>(
+    py: Python<'py>,
+    r: &ClusterResult,
+    warnings: &[String],
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("image", rgba8(py, r.image()))?;
     d.set_item(
@@ -234,7 +243,7 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
     d.set_item("trace", rows)?;
     d.set_item("ranks", ranks)?;
     d.set_item("summary", r.summary())?;
-    d.set_item("warnings", out.warnings.clone())?;
+    d.set_item("warnings", warnings.to_vec())?;
     Ok(d)
 }
 

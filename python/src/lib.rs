@@ -29,6 +29,7 @@ mod interrupt;
 mod jobs;
 mod mesh;
 mod scene;
+mod session;
 mod values;
 mod volume;
 
@@ -38,6 +39,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<mesh::NativeMesh>()?;
     m.add_class::<volume::NativeVolume>()?;
+    m.add_class::<session::NativeSession>()?;
     m.add_function(wrap_pyfunction!(values::option_table, m)?)?;
     m.add_function(wrap_pyfunction!(scene::check_scene, m)?)?;
     m.add_function(wrap_pyfunction!(scene::rewrite_scene, m)?)?;

@@ -62,6 +62,7 @@ from ._errors import __all__ as _error_names
 from ._jobs import ClusterResult, RenderResult, cluster, render, sweep
 from ._options import doc as _doc
 from ._scene import Scene
+from ._session import Session
 
 __version__: str = _native.__version__
 
@@ -80,6 +81,7 @@ __all__ = [
     "Scene",
     "render",
     "cluster",
+    "Session",
     "sweep",
     "RenderResult",
     "ClusterResult",

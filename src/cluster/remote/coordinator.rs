@@ -12,16 +12,12 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::live::{LiveCluster, Work};
 use super::measured::Measured;
-use super::pieces::PieceSet;
 use super::reassign::{endings_wait, lost_on, LostWorkers};
 use super::session::Session;
-use crate::cluster::{ClusterConfig, ClusterOutcome};
+use crate::cluster::ClusterConfig;
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{Codec, NodeId, RemoteTransport};
-use crate::render::RenderInput;
-use crate::scene::Scene;
 
 /// How the coordinator reaches its workers.
 #[derive(Debug, Clone)]
@@ -41,38 +37,6 @@ pub struct Coordinator {
 }
 
 impl Coordinator {
-    /// Runs one frame on the workers (a session of one frame, see
-    /// [`LiveCluster`]); with [`Coordinator::reassign`], again on the
-    /// survivors whenever workers are lost (at any phase).
-    pub fn run(
-        &self,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        self.check_count(cfg)?;
-        let mut live = LiveCluster::new(self.clone());
-        let out = live.frame(Work::Cells(input, 0), cfg)?;
-        live.end();
-        Ok(out)
-    }
-
-    /// Runs one frame on workers that read their own pieces of `pieces`
-    /// (node `k` a contiguous run, [`PieceSet::parts`]); with
-    /// [`Coordinator::reassign`], again on the survivors whenever workers
-    /// are lost, the lost workers' pieces read by the survivors.
-    pub fn run_pieces(
-        &self,
-        pieces: &PieceSet,
-        scene: &Scene,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        self.check_count(cfg)?;
-        let mut live = LiveCluster::new(self.clone());
-        let out = live.frame(Work::Pieces(pieces, scene), cfg)?;
-        live.end();
-        Ok(out)
-    }
-
     /// One worker address per node.
     pub(super) fn check_count(&self, cfg: &ClusterConfig) -> anyhow::Result<()> {
         let n = cfg.phase1.nodes;

@@ -174,8 +174,13 @@ fn base_setup(
 }
 
 /// Timing of a coordinator's frame.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Default)]
 pub(super) struct DriveOptions {
+    /// A session's later frame: each worker's encoded cells, sent when it
+    /// answers its set-up with `Need(true)` (its `Need` comes with the
+    /// `Ready`s of the others, over the session's links). Empty on a
+    /// frame whose set-ups were handed out before.
+    pub cells: Vec<Option<Vec<u8>>>,
     /// Longest wait for every worker's `Ready` (set-up and mesh).
     pub ready_wait: Duration,
     /// Longest wait for a message in phases 1 and 2 (a protocol deadlock).
@@ -232,7 +237,7 @@ pub(super) fn drive<T: RemoteTransport>(
 /// `collecting results`, `phase 2`) so that an error can be placed.
 fn drive_phases<T: RemoteTransport>(
     t: &T,
-    d: DriveOptions,
+    mut d: DriveOptions,
     mut data: FrameData<'_>,
     cfg: &ClusterConfig,
     t_setup: Instant,
@@ -249,6 +254,7 @@ fn drive_phases<T: RemoteTransport>(
     let mut ready = vec![false; n];
     let mut initial = vec![0u64; n];
     let wait = d.ready_wait;
+    let mut cells = std::mem::take(&mut d.cells);
     while ready.iter().any(|r| !r) {
         let e = t
             .recv_timeout(wait)
@@ -263,6 +269,17 @@ fn drive_phases<T: RemoteTransport>(
             Ok(Session::Ready { remaining }) if k < n => {
                 ready[k] = true;
                 initial[k] = remaining;
+            }
+            // A session's later frame: the worker's cache answer.
+            Ok(Session::Need(need)) if k < cells.len() && !ready[k] => {
+                let c = cells[k].take().unwrap_or_default();
+                if need {
+                    measured.cells_bytes_sent += c.len() as u64;
+                    t.send(e.from, MessageKind::Session, codec.encode(&Session::Cells(c))?)
+                        .context("set-up (sending cells)")?;
+                } else {
+                    measured.cells_cached += 1;
+                }
             }
             Ok(Session::Failed(why)) => {
                 anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))

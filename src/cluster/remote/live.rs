@@ -205,17 +205,18 @@ impl LiveCluster {
             }
         };
         let mut measured = Measured::default();
+        let mut cells = Vec::new();
         if let Some(l) = &self.links {
             for (s, _) in &mut setups {
                 s.session_id = l.session_id;
             }
-            let failed = self
-                .next_setups(&l.t, setups, &mut measured)
-                .err()
-                .map(|e| self.c.lost_workers(&l.t, n, e, "set-up"));
-            if let Some(e) = failed {
-                self.close(Duration::from_secs(2));
-                return Err(e);
+            match next_setups(&l.t, setups) {
+                Ok(c) => cells = c,
+                Err(e) => {
+                    let e = self.c.lost_workers(&l.t, n, e, "set-up");
+                    self.close(Duration::from_secs(2));
+                    return Err(e);
+                }
             }
         } else {
             let session_id = setups.first().map(|s| s.0.session_id).unwrap_or_default();
@@ -236,6 +237,7 @@ impl LiveCluster {
                 self.c.tcp.handshake_timeout * 4 + Duration::from_secs(10)
             },
             recv_timeout: self.c.recv_timeout,
+            cells,
         };
         let c = &self.c;
         let r = drive(&l.t, d, data, cfg, t_setup, measured, |t, e, phase| {
@@ -245,91 +247,6 @@ impl LiveCluster {
             self.close(Duration::from_secs(2));
         }
         r
-    }
-
-    /// A later frame's set-ups over the session's links: each worker's
-    /// `Setup`, its `Need` answer (within the heartbeat deadline) and, if
-    /// it asks, its cells. A link that ended between frames is a loss.
-    fn next_setups(
-        &self,
-        t: &TcpTransport,
-        setups: Vec<(WorkerSetup, Vec<u8>)>,
-        measured: &mut Measured,
-    ) -> anyhow::Result<()> {
-        let n = setups.len();
-        let codec = Codec::default();
-        let ended: Vec<usize> = t
-            .link_endings(Duration::ZERO)
-            .iter()
-            .take(n)
-            .enumerate()
-            .filter(|(_, e)| e.is_some())
-            .map(|(k, _)| k)
-            .collect();
-        if !ended.is_empty() {
-            let names: Vec<String> = ended
-                .iter()
-                .map(|&k| t.peer_name(NodeId::from(k)))
-                .collect();
-            return Err(anyhow::anyhow!(
-                "set-up: {} left the session between frames",
-                names.join(", ")
-            )
-            .context(LostWorkers {
-                ranks: ended,
-                names,
-                phase: "set-up".into(),
-            }));
-        }
-        let mut cells = Vec::with_capacity(n);
-        for (k, (setup, c)) in setups.into_iter().enumerate() {
-            let to = NodeId::from(k);
-            t.set_essential(to, true);
-            t.send(
-                to,
-                MessageKind::Session,
-                codec.encode(&Session::Setup(Box::new(setup)))?,
-            )?;
-            cells.push(Some(c));
-        }
-        let mut answered = vec![false; n];
-        let wait = self.c.tcp.deadline;
-        let until = Instant::now() + wait;
-        while answered.iter().any(|a| !a) {
-            let left = until.saturating_duration_since(Instant::now());
-            let e = t.recv_timeout(left)?.ok_or_else(|| {
-                let missing: Vec<usize> = (0..n).filter(|&k| !answered[k]).collect();
-                anyhow::anyhow!("set-up: workers {missing:?} did not answer within {wait:?}")
-            })?;
-            let k = e.from.index();
-            if e.kind != MessageKind::Session {
-                continue;
-            }
-            match codec.decode::<Session>(&e.payload) {
-                Ok(Session::Need(need)) if k < n && !answered[k] => {
-                    answered[k] = true;
-                    let c = cells[k].take().unwrap_or_default();
-                    if need {
-                        measured.cells_bytes_sent += c.len() as u64;
-                        t.send(
-                            e.from,
-                            MessageKind::Session,
-                            codec.encode(&Session::Cells(c))?,
-                        )?;
-                    } else {
-                        measured.cells_cached += 1;
-                    }
-                }
-                Ok(Session::Failed(why)) => {
-                    anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))
-                }
-                _ => anyhow::bail!(
-                    "set-up: {} sent a session message instead of its cache answer",
-                    t.peer_name(e.from)
-                ),
-            }
-        }
-        Ok(())
     }
 
     /// Closes the links without `End` (after a failure: the workers give
@@ -356,8 +273,87 @@ impl LiveCluster {
     }
 }
 
+/// A later frame's set-ups over the session's links: each worker's
+/// `Setup` (its cache answer comes with the others' `Ready`s, and its
+/// cells, returned here by rank, go when it asks: [`drive`]). A link that
+/// ended between frames is a loss.
+fn next_setups(
+    t: &TcpTransport,
+    setups: Vec<(WorkerSetup, Vec<u8>)>,
+) -> anyhow::Result<Vec<Option<Vec<u8>>>> {
+    let n = setups.len();
+    let codec = Codec::default();
+    let ended: Vec<usize> = t
+        .link_endings(Duration::ZERO)
+        .iter()
+        .take(n)
+        .enumerate()
+        .filter(|(_, e)| e.is_some())
+        .map(|(k, _)| k)
+        .collect();
+    if !ended.is_empty() {
+        let names: Vec<String> = ended.iter().map(|&k| t.peer_name(NodeId::from(k))).collect();
+        return Err(anyhow::anyhow!(
+            "set-up: {} left the session between frames",
+            names.join(", ")
+        )
+        .context(LostWorkers {
+            ranks: ended,
+            names,
+            phase: "set-up".into(),
+        }));
+    }
+    let mut cells = Vec::with_capacity(n);
+    for (k, (setup, c)) in setups.into_iter().enumerate() {
+        let to = NodeId::from(k);
+        t.set_essential(to, true);
+        t.send(
+            to,
+            MessageKind::Session,
+            codec.encode(&Session::Setup(Box::new(setup)))?,
+        )?;
+        cells.push(Some(c));
+    }
+    Ok(cells)
+}
+
 impl Drop for LiveCluster {
     fn drop(&mut self) {
         self.end();
     }
+}
+
+impl Coordinator {
+    /// Runs one frame on the workers (a session of one frame, see
+    /// [`LiveCluster`]); with [`Coordinator::reassign`], again on the
+    /// survivors whenever workers are lost (at any phase).
+    pub fn run(
+        &self,
+        input: &RenderInput,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        self.check_count(cfg)?;
+        let mut live = LiveCluster::new(self.clone());
+        let out = live.frame(Work::Cells(input, 0), cfg)?;
+        live.end();
+        Ok(out)
+    }
+
+    /// Runs one frame on workers that read their own pieces of `pieces`
+    /// (node `k` a contiguous run, [`PieceSet::parts`]); with
+    /// [`Coordinator::reassign`], again on the survivors whenever workers
+    /// are lost, the lost workers' pieces read by the survivors.
+    pub fn run_pieces(
+        &self,
+        pieces: &PieceSet,
+        scene: &Scene,
+        cfg: &ClusterConfig,
+    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+        self.check_count(cfg)?;
+        let mut live = LiveCluster::new(self.clone());
+        let out = live.frame(Work::Pieces(pieces, scene), cfg)?;
+        live.end();
+        Ok(out)
+    }
+
 }

@@ -78,6 +78,7 @@ pub fn coordinate(
     let d = DriveOptions {
         ready_wait: recv_timeout,
         recv_timeout,
+        ..Default::default()
     };
     let out = drive(
         &t,
