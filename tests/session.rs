@@ -148,7 +148,7 @@ fn session_frames_equal_one_off_frames() {
             transport,
             "--no-baselines",
         ];
-        let mut s = Session::open(&job(&opts)).unwrap();
+        let mut s = Session::open_with(&job(&opts), Path::new(EXE)).unwrap();
         let base = s.scene().clone();
         let mut turned = pvrsim::scene::orbit(&base.camera, 4, 35.0);
         let cams: Vec<_> = turned.drain(..).collect();

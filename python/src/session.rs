@@ -47,12 +47,7 @@ impl NativeSession {
     ) -> PyResult<Bound<'py, PyDict>> {
         let err = |e: JobError| job_error(py, e, &[]);
         let s = self.inner.as_mut().ok_or_else(|| {
-            crate::errors::raise(
-                py,
-                "OptionError",
-                "the session is closed".to_string(),
-                &[],
-            )
+            crate::errors::raise(py, "OptionError", "the session is closed".to_string(), &[])
         })?;
         let mut req = FrameRequest {
             step,
@@ -106,8 +101,8 @@ fn changed_scene(scene: &Scene, changes: &str) -> anyhow::Result<Scene> {
             "render: `{k}` cannot change in a session (camera and transfer can; a time step is \
              step=, the image size is size=)"
         );
-        let v: toml::Value = serde_json::from_value(v.clone())
-            .map_err(|e| anyhow::anyhow!("render: `{k}`: {e}"))?;
+        let v: toml::Value =
+            serde_json::from_value(v.clone()).map_err(|e| anyhow::anyhow!("render: `{k}`: {e}"))?;
         doc.insert(k.clone(), v);
     }
     let text = toml::to_string(&doc)?;

@@ -275,8 +275,12 @@ fn drive_phases<T: RemoteTransport>(
                 let c = cells[k].take().unwrap_or_default();
                 if need {
                     measured.cells_bytes_sent += c.len() as u64;
-                    t.send(e.from, MessageKind::Session, codec.encode(&Session::Cells(c))?)
-                        .context("set-up (sending cells)")?;
+                    t.send(
+                        e.from,
+                        MessageKind::Session,
+                        codec.encode(&Session::Cells(c))?,
+                    )
+                    .context("set-up (sending cells)")?;
                 } else {
                     measured.cells_cached += 1;
                 }

@@ -292,7 +292,10 @@ fn next_setups(
         .map(|(k, _)| k)
         .collect();
     if !ended.is_empty() {
-        let names: Vec<String> = ended.iter().map(|&k| t.peer_name(NodeId::from(k))).collect();
+        let names: Vec<String> = ended
+            .iter()
+            .map(|&k| t.peer_name(NodeId::from(k)))
+            .collect();
         return Err(anyhow::anyhow!(
             "set-up: {} left the session between frames",
             names.join(", ")
@@ -355,5 +358,4 @@ impl Coordinator {
         live.end();
         Ok(out)
     }
-
 }

@@ -86,10 +86,16 @@ impl Session {
     /// dialled at the first frame). Mesh scenes only; `--transport mpi`
     /// runs one frame per job.
     pub fn open(job: &ClusterArgs) -> Result<Session, JobError> {
+        Session::open_with(job, &nodes::this_program().map_err(JobError::Failed)?)
+    }
+
+    /// [`Session::open`], worker processes (`--transport processes`)
+    /// started from `exe` (a `pvrsim` binary: this program when it is one,
+    /// or the one a test or an embedding program names).
+    pub fn open_with(job: &ClusterArgs, exe: &Path) -> Result<Session, JobError> {
         let valid = Valid::new(job).map_err(JobError::Invalid)?;
         let loaded = valid.load().map_err(JobError::Failed)?;
-        Session::from_loaded(loaded, &nodes::this_program().map_err(JobError::Failed)?)
-            .map_err(JobError::Failed)
+        Session::from_loaded(loaded, exe).map_err(JobError::Failed)
     }
 
     /// A session of a loaded job, worker processes started from `exe`.
