@@ -330,7 +330,7 @@ fn summary_lines_are_true_to_the_run() {
         .unwrap();
     assert!(!line.contains("n/a"), "{line}");
     assert!(
-        line.contains("on the gbe network model; the wall clock does not time it"),
+        line.contains("by the network model; the wall clock does not time it"),
         "{line}"
     );
     // A grid cluster on the wall clock names no network model and no "Wall".

@@ -103,10 +103,15 @@ fn pvrsim_words(line: &str) -> Option<Vec<String>> {
     Some(out)
 }
 
-/// Whether an inline span is a placeholder synopsis rather than a command
-/// (`pvrsim scene MESH --field F [--view +x|-x]`, `pvrsim ... | head`).
-fn is_synopsis(span: &str) -> bool {
-    span.contains('[') || span.contains('|') || span.contains("...") || span.contains('…')
+/// Whether a word is a placeholder of a synopsis (`SCENE.toml`, `N`,
+/// `exact|midpoint`, `[--table1]`, `CACHE/c<N>/demo.toml`, `paper-*`).
+fn is_placeholder(word: &str) -> bool {
+    let stem = word.split('.').next().unwrap_or(word);
+    word.contains(['[', ']', '|', '<', '>', '*', '…'])
+        || word == "..."
+        || (stem.chars().any(|c| c.is_ascii_uppercase())
+            && !stem.chars().any(|c| c.is_ascii_lowercase())
+            && !stem.starts_with('-'))
 }
 
 /// The markdown files: README.md and every .md under docs/.
@@ -131,106 +136,198 @@ fn doc_files() -> Vec<PathBuf> {
     files
 }
 
-/// Every `pvrsim` command line of `text`: `(line number, words)`. Code
-/// blocks: each line (a trailing `\` joins the next); prose: each inline
-/// code span that starts with `pvrsim ` and is not a synopsis.
-fn commands(text: &str) -> Vec<(usize, Vec<String>)> {
+/// How a documented command line is checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Check {
+    /// A whole command in a code block: it must parse.
+    Parse,
+    /// A synopsis with placeholders, or a fragment in prose: its
+    /// subcommand and every `--option` it names must exist.
+    Options,
+}
+
+/// Every `pvrsim` command line of `text`: `(line number, words, check)`.
+/// Code blocks: each line (a trailing `\` joins the next), parsed whole
+/// unless a word is a placeholder; prose: each inline code span that
+/// starts with `pvrsim ` (a span may run over lines), its options checked.
+fn commands(text: &str) -> Vec<(usize, Vec<String>, Check)> {
     let mut out = Vec::new();
     let mut in_block = false;
     let mut pending: Option<(usize, String)> = None;
+    let mut prose = String::new();
+    let mut prose_lines: Vec<usize> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let n = i + 1;
         if line.trim_start().starts_with("```") {
             in_block = !in_block;
             pending = None;
+            prose.push('\n');
+            prose_lines.push(n);
             continue;
         }
-        if in_block {
-            let (start, mut joined) = pending.take().unwrap_or((n, String::new()));
-            joined.push_str(line.trim_end());
-            if let Some(stripped) = joined.strip_suffix('\\') {
-                pending = Some((start, format!("{stripped} ")));
-                continue;
-            }
-            if let Some(w) = pvrsim_words(&joined) {
-                out.push((start, w));
-            }
+        if !in_block {
+            prose.push_str(line);
+            prose.push('\n');
+            prose_lines.push(n);
             continue;
         }
-        for (k, span) in line.split('`').enumerate() {
-            if k % 2 == 1 && span.starts_with("pvrsim ") && !is_synopsis(span) {
-                if let Some(w) = pvrsim_words(span) {
-                    out.push((n, w));
-                }
+        let (start, mut joined) = pending.take().unwrap_or((n, String::new()));
+        joined.push_str(line.trim_end());
+        if let Some(stripped) = joined.strip_suffix('\\') {
+            pending = Some((start, format!("{stripped} ")));
+            continue;
+        }
+        if let Some(w) = pvrsim_words(&joined) {
+            let check = if w.iter().any(|w| is_placeholder(w)) {
+                Check::Options
+            } else {
+                Check::Parse
+            };
+            out.push((start, w, check));
+        }
+    }
+    let mut at = 0;
+    for (k, span) in prose.split('`').enumerate() {
+        let line = prose_lines
+            .get(prose[..at].matches('\n').count())
+            .copied()
+            .unwrap_or(0);
+        at += span.len() + 1;
+        let span = span.replace('\n', " ");
+        if k % 2 == 1 && span.starts_with("pvrsim ") {
+            if let Some(w) = pvrsim_words(&span) {
+                out.push((line, w, Check::Options));
             }
         }
     }
+    out.sort_by_key(|(l, _, _)| *l);
     out
+}
+
+/// Checks the subcommand and the `--options` of `words` against the
+/// command-line definition: `Err` names what does not exist.
+fn options_exist(words: &[String]) -> Result<(), String> {
+    use clap::CommandFactory;
+    let cli = pvrsim::cli::Cli::command();
+    let Some(name) = words
+        .get(1)
+        .filter(|w| !w.starts_with('-') && !is_placeholder(w))
+    else {
+        return Ok(());
+    };
+    let Some(sub) = cli.find_subcommand(name) else {
+        return Err(format!("no subcommand `{name}`"));
+    };
+    for w in &words[2..] {
+        let Some(long) = w.strip_prefix("--") else {
+            continue;
+        };
+        let long = long.split('=').next().unwrap_or(long);
+        if long.is_empty() || is_placeholder(long) {
+            continue;
+        }
+        let known = sub.get_arguments().chain(cli.get_arguments()).any(|a| {
+            a.get_long() == Some(long) || a.get_all_aliases().is_some_and(|v| v.contains(&long))
+        }) || matches!(long, "help" | "version");
+        if !known {
+            return Err(format!("`pvrsim {name}` has no option --{long}"));
+        }
+    }
+    Ok(())
 }
 
 #[test]
 fn every_documented_command_line_parses() {
-    let mut checked = 0;
+    let mut checked = [0, 0];
     let mut bad = Vec::new();
     for file in doc_files() {
         let text = std::fs::read_to_string(&file).unwrap();
-        for (line, words) in commands(&text) {
-            checked += 1;
-            if let Err(e) = pvrsim::cli::Cli::try_parse_from(&words) {
-                use clap::error::ErrorKind;
-                if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion)
-                    || matches!(
-                        e.kind(),
-                        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
-                    ) && words.len() == 1
-                {
-                    continue;
+        let shown = file
+            .strip_prefix(env!("CARGO_MANIFEST_DIR"))
+            .unwrap_or(&file)
+            .display()
+            .to_string();
+        for (line, words, check) in commands(&text) {
+            let result = match check {
+                Check::Parse => {
+                    checked[0] += 1;
+                    match pvrsim::cli::Cli::try_parse_from(&words) {
+                        Ok(_) => Ok(()),
+                        Err(e) => {
+                            use clap::error::ErrorKind;
+                            if matches!(
+                                e.kind(),
+                                ErrorKind::DisplayHelp | ErrorKind::DisplayVersion
+                            ) {
+                                Ok(())
+                            } else {
+                                Err(e.to_string().lines().next().unwrap_or("").to_string())
+                            }
+                        }
+                    }
                 }
-                let first = e.to_string().lines().next().unwrap_or("").to_string();
-                bad.push(format!(
-                    "{}:{line}: {}\n    {first}",
-                    file.strip_prefix(env!("CARGO_MANIFEST_DIR"))
-                        .unwrap_or(&file)
-                        .display(),
-                    words.join(" ")
-                ));
+                Check::Options => {
+                    checked[1] += 1;
+                    options_exist(&words)
+                }
+            };
+            if let Err(e) = result {
+                bad.push(format!("{shown}:{line}: {}\n    {e}", words.join(" ")));
             }
         }
     }
     assert!(
-        checked > 100,
-        "only {checked} command lines found in the docs"
+        checked[0] > 80 && checked[1] > 150,
+        "only {checked:?} command lines found in the docs"
     );
     assert!(
         bad.is_empty(),
-        "{} of {checked} documented command lines do not parse:\n{}",
+        "{} documented command lines do not fit the program:\n{}",
         bad.len(),
         bad.join("\n")
     );
 }
 
 #[test]
-fn the_extractor_finds_commands_and_skips_prose() {
-    let text = "Run `pvrsim render s.toml -o a.png` or `pvrsim scene M [--view V]`.\n\
+fn the_extractor_finds_commands_and_checks_them() {
+    let text = "Run `pvrsim render s.toml -o a.png` or `pvrsim scene M\n--view +x`.\n\
                 ```sh\n\
                 pvrsim cluster s.toml --nodes 4 \\\n  --ert 0.9   # comment\n\
                 echo pvrsim\n\
                 PVRSIM_X=1 pvrsim info m.vtk | head\n\
+                pvrsim render SCENE.toml --ert T\n\
                 ```\n";
     let c = commands(text);
-    let words: Vec<String> = c.iter().map(|(_, w)| w.join(" ")).collect();
+    let got: Vec<(usize, String, Check)> =
+        c.iter().map(|(l, w, k)| (*l, w.join(" "), *k)).collect();
     assert_eq!(
-        words,
+        got,
         [
-            "pvrsim render s.toml -o a.png",
-            "pvrsim cluster s.toml --nodes 4 --ert 0.9",
-            "pvrsim info m.vtk"
+            (
+                1,
+                "pvrsim render s.toml -o a.png".to_string(),
+                Check::Options
+            ),
+            (1, "pvrsim scene M --view +x".to_string(), Check::Options),
+            (
+                4,
+                "pvrsim cluster s.toml --nodes 4 --ert 0.9".to_string(),
+                Check::Parse
+            ),
+            (7, "pvrsim info m.vtk".to_string(), Check::Parse),
+            (
+                8,
+                "pvrsim render SCENE.toml --ert T".to_string(),
+                Check::Options
+            ),
         ]
     );
-    assert_eq!(c[1].0, 3);
-    // A misspelt option is caught.
+    // A misspelt option is caught both ways, a renamed command too.
     let w = pvrsim_words("pvrsim render s.toml --ert-tabel 20").unwrap();
     assert!(pvrsim::cli::Cli::try_parse_from(&w).is_err());
+    assert!(options_exist(&w).unwrap_err().contains("--ert-tabel"));
+    assert!(options_exist(&pvrsim_words("pvrsim rendr x").unwrap()).is_err());
+    assert!(options_exist(&pvrsim_words("pvrsim render SCENE --ert T --compare").unwrap()).is_ok());
 }
 
 /// Runs `pvrsim ARGS` in `dir`; fails the test with its output unless it
@@ -264,7 +361,11 @@ fn the_readme_quick_commands_run_on_built_in_data() {
         assert!(p.join("demo").join(f).exists(), "demo/{f} missing");
     }
     // Every file the demo's "next:" lines name exists.
-    for line in out.lines().filter(|l| l.contains("pvrsim ")) {
+    let hints = out.lines().filter(|l| {
+        let t = l.trim_start();
+        t.starts_with("next: pvrsim ") || t.starts_with("pvrsim ")
+    });
+    for line in hints {
         let words = pvrsim_words(&line[line.find("pvrsim").unwrap()..]).unwrap();
         assert!(pvrsim::cli::Cli::try_parse_from(&words).is_ok(), "{line}");
         for w in words.iter().filter(|w| w.ends_with(".toml")) {

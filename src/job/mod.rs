@@ -147,9 +147,11 @@ pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> an
 mod tests {
     #[test]
     fn error_line_names_each_cause_once() {
+        // A cause that quotes its source, as `path: error` does.
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file (os error 2)");
-        let e =
-            anyhow::Error::new(crate::error::Error::io("m.vtk", io)).context("cannot read m.vtk");
+        let e = anyhow::Error::new(io)
+            .context("m.vtk: No such file (os error 2)")
+            .context("cannot read m.vtk");
         assert_eq!(
             super::error_line(&e),
             "cannot read m.vtk: m.vtk: No such file (os error 2)"

@@ -260,7 +260,7 @@ pub fn build(i: Inputs) -> ClusterReport {
         data: p1.data,
         replication: match i.data {
             FrameData::Mesh(input) if p1.data == crate::node::DataMode::Replicated => {
-                Some(Replication::new(input, n, &cfg.network, &cfg.network_name))
+                Some(Replication::new(input, n, &cfg.network))
             }
             _ => None,
         },

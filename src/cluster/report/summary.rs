@@ -175,11 +175,8 @@ pub fn summary(r: &ClusterReport) -> String {
             rp.distribution_bytes as f64 / 1e6,
             rp.distribution_s,
             if r.clock == crate::cluster::ClockKind::Wall {
-                // No model times this run's frames; the figure is the model's.
-                format!(
-                    "on the {} network model; the wall clock does not time it",
-                    rp.model
-                )
+                // No model times this run's frames; the figure is modelled.
+                "by the network model; the wall clock does not time it".to_string()
             } else {
                 format!("on {}", r.network)
             }

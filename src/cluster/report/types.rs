@@ -337,7 +337,7 @@ pub struct ClusterReport {
 }
 
 /// The one-time cost of replicated data ([`crate::node::replica`]).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Replication {
     /// Bytes of mesh each node holds (`V · 28 + C · 16`).
     pub node_bytes: u64,
@@ -347,27 +347,17 @@ pub struct Replication {
     /// turn (each waits for the previous one's arrival): once per dataset,
     /// like the transports' cell cache, not per frame.
     pub distribution_s: f64,
-    /// The network model's name that `distribution_s` is on (the report's
-    /// `network` says `n/a` on the wall clock, which times no network).
-    #[serde(skip)]
-    pub model: String,
 }
 
 impl Replication {
-    /// The cost for `n` nodes on `model` (named `model_name`).
-    pub fn new(
-        input: &RenderInput,
-        n: usize,
-        model: &crate::net::NetworkModel,
-        model_name: &str,
-    ) -> Replication {
+    /// The cost for `n` nodes on `model`.
+    pub fn new(input: &RenderInput, n: usize, model: &crate::net::NetworkModel) -> Replication {
         let r = crate::node::Replica::new(input.mesh.clone(), &[]);
         let unit = r.unit_bytes();
         Replication {
             node_bytes: r.node_bytes(),
             distribution_bytes: r.distribution_bytes(n),
             distribution_s: n as f64 * model.uncontended_arrival(0.0, unit),
-            model: model_name.to_string(),
         }
     }
 }
