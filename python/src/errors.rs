@@ -63,7 +63,7 @@ pub fn names_a_file(e: &anyhow::Error) -> bool {
 /// file, else `RunError`; the message is the whole chain, as the command
 /// line prints it on one line.
 pub fn library_error(py: Python<'_>, e: anyhow::Error) -> PyErr {
-    let msg = format!("{e:#}");
+    let msg = pvrsim::job::error_line(&e);
     match file_of(&e) {
         Some(path) => {
             let attrs: Vec<(&str, PyObject)> = path
@@ -119,7 +119,7 @@ pub fn job_error(py: Python<'_>, e: JobError, options: &[(String, ParamValue)]) 
             };
             (class, clap_message(&c))
         }
-        JobError::Invalid(e) => ("OptionError", format!("{e:#}")),
+        JobError::Invalid(e) => ("OptionError", pvrsim::job::error_line(&e)),
         JobError::Failed(e) => return library_error(py, e),
     };
     let named = named_keywords(&msg, options);

@@ -303,7 +303,7 @@ pub fn sweep<'py>(
 /// option's flag) an `OptionError`; anything else is about the config
 /// file, a `FileError` naming it.
 fn sweep_error(py: Python<'_>, e: anyhow::Error, config: &Path) -> PyErr {
-    let msg = format!("{e:#}");
+    let msg = pvrsim::job::error_line(&e);
     if crate::errors::names_a_file(&e) {
         crate::errors::library_error(py, e)
     } else if msg.contains(" --") || msg.contains("sweep point") {

@@ -41,8 +41,13 @@ def test_missing_and_corrupt_files_are_os_errors_naming_the_file(tmp):
         pvrsim.render(missing)
     assert isinstance(e.value, OSError)
     assert all(line in str(e.value) for line in cli) and str(missing) in str(e.value)
-    with pytest.raises(OSError, match="missing.vtk"):
+    with pytest.raises(OSError, match="missing.vtk") as e:
         pvrsim.Mesh.read(tmp / "missing.vtk")
+    # The problem is named once (issue 55: the OS message came twice).
+    assert str(e.value).count("No such file or directory") == 1, str(e.value)
+    with pytest.raises(pvrsim.FileError) as e:
+        pvrsim.render(missing)
+    assert str(e.value).count("No such file or directory") == 1, str(e.value)
     with pytest.raises(pvrsim.FileError, match="missing.toml"):
         pvrsim.Scene.load(missing)
     bad = tmp / "bad.toml"

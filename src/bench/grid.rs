@@ -106,9 +106,10 @@ pub fn run(
         let path = data_dir.join(name);
         anyhow::ensure!(
             path.exists(),
-            "grid benchmark scene not found: {} (the benchmark needs the shared data folder, \
-             ../shared/data next to this checkout, or --data-dir)",
-            path.display()
+            "grid benchmark scene not found: {} (the benchmark needs the shared data folder: \
+             --data-dir pointing at it; the default ../shared/data is relative to the current \
+             folder)",
+            super::shown_dir(&path)
         );
         let scene = crate::scene::Scene::load(&path)?;
         let vol = match crate::data::io::read_volume(&scene.data.path, &scene.data.field) {

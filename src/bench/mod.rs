@@ -282,9 +282,10 @@ impl BenchArgs {
         let a = self;
         anyhow::ensure!(
             a.data_dir.join("aorta.vtk").exists(),
-            "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data folder \
-             (../shared/data next to this checkout) or --data-dir pointing at it.",
-            a.data_dir.display()
+            "benchmark data not found: {} has no aorta.vtk. The benchmark needs the shared data \
+             folder: --data-dir pointing at it (the default ../shared/data is relative to the \
+             current folder, so run from the checkout that has ../shared beside it).",
+            shown_dir(&a.data_dir)
         );
         let cores = std::thread::available_parallelism()
             .map(|n| n.get())
@@ -414,5 +415,16 @@ mod tests {
             "{e}"
         );
         assert_eq!(events, 0, "nothing is measured before the data is found");
+    }
+}
+
+/// `dir` as given, and where it resolves from the current folder when it
+/// is relative (`../shared/data (= /work/shared/data)`).
+pub fn shown_dir(dir: &std::path::Path) -> String {
+    match std::env::current_dir() {
+        Ok(cwd) if dir.is_relative() => {
+            format!("{} (= {})", dir.display(), cwd.join(dir).display())
+        }
+        _ => dir.display().to_string(),
     }
 }

@@ -201,9 +201,15 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         "next: pvrsim render {} -o out.png --compare",
         scene_path.display()
     );
+    // Name only files this run wrote: demo-ert.toml comes with --nodes.
+    let cluster_scene = if a.nodes > 0 {
+        a.out_dir.join("demo-ert.toml")
+    } else {
+        scene_path.clone()
+    };
     println!(
         "      pvrsim cluster {} --nodes 16 --ert 0.9 --share --dlb --timeline t.png",
-        a.out_dir.join("demo-ert.toml").display()
+        cluster_scene.display()
     );
     if a.pieces > 0 {
         println!(

@@ -128,6 +128,9 @@ pub fn check_output(a: &GenerateArgs) -> anyhow::Result<()> {
             p.display()
         );
     }
+    // The folder (one missing level is created, and said) and writability,
+    // before any work; the scene goes beside the volume.
+    crate::job::output::prepare_output("-o", &a.output, crate::job::output::OutputKind::Nrrd)?;
     Ok(())
 }
 
@@ -225,7 +228,8 @@ pub(super) fn write_outputs(
     comment: &str,
     scene: &str,
 ) -> anyhow::Result<PathBuf> {
-    write_nrrd(vol, &a.output, a.gzip, comment)?;
+    write_nrrd(vol, &a.output, a.gzip, comment)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
     let scene_path = a.output.with_extension("toml");
     std::fs::write(&scene_path, scene)
         .with_context(|| format!("cannot write {}", scene_path.display()))?;

@@ -67,6 +67,9 @@ pub fn run(a: PartitionArgs) -> anyhow::Result<()> {
         "-o {}: exists (--force overwrites it)",
         a.output.display()
     );
+    // The folder (one missing level is created, and said) and writability,
+    // before the mesh is read; the pieces go beside the .pvtu.
+    crate::job::output::prepare_output("-o", &a.output, crate::job::output::OutputKind::Pvtu)?;
     let t = std::time::Instant::now();
     let mesh = crate::data::io::read_mesh(&a.mesh)
         .with_context(|| format!("cannot read {}", a.mesh.display()))?;
@@ -81,7 +84,8 @@ pub fn run(a: PartitionArgs) -> anyhow::Result<()> {
     let pieces = crate::data::partition::partition(&mesh, a.pieces);
     let part_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
-    let paths = write_pvtu(&mesh, &pieces, a.encoding.into(), &a.output)?;
+    let paths = write_pvtu(&mesh, &pieces, a.encoding.into(), &a.output)
+        .with_context(|| format!("cannot write {}", a.output.display()))?;
     let write_s = t.elapsed().as_secs_f64();
     let sizes: Vec<usize> = pieces.iter().map(Vec::len).collect();
     println!(

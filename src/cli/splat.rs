@@ -122,6 +122,13 @@ pub fn run(a: SplatArgs) -> anyhow::Result<()> {
     );
     crate::budget::threads("--threads", a.threads)?;
     crate::budget::footprint("--sigma", a.sigma, 1.0, 1)?;
+    {
+        use crate::job::output::{prepare_output, OutputKind};
+        prepare_output("-o", &a.output, OutputKind::Png)?;
+        if let Some(p) = &a.stats {
+            prepare_output("--stats", p, OutputKind::Json)?;
+        }
+    }
     let mut input = load_input(&a.scene)?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         anyhow::ensure!(w > 0 && h > 0, "--width and --height must be > 0");

@@ -13,6 +13,14 @@
 //! cluster  t = 5 · (render t) + 4e-3 s · nodes    (run + sequential and Base references)
 //! ```
 //!
+//! and for a grid scene (`n_v` voxels, `n_s` slices: the `slices`
+//! parameter, else the sum of the dimensions `n_d`):
+//!
+//! ```text
+//! render   t = 2.1e-8 s · n_v + 1.1e-6 s · n_p + 8e-10 s · n_p · n_s   (+ 1.7e-7 s · n_p · n_d with --compare)
+//! cluster  t = (render t) + 4e-3 s · nodes
+//! ```
+//!
 //! The model is rough (within about 2x on the bundled and shared scenes);
 //! the printed estimate says which basis it used.
 
@@ -32,6 +40,16 @@ pub const PER_PIXEL_REFERENCE_S: f64 = 6e-5;
 pub const CLUSTER_FACTOR: f64 = 5.0;
 /// Seconds per simulated node.
 pub const PER_NODE_S: f64 = 4e-3;
+/// Seconds per voxel of a grid render (the process, reading and
+/// classifying the volume), one thread.
+pub const PER_VOXEL_S: f64 = 2.1e-8;
+/// Seconds per pixel of a grid render, one thread.
+pub const PER_GRID_PIXEL_S: f64 = 1.1e-6;
+/// Seconds per slice sample (pixel x slice) of a grid render, one thread.
+pub const PER_GRID_SAMPLE_S: f64 = 8e-10;
+/// Seconds per sample (pixel x the sum of the dimensions) of the grid
+/// reference (`--compare`), one thread.
+pub const PER_GRID_REFERENCE_SAMPLE_S: f64 = 1.7e-7;
 
 /// An estimated duration and how it was obtained.
 #[derive(Debug, Clone, PartialEq)]
@@ -75,9 +93,17 @@ impl std::fmt::Display for Estimate {
             ));
         }
         if self.unknown > 0 {
-            basis.push(format!("{} unknown (scene unreadable)", self.unknown));
+            basis.push(format!(
+                "{} not estimated: the scene or its data cannot be read yet",
+                self.unknown
+            ));
         }
-        write!(f, "estimated duration ~{t} ({})", basis.join("; "))
+        if self.from_same_point + self.from_mean + self.from_model == 0 {
+            // Nothing to go on: no figure, rather than ~0 s.
+            return write!(f, "estimated duration unknown ({})", basis.join("; "));
+        }
+        let more = if self.unknown > 0 { " or more" } else { "" };
+        write!(f, "estimated duration ~{t}{more} ({})", basis.join("; "))
     }
 }
 
@@ -101,16 +127,71 @@ fn num(p: &Point, k: &str) -> Option<f64> {
     }
 }
 
-/// Cells and pixels of a scene, read once.
-fn scene_size(path: &Path, cache: &mut HashMap<PathBuf, Option<(f64, f64)>>) -> Option<(f64, f64)> {
+/// What the size model reads of a scene: its data's size and its pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SceneSize {
+    /// A mesh.
+    Mesh {
+        /// Its cells.
+        cells: f64,
+        /// The scene's image pixels.
+        pixels: f64,
+    },
+    /// A grid.
+    Grid {
+        /// Its voxels.
+        voxels: f64,
+        /// Samples along a ray by default: the sum of the dimensions (the
+        /// voxel layers a view-aligned slicer crosses, roughly).
+        depth: f64,
+        /// The scene's image pixels.
+        pixels: f64,
+    },
+}
+
+/// A scene's size, read once (`None`: the scene or its data is unreadable).
+fn scene_size(path: &Path, cache: &mut HashMap<PathBuf, Option<SceneSize>>) -> Option<SceneSize> {
     *cache.entry(path.to_path_buf()).or_insert_with(|| {
         let scene = crate::scene::Scene::load(path).ok()?;
+        let pixels = scene.image.width as f64 * scene.image.height as f64;
+        if crate::data::io::volume::volume_format(&scene.data.path).is_some() {
+            let v = crate::data::io::read_volume(&scene.data.path, &scene.data.field).ok()?;
+            let d = v.dims.map(|n| n as f64);
+            return Some(SceneSize::Grid {
+                voxels: d[0] * d[1] * d[2],
+                depth: d[0] + d[1] + d[2],
+                pixels,
+            });
+        }
         let mesh = crate::data::io::read_mesh(&scene.data.path).ok()?;
-        Some((
-            mesh.tets.len() as f64,
-            scene.image.width as f64 * scene.image.height as f64,
-        ))
+        Some(SceneSize::Mesh {
+            cells: mesh.tets.len() as f64,
+            pixels,
+        })
     })
+}
+
+/// Model seconds of one run of `command` on a grid (see the module doc):
+/// `voxels` read and classified, `pixels`, `pixels x slices` slice
+/// samples; the grid reference (`compare`) samples `pixels x depth`.
+pub fn grid_model_seconds(
+    command: &str,
+    voxels: f64,
+    pixels: f64,
+    slices: f64,
+    depth: f64,
+    compare: bool,
+    nodes: f64,
+) -> f64 {
+    let mut t =
+        PER_VOXEL_S * voxels + PER_GRID_PIXEL_S * pixels + PER_GRID_SAMPLE_S * pixels * slices;
+    if compare {
+        t += PER_GRID_REFERENCE_SAMPLE_S * pixels * depth;
+    }
+    if command == "cluster" {
+        t += PER_NODE_S * nodes;
+    }
+    t
 }
 
 /// Model seconds of one run of `command` (see the module doc).
@@ -151,15 +232,32 @@ pub fn estimate(
             e.seconds += m;
             e.from_mean += 1;
         } else if let Some(ParamValue::Str(s)) = param(p, "scene") {
+            let compare = matches!(param(p, "compare"), Some(ParamValue::Bool(true)));
+            let nodes = num(p, "nodes").unwrap_or(8.0);
+            let px = |scene_px: f64| match (num(p, "width"), num(p, "height")) {
+                (Some(w), Some(h)) => w * h,
+                _ => scene_px,
+            };
             match scene_size(&base_dir.join(s), &mut cache) {
-                Some((cells, scene_px)) => {
-                    let px = match (num(p, "width"), num(p, "height")) {
-                        (Some(w), Some(h)) => w * h,
-                        _ => scene_px,
-                    };
-                    let compare = matches!(param(p, "compare"), Some(ParamValue::Bool(true)));
-                    let nodes = num(p, "nodes").unwrap_or(8.0);
-                    e.seconds += model_seconds(command, cells, px, compare, nodes);
+                Some(SceneSize::Mesh { cells, pixels }) => {
+                    e.seconds += model_seconds(command, cells, px(pixels), compare, nodes);
+                    e.from_model += 1;
+                }
+                Some(SceneSize::Grid {
+                    voxels,
+                    depth,
+                    pixels,
+                }) => {
+                    let slices = num(p, "slices").unwrap_or(depth);
+                    e.seconds += grid_model_seconds(
+                        command,
+                        voxels,
+                        px(pixels),
+                        slices,
+                        depth,
+                        compare,
+                        nodes,
+                    );
                     e.from_model += 1;
                 }
                 None => e.unknown += 1,
@@ -183,6 +281,24 @@ mod tests {
         // The same scene at 100x100 on 8 cluster nodes: 0.29 s measured.
         let t = model_seconds("cluster", 20_169.0, 10_000.0, false, 8.0);
         assert!((0.29 / 2.0..0.29 * 2.0).contains(&t), "{t}");
+    }
+
+    #[test]
+    fn grid_model_matches_the_measurements_within_2x() {
+        // mni152 (197x233x189), slice3d, one thread (docs/sweeps.md).
+        let (v, d) = (8_675_289.0, 619.0);
+        for (px, slices, compare, measured) in [
+            (65_536.0, 551.0, false, 0.23),
+            (262_144.0, 58.0, false, 0.48),
+            (262_144.0, 932.0, false, 0.67),
+            (65_536.0, 551.0, true, 7.29),
+        ] {
+            let t = grid_model_seconds("render", v, px, slices, d, compare, 0.0);
+            assert!(
+                (measured / 2.0..measured * 2.0).contains(&t),
+                "{px} {slices}: {t}"
+            );
+        }
     }
 
     #[test]

@@ -161,6 +161,109 @@ fn select(
         .collect())
 }
 
+/// Missing files of a sweep: made by the config's `[[make]]` commands
+/// (generated data: deterministic, so made once and then found), each
+/// announced on stderr before it runs; a dry run lists them instead. Files
+/// no command makes are an error that says which (and how to make the
+/// others).
+fn make_missing(
+    plan: &Plan,
+    missing: &[PathBuf],
+    dry_run: bool,
+    report: &mut SweepReport,
+) -> anyhow::Result<()> {
+    let file = plan.path.display();
+    let makers = plan.makers_of(missing);
+    let unmade: Vec<String> = missing
+        .iter()
+        .filter(|p| !makers.iter().any(|m| m.files.contains(*p)))
+        .map(|p| p.display().to_string())
+        .collect();
+    let how = || {
+        let cmds: Vec<String> = makers.iter().map(|m| m.shown()).collect();
+        if cmds.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; the sweep makes the generated ones itself (in {}): {}",
+                plan.base_dir.display(),
+                cmds.join("; ")
+            )
+        }
+    };
+    if !unmade.is_empty() {
+        anyhow::bail!(
+            "{file}: required file(s) not found: {} (paths are relative to the config file; \
+             --allow-missing skips this sweep){}",
+            unmade.join(", "),
+            how()
+        );
+    }
+    if dry_run {
+        for m in &makers {
+            report.listing.push(format!(
+                "make  {} (in {})",
+                m.shown(),
+                plan.base_dir.display()
+            ));
+        }
+        return Ok(());
+    }
+    let exe = std::env::current_exe().context("cannot find this program's path")?;
+    anyhow::ensure!(
+        exe.file_stem().is_some_and(|s| s == "pvrsim"),
+        "{file}: required file(s) not found: {} (generated data: make them with the \
+         pvrsim command line, in {}: {})",
+        missing
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        plan.base_dir.display(),
+        makers
+            .iter()
+            .map(|m| m.shown())
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+    for (k, m) in makers.iter().enumerate() {
+        for f in &m.files {
+            if let Some(d) = f.parent() {
+                std::fs::create_dir_all(d)
+                    .with_context(|| format!("{file}: cannot create {}", d.display()))?;
+            }
+        }
+        eprintln!(
+            "making generated data ({} of {}, once; later sweeps find it): {} (in {})",
+            k + 1,
+            makers.len(),
+            m.shown(),
+            plan.base_dir.display()
+        );
+        let status = std::process::Command::new(&exe)
+            .args(&m.args)
+            .current_dir(&plan.base_dir)
+            .stdout(std::process::Stdio::inherit())
+            .stderr(std::process::Stdio::inherit())
+            .status()
+            .with_context(|| format!("{file}: cannot run {}", m.shown()))?;
+        anyhow::ensure!(
+            status.success(),
+            "{file}: making {} failed ({status}; its message is above): {}",
+            m.files
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            m.shown()
+        );
+        if let Some(f) = m.files.iter().find(|f| !f.exists()) {
+            anyhow::bail!("{file}: {} did not write {}", m.shown(), f.display());
+        }
+    }
+    Ok(())
+}
+
 /// Runs a sweep: validates the config and every run's command line before
 /// running anything, then runs what the CSV lacks (everything with
 /// `force`), one run at a time, saving the CSV after each run; then writes
@@ -180,8 +283,7 @@ pub fn run_sweep(opts: &SweepOptions) -> anyhow::Result<SweepReport> {
             report.missing = missing;
             return Ok(report);
         }
-        let list: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
-        anyhow::bail!("{file}: required file(s) not found: {} (paths are relative to the config file; --allow-missing skips this sweep)", list.join(", "));
+        make_missing(&plan, &missing, opts.dry_run, &mut report)?;
     }
 
     let points = select(&plan, plan.points(), &opts.only)?;

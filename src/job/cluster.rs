@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
-use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::{ClockKind, ClusterConfig, Phase1Config};
 use crate::compositor::codec::{LayerCodecKind, ListCodecKind};
 use crate::compositor::strategy::Compositing;
@@ -313,105 +312,6 @@ impl ClusterArgs {
         } else {
             self.sharing
         }
-    }
-}
-
-impl Validate for ClusterArgs {
-    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        let ert = validate::ert_mode(self.ert.threshold)?;
-        at_least("--nodes", self.nodes, 1)?;
-        at_least("--ert-table", self.ert_table, 1)?;
-        at_least("--ert-update", self.ert_update, 1)?;
-        at_least("--chunk", self.chunk, 1)?;
-        at_least(
-            "--schedule-leaf-cells",
-            self.ert_mode.schedule_leaf_cells,
-            1,
-        )?;
-        at_least("--min-grant", self.min_grant, 1)?;
-        at_least("--progress-every", self.progress_every, 1)?;
-        validate::image_size(self.width, self.height)?;
-        self.series.check()?;
-        let mode = self.sharing_mode();
-        let ert_how = "early ray termination: give --ert < 1 (e.g. 0.9); --ert 1 turns it off";
-        needs("--share", self.share, ert.is_on(), ert_how)?;
-        needs(
-            "--sharing manager|overlap",
-            self.sharing != Sharing::Off,
-            ert.is_on(),
-            ert_how,
-        )?;
-        needs(
-            "--schedule-waves",
-            self.ert_mode.schedule_waves.is_some_and(|w| w > 1),
-            ert.is_on()
-                && mode == Sharing::Manager
-                && !self.ert_mode.paper
-                && self.data != Some(DataMode::Partitioned),
-            "replicated data (the default; not --paper or --data partitioned) and sharing through the manager: add --share and --ert < 1",
-        )?;
-        needs(
-            "--manager-shards",
-            self.ert_mode.manager_shards.is_some(),
-            ert.is_on() && mode == Sharing::Manager,
-            "per-pixel sharing through the manager: add --share (or --sharing manager) and --ert < 1",
-        )?;
-        let levels = self.share_levels.is_some_and(|l| l > 1) || self.share_sub > 1;
-        needs(
-            "--share-levels/--share-sub (level sharing)",
-            levels,
-            ert.is_on() && mode == Sharing::Manager,
-            "sharing through the manager: add --share (or --sharing manager) and --ert < 1",
-        )?;
-        if self.ert_mode.paper && self.data == Some(DataMode::Replicated) {
-            c.ignored(
-                "--data replicated",
-                "--paper moves cells with their vertices, as the paper's nodes did",
-            );
-        }
-        if let Some(t) = self.net.transport {
-            anyhow::ensure!(
-                self.clock != Some(ClockKind::Virtual),
-                "--clock virtual cannot be combined with --transport {}: a real transport runs \
-                 on wall time (drop --clock, or drop --transport for the simulation)",
-                t.name()
-            );
-        }
-        use super::transport_args::TransportKind;
-        if let Some(coh) = self.series.coherence {
-            if !self.series.is_series() {
-                c.ignored(
-                    "--coherence",
-                    "it carries placement from frame to frame of a series (--frames or --series)",
-                );
-            }
-            anyhow::ensure!(
-                coh == crate::cluster::series::Coherence::Off
-                    || matches!(self.net.transport, None | Some(TransportKind::Threads)),
-                "--coherence placement runs in this process (the simulated cluster or \
-                 --transport threads); worker processes keep the cells the set-up gave them"
-            );
-        }
-        let threads = self.net.transport == Some(TransportKind::Threads);
-        let local = match self.net.transport {
-            Some(TransportKind::Threads) => Some("--transport threads"),
-            Some(TransportKind::Processes) => Some("--transport processes"),
-            None if self.clock == Some(ClockKind::Wall) => Some("--clock wall"),
-            _ => None,
-        };
-        if let Some(how) = local {
-            crate::budget::local_nodes("--nodes", self.nodes, how)?;
-        }
-        if self.clock == Some(ClockKind::Wall) || threads {
-            let why = "--clock wall measures times on this host; the network and cost models only set times on the virtual clock";
-            if let Some(n) = &self.network {
-                c.ignored(&format!("--network {n}"), why);
-            }
-            if let Some(p) = &self.profile {
-                c.ignored(&format!("--profile {p}"), why);
-            }
-        }
-        Ok(())
     }
 }
 

@@ -139,13 +139,27 @@ pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
         "--series-csv writes the rows of a mesh series; a grid series prints every frame's \
          wall time and its --report holds each frame's (drop --series-csv)"
     );
-    let cams = a.series.cameras(&scene.camera)?;
     let vol = crate::data::io::read_volume(&scene.data.path, &scene.data.field)
         .with_context(|| format!("cannot load the volume of scene {}", a.scene.display()))?;
+    let (lo, hi) = vol.bounds();
     let mut input = VolumeInput::new(scene, Arc::new(vol))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
+    // The grid's box is its data: its corners decide a crop.
+    let corners: Vec<[f64; 3]> = (0..8)
+        .map(|k| {
+            [
+                if k & 1 == 0 { lo[0] } else { hi[0] },
+                if k & 2 == 0 { lo[1] } else { hi[1] },
+                if k & 4 == 0 { lo[2] } else { hi[2] },
+            ]
+        })
+        .collect();
+    let image = &input.scene.image;
+    let cams = a
+        .series
+        .orbit_cameras(&input.scene.camera, image.width, image.height, &corners)?;
     Ok(GridFrames { input, cfg, cams })
 }
 

@@ -92,6 +92,11 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
             if a.dlb { " (DLB gives them work)" } else { "" }
         );
     }
+    anyhow::ensure!(
+        !a.series.fit_orbit,
+        "--fit-orbit fits the view to the data's vertices, which only the workers read from \
+         their pieces here: widen the scene's camera (orthographic height or fov_y_deg) instead"
+    );
     let steps: Vec<Step> = a
         .series
         .cameras(&scene.camera)?

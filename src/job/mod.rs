@@ -22,6 +22,9 @@
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
 //!   are decided there (errors say what to do, warnings what will happen);
 //!   sweeps run the same checks on every run before the first.
+//! - [`option_rules`]: the options that only matter with another setting
+//!   (structure, sharing, transport, clock, renderer, series), one table
+//!   per command, refused or warned about by [`validate`].
 //! - [`output`]: output paths checked before work (extension, writability,
 //!   at most one new directory level), warnings, the broken-pipe stop.
 //! - [`memory`]: a frame's memory, estimated and checked before allocating.
@@ -52,6 +55,7 @@ pub mod grid_args;
 pub mod grid_order;
 pub mod memory;
 pub mod nodes;
+pub mod option_rules;
 pub mod options;
 pub mod output;
 pub mod render;
@@ -93,6 +97,24 @@ pub fn error_text(e: &anyhow::Error) -> String {
     s
 }
 
+/// An error's chain on one line, `outer: cause: ...`, as `{e:#}` but
+/// naming each cause once: a cause whose text the message before it
+/// already ends with (an I/O error that `path: error` quotes) is left out.
+/// The Python module's exceptions carry this text.
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut s = e.to_string();
+    let mut last = s.clone();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !last.ends_with(&c) {
+            s.push_str(": ");
+            s.push_str(&c);
+        }
+        last = c;
+    }
+    s
+}
+
 /// Warns when the scene's field is a vector field: it is rendered as its
 /// magnitude (an extension of the scene contract, which names a scalar).
 pub fn warn_field(input: &crate::render::RenderInput) {
@@ -119,4 +141,21 @@ pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> an
         .num_threads(threads)
         .build()?;
     Ok(pool.install(f))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn error_line_names_each_cause_once() {
+        // A cause that quotes its source, as `path: error` does.
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file (os error 2)");
+        let e = anyhow::Error::new(io)
+            .context("m.vtk: No such file (os error 2)")
+            .context("cannot read m.vtk");
+        assert_eq!(
+            super::error_line(&e),
+            "cannot read m.vtk: m.vtk: No such file (os error 2)"
+        );
+        assert_eq!(format!("{e:#}").matches("No such file").count(), 2);
+    }
 }

@@ -12,6 +12,10 @@
 //!   missing directory level is created (and the user is told), and the
 //!   directory must be writable. A typo therefore fails in milliseconds, not
 //!   after a long render, and never creates a tree of directories.
+//!   A file that exists is replaced with a note (`note: replacing FILE`);
+//!   the commands whose outputs other runs read (`scene`, `generate`,
+//!   `partition`, `calibrate`'s shipped profiles) refuse it first without
+//!   `--force`: the one overwrite policy, in README.md.
 //! - **Warnings** ([`warn`]): one format, on stderr, so that stdout stays
 //!   machine-readable.
 
@@ -31,6 +35,10 @@ pub enum OutputKind {
     Toml,
     /// CSV (`.csv`).
     Csv,
+    /// An attached NRRD volume (`.nrrd`).
+    Nrrd,
+    /// A partitioned mesh (`.pvtu`, its `.vtu` pieces beside it).
+    Pvtu,
 }
 
 impl OutputKind {
@@ -41,6 +49,8 @@ impl OutputKind {
             OutputKind::Json => &["json"],
             OutputKind::Toml => &["toml"],
             OutputKind::Csv => &["csv"],
+            OutputKind::Nrrd => &["nrrd"],
+            OutputKind::Pvtu => &["pvtu"],
         }
     }
 
@@ -50,6 +60,8 @@ impl OutputKind {
             OutputKind::Json => "JSON",
             OutputKind::Toml => "TOML",
             OutputKind::Csv => "CSV",
+            OutputKind::Nrrd => "an attached NRRD volume",
+            OutputKind::Pvtu => "a partitioned mesh (the .pvtu; its .vtu pieces go beside it)",
         }
     }
 }
@@ -101,7 +113,7 @@ pub fn prepare_output(option: &str, path: &Path, kind: OutputKind) -> anyhow::Re
     }
     anyhow::ensure!(
         !path.is_dir(),
-        "{option} {shown}: is a directory, not a file name"
+        "{option} {shown}: cannot write: is a directory, not a file name"
     );
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -110,7 +122,7 @@ pub fn prepare_output(option: &str, path: &Path, kind: OutputKind) -> anyhow::Re
     if !parent.is_dir() {
         anyhow::ensure!(
             !parent.exists(),
-            "{option} {shown}: {} exists and is not a directory",
+            "{option} {shown}: cannot write: {} exists and is not a directory",
             parent.display()
         );
         let grand = match parent.parent() {
@@ -119,26 +131,36 @@ pub fn prepare_output(option: &str, path: &Path, kind: OutputKind) -> anyhow::Re
         };
         anyhow::ensure!(
             grand.is_dir(),
-            "{option} {shown}: directory {} does not exist (pvrsim creates at most one missing level; create {} first)",
+            "{option} {shown}: cannot write: directory {} does not exist (pvrsim creates at most one missing level; create {} first)",
             parent.display(),
             grand.display()
         );
-        std::fs::create_dir(&parent)
-            .with_context(|| format!("{option} {shown}: cannot create {}", parent.display()))?;
+        std::fs::create_dir(&parent).with_context(|| {
+            format!(
+                "{option} {shown}: cannot write: cannot create directory {}",
+                parent.display()
+            )
+        })?;
         eprintln!("note: created directory {} for {option}", parent.display());
     }
     if path.exists() {
         std::fs::OpenOptions::new()
             .append(true)
             .open(path)
-            .with_context(|| format!("{option} {shown}: the file exists and is not writable"))?;
+            .with_context(|| {
+                format!("{option} {shown}: cannot write: the file exists and is not writable")
+            })?;
+        // The one overwrite policy (README, "Command-line behaviour"): a
+        // result is replaced, never in silence; commands whose outputs are
+        // other runs' inputs refuse before this without --force.
+        eprintln!("note: replacing {shown} ({option})");
     } else {
         // Create and remove the file itself: the only sure test of writability.
         std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(path)
-            .with_context(|| format!("{option} {shown}: cannot create the file"))?;
+            .with_context(|| format!("{option} {shown}: cannot write the file"))?;
         let _ = std::fs::remove_file(path);
     }
     Ok(path.to_path_buf())

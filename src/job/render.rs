@@ -1,4 +1,4 @@
-//! `pvrsim render`'s options ([`RenderArgs`]), their validation and what a
+//! `pvrsim render`'s options ([`RenderArgs`]; validated in [`super::option_rules`]) and what a
 //! render produces ([`RenderOutcome`]). The work is in [`super::run`]
 //! (load, dispatch), [`super::render_mesh`] and [`super::render_grid`].
 
@@ -6,7 +6,6 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use super::validate::{self, at_least, Checks, Validate};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 
 /// Which renderer draws the image.
@@ -167,59 +166,6 @@ pub struct RenderOutcome {
     /// What `pvrsim render` prints about the frame, a line each (the
     /// renderer, its times and counts, `--compare`'s verdict).
     pub summary: Vec<String>,
-}
-
-impl Validate for RenderArgs {
-    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        let ert = validate::ert_mode(self.ert.threshold)?;
-        at_least("--tile", self.tile, 1)?;
-        at_least("--ert-update", self.ert_update, 1)?;
-        if let Some(d) = self.ert_table {
-            at_least("--ert-table", d, 1)?;
-        }
-        if let Some(n) = self.ert_entry_px {
-            at_least("--ert-entry-px", n, 1)?;
-        }
-        validate::image_size(self.width, self.height)?;
-        crate::budget::threads("--threads", self.threads)?;
-        crate::budget::slices("--slices", self.slices.unwrap_or(0))?;
-        let cell_only = [
-            ("--ert-table", self.ert_table.is_some()),
-            ("--ert-entry-px", self.ert_entry_px.is_some()),
-            ("--oracle", self.oracle),
-            ("--canonical", self.canonical),
-            ("--no-partial-composition", self.no_partial_composition),
-        ];
-        match self.renderer.unwrap_or(RendererKind::Cell) {
-            RendererKind::Reference => {
-                for (flag, given) in cell_only {
-                    if given {
-                        c.ignored(
-                            flag,
-                            "the reference renderer has no ERT, tiles or segment lists",
-                        );
-                    }
-                }
-                if self.compare {
-                    c.ignored("--compare", "--renderer reference is the reference itself");
-                }
-            }
-            RendererKind::Cell if !ert.is_on() => {
-                for (flag, given) in &cell_only[..2] {
-                    if *given {
-                        c.ignored(flag, "ERT is off (--ert 1); give --ert < 1, e.g. 0.9");
-                    }
-                }
-            }
-            RendererKind::Cell
-            | RendererKind::Slice3d
-            | RendererKind::Slice2d
-            | RendererKind::Adaptive
-            | RendererKind::Splat
-            | RendererKind::ShearWarp => {}
-        }
-        Ok(())
-    }
 }
 
 /// The path of the `--compare` strip: `OUTPUT-compare.png`.

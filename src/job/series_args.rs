@@ -70,6 +70,13 @@ pub struct SeriesArgs {
     /// failure keeps what it finished.
     #[arg(long)]
     pub resume: bool,
+    /// With --frames: widen the view (orthographic height, perspective
+    /// field of view) to the data's bounding sphere, so that no frame of
+    /// the orbit crops it. Without it every frame uses the scene's camera
+    /// turned (frame 0 equals a one-off render), and an orbit that would
+    /// crop the data is warned about before the first frame.
+    #[arg(long, requires = "frames")]
+    pub fit_orbit: bool,
 }
 
 impl SeriesArgs {
@@ -166,6 +173,73 @@ impl SeriesArgs {
             self.frames(),
             self.turn.unwrap_or(0.0),
         ))
+    }
+}
+
+impl SeriesArgs {
+    /// The cameras of the series for the data `points` in images of
+    /// `width` x `height`: with `--fit-orbit` the scene's camera widened
+    /// to the data's bounding sphere, then turned ([`Self::cameras`]);
+    /// without it, an orbit that crops the data is warned about (which
+    /// frames, and what to do) before the first frame.
+    pub fn orbit_cameras(
+        &self,
+        cam: &Camera,
+        width: u32,
+        height: u32,
+        points: &[[f64; 3]],
+    ) -> anyhow::Result<Vec<Camera>> {
+        use crate::scene::orbit::{cropping_frames, fit_orbit};
+        let base = if self.fit_orbit {
+            let fitted = fit_orbit(cam, width, height, points).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--fit-orbit: the eye is inside the data's bounding sphere, so no field of \
+                     view holds the data from every side (move the eye away from the target)"
+                )
+            })?;
+            if fitted != *cam {
+                eprintln!(
+                    "note: --fit-orbit: {} to hold the data's bounding sphere from every side",
+                    extent_change(cam, &fitted)
+                );
+            }
+            fitted
+        } else {
+            *cam
+        };
+        let cams = self.cameras(&base)?;
+        if self.frames.is_some() && !self.fit_orbit {
+            // A scene that crops its data from its own side was framed so
+            // on purpose: only a crop the turning adds is news.
+            let crop = cropping_frames(&cams, width, height, points);
+            if let Some(&first) = crop.first().filter(|&&f| f > 0) {
+                let turn = self.turn.unwrap_or(0.0);
+                super::output::warn(format!(
+                    "the orbit crops the data in {} of {} frames (the first: frame {first}, turned \
+                     {:.0} degrees): the scene's view holds the data from its own side only; \
+                     --fit-orbit widens it to the data's bounding sphere (frames then differ \
+                     from one-off renders of the scene)",
+                    crop.len(),
+                    cams.len(),
+                    first as f64 * turn
+                ));
+            }
+        }
+        Ok(cams)
+    }
+}
+
+/// What `--fit-orbit` changed, for the note.
+fn extent_change(from: &Camera, to: &Camera) -> String {
+    use crate::scene::Projection;
+    match (from.projection, to.projection) {
+        (Projection::Orthographic { height: a }, Projection::Orthographic { height: b }) => {
+            format!("orthographic height {a:.4} -> {b:.4}")
+        }
+        (Projection::Perspective { fov_y_deg: a }, Projection::Perspective { fov_y_deg: b }) => {
+            format!("field of view {a:.2} -> {b:.2} degrees")
+        }
+        _ => "view widened".to_string(),
     }
 }
 

@@ -18,8 +18,14 @@ pub fn mesh_steps(
     input: RenderInput,
 ) -> anyhow::Result<(Vec<RenderInput>, Vec<Step>)> {
     let Some(path) = &s.series else {
+        let image = &input.scene.image;
         let steps = s
-            .cameras(&input.scene.camera)?
+            .orbit_cameras(
+                &input.scene.camera,
+                image.width,
+                image.height,
+                &input.mesh.points,
+            )?
             .into_iter()
             .map(|camera| Step {
                 data: 0,

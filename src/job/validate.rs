@@ -20,6 +20,12 @@
 //!   (error, naming the option that would turn it on);
 //! - [`Checks::ignored`]: an option that does nothing in this combination
 //!   (warning, saying so).
+//!
+//! Options of `cluster` and `render` that only matter with another setting
+//! (a structure, sharing, a transport, a clock, a renderer, a series) are
+//! rows of one table, [`super::option_rules`], which applies [`needs`] and
+//! [`Checks::ignored`] and whose tests walk every row: a new such option is
+//! a new row there.
 
 use std::fmt::Display;
 

@@ -1,11 +1,12 @@
 //! The grid report as text for the terminal ([`summary`]).
 
 use super::GridReport;
+use crate::cluster::ClockKind;
 
 /// A one-paragraph summary for the terminal.
 pub fn summary(r: &GridReport) -> String {
     let mut s = format!(
-        "grid cluster: {} node(s){}, {}^3 bricks, {} / {} / {}, {:?} clock\n\
+        "grid cluster: {} node(s){}, {}^3 bricks, {} / {} / {}\n\
          frame {:.4} s = render {:.4} s + composite {:.4} s; phase-2 bytes {} (codec ratio {:.3})\n\
          renderer {:?}: size ratio {:.3}, preprocessing {:.3} s; bricks over texture memory: {}\n",
         r.n_nodes,
@@ -13,8 +14,11 @@ pub fn summary(r: &GridReport) -> String {
         r.subvolumes,
         r.compositor,
         r.codec,
-        r.network,
-        r.clock,
+        match r.clock {
+            // Times are measured on this host: no network model is used.
+            ClockKind::Wall => "wall clock (times measured on this host)".to_string(),
+            ClockKind::Virtual => format!("{} network model, virtual clock", r.network),
+        },
         r.frame_s,
         r.render_s,
         r.composite_s,

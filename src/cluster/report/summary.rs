@@ -170,11 +170,16 @@ pub fn summary(r: &ClusterReport) -> String {
     if let Some(rp) = &r.replication {
         let _ = writeln!(
             s,
-            "data: replicated (DLB and help move cell ids): the mesh takes {:.1} MB on every node; putting it there once per dataset sends {:.1} MB ({:.2} s from one host on {}), not part of any frame",
+            "data: replicated (DLB and help move cell ids): the mesh takes {:.1} MB on every node; putting it there once per dataset sends {:.1} MB ({:.2} s from one host {}), not part of any frame",
             rp.node_bytes as f64 / 1e6,
             rp.distribution_bytes as f64 / 1e6,
             rp.distribution_s,
-            r.network
+            if r.clock == crate::cluster::ClockKind::Wall {
+                // No model times this run's frames; the figure is modelled.
+                "by the network model; the wall clock does not time it".to_string()
+            } else {
+                format!("on {}", r.network)
+            }
         );
     } else {
         let _ = writeln!(

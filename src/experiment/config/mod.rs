@@ -9,5 +9,5 @@ mod raw;
 #[cfg(test)]
 mod tests;
 
-pub use plan::{canonical, Plan, PlotKind, PlotSpec, LEGEND_POSITIONS, RESERVED};
+pub use plan::{canonical, Make, Plan, PlotKind, PlotSpec, LEGEND_POSITIONS, RESERVED};
 pub use raw::{OneOrMany, RawConfig, RawPlot, RawSummary};

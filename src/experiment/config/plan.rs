@@ -57,6 +57,22 @@ pub struct PlotSpec {
     pub key: String,
 }
 
+/// Generated data of a sweep: the files one pvrsim command makes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Make {
+    /// The files it writes, resolved against the config's folder.
+    pub files: Vec<PathBuf>,
+    /// The command line without `pvrsim`, run in the config's folder.
+    pub args: Vec<String>,
+}
+
+impl Make {
+    /// The command as a user types it from the config's folder.
+    pub fn shown(&self) -> String {
+        format!("pvrsim {}", self.args.join(" "))
+    }
+}
+
 /// A validated sweep: what to run and what to report.
 #[derive(Debug, Clone)]
 pub struct Plan {
@@ -72,6 +88,8 @@ pub struct Plan {
     pub executor: &'static Executor,
     /// Required files, resolved.
     pub requires: Vec<PathBuf>,
+    /// Commands that make generated data, with the files each writes.
+    pub make: Vec<Make>,
     /// Runs per point.
     pub repetitions: usize,
     /// Parameters of every run, in config order.
@@ -229,6 +247,25 @@ impl Plan {
             }
         }
         let requires = raw.requires.iter().map(|r| base_dir.join(r)).collect();
+        let mut make = Vec::new();
+        for (i, m) in raw.make.iter().enumerate() {
+            let args: Vec<String> = m.run.split_whitespace().map(str::to_string).collect();
+            if args.is_empty() || m.files.is_empty() {
+                return Err(err(format!(
+                    "make[{i}]: needs `files = [...]` and `run = \"COMMAND ...\"` (a pvrsim command line)"
+                )));
+            }
+            if args[0] != "generate" {
+                return Err(err(format!(
+                    "make[{i}].run: `{}`: data is made by `generate` (e.g. `generate paper-engine --input GRID -o OUT.nrrd`)",
+                    args[0]
+                )));
+            }
+            make.push(Make {
+                files: m.files.iter().map(|f| base_dir.join(f)).collect(),
+                args,
+            });
+        }
 
         let params: Vec<String> = origins.iter().map(|(n, _)| n.clone()).collect();
         let varied = grid.names();
@@ -339,6 +376,7 @@ impl Plan {
             description: raw.description,
             executor,
             requires,
+            make,
             repetitions,
             fixed,
             grid,
@@ -397,6 +435,14 @@ impl Plan {
             }
         }
         missing
+    }
+
+    /// The `[[make]]` entries that write a file of `missing`, in config order.
+    pub fn makers_of(&self, missing: &[PathBuf]) -> Vec<&Make> {
+        self.make
+            .iter()
+            .filter(|m| m.files.iter().any(|f| missing.contains(f)))
+            .collect()
     }
 }
 

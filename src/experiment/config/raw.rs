@@ -21,6 +21,11 @@ pub struct RawConfig {
     /// Files that must exist (relative to the config file).
     #[serde(default)]
     pub requires: Vec<String>,
+    /// How to make generated data that `requires` (or a scene) names:
+    /// `[[make]] files = [...]`, `run = "generate ..."` (a pvrsim command
+    /// line, paths relative to the config file).
+    #[serde(default)]
+    pub make: Vec<RawMake>,
     /// Runs per sweep point (default 1).
     #[serde(default)]
     pub repetitions: Option<i64>,
@@ -101,4 +106,16 @@ impl OneOrMany {
 pub struct RawSummary {
     /// Columns whose median over repetitions is shown per point.
     pub columns: Vec<String>,
+}
+
+/// A `[[make]]` entry as written: the files one pvrsim command makes.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMake {
+    /// The files it writes (relative to the config file).
+    pub files: Vec<String>,
+    /// The pvrsim command line without `pvrsim` (e.g. `generate paper-engine
+    /// --input ... -o ...`), paths relative to the config file; split at
+    /// white space.
+    pub run: String,
 }
