@@ -15,14 +15,25 @@ fn lattice(n: usize) -> TetMesh {
     let points: Vec<[f64; 3]> = (0..m * m * m)
         .map(|i| [(i % m) as f64, ((i / m) % m) as f64, (i / (m * m)) as f64])
         .collect();
-    let s: Vec<f64> = points.iter().map(|p| p[0] + 2.0 * p[1] + 3.0 * p[2]).collect();
+    let s: Vec<f64> = points
+        .iter()
+        .map(|p| p[0] + 2.0 * p[1] + 3.0 * p[2])
+        .collect();
     let v: Vec<f64> = points.iter().flat_map(|p| [p[2], p[1], p[0]]).collect();
     TetMesh {
         tets: kuhn_tets([n; 3], |_, _, _| true),
         points,
         fields: vec![
-            Field { name: "s".into(), components: 1, values: s },
-            Field { name: "v".into(), components: 3, values: v },
+            Field {
+                name: "s".into(),
+                components: 1,
+                values: s,
+            },
+            Field {
+                name: "v".into(),
+                components: 3,
+                values: v,
+            },
         ],
     }
 }
@@ -52,12 +63,20 @@ fn cells(m: &TetMesh) -> Vec<[[u64; 7]; 4]> {
 fn sort_keys_is_the_sort() {
     let mut s = 7u64;
     let mut next = || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         s >> 32
     };
     // Distinct values (distinct indices), keys spread or crowded in a few
     // buckets, of sizes below and above the small-slice cut.
-    for (n, spread_bits) in [(10, 30), (5000, 30), (200_000, 32), (100_000, 12), (70_000, 25)] {
+    for (n, spread_bits) in [
+        (10, 30),
+        (5000, 30),
+        (200_000, 32),
+        (100_000, 12),
+        (70_000, 25),
+    ] {
         let mut v: Vec<u64> = (0..n as u64)
             .map(|i| ((next() & ((1 << spread_bits) - 1)) << (64 - spread_bits)) | i)
             .collect();
@@ -83,7 +102,7 @@ fn a_permuted_mesh_is_renumbered_local_with_the_same_cells() {
     let m = lattice(44);
     let mut p = m.clone();
     permute(&mut p, 1);
-    assert!(locality(&p) < 0.01, "{}", locality(&p));
+    assert!(locality(&p) < LOCAL_FRACTION, "{}", locality(&p));
     assert_eq!(cells(&p), cells(&m));
     p.validate(std::path::Path::new("p")).unwrap();
     let r = make_local(&mut p, None).1.expect("renumbered");

@@ -91,14 +91,20 @@ impl NativeMesh {
     /// keeps the file's numbering (int64).
     fn file_vertex_ids<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<i64>>> {
         let r = self.renumbering.as_ref()?;
-        Some(PyArray1::from_vec(py, r.vertices.iter().map(|&v| i64::from(v)).collect()))
+        Some(PyArray1::from_vec(
+            py,
+            r.vertices.iter().map(|&v| i64::from(v)).collect(),
+        ))
     }
 
     /// For each tetrahedron, its index in the file, or `None` when the mesh
     /// keeps the file's numbering (int64).
     fn file_cell_ids<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<i64>>> {
         let r = self.renumbering.as_ref()?;
-        Some(PyArray1::from_vec(py, r.cells.iter().map(|&v| i64::from(v)).collect()))
+        Some(PyArray1::from_vec(
+            py,
+            r.cells.iter().map(|&v| i64::from(v)).collect(),
+        ))
     }
 
     /// Points and tetrahedra, for `repr`.

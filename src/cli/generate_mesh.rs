@@ -150,10 +150,12 @@ pub fn permuted(a: GenerateArgs) -> anyhow::Result<()> {
         "-o {}: exists (--force overwrites it)",
         a.output.display()
     );
-    let input = a
-        .input
-        .as_ref()
-        .with_context(|| format!("`generate permuted` needs --input MESH ({})", crate::data::io::SUPPORTED))?;
+    let input = a.input.as_ref().with_context(|| {
+        format!(
+            "`generate permuted` needs --input MESH ({})",
+            crate::data::io::SUPPORTED
+        )
+    })?;
     anyhow::ensure!(
         is_mesh_file(input),
         "--input {}: not a mesh ({})",

@@ -44,7 +44,11 @@ pub fn locality(mesh: &TetMesh) -> f64 {
     let len = if runs == 1 { n } else { RUN };
     let (mut local, mut total) = (0usize, 0usize);
     for r in 0..runs {
-        let start = if runs == 1 { 0 } else { r * (n - len) / (runs - 1) };
+        let start = if runs == 1 {
+            0
+        } else {
+            r * (n - len) / (runs - 1)
+        };
         let mut prev: Option<u64> = None;
         for t in &mesh.tets[start..start + len] {
             let lo = t.iter().copied().min().unwrap_or(0) as u64;
@@ -348,4 +352,3 @@ fn counting_pass(from: &[u64], to: &mut [u64], shift: u32) {
         next[d] += 1;
     }
 }
-
