@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use numpy::{PyArray2, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
+use pvrsim::data::locality::Renumbering;
 use pvrsim::data::{Field, TetMesh};
 use pyo3::prelude::*;
 
@@ -20,17 +21,21 @@ pub const ARRAYS: &str = "<arrays>";
 pub struct NativeMesh {
     /// The mesh.
     pub mesh: Arc<TetMesh>,
+    /// How the load path renumbered a file's mesh (for each index, the
+    /// file's), `None` when it keeps the file's numbering.
+    pub renumbering: Option<Arc<Renumbering>>,
 }
 
 #[pymethods]
 impl NativeMesh {
-    /// Reads a mesh file (.vtk, .vtu, .inp), as the command line does.
+    /// Reads a mesh file (.vtk, .vtu, .pvtu, .inp), as the command line does.
     #[staticmethod]
     fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let r = crate::interrupt::run(py, None, move || pvrsim::data::io::read_mesh(&path))?;
+        let r = crate::interrupt::run(py, None, move || pvrsim::data::io::load_mesh(&path))?;
         match r {
-            Ok(mesh) => Ok(NativeMesh {
-                mesh: Arc::new(mesh),
+            Ok(l) => Ok(NativeMesh {
+                mesh: Arc::new(l.mesh),
+                renumbering: l.renumbering.map(Arc::new),
             }),
             Err(e) => Err(crate::errors::library_error(py, e.into())),
         }
@@ -80,6 +85,26 @@ impl NativeMesh {
             pvrsim::data::io::write_vtk_legacy(&m, &path, true)
         })?
         .map_err(|e| crate::errors::library_error(py, e.into()))
+    }
+
+    /// For each vertex, its index in the file, or `None` when the mesh
+    /// keeps the file's numbering (int64).
+    fn file_vertex_ids<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<i64>>> {
+        let r = self.renumbering.as_ref()?;
+        Some(PyArray1::from_vec(
+            py,
+            r.vertices.iter().map(|&v| i64::from(v)).collect(),
+        ))
+    }
+
+    /// For each tetrahedron, its index in the file, or `None` when the mesh
+    /// keeps the file's numbering (int64).
+    fn file_cell_ids<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<i64>>> {
+        let r = self.renumbering.as_ref()?;
+        Some(PyArray1::from_vec(
+            py,
+            r.cells.iter().map(|&v| i64::from(v)).collect(),
+        ))
     }
 
     /// Points and tetrahedra, for `repr`.
@@ -137,5 +162,6 @@ fn build(
         .map_err(|e| crate::errors::data_error(py, e.to_string()))?;
     Ok(NativeMesh {
         mesh: Arc::new(mesh),
+        renumbering: None,
     })
 }

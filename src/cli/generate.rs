@@ -27,6 +27,11 @@ pub enum Kind {
     /// new scene keeps, or a mesh with --field); --size N = samples along
     /// the longest axis.
     MeshField,
+    /// A copy of a mesh (--input, any mesh format) with its vertices and
+    /// cells in a random order (fixed seed): the worst order a mesher can
+    /// write, for measuring the load path's renumbering. -o OUT.vtk
+    /// (binary legacy VTK).
+    Permuted,
     /// Stand-in for the paper's Engine, 256x256x128 u8: --input resampled
     /// (e.g. ../shared/data/mni152_t1.nii.gz), the paper's TF (opacity = value).
     PaperEngine,
@@ -79,7 +84,8 @@ pub struct GenerateArgs {
     /// Samples per axis: N (a cube) or NxNxN.
     #[arg(long, default_value = "64")]
     pub size: String,
-    /// Output volume (.nrrd); the scene goes beside it with the extension .toml.
+    /// Output volume (.nrrd); the scene goes beside it with the extension
+    /// .toml (`permuted`: the mesh, .vtk).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Source grid for `resample` (.nrrd, .nhdr, .nii, .nii.gz, .vti, .fld).
@@ -144,8 +150,8 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         bail!("--field is only used by `generate mesh-field`");
     }
     anyhow::ensure!(
-        a.kind != Kind::MeshField,
-        "internal error: `generate mesh-field` runs in generate_mesh"
+        !matches!(a.kind, Kind::MeshField | Kind::Permuted),
+        "internal error: `generate mesh-field` and `permuted` run in generate_mesh"
     );
     let size = parse_size(&a.size)?;
     crate::budget::volume("--size", size, 4)?;
@@ -202,7 +208,8 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         | Kind::PaperBonsai
         | Kind::PaperChest
         | Kind::PaperTree
-        | Kind::MeshField => {
+        | Kind::MeshField
+        | Kind::Permuted => {
             unreachable!("handled above")
         }
     };

@@ -3,7 +3,8 @@
 //! the grid as the mesh's scene renders the mesh: same camera, image,
 //! transfer function and, written explicitly, the same value range. Then
 //! `pvrsim render` of both scenes compares the cell renderer and the grid
-//! renderers on one physical field.
+//! renderers on one physical field. `pvrsim generate permuted`: a copy of a
+//! mesh in a random order, for the load path's renumbering.
 
 use anyhow::{bail, Context};
 
@@ -20,7 +21,7 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
     let a = &a;
     let input = a.input.as_ref().context(
         "`generate mesh-field` needs --input SCENE.toml (a mesh scene) or --input MESH \
-         (.vtk, .vtu, .inp) with --field",
+         (.vtk, .vtu, .pvtu, .inp) with --field",
     )?;
     let is_scene = input
         .extension()
@@ -30,9 +31,10 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         let s = Scene::load(input)?;
         if !is_mesh_file(&s.data.path) {
             bail!(
-                "--input {}: its data ({}) is not a tetrahedral mesh (.vtk, .vtu, .inp)",
+                "--input {}: its data ({}) is not a tetrahedral mesh ({})",
                 input.display(),
-                s.data.path.display()
+                s.data.path.display(),
+                crate::data::io::SUPPORTED
             );
         }
         if let Some(f) = &a.field {
@@ -49,8 +51,9 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         None
     } else {
         bail!(
-            "--input {}: expected a mesh scene (.toml) or a mesh (.vtk, .vtu, .inp)",
-            input.display()
+            "--input {}: expected a mesh scene (.toml) or a mesh ({})",
+            input.display(),
+            crate::data::io::SUPPORTED
         );
     };
     let mesh_path = scene
@@ -125,6 +128,55 @@ pub fn run(a: GenerateArgs) -> anyhow::Result<()> {
         dims[2],
         a.output.display(),
         scene_path.display()
+    );
+    Ok(())
+}
+
+/// Runs `generate permuted` (`a.kind` is `Permuted`): reads --input,
+/// renumbers its vertices and cells at random (seed 1) and writes binary
+/// legacy VTK.
+pub fn permuted(a: GenerateArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.field.is_none() && !a.gzip,
+        "--field and --gzip are not used by `generate permuted` (it copies every field)"
+    );
+    anyhow::ensure!(
+        crate::data::io::mesh_format(&a.output) == Some(crate::data::io::MeshFormat::VtkLegacy),
+        "--output {}: `generate permuted` writes binary legacy VTK; name the file *.vtk",
+        a.output.display()
+    );
+    anyhow::ensure!(
+        a.force || !a.output.exists(),
+        "-o {}: exists (--force overwrites it)",
+        a.output.display()
+    );
+    let input = a.input.as_ref().with_context(|| {
+        format!(
+            "`generate permuted` needs --input MESH ({})",
+            crate::data::io::SUPPORTED
+        )
+    })?;
+    anyhow::ensure!(
+        is_mesh_file(input),
+        "--input {}: not a mesh ({})",
+        input.display(),
+        crate::data::io::SUPPORTED
+    );
+    let t = std::time::Instant::now();
+    let mut mesh = read_mesh(input)?;
+    let before = crate::data::locality::locality(&mesh);
+    crate::data::locality::permute(&mut mesh, 1);
+    let after = crate::data::locality::locality(&mesh);
+    crate::data::io::write_vtk_legacy(&mesh, &a.output, true)?;
+    println!(
+        "permuted {} ({} tets, {} vertices; {:.1} % of sampled cells local before, {:.1} % after) and wrote {} in {:.2} s",
+        input.display(),
+        mesh.tets.len(),
+        mesh.points.len(),
+        100.0 * before,
+        100.0 * after,
+        a.output.display(),
+        t.elapsed().as_secs_f64()
     );
     Ok(())
 }

@@ -40,7 +40,7 @@ fn memory_line(mesh: &crate::data::TetMesh) -> (usize, f64, String) {
 /// Runs `pvrsim info`.
 pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
-    if crate::data::io::volume::volume_format(&a.file).is_some() {
+    if let Some(crate::data::DataFormat::Volume(_)) = crate::data::data_format(&a.file) {
         let v = crate::data::io::read_volume(&a.file, "")
             .with_context(|| format!("cannot read {}", a.file.display()))?;
         let load_s = t.elapsed().as_secs_f64();
@@ -53,10 +53,22 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&a.file)
+    let loaded = crate::data::io::load_mesh(&a.file)
         .with_context(|| format!("cannot read {}", a.file.display()))?;
     let load_s = t.elapsed().as_secs_f64();
+    let (mesh, pieces) = (loaded.mesh, loaded.pieces);
+    let renumbered = loaded.renumbering.is_some();
     let (bytes, per, mut line) = memory_line(&mesh);
+    line = format!(
+        "{line}\nnumbering: {:.1} % of sampled cells local in the file (within {} vertices); {}",
+        100.0 * loaded.file_locality,
+        crate::data::locality::WINDOW,
+        if renumbered {
+            "renumbered along a Morton curve at load"
+        } else {
+            "the file's kept"
+        }
+    );
     if let Some(p) = &pieces {
         // The tetrahedra of each piece (the cluster's `--placement pieces`).
         let list: Vec<String> = p.iter().map(u64::to_string).collect();
@@ -83,6 +95,8 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
                 "mesh_bytes": bytes,
                 "bytes_per_tet": per,
                 "piece_tetrahedra": pieces,
+                "file_locality": loaded.file_locality,
+                "renumbered": renumbered,
             });
             println!("{}", serde_json::to_string_pretty(&v)?);
         } else {
@@ -104,6 +118,8 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             o.insert("mesh_bytes".into(), bytes.into());
             o.insert("bytes_per_tet".into(), per.into());
             o.insert("piece_tetrahedra".into(), serde_json::to_value(&pieces)?);
+            o.insert("file_locality".into(), loaded.file_locality.into());
+            o.insert("renumbered".into(), renumbered.into());
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {

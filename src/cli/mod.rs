@@ -114,6 +114,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Partition(a) => partition::run(a),
         Command::Generate(a) if a.kind == generate::Kind::MeshField => generate_mesh::run(a),
+        Command::Generate(a) if a.kind == generate::Kind::Permuted => generate_mesh::permuted(a),
         Command::Generate(a) => generate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Sweep(a) => sweep::run(a),

@@ -56,9 +56,8 @@ pub fn run(a: PartitionArgs) -> anyhow::Result<()> {
         "--pieces {}: must be between 1 and {MAX_PIECES}",
         a.pieces
     );
-    let ext = a.output.extension().and_then(|e| e.to_str()).unwrap_or("");
     anyhow::ensure!(
-        ext.eq_ignore_ascii_case("pvtu"),
+        crate::data::io::mesh_format(&a.output) == Some(crate::data::io::MeshFormat::Pvtu),
         "-o {}: the output is a .pvtu (its pieces go beside it)",
         a.output.display()
     );

@@ -18,7 +18,7 @@ use crate::scene::fit::{parse_view, FitSpec};
 /// Options of `pvrsim scene`.
 #[derive(Debug, Clone, Args)]
 pub struct SceneArgs {
-    /// Data file: a tetrahedral mesh (.vtk, .vtu, .inp) or a regular grid
+    /// Data file: a tetrahedral mesh (.vtk, .vtu, .pvtu, .inp) or a regular grid
     /// (.nhdr, .nrrd, .nii, .nii.gz, .vti, .fld).
     pub data: PathBuf,
     /// Output scene (TOML). Not overwritten without --force.

@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use crate::data::io::volume::{volume_format, VolumeFormat};
+use crate::data::io::{mesh_format, MeshFormat};
 use crate::data::{TetMesh, Volume};
 use crate::error::{Error, Result};
 
@@ -33,25 +35,32 @@ impl Dataset {
     }
 }
 
-/// Whether a file name is one of the mesh formats.
-pub fn is_mesh_file(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .is_some_and(|e| matches!(e.as_str(), "vtk" | "vtu" | "pvtu" | "inp"))
+/// The format of a data file: a mesh or a volume format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DataFormat {
+    /// A tetrahedral mesh format.
+    Mesh(MeshFormat),
+    /// A regular-grid format.
+    Volume(VolumeFormat),
 }
 
-/// Reads a mesh or a volume, choosing by the file name. `field` is passed
-/// to [`read_volume`](crate::data::io::read_volume) (meshes keep all their
-/// fields; the renderer picks one).
-pub fn read_dataset(path: &Path, field: &str) -> Result<Dataset> {
-    if is_mesh_file(path) {
-        return crate::data::io::read_mesh(path).map(Dataset::Mesh);
-    }
-    if crate::data::io::volume::volume_format(path).is_some() {
-        return crate::data::io::read_volume(path, field).map(Dataset::Volume);
-    }
-    Err(Error::data(
+/// The format a data file's name asks for, or `None`: the one decision
+/// every command and the Python module use ([`mesh_format`] for meshes,
+/// [`volume_format`] for grids).
+pub fn data_format(path: &Path) -> Option<DataFormat> {
+    mesh_format(path)
+        .map(DataFormat::Mesh)
+        .or_else(|| volume_format(path).map(DataFormat::Volume))
+}
+
+/// Whether a file name is one of the mesh formats.
+pub fn is_mesh_file(path: &Path) -> bool {
+    mesh_format(path).is_some()
+}
+
+/// The error for a file name that is neither a mesh nor a volume format.
+pub fn unsupported(path: &Path) -> Error {
+    Error::data(
         path,
         "file name",
         format!(
@@ -59,5 +68,18 @@ pub fn read_dataset(path: &Path, field: &str) -> Result<Dataset> {
             crate::data::io::SUPPORTED,
             crate::data::io::volume::SUPPORTED
         ),
-    ))
+    )
+}
+
+/// Reads a mesh or a volume, choosing by the file name ([`data_format`]).
+/// `field` is passed to [`read_volume`](crate::data::io::read_volume)
+/// (meshes keep all their fields; the renderer picks one).
+pub fn read_dataset(path: &Path, field: &str) -> Result<Dataset> {
+    match data_format(path) {
+        Some(DataFormat::Mesh(_)) => crate::data::io::read_mesh(path).map(Dataset::Mesh),
+        Some(DataFormat::Volume(_)) => {
+            crate::data::io::read_volume(path, field).map(Dataset::Volume)
+        }
+        None => Err(unsupported(path)),
+    }
 }

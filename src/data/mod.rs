@@ -8,11 +8,12 @@ pub mod demo_ert;
 pub mod demo_volume;
 pub mod io;
 pub mod lattice;
+pub mod locality;
 pub mod mesh;
 pub mod partition;
 pub mod quality;
 pub mod volume;
 
-pub use dataset::{read_dataset, Dataset};
+pub use dataset::{data_format, read_dataset, DataFormat, Dataset};
 pub use mesh::{Adjacency, Field, TetMesh, NO_NEIGHBOR};
 pub use volume::{Volume, VoxelType, Voxels};

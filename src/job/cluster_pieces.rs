@@ -43,11 +43,8 @@ impl PieceFrames {
 /// place that decides it): a `.pvtu` on worker processes or TCP workers,
 /// placed by its pieces (no `--placement`).
 pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
-    let pvtu = scene
-        .data
-        .path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("pvtu"));
+    let pvtu =
+        crate::data::io::mesh_format(&scene.data.path) == Some(crate::data::io::MeshFormat::Pvtu);
     pvtu && matches!(a.placement, None | Some(PlacementMethod::Pieces))
         && matches!(
             a.net.transport,

@@ -84,30 +84,17 @@ impl SceneSource for crate::data::TetMesh {
     }
 }
 
-/// Reads the data file named by `path`, by extension; `field` selects the
-/// array of a grid format that holds several (VTI).
+/// Reads the data file named by `path` as every command does
+/// ([`crate::data::read_dataset`]: every mesh and grid format the readers
+/// know, `.pvtu` included); `field` selects the array of a grid format that
+/// holds several (VTI).
 pub fn load_source(path: &Path, field: Option<&str>) -> anyhow::Result<Box<dyn SceneSource>> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_lowercase())
-        .unwrap_or_default();
-    match ext.as_str() {
-        "vtk" | "vtu" | "inp" => {
-            let mesh = crate::data::io::read_mesh(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            Ok(Box::new(mesh))
-        }
-        _ if crate::data::io::volume::volume_format(path).is_some() => {
-            let v = crate::data::io::read_volume(path, field.unwrap_or(""))?;
-            Ok(Box::new(v))
-        }
-        _ => anyhow::bail!(
-            "{}: pvrsim scene reads tetrahedral meshes (.vtk, .vtu, .inp) and regular grids ({}); \
-             .{ext} is not supported",
-            path.display(),
-            crate::data::io::volume::SUPPORTED
-        ),
-    }
+    let data = crate::data::read_dataset(path, field.unwrap_or(""))
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(match data {
+        crate::data::Dataset::Mesh(m) => Box::new(m),
+        crate::data::Dataset::Volume(v) => Box::new(v),
+    })
 }
 
 /// Reads the data of `spec` and fits a scene to it: the scene text, which

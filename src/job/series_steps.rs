@@ -15,8 +15,10 @@ use crate::render::RenderInput;
 /// The series' data states (the scene's first) and one step per frame.
 pub fn mesh_steps(
     s: &SeriesArgs,
-    input: RenderInput,
+    mut input: RenderInput,
 ) -> anyhow::Result<(Vec<RenderInput>, Vec<Step>)> {
+    // Time steps are numbered as the scene's mesh, then the mapping goes.
+    let like = input.renumbering.take();
     let Some(path) = &s.series else {
         let image = &input.scene.image;
         let steps = s
@@ -54,7 +56,7 @@ pub fn mesh_steps(
                 let mesh = match meshes.iter().find(|(p, _)| *p == f.mesh) {
                     Some((_, m)) => m.clone(),
                     None => {
-                        let m = crate::data::io::read_mesh(&f.mesh)
+                        let m = crate::data::io::read_mesh_like(&f.mesh, like.as_deref())
                             .with_context(|| format!("{}: the time step's mesh", at()))?;
                         anyhow::ensure!(
                             m.points.len() == base.points.len() && m.tets == base.tets,

@@ -21,6 +21,10 @@ pub struct RenderInput {
     /// A `.pvtu`'s pieces: each one's tetrahedra, the mesh holding them in
     /// turn (`None` for one file). `--placement pieces` places by them.
     pub pieces: Option<Arc<[u64]>>,
+    /// How the load path renumbered the scene's mesh (`None`: the file's
+    /// numbering), kept until a series' time steps are read and numbered
+    /// alike ([`crate::data::io::read_mesh_like`]).
+    pub renumbering: Option<Arc<crate::data::locality::Renumbering>>,
 }
 
 /// A raw scalar `s` on the transfer function's `[0, 1]` scale for the
@@ -61,6 +65,7 @@ impl RenderInput {
             s_norm,
             range,
             pieces: None,
+            renumbering: None,
         })
     }
 }
@@ -77,10 +82,11 @@ impl RenderInput {
     /// reading the mesh.
     pub fn read(scene: Scene) -> Result<(RenderInput, f64)> {
         let t = std::time::Instant::now();
-        let (mesh, pieces) = crate::data::io::read_mesh_with_pieces(&scene.data.path)?;
+        let l = crate::data::io::load_mesh(&scene.data.path)?;
         let load_s = t.elapsed().as_secs_f64();
-        let mut input = RenderInput::new(scene, Arc::new(mesh))?;
-        input.pieces = pieces.map(Arc::from);
+        let mut input = RenderInput::new(scene, Arc::new(l.mesh))?;
+        input.pieces = l.pieces.map(Arc::from);
+        input.renumbering = l.renumbering.map(Arc::new);
         Ok((input, load_s))
     }
 

@@ -56,8 +56,9 @@ class Mesh:
     @classmethod
     def read(cls, path: PathLike) -> "Mesh":
         """Reads a mesh file the command line reads: legacy VTK ``.vtk``
-        (ASCII or binary), VTK XML ``.vtu``, AVS UCD ``.inp``; other 3D
-        linear cells are split into tetrahedra as the CLI does.
+        (ASCII or binary), VTK XML ``.vtu`` and its partitioned ``.pvtu``,
+        AVS UCD ``.inp``; other 3D linear cells are split into tetrahedra as
+        the CLI does.
 
         Raises ``FileError`` (an ``OSError``) naming the file and the line,
         byte or field at fault.
@@ -171,6 +172,23 @@ class Mesh:
                 name: (a[:, 0] if a.shape[1] == 1 else a) for name, a in self._native.fields()
             }
         return self._point_data
+
+    @property
+    def file_vertex_ids(self) -> Optional[np.ndarray]:
+        """For each vertex, its index in the file read, or ``None`` when the
+        mesh keeps the file's numbering. A file whose numbering is scattered
+        (a mesher's or a solver's order) is renumbered along a space-filling
+        curve at load, as the command line does, so that rendering gathers
+        vertices from cache: ``mesh.point_data[f][i]`` is the file's value
+        of vertex ``mesh.file_vertex_ids[i]``."""
+        return self._native.file_vertex_ids()
+
+    @property
+    def file_cell_ids(self) -> Optional[np.ndarray]:
+        """For each tetrahedron, its index in the file read (after splitting
+        other cells into tetrahedra), or ``None`` when the mesh keeps the
+        file's numbering (see ``file_vertex_ids``)."""
+        return self._native.file_cell_ids()
 
     @property
     def n_points(self) -> int:

@@ -96,6 +96,7 @@ pub(super) fn run_tol(
         s_norm,
         range: [0.0, 1.0],
         pieces: None,
+        renumbering: None,
     };
     let (img, st) = render(&input, &adj, &ReferenceOptions { tolerance });
     assert!(!img.has_non_finite());
