@@ -227,7 +227,8 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
         // What /frame.png and /scene.toml serve is that frame.
         let (st, served) = s.get(&format!("/frame.png?token={}", s.token));
         assert_eq!(st, 200);
-        assert_eq!(served, png, "/frame.png is the last full frame");
+        let pixels = |b: &[u8]| image::load_from_memory(b).unwrap().to_rgb8().into_raw();
+        assert_eq!(pixels(&served), pixels(&png), "/frame.png is the last full frame");
         let (st, toml) = s.get(&format!("/scene.toml?token={}", s.token));
         assert_eq!(st, 200);
         let (st, state) = s.get(&format!("/state.json?token={}", s.token));

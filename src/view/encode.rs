@@ -1,6 +1,7 @@
 //! Frames as bytes for the page: JPEG while the user moves (small, fast),
-//! the lossless PNG `pvrsim render` writes ([`Image::png_bytes`]) when
-//! still. docs/viewer.md has the measured encode times.
+//! a fast lossless PNG when still (the same pixels as the PNG `pvrsim
+//! render` writes, [`Image::png_bytes`], which `/frame.png` serves, at a
+//! lower compression level). docs/viewer.md has the measured encode times.
 
 use crate::image::Image;
 
@@ -9,7 +10,7 @@ use crate::image::Image;
 pub enum FrameFormat {
     /// JPEG (lossy): frames drawn while the user interacts.
     Jpeg,
-    /// PNG (lossless, `pvrsim render`'s writer): still frames.
+    /// PNG (lossless, fast compression): still frames.
     Png,
 }
 
@@ -29,7 +30,19 @@ pub const JPEG_QUALITY: u8 = 85;
 /// Encodes `image` as `format`.
 pub fn encode(image: &Image, format: FrameFormat) -> anyhow::Result<Vec<u8>> {
     Ok(match format {
-        FrameFormat::Png => image.png_bytes()?,
+        FrameFormat::Png => {
+            use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+            use image::ImageEncoder;
+            let mut out = Vec::new();
+            PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+                .write_image(
+                    &image.to_rgb8(),
+                    image.width,
+                    image.height,
+                    image::ExtendedColorType::Rgb8,
+                )?;
+            out
+        }
         FrameFormat::Jpeg => {
             use image::ImageEncoder;
             let mut out = Vec::new();

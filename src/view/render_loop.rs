@@ -255,7 +255,7 @@ fn run(mut backend: Box<dyn Backend>, shared: &Shared, scale: InteractiveScale) 
             "options": backend.command_options(),
         }));
         if format == FrameFormat::Png {
-            shared.set_full(bytes.clone(), scene.to_toml(&data_path.to_string_lossy()));
+            shared.set_full(image, scene.to_toml(&data_path.to_string_lossy()));
         }
         shared.send(Outgoing::frame(meta, bytes));
     }

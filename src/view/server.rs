@@ -59,6 +59,7 @@ impl Outgoing {
 /// What the last full-resolution frame left for the HTTP routes.
 #[derive(Default)]
 struct Last {
+    full: Option<Arc<crate::image::Image>>,
     png: Option<Arc<Vec<u8>>>,
     toml: Option<String>,
     state: serde_json::Value,
@@ -112,11 +113,33 @@ impl Shared {
         self.last().state = state;
     }
 
-    /// Records the last full-resolution frame and its scene.
-    pub fn set_full(&self, png: Vec<u8>, toml: String) {
+    /// Records the last full-resolution frame and its scene (its PNG is
+    /// written when `/frame.png` is first asked for).
+    pub fn set_full(&self, image: crate::image::Image, toml: String) {
         let mut l = self.last();
-        l.png = Some(Arc::new(png));
+        l.full = Some(Arc::new(image));
+        l.png = None;
         l.toml = Some(toml);
+    }
+
+    /// The last full frame as `pvrsim render` writes it.
+    fn full_png(&self) -> Option<anyhow::Result<Arc<Vec<u8>>>> {
+        let (full, png) = {
+            let l = self.last();
+            (l.full.clone()?, l.png.clone())
+        };
+        if let Some(p) = png {
+            return Some(Ok(p));
+        }
+        let bytes = match full.png_bytes() {
+            Ok(b) => Arc::new(b),
+            Err(e) => return Some(Err(e.into())),
+        };
+        let mut l = self.last();
+        if l.full.as_ref().is_some_and(|f| Arc::ptr_eq(f, &full)) {
+            l.png = Some(bytes.clone());
+        }
+        Some(Ok(bytes))
     }
 
     /// Hands a validated message to the render loop.
@@ -234,8 +257,9 @@ async fn frame_png(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> R
     if !s.authorized(&q, &h) {
         return forbidden();
     }
-    match s.last().png.clone() {
-        Some(png) => (
+    let png = tokio::task::spawn_blocking(move || s.full_png()).await;
+    match png {
+        Ok(Some(Ok(png))) => (
             [
                 (header::CONTENT_TYPE, "image/png"),
                 (header::CACHE_CONTROL, "no-store"),
@@ -243,7 +267,12 @@ async fn frame_png(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> R
             png.as_ref().clone(),
         )
             .into_response(),
-        None => (
+        Ok(Some(Err(e))) => (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("cannot write the PNG: {e:#}\n"),
+        )
+            .into_response(),
+        Ok(None) | Err(_) => (
             StatusCode::SERVICE_UNAVAILABLE,
             "no full-resolution frame yet\n",
         )

@@ -255,4 +255,7 @@ $("record").onclick = () => {
   }
 };
 
+// Test hook (stable): sends a request as the page does.
+window.pvrsimSend = send;
+
 connect();
