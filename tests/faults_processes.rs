@@ -209,7 +209,7 @@ fn mesh_frames_over_processes_survive_every_fault_at_every_phase() {
         let a = args(&common, on_failure, fault);
         let (input, cfg) = config(&scene, &strs(&a));
         let net = cluster_args(&scene, &strs(&a)).net;
-        net.run_processes(exe(), &input, &cfg)
+        pvrsim::job::nodes::run_processes(&net, exe(), &input, &cfg)
     };
     let reference = bits(&frame("abort", None).unwrap().0.image);
     let hooks = [

@@ -133,7 +133,7 @@ fn write_cluster_outputs(
         // Every frame with a `%d` pattern in `output`, and the movie: the
         // command line's own writer.
         let output = has("output").then_some(job.output.as_path());
-        pvrsim::job::series_output::write_series_images(output, &job.series, &r.images())?;
+        pvrsim::job::series_output::write_series_images(output, &job.series, &r.images(), false)?;
         if let ClusterResult::Mesh(frames) = r {
             if let Some(last) = frames.last() {
                 pvrsim::job::series_output::write_series_csv(&job.series, &last.report)?;

@@ -37,6 +37,25 @@ fn checkpoint_on(flag: &AtomicBool) {
     }
 }
 
+/// Raises the flag on SIGINT and SIGTERM (the command line's series: the
+/// next checkpoint between frames unwinds, and every guard on the way,
+/// worker processes and their folders included, is dropped). A second
+/// signal ends the process at once (exit 130), as without a handler.
+pub fn on_signals() {
+    extern "C" fn raise(_: libc::c_int) {
+        if CANCEL.swap(true, Ordering::SeqCst) {
+            // SAFETY: _exit is async-signal-safe.
+            unsafe { libc::_exit(130) }
+        }
+    }
+    let handler = raise as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: the handler only touches an atomic and calls _exit.
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
+
 /// Whether a caught unwind payload is a cancellation.
 pub fn is_cancelled(payload: &(dyn std::any::Any + Send)) -> bool {
     payload.is::<Cancelled>()

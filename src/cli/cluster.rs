@@ -36,15 +36,43 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
         prepare_output("--series-csv", p, OutputKind::Csv)?;
     }
     let started = std::time::Instant::now();
-    let result = job.load()?.run_with_progress(|k, n| {
-        if n > 1 {
-            eprintln!(
-                "frame {}/{n} done ({:.1} s)",
-                k + 1,
-                started.elapsed().as_secs_f64()
-            );
+    // Ctrl-C or SIGTERM stop a series between frames: the frames done are
+    // on disk (each is written as it completes), the workers end with it.
+    crate::base::cancel::on_signals();
+    let mut done = 0usize;
+    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        job.load()?.run_with_progress(|k, n, out| {
+            done = k + 1;
+            if n > 1 {
+                eprintln!(
+                    "frame {}/{n} done ({:.1} s)",
+                    k + 1,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            match series_output::write_frame(&a.output, k, n, &out.image) {
+                Ok(Some(line)) => println!("{line}"),
+                Ok(None) => {}
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    crate::base::cancel::set(true);
+                }
+            }
+        })
+    }));
+    let result = match run {
+        Ok(r) => r?,
+        Err(p) if crate::base::cancel::is_cancelled(p.as_ref()) => {
+            let kept = match crate::job::series_args::frame_path(&a.output, 0) {
+                Some(_) if done > 0 => format!(
+                    "frames 0..{done} are on disk; add --resume to the same command to continue"
+                ),
+                _ => "nothing was written".to_string(),
+            };
+            anyhow::bail!("stopped after {done} frame(s): {kept}");
         }
-    })?;
+        Err(p) => std::panic::resume_unwind(p),
+    };
     match &result {
         ClusterResult::Grid(outs) => write_grid(&a, outs)?,
         ClusterResult::Mesh(outs) => {
@@ -58,7 +86,9 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                 ),
             );
             let images: Vec<&Image> = outs.iter().map(|o| &o.image).collect();
-            for line in series_output::write_series_images(Some(&a.output), &a.series, &images)? {
+            let lines =
+                series_output::write_series_images(Some(&a.output), &a.series, &images, true)?;
+            for line in lines {
                 println!("{line}");
             }
             let (trace, ranks) = result.trace();
@@ -91,7 +121,7 @@ fn write_grid(a: &ClusterArgs, outs: &[GridOutcome]) -> anyhow::Result<()> {
     }
     let out = outs.last().expect("at least one frame");
     let images: Vec<&Image> = outs.iter().map(|o| &o.image).collect();
-    for line in series_output::write_series_images(Some(&a.output), &a.series, &images)? {
+    for line in series_output::write_series_images(Some(&a.output), &a.series, &images, false)? {
         println!("{line}");
     }
     write_outputs(a, &out.report, &out.trace, out.report.nodes.len())

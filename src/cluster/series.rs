@@ -42,10 +42,8 @@ impl Step {
 }
 
 /// Runs one frame per step on nodes that keep their cells across the
-/// frames (in this process: the virtual clock, or threads): the placement
-/// and the nodes' data are built once per data state (a time step
-/// rebuilds them) and, with [`Coherence::Placement`], again when the last
-/// frame moved cells. `progress` is called after each frame with its index.
+/// frames (in this process: the virtual clock, or threads): see
+/// [`LocalFrames`]. `progress` is called after each frame with its index.
 pub fn run(
     inputs: &[RenderInput],
     steps: &[Step],
@@ -53,36 +51,67 @@ pub fn run(
     coherence: Coherence,
     mut progress: impl FnMut(usize, &ClusterOutcome),
 ) -> anyhow::Result<Vec<ClusterOutcome>> {
-    // A view-aligned placement follows the camera; the others, and the
-    // nodes' data with them, are the same for every frame of a data state.
-    let per_view = cfg.placement == PlacementMethod::RcbView;
-    let mut kept: Option<(usize, Placement, phase1::NodeData)> = None;
+    let mut nodes = LocalFrames::new(cfg.clone(), coherence);
     let mut outs = Vec::with_capacity(steps.len());
     for (f, step) in steps.iter().enumerate() {
         crate::base::cancel::checkpoint();
-        let input = step.input(inputs);
-        let out = if per_view {
-            super::run(&input, cfg)?
-        } else {
-            if kept.as_ref().is_none_or(|k| k.0 != step.data) {
-                let placement = place(&input, cfg);
-                let data = phase1::NodeData::new(&input, &placement, &cfg.phase1)?;
-                kept = Some((step.data, placement, data));
-            }
-            let (_, placement, data) = kept.as_ref().expect("built above");
-            let out = run_placed(&input, cfg, placement, data)?;
-            if coherence == Coherence::Placement && out.report.cells_moved > 0 {
-                if let Some(next) = carried(placement, &out.processed) {
-                    let data = phase1::NodeData::new(&input, &next, &cfg.phase1)?;
-                    kept = Some((step.data, next, data));
-                }
-            }
-            out
-        };
+        let out = nodes.frame(inputs, step)?;
         progress(f, &out);
         outs.push(out);
     }
     Ok(outs)
+}
+
+/// Nodes in this process that keep their cells across frames: the
+/// placement and the nodes' data are built once per data state (a time
+/// step rebuilds them) and, with [`Coherence::Placement`], again when the
+/// last frame moved cells.
+pub struct LocalFrames {
+    cfg: ClusterConfig,
+    coherence: Coherence,
+    kept: Option<(usize, Placement, phase1::NodeData)>,
+}
+
+impl LocalFrames {
+    /// Nodes of `cfg`, nothing built yet.
+    pub fn new(cfg: ClusterConfig, coherence: Coherence) -> LocalFrames {
+        LocalFrames {
+            cfg,
+            coherence,
+            kept: None,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ClusterConfig {
+        &self.cfg
+    }
+
+    /// One frame: `step` over `inputs` (its data state, camera and
+    /// transfer function).
+    pub fn frame(&mut self, inputs: &[RenderInput], step: &Step) -> anyhow::Result<ClusterOutcome> {
+        let cfg = &self.cfg;
+        let input = step.input(inputs);
+        // A view-aligned placement follows the camera; the others, and the
+        // nodes' data with them, are the same for every frame of a data state.
+        if cfg.placement == PlacementMethod::RcbView {
+            return super::run(&input, cfg);
+        }
+        if self.kept.as_ref().is_none_or(|k| k.0 != step.data) {
+            let placement = place(&input, cfg);
+            let data = phase1::NodeData::new(&input, &placement, &cfg.phase1)?;
+            self.kept = Some((step.data, placement, data));
+        }
+        let (_, placement, data) = self.kept.as_ref().expect("built above");
+        let out = run_placed(&input, cfg, placement, data)?;
+        if self.coherence == Coherence::Placement && out.report.cells_moved > 0 {
+            if let Some(next) = carried(placement, &out.processed) {
+                let data = phase1::NodeData::new(&input, &next, &cfg.phase1)?;
+                self.kept = Some((step.data, next, data));
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// The placement a frame ended with: each cell on the node that processed

@@ -219,7 +219,7 @@ pub fn run_processes(
     // Reassigning, and every frame after the first (one session a frame),
     // need workers that serve more than one session.
     let serving = t.on_failure == OnFailure::Reassign || cams.len() > 1;
-    let mut w = t.spawn_processes(exe, cfg.nodes, serving)?;
+    let mut w = super::nodes::spawn_processes(t, exe, cfg.nodes, !serving)?;
     let r = remote(
         t,
         w.addrs.clone(),

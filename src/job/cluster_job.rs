@@ -2,11 +2,11 @@
 //! ([`Valid<ClusterArgs>`](super::validate::Valid)), the scene read once and,
 //! by what its data is, its mesh or volume loaded (or, for a `.pvtu` on
 //! worker processes, its pieces' summaries: the workers read the cells) with the frame's
-//! configuration ([`LoadedCluster`]), then run into a [`ClusterResult`].
-//! The command line and [`super::ClusterJob::run`] both take it; nothing
-//! on it checks the options or reads the scene again.
+//! configuration ([`LoadedCluster`]), then run into a [`ClusterResult`]
+//! (on a session, [`super::session::run`]). The command line and
+//! [`super::ClusterJob::run`] both take it; nothing on it checks the
+//! options or reads the scene again.
 
-use super::api::ClusterResult;
 use super::cluster::ClusterArgs;
 use super::cluster_grid::{self, GridFrames};
 use super::cluster_mesh::{self, MeshFrame};
@@ -35,30 +35,6 @@ impl<'a> Valid<'a, ClusterArgs> {
             LoadedCluster::Pieces(a, Box::new(cluster_pieces::load(a, scene)?))
         } else {
             LoadedCluster::Mesh(a, Box::new(cluster_mesh::load_mesh(a, scene)?))
-        })
-    }
-}
-
-impl LoadedCluster<'_> {
-    /// Runs the frame(s), writing nothing.
-    pub fn run(self) -> anyhow::Result<ClusterResult> {
-        self.run_with_progress(|_, _| {})
-    }
-
-    /// [`Self::run`], calling `progress(frame, frames)` as each frame of
-    /// a mesh series ends.
-    pub fn run_with_progress(
-        self,
-        progress: impl FnMut(usize, usize),
-    ) -> anyhow::Result<ClusterResult> {
-        Ok(match self {
-            LoadedCluster::Mesh(a, f) => {
-                ClusterResult::Mesh(cluster_mesh::run_mesh(a, *f, progress)?)
-            }
-            LoadedCluster::Grid(a, f) => ClusterResult::Grid(cluster_grid::run(a, *f)?),
-            LoadedCluster::Pieces(a, f) => {
-                ClusterResult::Mesh(cluster_pieces::run(a, *f, progress)?)
-            }
         })
     }
 }

@@ -1,13 +1,13 @@
 //! A mesh cluster job's frames: the scene's mesh read once with the
 //! frame's configuration ([`load_mesh`], [`mesh_config`]), then run in this
-//! process or on the workers the transport names ([`run_mesh`]). The
-//! options live in [`super::cluster`].
+//! process or on the workers the transport names (on a session,
+//! [`super::session`]). The options live in [`super::cluster`].
 
 use anyhow::Context;
 
 use super::cluster::{config, ClusterArgs};
 use super::memory::{self, FrameKind};
-use crate::cluster::{self, ClusterConfig, ClusterOutcome};
+use crate::cluster::ClusterConfig;
 use crate::node::{DataMode, PlacementMethod};
 use crate::render::RenderInput;
 
@@ -20,7 +20,8 @@ pub struct MeshFrame {
     pub cfg: ClusterConfig,
     /// One step per frame (`--frames`, `--turn`, `--series`; one without them).
     pub steps: Vec<crate::cluster::series::Step>,
-    remote: Option<super::transport_args::TransportKind>,
+    /// Where they run (`None`: this process).
+    pub remote: Option<super::transport_args::TransportKind>,
 }
 
 /// Prepares a mesh frame of validated options on `scene` (read once, by
@@ -114,61 +115,4 @@ pub(super) fn mesh_config(
         }
     }
     Ok((cfg, remote))
-}
-
-/// Runs prepared mesh frames (on the transport `a` names), writing
-/// nothing: one outcome per camera, in order; with more than one frame the
-/// last frame's report carries the series section
-/// ([`crate::cluster::series`]). `progress` hears of each frame as it ends.
-pub fn run_mesh(
-    a: &ClusterArgs,
-    f: MeshFrame,
-    mut progress: impl FnMut(usize, usize),
-) -> anyhow::Result<Vec<ClusterOutcome>> {
-    let MeshFrame {
-        inputs,
-        cfg,
-        steps,
-        remote,
-    } = f;
-    let n = steps.len();
-    let coherence = match (remote, a.series.coherence) {
-        (Some(_), _) => cluster::series::Coherence::Off,
-        (None, Some(c)) => c,
-        (None, None) if cfg.phase1.data == DataMode::Partitioned => {
-            cluster::series::Coherence::Placement
-        }
-        (None, None) => cluster::series::Coherence::Off,
-    };
-    let (mut outs, measured) = match remote {
-        None => (
-            cluster::series::run(&inputs, &steps, &cfg, coherence, |k, _| progress(k, n))?,
-            None,
-        ),
-        Some(kind) => {
-            let frames = a
-                .net
-                .run_series(kind, &inputs, &steps, &cfg, |k| progress(k, n))?;
-            let mut outs = Vec::with_capacity(n);
-            let mut rows = Vec::with_capacity(n);
-            for (step, (mut out, m, wall_s)) in steps.iter().zip(frames) {
-                rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
-                out.report.transport = Some(crate::cluster::remote::transport_section(
-                    &step.input(&inputs),
-                    &cfg,
-                    &out,
-                    m,
-                )?);
-                outs.push(out);
-            }
-            (outs, Some(rows))
-        }
-    };
-    if a.series.is_series() {
-        let series = cluster::series::report(&outs, &steps, measured.as_deref(), coherence);
-        if let Some(last) = outs.last_mut() {
-            last.report.series = Some(series);
-        }
-    }
-    Ok(outs)
 }

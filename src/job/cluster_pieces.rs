@@ -12,9 +12,10 @@ use super::cluster::{ClusterArgs, Sharing};
 use super::cluster_mesh::mesh_config;
 use super::transport_args::TransportKind;
 use crate::cluster::remote::pieces::PieceSet;
+use crate::cluster::remote::Measured;
 use crate::cluster::report::transport::PiecesSection;
-use crate::cluster::series::{Coherence, Step};
-use crate::cluster::{ClusterConfig, ClusterOutcome};
+use crate::cluster::series::Step;
+use crate::cluster::ClusterConfig;
 use crate::node::PlacementMethod;
 use crate::scene::Scene;
 
@@ -29,6 +30,13 @@ pub struct PieceFrames {
     /// The configuration.
     pub cfg: ClusterConfig,
     kind: TransportKind,
+}
+
+impl PieceFrames {
+    /// The transport the workers run on (`processes` or `tcp`).
+    pub fn kind(&self) -> TransportKind {
+        self.kind
+    }
 }
 
 /// Whether `scene` runs with the workers reading their own pieces (the one
@@ -111,41 +119,20 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
     })
 }
 
-/// Runs the frames, writing nothing: one outcome per camera, in order
-/// (the last carrying the series section when there is more than one).
-pub fn run(
-    a: &ClusterArgs,
-    f: PieceFrames,
-    mut progress: impl FnMut(usize, usize),
-) -> anyhow::Result<Vec<ClusterOutcome>> {
-    let n = f.scenes.len();
-    let frames = a
-        .net
-        .run_pieces(f.kind, &f.pieces, &f.scenes, &f.cfg, |k| progress(k, n))?;
-    let mut outs = Vec::with_capacity(n);
-    let mut rows = Vec::with_capacity(n);
-    for (mut out, m, wall_s) in frames {
-        rows.push((wall_s, m.frame_bytes(), m.cells_bytes_sent));
-        out.report.pieces = Some(PiecesSection {
-            pvtu: f.pieces.path().display().to_string(),
-            pieces: f.pieces.summary.pieces.len(),
-            vertices_read_by_coordinator: f.pieces.summary.points(),
-            parts: match &m.reassigned {
-                Some(r) => r.parts.clone(),
-                None => f.pieces.parts(f.cfg.phase1.nodes),
-            },
-            setup_s: m.setup_s,
-            phase1_wire_bytes: m.phase1.wire_bytes_sent,
-            phase2_wire_bytes: m.phase2.wire_bytes_sent,
-            reassigned: m.reassigned,
-        });
-        outs.push(out);
+/// The report's pieces section of a frame: what the coordinator read, the
+/// parts (after any reassignment) and what the transport measured.
+pub fn section(pieces: &PieceSet, cfg: &ClusterConfig, m: Measured) -> PiecesSection {
+    PiecesSection {
+        pvtu: pieces.path().display().to_string(),
+        pieces: pieces.summary.pieces.len(),
+        vertices_read_by_coordinator: pieces.summary.points(),
+        parts: match &m.reassigned {
+            Some(r) => r.parts.clone(),
+            None => pieces.parts(cfg.phase1.nodes),
+        },
+        setup_s: m.setup_s,
+        phase1_wire_bytes: m.phase1.wire_bytes_sent,
+        phase2_wire_bytes: m.phase2.wire_bytes_sent,
+        reassigned: m.reassigned,
     }
-    if a.series.is_series() {
-        let series = crate::cluster::series::report(&outs, &f.steps, Some(&rows), Coherence::Off);
-        if let Some(last) = outs.last_mut() {
-            last.report.series = Some(series);
-        }
-    }
-    Ok(outs)
 }

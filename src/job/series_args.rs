@@ -63,6 +63,13 @@ pub struct SeriesArgs {
     /// Frames per second of `--movie` (default 10).
     #[arg(long, value_name = "FPS", requires = "movie")]
     pub movie_fps: Option<u32>,
+    /// Continue a stopped series: with `-o out-%04d.png`, the frames whose
+    /// files exist (from frame 0 on, without a gap) are not rendered again;
+    /// the series runs from the first missing one. Each frame's file is
+    /// written as the frame completes, so a series stopped by Ctrl-C or a
+    /// failure keeps what it finished.
+    #[arg(long)]
+    pub resume: bool,
 }
 
 impl SeriesArgs {
@@ -126,6 +133,28 @@ impl SeriesArgs {
             "--movie-fps must be between 1 and 240"
         );
         Ok(())
+    }
+
+    /// With `--resume`: the first frame of `output`'s pattern whose file
+    /// does not exist (0 without `--resume`). An error without a `%d`
+    /// pattern in `output` or without a series.
+    pub fn resume_at(&self, output: &std::path::Path, frames: usize) -> anyhow::Result<usize> {
+        if !self.resume {
+            return Ok(0);
+        }
+        anyhow::ensure!(
+            self.is_series(),
+            "--resume continues a series; give --frames N (or --series FILE) with it"
+        );
+        anyhow::ensure!(
+            frame_path(output, 0).is_some(),
+            "--resume needs every frame in a file of its own: give -o with a frame number \
+             pattern, e.g. -o orbit-%04d.png"
+        );
+        let done = (0..frames)
+            .take_while(|&k| frame_path(output, k).is_some_and(|p| p.is_file()))
+            .count();
+        Ok(done)
     }
 
     /// The cameras of the series: `cam`, then `cam` turned by `--turn`

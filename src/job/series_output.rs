@@ -11,17 +11,42 @@ use super::series_args::{frame_path, SeriesArgs};
 use crate::cluster::ClusterReport;
 use crate::image::Image;
 
+/// Writes frame `k` of `n` to `output` as the frame completes, when
+/// `output` has a `%d` pattern (every frame is then a file of its own);
+/// returns what it did (the first and the last frame's line). `None`
+/// without a pattern: [`write_series_images`] writes the last frame.
+pub fn write_frame(
+    output: &Path,
+    k: usize,
+    n: usize,
+    image: &Image,
+) -> anyhow::Result<Option<String>> {
+    let Some(p) = frame_path(output, k) else {
+        return Ok(None);
+    };
+    image.save_png(&p)?;
+    Ok((k == 0 || k + 1 == n).then(|| format!("wrote {}", p.display())))
+}
+
 /// Writes the frames' images to `output` when given (every frame when it
-/// has a `%d` pattern, else the last one) and `--movie`; returns what it
-/// did, one line each.
+/// has a `%d` pattern, else the last one; `written`: the pattern's frames
+/// were written as they completed, [`write_frame`]) and `--movie`;
+/// returns what it did, one line each.
 pub fn write_series_images(
     output: Option<&Path>,
     s: &SeriesArgs,
     images: &[&Image],
+    written: bool,
 ) -> anyhow::Result<Vec<String>> {
     let mut said = Vec::new();
-    if let Some(output) = output {
-        write_frames(output, images, &mut said)?;
+    match output {
+        Some(o) if written && frame_path(o, 0).is_some() => {
+            if images.len() > 2 {
+                said.push(format!("({} frames written)", images.len()));
+            }
+        }
+        Some(o) => write_frames(o, images, &mut said)?,
+        None => {}
     }
     if let Some(m) = &s.movie {
         make_movie(s, m, images)?;

@@ -1,5 +1,7 @@
 //! The transport options of `pvrsim cluster` (flattened into its
-//! arguments): where the nodes run and how they are reached.
+//! arguments): where the nodes run and how they are reached. Parsing and
+//! checking only; the nodes are started and reached by
+//! [`super::nodes`].
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -7,11 +9,8 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
-use crate::cluster::remote::pieces::PieceSet;
-use crate::cluster::remote::{Coordinator, LocalWorkers, Measured};
-use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome};
-use crate::net::tcp::{TcpOptions, Token};
-use crate::render::RenderInput;
+use crate::cluster::{ClockKind, ClusterConfig};
+use crate::net::tcp::TcpOptions;
 
 /// Where the nodes run (`--transport`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -197,99 +196,6 @@ impl TransportArgs {
         Ok(Some((rank, args)))
     }
 
-    /// Starts the `--transport processes` children: `n` workers of `exe`
-    /// with this heartbeat deadline (and `--test-worker-hook`'s arguments
-    /// for its rank); `serving`: they serve more than one session (for
-    /// `reassign` and multi-frame runs), else one (`--once`).
-    pub fn spawn_processes(
-        &self,
-        exe: &Path,
-        n: usize,
-        serving: bool,
-    ) -> anyhow::Result<LocalWorkers> {
-        let extra = vec![
-            "--heartbeat-timeout".to_string(),
-            self.heartbeat_timeout.to_string(),
-        ];
-        let hook = self.worker_hook()?;
-        let hook = hook.as_ref().map(|(r, a)| (*r, a.as_slice()));
-        LocalWorkers::spawn_hooked(exe, n, &extra, hook, Duration::from_secs(30), !serving)
-    }
-
-    /// The mesh frame over `--transport processes`, the children started
-    /// from `exe` (this program, or `pvrsim` from a test).
-    pub fn run_processes(
-        &self,
-        exe: &Path,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let reassign = self.on_failure == OnFailure::Reassign;
-        // Reassigning needs workers that serve a second session.
-        let mut workers = self.spawn_processes(exe, cfg.phase1.nodes, reassign)?;
-        let r = self.local_coordinator(&workers).run(input, cfg);
-        // Serving workers, and every worker after a failed frame (one may
-        // be stopped: no waiting for it), are killed and reaped on drop.
-        if r.is_ok() && !reassign {
-            finished(&mut workers)?;
-        }
-        r
-    }
-
-    /// A series of mesh frames, one per step, on the same workers:
-    /// worker processes are started once and serve one session a frame
-    /// (they keep the cells from the first frame: later set-ups carry a
-    /// camera, not cells); TCP workers serve sessions anyway. Per frame:
-    /// its outcome, what the transport measured and the wall seconds from
-    /// the session's start to the image. `done` hears of each frame.
-    pub fn run_series(
-        &self,
-        kind: TransportKind,
-        inputs: &[RenderInput],
-        steps: &[crate::cluster::series::Step],
-        cfg: &ClusterConfig,
-        mut done: impl FnMut(usize),
-    ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
-        let n = steps.len();
-        let mut frame =
-            |f: usize,
-             run: &mut dyn FnMut(&RenderInput) -> anyhow::Result<(ClusterOutcome, Measured)>|
-             -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
-                crate::base::cancel::checkpoint();
-                let input = steps[f].input(inputs);
-                let r = timed_frame(f, n, || run(&input))?;
-                done(f);
-                Ok(r)
-            };
-        if n == 1 {
-            return Ok(vec![frame(0, &mut |i| self.run(kind, i, cfg))?]);
-        }
-        match kind {
-            TransportKind::Processes => {
-                let exe = std::env::current_exe().context("cannot find this program's path")?;
-                // Workers that serve a session a frame; killed and reaped
-                // on drop, after the series or on any error.
-                let workers = self.spawn_processes(&exe, cfg.phase1.nodes, true)?;
-                let c = self.local_coordinator(&workers);
-                (0..n).map(|f| frame(f, &mut |i| c.run(i, cfg))).collect()
-            }
-            _ => (0..n)
-                .map(|f| frame(f, &mut |i| self.run(kind, i, cfg)))
-                .collect(),
-        }
-    }
-
-    /// The coordinator of worker processes started on this machine.
-    fn local_coordinator(&self, workers: &LocalWorkers) -> Coordinator {
-        Coordinator {
-            workers: workers.addrs.clone(),
-            token: workers.token().clone(),
-            tcp: self.tcp_options(),
-            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
-            reassign: self.on_failure == OnFailure::Reassign,
-        }
-    }
-
     /// Link timing from these options: the heartbeat deadline, and a
     /// connect + handshake limit no longer than it (between 1 and 5 s), so
     /// that a stalled worker at set-up is noticed within the deadline too.
@@ -334,129 +240,4 @@ impl TransportArgs {
             anyhow::bail!(NO_MPI)
         }
     }
-
-    /// Runs the frame on worker processes (`processes`, `tcp` or `mpi`).
-    pub fn run(
-        &self,
-        kind: TransportKind,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        match kind {
-            TransportKind::Threads => anyhow::bail!("threads run in this process (internal error)"),
-            #[cfg(feature = "mpi")]
-            TransportKind::Mpi => {
-                let recv_timeout = Duration::from_secs_f64(self.recv_timeout);
-                match crate::cluster::remote::mpi::coordinate(input, cfg, recv_timeout) {
-                    Ok(x) => Ok(x),
-                    // Print here, then end every rank of the job.
-                    Err(e) => {
-                        eprint!("{}", super::error_text(&e));
-                        crate::net::mpi::abort(1)
-                    }
-                }
-            }
-            #[cfg(not(feature = "mpi"))]
-            TransportKind::Mpi => anyhow::bail!(NO_MPI),
-            TransportKind::Processes => {
-                let exe = std::env::current_exe().context("cannot find this program's path")?;
-                self.run_processes(&exe, input, cfg)
-            }
-            TransportKind::Tcp => self.tcp_coordinator(cfg.phase1.nodes)?.run(input, cfg),
-        }
-    }
-
-    /// The coordinator of `--transport tcp`'s workers (`--workers` or
-    /// `--hostfile`, one per node).
-    fn tcp_coordinator(&self, n: usize) -> anyhow::Result<Coordinator> {
-        let workers = match &self.hostfile {
-            Some(p) => read_hostfile(p)?,
-            None => self.workers.clone(),
-        };
-        anyhow::ensure!(
-            !workers.is_empty(),
-            "--transport tcp needs --workers host:port,... or --hostfile FILE"
-        );
-        anyhow::ensure!(
-            workers.len() == n,
-            "{} workers for --nodes {n}: give one worker per node",
-            workers.len()
-        );
-        let token = match &self.token_file {
-            Some(p) => Token::load(p)?,
-            None => Token::none(),
-        };
-        Ok(Coordinator {
-            workers,
-            token,
-            tcp: self.tcp_options(),
-            recv_timeout: Duration::from_secs_f64(self.recv_timeout),
-            reassign: self.on_failure == OnFailure::Reassign,
-        })
-    }
-
-    /// Frames on workers that read their own pieces of `pieces`
-    /// (`--transport processes` or `tcp`), one per scene (a series' cameras
-    /// and transfer functions): worker processes are started once. Per
-    /// frame: its outcome, what the transport measured and its wall
-    /// seconds. `done` hears of each frame.
-    pub fn run_pieces(
-        &self,
-        kind: TransportKind,
-        pieces: &PieceSet,
-        scenes: &[crate::scene::Scene],
-        cfg: &ClusterConfig,
-        mut done: impl FnMut(usize),
-    ) -> anyhow::Result<Vec<(ClusterOutcome, Measured, f64)>> {
-        let n = cfg.phase1.nodes;
-        let frames = scenes.len();
-        let serving = frames > 1 || self.on_failure == OnFailure::Reassign;
-        let (c, workers) = match kind {
-            TransportKind::Processes => {
-                let exe = std::env::current_exe().context("cannot find this program's path")?;
-                let w = self.spawn_processes(&exe, n, serving)?;
-                (self.local_coordinator(&w), Some(w))
-            }
-            TransportKind::Tcp => (self.tcp_coordinator(n)?, None),
-            other => anyhow::bail!(
-                "workers reading their own pieces run on --transport processes or tcp, not {}",
-                other.name()
-            ),
-        };
-        let mut out = Vec::with_capacity(frames);
-        for (f, scene) in scenes.iter().enumerate() {
-            crate::base::cancel::checkpoint();
-            out.push(timed_frame(f, frames, || c.run_pieces(pieces, scene, cfg))?);
-            done(f);
-        }
-        if let Some(mut w) = workers {
-            if !serving {
-                finished(&mut w)?;
-            }
-        }
-        Ok(out)
-    }
-}
-
-/// Frame `f` of `n` run by `run`: its outcome, what the transport measured
-/// and its wall seconds; an error names the frame.
-fn timed_frame(
-    f: usize,
-    n: usize,
-    run: impl FnOnce() -> anyhow::Result<(ClusterOutcome, Measured)>,
-) -> anyhow::Result<(ClusterOutcome, Measured, f64)> {
-    let t = std::time::Instant::now();
-    let (out, m) = run().with_context(|| format!("frame {f} of {n}"))?;
-    Ok((out, m, t.elapsed().as_secs_f64()))
-}
-
-/// Waits for one-session worker processes to exit after a good frame; an
-/// error names those that did not exit cleanly.
-fn finished(workers: &mut LocalWorkers) -> anyhow::Result<()> {
-    let bad = workers.finish(Duration::from_secs(10));
-    anyhow::ensure!(
-        bad.is_empty(),
-        "worker processes {bad:?} did not exit cleanly"
-    );
-    Ok(())
 }

@@ -4,18 +4,15 @@
 //!   job layer's [`LoadedRender`]: the data loaded once, each frame with
 //!   the new camera, transfer function and size), so `/frame.png` equals
 //!   `pvrsim render` of `/scene.toml` bit for bit.
-//! - [`Cluster`] (`--nodes N`): `pvrsim cluster`'s frame of the current
-//!   scene on N nodes (threads, worker processes or TCP workers), with the
-//!   per-node figures of its report. Each frame is a one-off cluster job
-//!   of a scene file holding the current view (the nodes are set up and
-//!   the data read again every frame) until the persistent session
-//!   (`pvrsim::job::Session`) lands; then only this type changes.
-
-use std::path::PathBuf;
+//! - [`Cluster`] (`--nodes N`): `pvrsim cluster`'s frames of the current
+//!   view on N nodes (threads, worker processes or TCP workers) on the
+//!   job layer's persistent [`Session`] (nodes set up and data placed
+//!   once), with the per-node figures of each frame's report.
 
 use crate::image::Image;
 use crate::job::render::{RenderArgs, RendererKind};
-use crate::job::{ClusterJob, LoadedRender, Valid, ViewChange};
+use crate::job::transport_args::TransportKind;
+use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
 use crate::scene::Scene;
 
 /// Bins of the histogram the page draws under the transfer function.
@@ -220,25 +217,25 @@ impl Backend for Local {
     }
 }
 
-/// On a cluster: one `pvrsim cluster` frame of the current view each time.
+/// On a cluster: frames on a persistent session ([`Session`]: the nodes
+/// set up and the data placed once, each frame carrying the camera,
+/// transfer function and size).
 pub struct Cluster {
     job: ClusterJob,
+    session: Option<Session>,
     scene: Scene,
-    data_path: String,
-    dir: ScratchDir,
     histogram: Vec<u64>,
     range: [f64; 2],
-    grid: bool,
     transport: String,
 }
 
 impl Cluster {
     /// The cluster job of `args` (its scene, `--nodes`, `--transport`,
-    /// `--ert`, `--canonical`), validated once; the data read once here for
-    /// the histogram.
+    /// `--ert`, `--canonical`, `--width`/`--height`) validated and its
+    /// session opened; the data also read here once for the histogram.
     pub fn open(args: &super::ViewArgs, nodes: usize) -> anyhow::Result<Cluster> {
         let r = &args.render;
-        let transport = args.transport.unwrap_or(crate::job::transport_args::TransportKind::Threads);
+        let transport = args.transport.unwrap_or(TransportKind::Threads);
         let mut job = ClusterJob::new(&r.scene);
         job.nodes = nodes;
         job.net.transport = Some(transport);
@@ -248,34 +245,45 @@ impl Cluster {
         job.height = r.height;
         anyhow::ensure!(
             r.renderer.is_none() || r.renderer == Some(RendererKind::Cell),
-            "--renderer with --nodes: a cluster draws meshes by cell projection and grids by its \
-             own slicer; leave --renderer out"
+            "--renderer with --nodes: a cluster draws meshes by cell projection; leave --renderer out"
         );
-        job.check().map_err(|e| anyhow::anyhow!("{e}"))?;
         let loaded = Valid::new(r)?.load()?;
-        let mut scene = loaded.scene().clone();
-        let data = std::fs::canonicalize(&scene.data.path).map_err(|e| {
-            anyhow::anyhow!("cannot resolve {}: {e}", scene.data.path.display())
-        })?;
-        scene.data.path = data.clone();
+        anyhow::ensure!(
+            !loaded.is_grid(),
+            "{}: `pvrsim view --nodes` serves mesh scenes (a cluster session holds a mesh); view \
+             a grid without --nodes",
+            r.scene.display()
+        );
+        let histogram = loaded.histogram(HISTOGRAM_BINS);
+        let range = loaded.range();
+        drop(loaded);
+        let session = Session::open(&job).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let scene = session.scene().clone();
         Ok(Cluster {
-            histogram: loaded.histogram(HISTOGRAM_BINS),
-            range: loaded.range(),
-            grid: loaded.is_grid(),
-            scene,
-            data_path: data.to_string_lossy().into_owned(),
-            dir: ScratchDir::new()?,
             job,
+            session: Some(session),
+            scene,
+            histogram,
+            range,
             transport: transport.name().to_string(),
         })
     }
 
-    fn scene_file(&self, size: (u32, u32)) -> anyhow::Result<PathBuf> {
-        let mut s = self.scene.clone();
-        (s.image.width, s.image.height) = size;
-        let p = self.dir.0.join("view.toml");
-        std::fs::write(&p, s.to_toml(&self.data_path))?;
-        Ok(p)
+    fn session(&mut self) -> anyhow::Result<&mut Session> {
+        if self.session.is_none() {
+            self.session = Some(Session::open(&self.job).map_err(|e| anyhow::anyhow!("{e}"))?);
+        }
+        Ok(self.session.as_mut().expect("opened above"))
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        if let Some(s) = self.session.take() {
+            if let Err(e) = s.close() {
+                crate::job::output::warn(format!("closing the cluster session: {e}"));
+            }
+        }
     }
 }
 
@@ -290,8 +298,8 @@ impl Backend for Cluster {
             field: self.scene.data.field.clone(),
             range: self.range,
             histogram: self.histogram.clone(),
-            renderers: vec![if self.grid { "cluster slicer" } else { "cell" }.into()],
-            renderer: if self.grid { "cluster slicer" } else { "cell" }.into(),
+            renderers: vec!["cell".into()],
+            renderer: "cell".into(),
             ert: f64::from(self.job.ert.threshold),
             nodes: self.job.nodes,
             transport: self.transport.clone(),
@@ -313,19 +321,24 @@ impl Backend for Cluster {
         Ok(())
     }
 
+    /// A new ERT threshold reopens the session (the nodes' options are
+    /// set when it opens).
     fn set_options(
         &mut self,
         ert: Option<f64>,
         renderer: Option<RendererKind>,
     ) -> anyhow::Result<()> {
         anyhow::ensure!(
-            renderer.is_none(),
-            "the renderer of a cluster is fixed (cell projection for meshes)"
+            renderer.is_none() || renderer == Some(RendererKind::Cell),
+            "the renderer of a cluster is cell projection"
         );
         if let Some(t) = ert {
             let mut j = self.job.clone();
             j.ert.threshold = t as f32;
             j.check().map_err(|e| anyhow::anyhow!("{e}"))?;
+            if let Some(s) = self.session.take() {
+                s.close().map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
             self.job = j;
         }
         Ok(())
@@ -334,15 +347,20 @@ impl Backend for Cluster {
     fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered> {
         let t = std::time::Instant::now();
         let full = (self.scene.image.width, self.scene.image.height);
-        let size = reduced(full.0, full.1, divisor);
-        let mut job = self.job.clone();
-        job.scene = self.scene_file(size)?;
-        (job.width, job.height) = (None, None);
-        let out = job.run().map_err(|e| anyhow::anyhow!("{e}"))?;
-        let report = out.report_json();
+        let req = FrameRequest {
+            camera: Some(self.scene.camera),
+            transfer: Some(self.scene.transfer.clone()),
+            step: None,
+            size: Some(reduced(full.0, full.1, divisor)),
+        };
+        let out = self
+            .session()?
+            .frame(&req)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let report = serde_json::to_value(&out.report)?;
         let nodes = report["nodes"].as_array().cloned().unwrap_or_default();
         Ok(Rendered {
-            image: out.image().clone(),
+            image: out.image,
             render_s: t.elapsed().as_secs_f64(),
             nodes,
         })
@@ -360,27 +378,5 @@ impl Backend for Cluster {
                 ""
             }
         )
-    }
-}
-
-/// A folder of this process in the temp directory, removed on drop (the
-/// cluster backend's scene file).
-struct ScratchDir(PathBuf);
-
-impl ScratchDir {
-    fn new() -> anyhow::Result<ScratchDir> {
-        let mut b = [0u8; 8];
-        getrandom::fill(&mut b).map_err(|e| anyhow::anyhow!("no random name: {e}"))?;
-        let name: String = b.iter().map(|x| format!("{x:02x}")).collect();
-        let p = std::env::temp_dir().join(format!("pvrsim-view-{}-{name}", std::process::id()));
-        std::fs::create_dir(&p)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", p.display()))?;
-        Ok(ScratchDir(p))
-    }
-}
-
-impl Drop for ScratchDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
     }
 }

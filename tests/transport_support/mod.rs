@@ -76,6 +76,9 @@ impl WorkerProc {
         let mut c = Command::new(EXE);
         c.args([
             "worker",
+            // Progress lines ("a set-up from", "phase 1 started") that the
+            // tests wait for.
+            "-v",
             "--listen",
             "127.0.0.1:0",
             "--accept-timeout",

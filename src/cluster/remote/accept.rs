@@ -160,6 +160,7 @@ impl Door {
     /// The rank to state in handshakes during the session.
     pub fn set_rank(&self, rank: u32) {
         self.shared.rank.store(rank, Ordering::SeqCst);
+        crate::cluster::remote::hooks::set_rank(rank);
     }
 
     /// The session is over: accept the next one.
@@ -175,7 +176,7 @@ async fn accept_loop(listener: TcpListener, sh: Arc<Shared>) {
             Ok(x) => x,
             Err(e) => {
                 // Out of file descriptors and the like: wait, then retry.
-                eprintln!("pvrsim worker: accepting a connection: {e}");
+                crate::cluster::remote::hooks::say(&format!("accepting a connection: {e}"));
                 tokio::time::sleep(Duration::from_millis(100)).await;
                 continue;
             }
@@ -194,9 +195,9 @@ async fn accept_loop(listener: TcpListener, sh: Arc<Shared>) {
         };
         if let Some((_, h)) = evicted {
             h.abort();
-            eprintln!(
-                "pvrsim worker: {MAX_PENDING} connections were waiting to authenticate; closed the oldest"
-            );
+            crate::cluster::remote::hooks::say(&format!(
+                "{MAX_PENDING} connections were waiting to authenticate; closed the oldest"
+            ));
         }
     }
 }
@@ -225,14 +226,14 @@ async fn handshake(mut s: TcpStream, from: SocketAddr, id: u64, sh: Arc<Shared>)
     let hello = match r {
         Ok(Ok(h)) => h,
         Ok(Err(e)) => {
-            eprintln!("pvrsim worker: refused a connection: {e}");
+            crate::cluster::remote::hooks::say(&format!("refused a connection: {e}"));
             return;
         }
         Err(_) => {
-            eprintln!(
-                "pvrsim worker: refused a connection from {from}: no complete handshake within {:.1} s",
+            crate::cluster::remote::hooks::say(&format!(
+                "refused a connection from {from}: no complete handshake within {:.1} s",
                 t.as_secs_f64()
-            );
+            ));
             return;
         }
     };
@@ -248,10 +249,10 @@ async fn handshake(mut s: TcpStream, from: SocketAddr, id: u64, sh: Arc<Shared>)
                     sh.busy.store(false, Ordering::SeqCst);
                 }
             } else {
-                eprintln!(
-                    "pvrsim worker: {:?} {from} connected while a session runs; told it is busy",
+                crate::cluster::remote::hooks::say(&format!(
+                    "{:?} {from} connected while a session runs; told it is busy",
                     hello.role
-                );
+                ));
                 if hello.role == Role::Coordinator {
                     busy(a, &sh.opts).await;
                 }
@@ -271,10 +272,10 @@ async fn handshake(mut s: TcpStream, from: SocketAddr, id: u64, sh: Arc<Shared>)
             };
             sh.peer_ready.notify_one();
             if let Some((_, d)) = dropped {
-                eprintln!(
-                    "pvrsim worker: {PEER_QUEUE} peers were waiting for a session; closed the oldest ({})",
+                crate::cluster::remote::hooks::say(&format!(
+                    "{PEER_QUEUE} peers were waiting for a session; closed the oldest ({})",
                     d.from
-                );
+                ));
             }
         }
     }

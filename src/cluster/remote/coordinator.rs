@@ -1,7 +1,8 @@
 //! The TCP coordinator: connects to `N` workers (concurrently), hands each
-//! its set-up and, when its cache misses, its cells (by content hash), then
-//! runs the frame over its [`TcpTransport`] with the transport-independent
-//! driver ([`super::drive`]).
+//! its set-up and, when its cache misses, its cells (by content hash): the
+//! links of a session ([`super::live`]), whose frames run over its
+//! [`TcpTransport`] with the transport-independent driver
+//! ([`super::drive`]).
 //!
 //! Every failure names the worker and the phase and ends the run with an
 //! error; the caller (the CLI) exits non-zero. Nothing waits without a
@@ -11,15 +12,14 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::drive::{drive, piece_setups, worker_setups, DriveOptions};
+use super::live::{LiveCluster, Work};
 use super::measured::Measured;
 use super::pieces::PieceSet;
-use super::reassign::{endings_wait, lost_on, with_reassign, LostWorkers};
+use super::reassign::{endings_wait, lost_on, LostWorkers};
 use super::session::Session;
-use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, FrameData};
+use crate::cluster::{ClusterConfig, ClusterOutcome};
 use crate::net::tcp::{self, Link, Role, TcpOptions, TcpTransport, Token};
 use crate::net::{Codec, NodeId, RemoteTransport};
-use crate::node::Placement;
 use crate::render::RenderInput;
 use crate::scene::Scene;
 
@@ -41,79 +41,66 @@ pub struct Coordinator {
 }
 
 impl Coordinator {
-    /// One frame on the workers with this placement.
-    /// `busy_wait`: how long to ask a worker that answers "busy" again
-    /// (0 on a first attempt: busy is an error; a retry after a loss waits
-    /// for the survivors to end the failed attempt).
-    pub(super) fn run_placed(
+    /// Runs one frame on the workers (a session of one frame, see
+    /// [`LiveCluster`]); with [`Coordinator::reassign`], again on the
+    /// survivors whenever workers are lost (at any phase).
+    pub fn run(
         &self,
         input: &RenderInput,
         cfg: &ClusterConfig,
-        placement: &Placement,
-        busy_wait: Duration,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let t_setup = Instant::now();
-        let setups = worker_setups(
-            input,
-            cfg,
-            placement,
-            &self.workers,
-            Codec::default(),
-            self.recv_timeout,
-        );
-        self.run_setups(FrameData::Mesh(input), cfg, setups, t_setup, busy_wait)
+        self.check_count(cfg)?;
+        let mut live = LiveCluster::new(self.clone());
+        let out = live.frame(Work::Cells(input, 0), cfg)?;
+        live.end();
+        Ok(out)
     }
 
-    /// One frame on the workers, each reading pieces `parts[k]` of
-    /// `pieces` itself (see [`super::pieces`]).
-    pub(super) fn run_pieces_placed(
+    /// Runs one frame on workers that read their own pieces of `pieces`
+    /// (node `k` a contiguous run, [`PieceSet::parts`]); with
+    /// [`Coordinator::reassign`], again on the survivors whenever workers
+    /// are lost, the lost workers' pieces read by the survivors.
+    pub fn run_pieces(
         &self,
         pieces: &PieceSet,
         scene: &Scene,
         cfg: &ClusterConfig,
-        parts: &[Vec<u32>],
-        busy_wait: Duration,
     ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let t_setup = Instant::now();
-        let depth_range = pieces.depth_range(scene)?;
-        let setups = piece_setups(
-            pieces,
-            scene,
-            depth_range,
-            cfg,
-            parts,
-            &self.workers,
-            Codec::default(),
-            self.recv_timeout,
-        );
-        let data = FrameData::Pieces {
-            scene,
-            cells: 0,
-            depth_range,
-        };
-        self.run_setups(data, cfg, setups, t_setup, busy_wait)
+        self.check_count(cfg)?;
+        let mut live = LiveCluster::new(self.clone());
+        let out = live.frame(Work::Pieces(pieces, scene), cfg)?;
+        live.end();
+        Ok(out)
     }
 
-    /// One frame on the workers with these set-ups (and cells to send
-    /// when a worker's cache misses).
-    fn run_setups(
-        &self,
-        data: FrameData<'_>,
-        cfg: &ClusterConfig,
-        setups: Vec<(super::session::WorkerSetup, Vec<u8>)>,
-        t_setup: Instant,
-        busy_wait: Duration,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
+    /// One worker address per node.
+    pub(super) fn check_count(&self, cfg: &ClusterConfig) -> anyhow::Result<()> {
         let n = cfg.phase1.nodes;
-        let mut cfg = cfg.clone();
-        cfg.phase1.clock = ClockKind::Wall;
+        anyhow::ensure!(
+            self.workers.len() == n,
+            "--nodes {n} needs {n} workers; {} worker addresses were given",
+            self.workers.len()
+        );
+        Ok(())
+    }
+
+    /// Connects to the workers `ranks` (indices into [`Self::workers`]) and
+    /// hands each its set-up (and its cells when its cache misses), all
+    /// concurrently: the session's links. Counts the cells sent in
+    /// `measured`.
+    pub(super) fn connect(
+        &self,
+        ranks: &[usize],
+        setups: Vec<(super::session::WorkerSetup, Vec<u8>)>,
+        busy_wait: Duration,
+        measured: &mut Measured,
+    ) -> anyhow::Result<TcpTransport> {
+        let n = ranks.len();
         let rt = tcp::runtime()?;
         let me = NodeId::from(n);
-        let pieces = setups.iter().any(|(s, _)| s.pieces.is_some());
-        // Connect, set up, send cells: all workers concurrently.
         let mut tasks = Vec::with_capacity(n);
         for (k, (setup, cells)) in setups.into_iter().enumerate() {
-            let addr = self.workers[k].clone();
+            let addr = self.workers[ranks[k]].clone();
             let token = self.token.clone();
             let opts = self.tcp;
             tasks.push(rt.spawn(async move {
@@ -133,115 +120,20 @@ impl Coordinator {
             }));
         }
         let mut links = Vec::with_capacity(n);
-        let mut measured = Measured::default();
         for (l, sent) in join_setups(&rt, tasks, "a set-up task", |k| {
-            format!("worker {k} ({})", self.workers[k])
+            format!("worker {k} ({})", self.workers[ranks[k]])
         })? {
             measured.cells_bytes_sent += sent;
             measured.cells_cached += usize::from(sent == 0);
             links.push(l);
         }
-        let t = TcpTransport::new(Arc::clone(&rt), me, n + 1, links, self.tcp)?;
-        let d = DriveOptions {
-            // Workers that read their pieces take the time that needs
-            // (their links stay up: a death is still seen at once).
-            ready_wait: if pieces {
-                PIECES_READY_WAIT
-            } else {
-                self.tcp.handshake_timeout * 4 + Duration::from_secs(10)
-            },
-            recv_timeout: self.recv_timeout,
-        };
-        drive(&t, d, data, &cfg, t_setup, measured, |t, e, phase| {
-            self.lost_workers(t, n, e, phase)
-        })
-    }
-}
-
-/// Longest wait for the workers' `Ready` when they read their own pieces.
-const PIECES_READY_WAIT: Duration = Duration::from_secs(600);
-
-impl Coordinator {
-    /// Runs one frame on workers that read their own pieces of `pieces`
-    /// (node `k` a contiguous run, [`PieceSet::parts`]); with
-    /// [`Coordinator::reassign`], again on the survivors whenever workers
-    /// are lost, the lost workers' pieces read by the survivors.
-    pub fn run_pieces(
-        &self,
-        pieces: &PieceSet,
-        scene: &Scene,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        self.reassigning(
-            cfg,
-            "pieces",
-            |n| pieces.parts(n),
-            |c, cfg, parts, wait| c.run_pieces_placed(pieces, scene, cfg, parts, wait),
-        )
-    }
-
-    /// Runs one frame on the workers; with [`Coordinator::reassign`], again
-    /// on the survivors whenever workers are lost (at any phase).
-    pub fn run(
-        &self,
-        input: &RenderInput,
-        cfg: &ClusterConfig,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        self.reassigning(
-            cfg,
-            "cells",
-            |_| crate::cluster::place(input, cfg).parts,
-            |c, cfg, parts, wait| {
-                let p = Placement {
-                    parts: parts.to_vec(),
-                };
-                c.run_placed(input, cfg, &p, wait)
-            },
-        )
-    }
-
-    /// Runs `attempt` on every worker with `parts(n)` (cells or pieces by
-    /// rank, `what` in messages); with [`Coordinator::reassign`], again on
-    /// the survivors (a coordinator of them, the configuration with their
-    /// count, their parts, how long to ask a busy one) whenever workers are
-    /// lost.
-    fn reassigning(
-        &self,
-        cfg: &ClusterConfig,
-        what: &str,
-        parts: impl FnOnce(usize) -> Vec<Vec<u32>>,
-        mut attempt: impl FnMut(
-            &Coordinator,
-            &ClusterConfig,
-            &[Vec<u32>],
-            Duration,
-        ) -> anyhow::Result<(ClusterOutcome, Measured)>,
-    ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-        let n = cfg.phase1.nodes;
-        anyhow::ensure!(
-            self.workers.len() == n,
-            "{} worker addresses for --nodes {n}: give one worker per node",
-            self.workers.len()
-        );
-        let ((out, mut m), r) = with_reassign(
-            n,
-            parts(n),
-            self.tcp.deadline,
-            self.reassign,
-            what,
-            |alive, parts| {
-                let c = Coordinator {
-                    workers: alive.iter().map(|&k| self.workers[k].clone()).collect(),
-                    ..self.clone()
-                };
-                let mut cfg = cfg.clone();
-                cfg.phase1.nodes = alive.len();
-                let wait = busy_wait(alive.len() < n, self.tcp.deadline);
-                attempt(&c, &cfg, parts, wait)
-            },
-        )?;
-        m.reassigned = r;
-        Ok((out, m))
+        Ok(TcpTransport::new(
+            Arc::clone(&rt),
+            me,
+            n + 1,
+            links,
+            self.tcp,
+        )?)
     }
 
     /// The workers whose links ended without `Goodbye`, as an error

@@ -31,13 +31,45 @@ use crate::render::cell::PreparedTf;
 use crate::render::RenderInput;
 use crate::scene::Scene;
 
+/// Each placement part's cells with their vertex data, encoded, and the
+/// SHA-256 of the bytes (the workers' cache key), encoded in parallel.
+pub(super) fn part_cells(input: &RenderInput, placement: &Placement) -> Vec<(Vec<u8>, [u8; 32])> {
+    use rayon::prelude::*;
+    placement
+        .parts
+        .par_iter()
+        .map(|part| {
+            let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
+            let hash = sha256(&cells);
+            (cells, hash)
+        })
+        .collect()
+}
+
 /// Each worker's set-up and encoded cells for `placement` (`addrs`: the
 /// workers' addresses by rank, for the mesh; empty when the transport
 /// already connects every rank).
+#[cfg(feature = "mpi")]
 pub(super) fn worker_setups(
     input: &RenderInput,
     cfg: &ClusterConfig,
     placement: &Placement,
+    addrs: &[String],
+    codec: Codec,
+    recv_timeout: Duration,
+) -> Vec<(WorkerSetup, Vec<u8>)> {
+    let cells = part_cells(input, placement);
+    cell_setups(input, cfg, placement, &cells, addrs, codec, recv_timeout)
+}
+
+/// [`worker_setups`] with the parts' cells encoded before ([`part_cells`],
+/// kept across a session's frames).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn cell_setups(
+    input: &RenderInput,
+    cfg: &ClusterConfig,
+    placement: &Placement,
+    cells: &[(Vec<u8>, [u8; 32])],
     addrs: &[String],
     codec: Codec,
     recv_timeout: Duration,
@@ -59,8 +91,7 @@ pub(super) fn worker_setups(
         recv_timeout,
     );
     let mut out = Vec::with_capacity(n);
-    for (k, part) in placement.parts.iter().enumerate() {
-        let cells = WorkUnit::from_mesh(&input.mesh, &input.s_norm, part).encode();
+    for (k, (part, (cells, hash))) in placement.parts.iter().zip(cells).enumerate() {
         let peers: Vec<u32> = if overlap {
             (0..n)
                 .filter(|&b| b != k && pairwise[k].get(b).is_some_and(|&p| p > 0))
@@ -73,10 +104,10 @@ pub(super) fn worker_setups(
             rank: k as u32,
             overlap_peers: peers,
             cells_initial: part.len() as u64,
-            cells_sha256: sha256(&cells),
+            cells_sha256: *hash,
             ..base.clone()
         };
-        out.push((setup, cells));
+        out.push((setup, cells.clone()));
     }
     out
 }
@@ -332,7 +363,6 @@ fn drive_phases<T: RemoteTransport>(
     let t2 = Instant::now();
     let (ph2, logs) = phase2(t, d, data.scene(), &cfg, codec, &mut measured)?;
     measured.phase2_s = t2.elapsed().as_secs_f64();
-    t.close(Duration::from_secs(2));
 
     let mut nodes = Vec::with_capacity(n);
     let mut stopped_at = Vec::with_capacity(n + 1);

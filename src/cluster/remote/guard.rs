@@ -91,6 +91,8 @@ fn variant(s: &Session) -> &'static str {
         Session::Composite => "the start of phase 2",
         Session::Phase2Done(_) => "its phase-2 log",
         Session::Grid(_) => "a grid message",
+        Session::End => "the end of the session",
+        Session::Flush => "a flush",
     }
 }
 
@@ -171,10 +173,10 @@ pub fn given_up_while_stopped<T: RemoteTransport>(t: &T, since: Instant) -> anyh
 /// frame was given up because of it).
 pub fn close_failed<T: RemoteTransport>(t: &T, since: Instant) {
     if t.close_after_failure(since, Duration::from_secs(2)) {
-        eprintln!(
-            "pvrsim worker: this worker was not running for about {:.1} s during the frame; \
+        crate::cluster::remote::hooks::say(&format!(
+            "this worker was not running for about {:.1} s during the frame; \
              it leaves the frame as a lost worker (no Goodbye), so that it is the one dropped",
             crate::net::stall::longest_since(since).as_secs_f64()
-        );
+        ));
     }
 }

@@ -25,14 +25,14 @@ pub(in crate::cluster::remote) fn kill_self(why: &str) {
     } else {
         (libc::SIGKILL, "killing")
     };
-    eprintln!("pvrsim worker: {what} itself {why}");
+    crate::cluster::remote::hooks::say(&format!("{what} itself {why}"));
     // SAFETY: getpid and kill have no preconditions; this is a test hook
     // that stops or ends the process on purpose.
     unsafe {
         libc::kill(libc::getpid(), sig);
     }
     if stop {
-        eprintln!("pvrsim worker: continued after stopping {why}");
+        crate::cluster::remote::hooks::say(&format!("continued after stopping {why}"));
     }
 }
 
@@ -43,4 +43,32 @@ pub struct Hooks {
     pub kill_after_chunks: Option<u64>,
     /// SIGKILL when phase 2 starts.
     pub kill_in_phase2: bool,
+}
+
+/// This worker's rank in its session (`u32::MAX`: none yet), named in
+/// what it prints.
+static RANK: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(u32::MAX);
+
+/// Sets the rank [`say`] names.
+pub fn set_rank(rank: u32) {
+    RANK.store(rank, Ordering::SeqCst);
+}
+
+/// Prints `pvrsim worker R: MSG` on stderr in one write, so that the lines
+/// of workers sharing a terminal never splice (`R`: the rank once a
+/// session gave one).
+pub fn say(msg: &str) {
+    use std::io::Write;
+    let line = match RANK.load(Ordering::SeqCst) {
+        u32::MAX => format!("pvrsim worker: {msg}\n"),
+        r => format!("pvrsim worker {r}: {msg}\n"),
+    };
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
+}
+
+/// A worker's progress (a session, a frame): [`say`] with `-v` only.
+pub fn progress(msg: &str) {
+    if tracing::enabled!(tracing::Level::INFO) {
+        say(msg);
+    }
 }

@@ -204,10 +204,10 @@ pub(super) async fn mesh(
                             Ok(Ok(_))
                         ) && id == session;
                         if !same {
-                            eprintln!(
-                                "pvrsim worker: node {me}: a peer from {from} (rank {}) belongs to another frame; closed",
+                            crate::cluster::remote::hooks::say(&format!(
+                                "node {me}: a peer from {from} (rank {}) belongs to another frame; closed",
                                 h.rank
-                            );
+                            ));
                             continue;
                         }
                         let ok = h.role == Role::Worker
@@ -221,10 +221,10 @@ pub(super) async fn mesh(
                                 stream: s,
                             });
                         } else {
-                            eprintln!(
-                                "pvrsim worker: node {me}: unexpected {:?} rank {} from {from} while joining the mesh; closed",
+                            crate::cluster::remote::hooks::say(&format!(
+                                "node {me}: unexpected {:?} rank {} from {from} while joining the mesh; closed",
                                 h.role, h.rank
-                            );
+                            ));
                         }
                     }
                     None => std::future::pending::<()>().await,

@@ -11,6 +11,7 @@
 //! | [`session`] | set-up and result messages, wire forms of the options |
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the TCP coordinator: connect, set-up, cells |
+//! | [`live`] | a session: workers connected once, a frame per call, `End` |
 //! | [`drive`] | the coordinator's frame over any [`crate::net::RemoteTransport`]: manager, results, phase 2 |
 //! | [`grid`] | grid scenes: bricks to workers (cached), layers to the master |
 //! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
@@ -33,6 +34,7 @@ pub mod grid;
 pub mod grid_wire;
 pub mod guard;
 pub mod hooks;
+pub mod live;
 pub mod measured;
 pub mod mesh;
 #[cfg(feature = "mpi")]
@@ -47,6 +49,7 @@ pub mod worker;
 
 pub use compare::{transport_section, TransportSection};
 pub use coordinator::Coordinator;
+pub use live::{LiveCluster, Work};
 pub use measured::Measured;
 pub use spawn::LocalWorkers;
 pub use worker::Worker;

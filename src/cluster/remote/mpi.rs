@@ -79,7 +79,7 @@ pub fn coordinate(
         ready_wait: recv_timeout,
         recv_timeout,
     };
-    drive(
+    let out = drive(
         &t,
         d,
         crate::cluster::FrameData::Mesh(input),
@@ -87,7 +87,10 @@ pub fn coordinate(
         t_setup,
         measured,
         |_, e, _| e,
-    )
+    )?;
+    // MPI workers serve one frame: they close after it.
+    t.close(Duration::from_secs(2));
+    Ok(out)
 }
 
 /// A worker rank (`≥ 1`): receives its set-up and cells, runs its node
@@ -161,5 +164,7 @@ fn worker(t: &MpiTransport, nodes: usize, recv_timeout: Duration) -> anyhow::Res
         sha256(&cells) == setup.cells_sha256,
         "the cells from the coordinator do not match their SHA-256"
     );
-    run_node(t, &setup, &cells, wait, Hooks::default())
+    run_node(t, &setup, &cells, &mut None, wait, Hooks::default())?;
+    t.close(Duration::from_secs(10));
+    Ok(())
 }

@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::io::pvtu::{self, summary::Summary};
 use crate::node::renderer::NodeRenderer;
-use crate::node::work::WorkCell;
+use crate::node::work::{WorkCell, WorkUnit};
 use crate::scene::Scene;
 
 /// Most tetrahedra one VTK cell becomes (a hexahedron: 6).
@@ -206,15 +206,14 @@ fn fold_depths(view: &crate::scene::View) -> impl Fn(&mut (f64, f64), &[[f64; 3]
 }
 
 /// A worker's cells: reads its pieces of `src` (checked as the full reader
-/// checks them), numbers them as the module docs say and adds them to
-/// `node` a piece at a time ([`NodeRenderer::add_cells`]: only one piece's
-/// mesh is resident beside the node's cells, and no work unit is built).
-/// Returns the tetrahedra read.
-pub fn load_into(src: &PieceSource, node: &mut NodeRenderer) -> anyhow::Result<u64> {
+/// checks them) and numbers them as the module docs say, one unit a piece.
+/// A session keeps them across its frames; [`add_units`] adds them to a
+/// frame's node.
+pub fn read_units(src: &PieceSource) -> anyhow::Result<Vec<WorkUnit>> {
     let path = PathBuf::from(&src.pvtu);
     let head = pvtu::read_header(&path)?;
     let mut last: Option<u32> = None;
-    let mut cells = 0u64;
+    let mut units = Vec::with_capacity(src.pieces.len());
     for wp in &src.pieces {
         anyhow::ensure!(
             last.is_none_or(|l| l < wp.index),
@@ -273,14 +272,39 @@ pub fn load_into(src: &PieceSource, node: &mut NodeRenderer) -> anyhow::Result<u
         // reader checked every index against the piece's vertices.
         let ids: Vec<u32> = (0..wp.points).map(|v| wp.vertex_base + v).collect();
         let crate::data::TetMesh { points, tets, .. } = mesh;
-        let cell = tets.iter().enumerate().map(|(c, t)| WorkCell {
-            id: wp.cell_base + c as u32,
-            v: *t,
+        let cells = tets
+            .iter()
+            .enumerate()
+            .map(|(c, t)| WorkCell {
+                id: wp.cell_base + c as u32,
+                v: *t,
+            })
+            .collect();
+        units.push(WorkUnit {
+            vertex_ids: ids,
+            positions: points,
+            scalars,
+            cells,
         });
-        node.add_cells(&ids, std::borrow::Cow::Owned(points), &scalars, cell);
-        cells += tets.len() as u64;
     }
-    Ok(cells)
+    Ok(units)
+}
+
+/// Adds units read by [`read_units`] (or decoded and validated once) to a
+/// frame's node ([`NodeRenderer::add_cells`]: the reader or the validation
+/// vouched for them). Returns the tetrahedra added.
+pub fn add_units(units: &[WorkUnit], node: &mut NodeRenderer) -> u64 {
+    let mut cells = 0u64;
+    for u in units {
+        node.add_cells(
+            &u.vertex_ids,
+            std::borrow::Cow::Borrowed(&u.positions),
+            &u.scalars,
+            u.cells.iter().copied(),
+        );
+        cells += u.cells.len() as u64;
+    }
+    cells
 }
 
 #[cfg(test)]
@@ -342,7 +366,7 @@ points = [[0.0, 0.0, 0.0, 1.0, 0.3], [1.0, 1.0, 0.0, 0.0, 0.3]]
                 crate::render::cell::PreparedTf::new(&scene.transfer),
                 Default::default(),
             );
-            load_into(src, &mut node).map(|n| (n, node.remaining()))
+            read_units(src).map(|u| (add_units(&u, &mut node), node.remaining()))
         };
         let (n, kept) = load(&src(vec![piece(0, 0)])).unwrap();
         assert!(n > 0 && kept > 0 && kept as u64 <= n, "{n} {kept}");

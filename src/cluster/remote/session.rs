@@ -18,6 +18,15 @@
 //!      ... phase 2: the compositor's rounds worker to worker (remote::phase2),
 //!          the gathered pixels (MessageKind::Image) to the coordinator ...
 //! worker → coordinator  Phase2Done   its phase-2 log and transport counts
+//!      ... the session stays up: the links, the cells (decoded) or the
+//!          pieces (read) are kept for the next frame ...
+//! coordinator → worker  Setup        the next frame over the same links
+//!                                    (same rank, nodes and peers)
+//! worker → every peer   Flush        its last message of the frame before
+//!                                    (links are FIFO: what came before it
+//!                                    is stale and dropped)
+//! worker → coordinator  Need(bool)   as above, then Cells, Ready, Go, ...
+//! coordinator → worker  End          the session is over: links close
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -58,6 +67,13 @@ pub enum Session {
     Phase2Done(Box<(super::phase2::RankLog, WireStats)>),
     /// A grid scene's session (bricks instead of cells, see [`super::grid`]).
     Grid(Box<super::grid_wire::GridMsg>),
+    /// The session is over (coordinator → worker): no frame follows, the
+    /// links close cleanly.
+    End,
+    /// A worker's last message to a peer before the next frame (worker →
+    /// worker, sent when the next `Setup` arrives): what the peer read
+    /// from this link before it belongs to the frame before.
+    Flush,
 }
 
 impl Message for Session {

@@ -45,6 +45,8 @@ pub struct LocalWorkers {
     children: Vec<Child>,
     /// Their addresses, by rank.
     pub addrs: Vec<String>,
+    /// They serve one session each (`--once`), then exit.
+    pub once: bool,
     token: Token,
     dir: PathBuf,
 }
@@ -106,6 +108,7 @@ impl LocalWorkers {
         let mut me = LocalWorkers {
             children: Vec::with_capacity(n),
             addrs: Vec::with_capacity(n),
+            once,
             token: token.clone(),
             dir,
         };
@@ -115,6 +118,8 @@ impl LocalWorkers {
         for k in 0..n {
             let mut c = worker_command(exe)
                 .arg("worker")
+                // Their progress lines only when this process shows its own.
+                .args(tracing::enabled!(tracing::Level::INFO).then_some("-v"))
                 .args(["--listen", "127.0.0.1:0"])
                 .args(once.then_some("--once"))
                 .arg("--token-file")

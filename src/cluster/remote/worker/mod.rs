@@ -10,11 +10,12 @@
 //! cells' cache); `node.rs` runs one node's frame over any transport (TCP
 //! and MPI workers both end there).
 
+mod next;
 mod node;
 
 pub use crate::cluster::remote::accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};
 pub use crate::cluster::remote::hooks::Hooks;
-pub use node::{build_node, run_node};
+pub use node::{build_node, run_node, Held};
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -24,9 +25,9 @@ use anyhow::Context;
 use tokio::net::TcpListener;
 use tokio::runtime::Runtime;
 
-use crate::cluster::remote::session::Session;
+use crate::cluster::remote::session::{Session, WorkerSetup};
 use crate::net::tcp::{self, Role, TcpOptions, Token};
-use crate::net::{Codec, NodeId};
+use crate::net::{Codec, NodeId, RemoteTransport, Transport};
 
 /// Longest an authenticated coordinator may wait before it sends its
 /// set-up (it sends it right after the handshake).
@@ -139,8 +140,12 @@ impl Worker {
             };
             self.door.session_done();
             match &r {
-                Ok(()) => eprintln!("pvrsim worker: session with {from} done"),
-                Err(e) => eprintln!("pvrsim worker: session with {from} failed: {e:#}"),
+                Ok(()) => {
+                    crate::cluster::remote::hooks::progress(&format!("session with {from} done"))
+                }
+                Err(e) => crate::cluster::remote::hooks::say(&format!(
+                    "session with {from} failed: {e:#}"
+                )),
             }
             if once {
                 return r;
@@ -166,7 +171,7 @@ impl Worker {
             SETUP_IDLE.min(d),
             &name,
         ))?;
-        eprintln!("pvrsim worker: a set-up from {name}");
+        crate::cluster::remote::hooks::progress(&format!("a set-up from {name}"));
         let setup = match setup {
             Session::Setup(s) => s,
             Session::Grid(g) => match *g {
@@ -269,15 +274,89 @@ impl Worker {
             stream,
             codec,
         )?;
-        run_node(
-            &t,
-            &setup,
-            &cells,
-            d,
-            Hooks {
-                kill_after_chunks: self.kill_after_chunks,
-                kill_in_phase2: self.kill_in_phase2,
-            },
-        )
+        let hooks = Hooks {
+            kill_after_chunks: self.kill_after_chunks,
+            kill_in_phase2: self.kill_in_phase2,
+        };
+        // The session's frames on these links, until the coordinator ends it.
+        let mut setup = setup;
+        let mut cells = cells;
+        let mut held = None;
+        loop {
+            run_node(&t, &setup, &cells, &mut held, d, hooks)?;
+            let r = next::next_frame(&t, &setup, codec, d).and_then(|n| match n {
+                next::Next::End => Ok(None),
+                next::Next::Frame(s) => {
+                    let c = self.next_cells(&t, &s, held.as_ref(), codec, d)?;
+                    Ok(Some((s, c)))
+                }
+            });
+            match r {
+                Ok(None) => {
+                    t.close(Duration::from_secs(10));
+                    return Ok(());
+                }
+                Ok(Some((s, c))) => {
+                    if c.is_some() || s.pieces != setup.pieces {
+                        held = None;
+                    }
+                    setup = s;
+                    cells = c.unwrap_or_default();
+                }
+                Err(e) => {
+                    let why = format!("node {} between frames: {e:#}", setup.rank);
+                    if let Ok(b) = codec.encode(&Session::Failed(why.clone())) {
+                        let _ = t.send(coord, crate::net::MessageKind::Session, b);
+                    }
+                    t.close(Duration::from_secs(2));
+                    anyhow::bail!(why);
+                }
+            }
+        }
+    }
+
+    /// The cells of a session's next frame `next`: `None` when the node's
+    /// data stays (the same cells, or pieces: `Need(false)`); else the
+    /// cells, from the cache or the coordinator (`Need(true)`, then
+    /// `Cells` over the session's links).
+    fn next_cells<T: crate::net::RemoteTransport>(
+        &mut self,
+        t: &T,
+        next: &WorkerSetup,
+        held: Option<&Held>,
+        codec: Codec,
+        wait: Duration,
+    ) -> anyhow::Result<Option<Vec<u8>>> {
+        let coord = NodeId(next.nodes);
+        let kept = next.pieces.is_some() || held.is_some_and(|h| h.key == next.cells_sha256);
+        let cached = self.cache.iter().position(|(h, _)| *h == next.cells_sha256);
+        let need = !kept && cached.is_none();
+        t.send(
+            coord,
+            crate::net::MessageKind::Session,
+            codec.encode(&Session::Need(need))?,
+        )?;
+        if kept {
+            return Ok(None);
+        }
+        if let Some(i) = cached {
+            return Ok(Some(self.cache[i].1.clone()));
+        }
+        let e = t
+            .recv_timeout(wait)?
+            .ok_or_else(|| anyhow::anyhow!("no cells from the coordinator within {wait:?}"))?;
+        let m: Session = codec.decode(&e.payload)?;
+        let Session::Cells(bytes) = m else {
+            anyhow::bail!("the coordinator sent {m:?} instead of the cells");
+        };
+        anyhow::ensure!(
+            e.from == coord && crate::cluster::remote::session::sha256(&bytes) == next.cells_sha256,
+            "the cells from the coordinator do not match their SHA-256"
+        );
+        if self.cache.len() >= CACHE_ENTRIES {
+            self.cache.pop_front();
+        }
+        self.cache.push_back((next.cells_sha256, bytes.clone()));
+        Ok(Some(bytes))
     }
 }

@@ -41,16 +41,52 @@ impl crate::net::Actor for Chunks<'_> {
     }
 }
 
+/// What a worker's node is built from, kept across the frames of a
+/// session: its cells, decoded and validated once (sent by the
+/// coordinator), or its pieces, read once (a unit a piece). Each frame
+/// adds them to a fresh node for its camera and transfer function.
+#[derive(Debug, Default)]
+pub struct Held {
+    /// The SHA-256 of the cells' bytes they came from (zero for pieces).
+    pub key: [u8; 32],
+    /// The units.
+    pub units: Vec<WorkUnit>,
+}
+
+impl Held {
+    /// The data of `setup`: its pieces read, or `cells` decoded and
+    /// validated.
+    pub fn load(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<Held> {
+        let units = match &setup.pieces {
+            Some(src) => crate::cluster::remote::pieces::read_units(src)?,
+            None => {
+                let unit =
+                    WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+                unit.validate()
+                    .map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
+                vec![unit]
+            }
+        };
+        Ok(Held {
+            key: setup.cells_sha256,
+            units,
+        })
+    }
+}
+
 /// One node's frame over `t` (rank `setup.rank`; the coordinator is rank
 /// `setup.nodes`), once the set-up and the cells are in and the links to
-/// the peers are up: build the node, `Ready`, wait (at most `go_wait`) for
-/// `Go`, phase 1, the result, phase 2, the log. On any error the
-/// coordinator is told why (`Failed`) before the links close. Transport
-/// independent: TCP and MPI workers both end here.
+/// the peers are up: build the node (from `held`, loaded from the set-up
+/// and `cells` first when it is `None`), `Ready`, wait (at most `go_wait`)
+/// for `Go`, phase 1, the result, phase 2, the log. On any error the
+/// coordinator is told why (`Failed`) and the links close; on success
+/// they stay up for the session's next frame (the caller closes them).
+/// Transport independent: TCP and MPI workers both end here.
 pub fn run_node<T: RemoteTransport>(
     t: &T,
     setup: &WorkerSetup,
     cells: &[u8],
+    held: &mut Option<Held>,
     go_wait: Duration,
     hooks: Hooks,
 ) -> anyhow::Result<()> {
@@ -61,7 +97,12 @@ pub fn run_node<T: RemoteTransport>(
     t.set_essential(coord, true);
     // Built after the mesh (peers wait on our accept meanwhile) and
     // with the links up (heartbeats flow while the cells are sorted).
-    let mut actor = match build_node(setup, cells) {
+    let built = match held {
+        Some(h) => Ok(h),
+        None => Held::load(setup, cells).map(|h| held.insert(h)),
+    }
+    .and_then(|h| build_node(setup, h));
+    let mut actor = match built {
         Ok(a) => a,
         Err(e) => {
             let why = format!("node {}: {e:#}", setup.rank);
@@ -80,7 +121,7 @@ pub fn run_node<T: RemoteTransport>(
     t.send(coord, MessageKind::Session, codec.encode(&ready)?)?;
     // Wait for Go; messages from peers that started earlier are kept.
     let early = SessionGuard::wait_go(t, coord, codec, d)?;
-    eprintln!("pvrsim worker: node {}: phase 1 started", setup.rank);
+    crate::cluster::remote::hooks::progress(&format!("node {}: phase 1 started", setup.rank));
     let clock = WallClock::start();
     let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
     let wire0 = t.stats();
@@ -112,7 +153,7 @@ pub fn run_node<T: RemoteTransport>(
         }
     };
     if let Some(e) = &actor.stats().error {
-        eprintln!("pvrsim worker: node {} failed: {e}", setup.rank);
+        crate::cluster::remote::hooks::say(&format!("node {} failed: {e}", setup.rank));
     }
     let mut wire = t.stats();
     wire.payload = traffic.clone();
@@ -157,7 +198,6 @@ pub fn run_node<T: RemoteTransport>(
                 MessageKind::Session,
                 codec.encode(&Session::Phase2Done(Box::new(done)))?,
             )?;
-            t.close(Duration::from_secs(10));
             Ok(())
         }
         Err(e) => {
@@ -258,8 +298,8 @@ fn parse_scene(setup: &WorkerSetup) -> anyhow::Result<Scene> {
         .map_err(|e| anyhow::anyhow!("{e}"))
 }
 
-/// The node a set-up describes, with its cells.
-pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor> {
+/// The node a set-up describes, with its cells or pieces (`held`).
+pub fn build_node(setup: &WorkerSetup, held: &Held) -> anyhow::Result<NodeActor> {
     let scene = parse_scene(setup)?;
     let opts = setup.node_options();
     let mut r = NodeRenderer::new(scene.view(), PreparedTf::new(&scene.transfer), opts);
@@ -268,13 +308,10 @@ pub fn build_node(setup: &WorkerSetup, cells: &[u8]) -> anyhow::Result<NodeActor
         let [z0, z1] = setup.depth_range;
         r.enable_pixel_sharing(crate::node::pixel_share::DepthQuant::new(z0, z1));
     }
+    let added = crate::cluster::remote::pieces::add_units(&held.units, &mut r);
     let cells_initial = match &setup.pieces {
-        Some(src) => crate::cluster::remote::pieces::load_into(src, &mut r)?,
-        None => {
-            let unit = WorkUnit::decode(cells).map_err(|e| anyhow::anyhow!("the cells: {e}"))?;
-            r.add_work(&unit)?;
-            setup.cells_initial
-        }
+        Some(_) => added,
+        None => setup.cells_initial,
     };
     let nc = NodeConfig {
         rank: setup.rank as usize,
