@@ -54,7 +54,15 @@ const FRONTENDS: &[&str] = &["cli", "experiment", "bench", "view"];
 
 /// The rooms a frontend may name without a reason: the job layer, the
 /// frontends below it, and the base types every layer shares.
-const FRONTEND_PLAIN: &[&str] = &["job", "experiment", "bench", "view", "error", "text", "base"];
+const FRONTEND_PLAIN: &[&str] = &[
+    "job",
+    "experiment",
+    "bench",
+    "view",
+    "error",
+    "text",
+    "base",
+];
 
 /// The layer table: every arrow `FROM -> TO` (room `FROM` names a path in
 /// room `TO`) that the code may hold. An arrow found in the code and not

@@ -64,7 +64,9 @@ impl Server {
         let head = String::from_utf8_lossy(&all[..split]).to_string();
         let status = head.split(' ').nth(1).unwrap().parse().unwrap();
         assert!(
-            !head.to_ascii_lowercase().contains("transfer-encoding: chunked"),
+            !head
+                .to_ascii_lowercase()
+                .contains("transfer-encoding: chunked"),
             "{head}"
         );
         (status, all[split + 4..].to_vec())
@@ -99,7 +101,8 @@ impl Drop for Server {
     }
 }
 
-type Ws = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
 /// The next message: JSON text, with the binary frame that follows a
 /// `frame` description.
@@ -140,7 +143,10 @@ fn camera_msg(cam: &serde_json::Value, turn_deg: f64, interacting: bool, input: 
         .collect();
     let a = turn_deg.to_radians();
     // about the y axis
-    let (x, z) = (d[0] * a.cos() + d[2] * a.sin(), -d[0] * a.sin() + d[2] * a.cos());
+    let (x, z) = (
+        d[0] * a.cos() + d[2] * a.sin(),
+        -d[0] * a.sin() + d[2] * a.cos(),
+    );
     c["eye"] = serde_json::json!([
         target[0].as_f64().unwrap() + x,
         target[1].as_f64().unwrap() + d[1],
@@ -153,7 +159,14 @@ fn camera_msg(cam: &serde_json::Value, turn_deg: f64, interacting: bool, input: 
 #[test]
 fn the_token_is_required_everywhere() {
     let s = Server::start(&["tests/data/aorta-small-view-b.toml"]);
-    for path in ["/", "/frame.png", "/scene.toml", "/state.json", "/assets/app.js", "/ws"] {
+    for path in [
+        "/",
+        "/frame.png",
+        "/scene.toml",
+        "/state.json",
+        "/assets/app.js",
+        "/ws",
+    ] {
         assert_eq!(s.get(path).0, 403, "{path} without a token");
         let wrong = format!("{path}?token=0{}", &s.token[1..]);
         assert_eq!(s.get(&wrong).0, 403, "{path} with a wrong token");
@@ -205,7 +218,10 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
         ws.send(Message::Text(m.to_string().into())).await.unwrap();
         let (e, _) = next(&mut ws).await;
         assert_eq!(e["type"], "error", "{e}");
-        assert!(e["message"].as_str().unwrap().contains("camera.target"), "{e}");
+        assert!(
+            e["message"].as_str().unwrap().contains("camera.target"),
+            "{e}"
+        );
 
         // A drag: reduced frames, then a full one after the release.
         let mut reduced = 0;
@@ -214,7 +230,10 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
             ws.send(Message::Text(m.into())).await.unwrap();
             let (f, jpeg) = next_frame(&mut ws).await;
             assert_eq!(f["scale"], 4, "{f}");
-            assert_eq!((f["width"].as_u64(), f["height"].as_u64()), (Some(40), Some(30)));
+            assert_eq!(
+                (f["width"].as_u64(), f["height"].as_u64()),
+                (Some(40), Some(30))
+            );
             assert_eq!(&jpeg[..2], &[0xff, 0xd8], "JPEG while moving");
             reduced += 1;
         }
@@ -222,13 +241,20 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
         // No release message: the full frame follows the settle time.
         let (f, png) = next_frame(&mut ws).await;
         assert_eq!(f["scale"], 1, "{f}");
-        assert_eq!((f["width"].as_u64(), f["height"].as_u64()), (Some(160), Some(120)));
+        assert_eq!(
+            (f["width"].as_u64(), f["height"].as_u64()),
+            (Some(160), Some(120))
+        );
 
         // What /frame.png and /scene.toml serve is that frame.
         let (st, served) = s.get(&format!("/frame.png?token={}", s.token));
         assert_eq!(st, 200);
         let pixels = |b: &[u8]| image::load_from_memory(b).unwrap().to_rgb8().into_raw();
-        assert_eq!(pixels(&served), pixels(&png), "/frame.png is the last full frame");
+        assert_eq!(
+            pixels(&served),
+            pixels(&png),
+            "/frame.png is the last full frame"
+        );
         let (st, toml) = s.get(&format!("/scene.toml?token={}", s.token));
         assert_eq!(st, 200);
         let (st, state) = s.get(&format!("/state.json?token={}", s.token));
@@ -240,7 +266,12 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
         std::fs::write(&scene, &toml).unwrap();
         let out = dir.path().join("render.png");
         let st = Command::new(BIN)
-            .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()])
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ])
             .stdout(Stdio::null())
             .status()
             .unwrap();
@@ -271,7 +302,15 @@ fn drag_then_release_and_the_frame_equals_pvrsim_render_of_the_scene() {
 fn a_grid_scene_is_served() {
     let dir = tempfile::tempdir().unwrap();
     let st = Command::new(BIN)
-        .args(["demo", "--cells", "2000", "--nodes", "0", "--out-dir", dir.path().to_str().unwrap()])
+        .args([
+            "demo",
+            "--cells",
+            "2000",
+            "--nodes",
+            "0",
+            "--out-dir",
+            dir.path().to_str().unwrap(),
+        ])
         .stdout(Stdio::null())
         .status()
         .unwrap();
@@ -283,14 +322,21 @@ fn a_grid_scene_is_served() {
     rt.block_on(async {
         let (mut ws, _) = tokio_tungstenite::connect_async(s.ws_url()).await.unwrap();
         let (hello, _) = next(&mut ws).await;
-        assert!(hello["renderers"].as_array().unwrap().iter().any(|r| r == "shearwarp"));
+        assert!(hello["renderers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|r| r == "shearwarp"));
         let (f, _) = next_frame(&mut ws).await;
         assert_eq!(f["scale"], 1);
         let m = serde_json::json!({"type": "options", "renderer": "cell"});
         ws.send(Message::Text(m.to_string().into())).await.unwrap();
         let (e, _) = next(&mut ws).await;
         assert_eq!(e["type"], "error", "{e}");
-        assert!(e["message"].as_str().unwrap().contains("does not draw"), "{e}");
+        assert!(
+            e["message"].as_str().unwrap().contains("does not draw"),
+            "{e}"
+        );
         let m = serde_json::json!({"type": "options", "renderer": "slice3d"});
         ws.send(Message::Text(m.to_string().into())).await.unwrap();
         let (f, _) = next_frame(&mut ws).await;
@@ -302,7 +348,14 @@ fn a_grid_scene_is_served() {
     std::fs::write(&p, toml).unwrap();
     let out = dir.path().join("r.png");
     let st = Command::new(BIN)
-        .args(["render", p.to_str().unwrap(), "--renderer", "slice3d", "-o", out.to_str().unwrap()])
+        .args([
+            "render",
+            p.to_str().unwrap(),
+            "--renderer",
+            "slice3d",
+            "-o",
+            out.to_str().unwrap(),
+        ])
         .stdout(Stdio::null())
         .status()
         .unwrap();

@@ -89,8 +89,7 @@ pub fn render(
             unreachable!("refused above")
         }
         RendererKind::Cell => {
-            let (image, mut stats) =
-                super::with_threads(a.threads, || cell::render(input, &opts))?;
+            let (image, mut stats) = super::with_threads(a.threads, || cell::render(input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
             let peak = crate::net::cpu::peak_rss_bytes();

@@ -62,8 +62,11 @@ pub trait Backend: Send {
     /// Applies a camera/transfer change to the scene of the next frames.
     fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()>;
     /// Changes the ERT threshold and/or the renderer.
-    fn set_options(&mut self, ert: Option<f64>, renderer: Option<RendererKind>)
-        -> anyhow::Result<()>;
+    fn set_options(
+        &mut self,
+        ert: Option<f64>,
+        renderer: Option<RendererKind>,
+    ) -> anyhow::Result<()>;
     /// Draws the scene at `1/divisor` of its size along each axis.
     fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered>;
     /// The `pvrsim render` / `pvrsim cluster` options that, with the scene
@@ -171,7 +174,11 @@ impl Backend for Local {
                 renderer_names(grid).contains(&renderer_name(Some(k))),
                 "renderer {} does not draw this scene's {} (use {})",
                 renderer_name(Some(k)),
-                if grid { "regular grid" } else { "tetrahedral mesh" },
+                if grid {
+                    "regular grid"
+                } else {
+                    "tetrahedral mesh"
+                },
                 renderer_names(grid).join(", ")
             );
         }

@@ -177,7 +177,9 @@ mod tests {
 
     #[test]
     fn a_good_view_parses() {
-        let m = parse(&format!(r#"{{"type":"view",{CAM},"interacting":true,"input":7}}"#));
+        let m = parse(&format!(
+            r#"{{"type":"view",{CAM},"interacting":true,"input":7}}"#
+        ));
         match m.unwrap() {
             ClientMessage::View {
                 camera: Some(c),
@@ -203,7 +205,10 @@ mod tests {
                 "transfer",
             ),
             (r#"{"type":"options","ert":1.5}"#, "ERT"),
-            (r#"{"type":"options","renderer":"magic"}"#, "unknown renderer"),
+            (
+                r#"{"type":"options","renderer":"magic"}"#,
+                "unknown renderer",
+            ),
         ];
         for (text, want) in cases {
             let e = parse(text).unwrap_err();
@@ -211,7 +216,10 @@ mod tests {
         }
         // serde_json reads no NaN literal; a NaN is refused as malformed.
         assert!(parse(r#"{"type":"view","camera":{"eye":[NaN,0,0]}}"#).is_err());
-        let big = format!(r#"{{"type":"view","pad":"{}"}}"#, "x".repeat(MAX_MESSAGE_BYTES));
+        let big = format!(
+            r#"{{"type":"view","pad":"{}"}}"#,
+            "x".repeat(MAX_MESSAGE_BYTES)
+        );
         assert!(parse(&big).unwrap_err().contains("exceeds"));
     }
 }

@@ -19,6 +19,7 @@ pub mod encode;
 pub mod messages;
 pub mod render_loop;
 pub mod server;
+pub mod shared;
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
@@ -156,7 +157,7 @@ impl Viewer {
             IpAddr::V4(ip) => ip.to_string(),
         };
         let url = format!("http://{host}:{}/?token={token}", addr.port());
-        let shared = Arc::new(server::Shared::new(
+        let shared = Arc::new(shared::Shared::new(
             token.clone(),
             addr.port(),
             backend.info(),

@@ -17,88 +17,13 @@ use std::time::{Duration, Instant};
 
 use super::backend::{Backend, Rendered};
 use super::encode::{self, FrameFormat};
-use super::messages::ClientMessage;
-use super::server::{Outgoing, Shared};
+use super::shared::{scene_json, Outgoing, Shared};
 use super::InteractiveScale;
 use crate::job::render::RendererKind;
 use crate::job::ViewChange;
 
 /// How long after the last interactive input the full frame is drawn.
 pub const SETTLE: Duration = Duration::from_millis(150);
-
-/// What the page asked for since the loop last looked.
-pub struct Pending {
-    change: ViewChange,
-    ert: Option<f64>,
-    renderer: Option<RendererKind>,
-    dirty: bool,
-    interacting: bool,
-    input: u64,
-    last_input: Instant,
-    need_full: bool,
-    shutdown: bool,
-}
-
-impl Default for Pending {
-    fn default() -> Self {
-        Pending {
-            change: ViewChange::default(),
-            ert: None,
-            renderer: None,
-            // The first frame is drawn as soon as the loop starts.
-            dirty: true,
-            interacting: false,
-            input: 0,
-            last_input: Instant::now(),
-            need_full: false,
-            shutdown: false,
-        }
-    }
-}
-
-impl Pending {
-    /// Merges a validated message: the newest camera and transfer function
-    /// replace older ones not yet drawn.
-    pub fn merge(&mut self, m: ClientMessage) {
-        match m {
-            ClientMessage::View {
-                camera,
-                transfer,
-                interacting,
-                input,
-            } => {
-                if camera.is_some() {
-                    self.change.camera = camera;
-                }
-                if transfer.is_some() {
-                    self.change.transfer = transfer;
-                }
-                self.interacting = interacting;
-                self.input = input;
-                if interacting {
-                    self.need_full = true;
-                }
-            }
-            ClientMessage::Options {
-                ert,
-                renderer,
-                input,
-            } => {
-                self.ert = ert.or(self.ert);
-                self.renderer = renderer.or(self.renderer);
-                self.interacting = false;
-                self.input = input;
-            }
-        }
-        self.dirty = true;
-        self.last_input = Instant::now();
-    }
-
-    /// Ends the loop at its next look.
-    pub fn shut_down(&mut self) {
-        self.shutdown = true;
-    }
-}
 
 /// One piece of work taken from [`Pending`].
 struct Work {
@@ -166,7 +91,11 @@ pub fn spawn(
         .expect("a thread for the render loop")
 }
 
-fn run(mut backend: Box<dyn Backend>, shared: &Shared, scale: InteractiveScale) -> anyhow::Result<()> {
+fn run(
+    mut backend: Box<dyn Backend>,
+    shared: &Shared,
+    scale: InteractiveScale,
+) -> anyhow::Result<()> {
     let mut seq = 0u64;
     let mut last_full_s: Option<f64> = None;
     let mut shown: VecDeque<Instant> = VecDeque::new();
@@ -241,7 +170,7 @@ fn run(mut backend: Box<dyn Backend>, shared: &Shared, scale: InteractiveScale) 
             "bytes": bytes.len(),
             "fps": fps,
             "nodes": nodes,
-            "scene": super::server::scene_json(scene),
+            "scene": scene_json(scene),
         });
         shared.set_state(serde_json::json!({
             "seq": seq,

@@ -13,7 +13,7 @@
 //!   timings, per-node figures and fps.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::Arc;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, Query, State};
@@ -23,188 +23,26 @@ use axum::routing::get;
 use axum::Router;
 use tokio::sync::broadcast;
 
-use super::backend::Info;
 use super::messages::{self, MAX_MESSAGE_BYTES};
-use super::render_loop::Pending;
-use crate::scene::camera::Projection;
-use crate::scene::Scene;
+use super::shared::{Outgoing, Shared};
 
-/// A message to every connected page.
-#[derive(Debug)]
-pub struct Outgoing {
-    /// The JSON text message.
-    pub meta: String,
-    /// The frame's bytes (sent as a binary message after `meta`), if any.
-    pub bytes: Option<Vec<u8>>,
-}
-
-impl Outgoing {
-    /// A frame: its description and its encoded bytes.
-    pub fn frame(meta: serde_json::Value, bytes: Vec<u8>) -> Outgoing {
-        Outgoing {
-            meta: meta.to_string(),
-            bytes: Some(bytes),
-        }
+/// Whether the request carries the token (query or cookie).
+fn authorized(s: &Shared, q: &HashMap<String, String>, headers: &HeaderMap) -> bool {
+    if let Some(t) = q.get("token") {
+        return eq(t.as_bytes(), s.token.as_bytes());
     }
-
-    /// An error the page shows.
-    pub fn error(message: String) -> Outgoing {
-        Outgoing {
-            meta: serde_json::json!({"type": "error", "message": message}).to_string(),
-            bytes: None,
-        }
-    }
-}
-
-/// What the last full-resolution frame left for the HTTP routes.
-#[derive(Default)]
-struct Last {
-    full: Option<Arc<crate::image::Image>>,
-    png: Option<Arc<Vec<u8>>>,
-    toml: Option<String>,
-    state: serde_json::Value,
-    frame: Option<Arc<Outgoing>>,
-}
-
-/// State shared by the server's tasks and the render loop.
-pub struct Shared {
-    token: String,
-    cookie: String,
-    info: Info,
-    /// The request the render loop draws next.
-    pub pending: Mutex<Pending>,
-    /// Wakes the render loop.
-    pub wake: Condvar,
-    frames: broadcast::Sender<Arc<Outgoing>>,
-    last: Mutex<Last>,
-    closing: tokio::sync::watch::Sender<bool>,
-}
-
-impl Shared {
-    /// The state of a server with `token` on `port`.
-    pub fn new(token: String, port: u16, info: Info) -> Shared {
-        Shared {
-            token,
-            cookie: format!("pvrsim_view_{port}"),
-            info,
-            pending: Mutex::new(Pending::default()),
-            wake: Condvar::new(),
-            frames: broadcast::channel(16).0,
-            last: Mutex::new(Last::default()),
-            closing: tokio::sync::watch::channel(false).0,
-        }
-    }
-
-    fn last(&self) -> std::sync::MutexGuard<'_, Last> {
-        self.last.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// Sends to every page (a page that lags skips to the newest).
-    pub fn send(&self, m: Outgoing) {
-        let m = Arc::new(m);
-        if m.bytes.is_some() {
-            self.last().frame = Some(m.clone());
-        }
-        let _ = self.frames.send(m);
-    }
-
-    /// Records the last frame's state (`/state.json`).
-    pub fn set_state(&self, state: serde_json::Value) {
-        self.last().state = state;
-    }
-
-    /// Records the last full-resolution frame and its scene (its PNG is
-    /// written when `/frame.png` is first asked for).
-    pub fn set_full(&self, image: crate::image::Image, toml: String) {
-        let mut l = self.last();
-        l.full = Some(Arc::new(image));
-        l.png = None;
-        l.toml = Some(toml);
-    }
-
-    /// The last full frame as `pvrsim render` writes it.
-    fn full_png(&self) -> Option<anyhow::Result<Arc<Vec<u8>>>> {
-        let (full, png) = {
-            let l = self.last();
-            (l.full.clone()?, l.png.clone())
-        };
-        if let Some(p) = png {
-            return Some(Ok(p));
-        }
-        let bytes = match full.png_bytes() {
-            Ok(b) => Arc::new(b),
-            Err(e) => return Some(Err(e.into())),
-        };
-        let mut l = self.last();
-        if l.full.as_ref().is_some_and(|f| Arc::ptr_eq(f, &full)) {
-            l.png = Some(bytes.clone());
-        }
-        Some(Ok(bytes))
-    }
-
-    /// Hands a validated message to the render loop.
-    pub fn request(&self, m: messages::ClientMessage) {
-        self.pending
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .merge(m);
-        self.wake.notify_one();
-    }
-
-    /// Ends the render loop.
-    pub fn shut_down(&self) {
-        self.pending
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .shut_down();
-        self.wake.notify_one();
-    }
-
-    /// Whether the request carries the token (query or cookie).
-    fn authorized(&self, q: &HashMap<String, String>, headers: &HeaderMap) -> bool {
-        if let Some(t) = q.get("token") {
-            return eq(t.as_bytes(), self.token.as_bytes());
-        }
-        headers
-            .get_all(header::COOKIE)
-            .iter()
-            .filter_map(|v| v.to_str().ok())
-            .flat_map(|v| v.split(';'))
-            .filter_map(|kv| kv.trim().split_once('='))
-            .any(|(k, v)| k == self.cookie && eq(v.as_bytes(), self.token.as_bytes()))
-    }
+    headers
+        .get_all(header::COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(';'))
+        .filter_map(|kv| kv.trim().split_once('='))
+        .any(|(k, v)| k == s.cookie && eq(v.as_bytes(), s.token.as_bytes()))
 }
 
 /// Compares in time independent of where the bytes differ.
 fn eq(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |d, (x, y)| d | (x ^ y)) == 0
-}
-
-/// The scene's camera, transfer function and image as the page reads them.
-pub fn scene_json(s: &Scene) -> serde_json::Value {
-    let c = &s.camera;
-    let mut cam = serde_json::json!({"eye": c.eye, "target": c.target, "up": c.up});
-    match c.projection {
-        Projection::Orthographic { height } => {
-            cam["projection"] = "orthographic".into();
-            cam["height"] = height.into();
-        }
-        Projection::Perspective { fov_y_deg } => {
-            cam["projection"] = "perspective".into();
-            cam["fov_y_deg"] = fov_y_deg.into();
-        }
-    }
-    let points: Vec<[f64; 5]> = s
-        .transfer
-        .points
-        .iter()
-        .map(|p| [p.s, p.rgb[0], p.rgb[1], p.rgb[2], p.opacity])
-        .collect();
-    serde_json::json!({
-        "camera": cam,
-        "transfer": {"points": points, "unit_distance": s.transfer.unit_distance},
-        "image": {"width": s.image.width, "height": s.image.height},
-    })
 }
 
 type Q = Query<HashMap<String, String>>;
@@ -218,7 +56,7 @@ fn forbidden() -> Response {
 }
 
 async fn index(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> Response {
-    if !s.authorized(&q, &h) {
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
     (
@@ -244,7 +82,7 @@ async fn asset(
     Query(q): Q,
     h: HeaderMap,
 ) -> Response {
-    if !s.authorized(&q, &h) {
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
     match super::assets::get(&name) {
@@ -254,7 +92,7 @@ async fn asset(
 }
 
 async fn frame_png(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> Response {
-    if !s.authorized(&q, &h) {
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
     let png = tokio::task::spawn_blocking(move || s.full_png()).await;
@@ -281,7 +119,7 @@ async fn frame_png(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> R
 }
 
 async fn scene_toml(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> Response {
-    if !s.authorized(&q, &h) {
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
     match s.last().toml.clone() {
@@ -302,7 +140,7 @@ async fn scene_toml(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> 
 }
 
 async fn state_json(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> Response {
-    if !s.authorized(&q, &h) {
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
     let st = s.last().state.clone();
@@ -320,14 +158,20 @@ async fn ws(
     State(s): State<Arc<Shared>>,
     Query(q): Q,
     h: HeaderMap,
-    up: WebSocketUpgrade,
+    up: Result<WebSocketUpgrade, axum::extract::ws::rejection::WebSocketUpgradeRejection>,
 ) -> Response {
-    if !s.authorized(&q, &h) {
+    // The token first: a request without it gets 403 whether or not it is
+    // a WebSocket handshake.
+    if !authorized(&s, &q, &h) {
         return forbidden();
     }
-    up.max_message_size(MAX_MESSAGE_BYTES)
-        .max_frame_size(MAX_MESSAGE_BYTES)
-        .on_upgrade(move |socket| session(socket, s))
+    match up {
+        Ok(up) => up
+            .max_message_size(MAX_MESSAGE_BYTES)
+            .max_frame_size(MAX_MESSAGE_BYTES)
+            .on_upgrade(move |socket| session(socket, s)),
+        Err(e) => e.into_response(),
+    }
 }
 
 /// One page's WebSocket: `hello`, the last frame, then every new frame;
