@@ -65,19 +65,30 @@ impl Image {
             .collect()
     }
 
-    /// Writes an 8-bit RGB PNG.
-    pub fn save_png(&self, path: &Path) -> Result<()> {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        }
-        image::save_buffer(
-            path,
+    /// The 8-bit RGB PNG [`Image::save_png`] writes, as bytes (the one PNG
+    /// writer: the live viewer serves these bytes, `pvrsim render` writes
+    /// them to a file).
+    pub fn png_bytes(&self) -> std::result::Result<Vec<u8>, image::ImageError> {
+        use image::ImageEncoder;
+        let mut out = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut out).write_image(
             &self.to_rgb8(),
             self.width,
             self.height,
             image::ExtendedColorType::Rgb8,
-        )
-        .map_err(|e| Error::io(path, std::io::Error::other(e)))
+        )?;
+        Ok(out)
+    }
+
+    /// Writes an 8-bit RGB PNG ([`Image::png_bytes`]).
+    pub fn save_png(&self, path: &Path) -> Result<()> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        let bytes = self
+            .png_bytes()
+            .map_err(|e| Error::io(path, std::io::Error::other(e)))?;
+        std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
     }
 
     /// Whether any channel of any pixel is NaN or infinite.

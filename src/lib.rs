@@ -107,5 +107,6 @@ pub mod node;
 pub mod render;
 pub mod scene;
 pub mod text;
+pub mod view;
 
 pub use error::{Error, Result};

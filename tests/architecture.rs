@@ -31,6 +31,7 @@ const LEVELS: &[(&str, u8)] = &[
     ("cli", 0),
     ("experiment", 1),
     ("bench", 1),
+    ("view", 1),
     ("job", 2),
     ("cluster", 3),
     ("manager", 4),
@@ -49,11 +50,19 @@ const LEVELS: &[(&str, u8)] = &[
 
 /// The frontends: an arrow from one of these past the job layer into the
 /// engine must carry its reason (the third field of [`ARROWS`]).
-const FRONTENDS: &[&str] = &["cli", "experiment", "bench"];
+const FRONTENDS: &[&str] = &["cli", "experiment", "bench", "view"];
 
 /// The rooms a frontend may name without a reason: the job layer, the
 /// frontends below it, and the base types every layer shares.
-const FRONTEND_PLAIN: &[&str] = &["job", "experiment", "bench", "error", "text", "base"];
+const FRONTEND_PLAIN: &[&str] = &[
+    "job",
+    "experiment",
+    "bench",
+    "view",
+    "error",
+    "text",
+    "base",
+];
 
 /// The layer table: every arrow `FROM -> TO` (room `FROM` names a path in
 /// room `TO`) that the code may hold. An arrow found in the code and not
@@ -66,6 +75,7 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("cli", "experiment", ""),
     ("cli", "base", ""),
     ("cli", "bench", ""),
+    ("cli", "view", ""),
     ("cli", "job", ""),
     ("cli", "text", ""),
     ("cli", "budget", "`generate` and `splat` size their output before writing (no job of their own)"),
@@ -80,6 +90,9 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("experiment", "base", ""),
     ("experiment", "data", "the fidelity sweep generates built-in datasets; the estimate reads a mesh's size"),
     ("experiment", "scene", "the estimate reads a scene's image size"),
+    ("view", "job", ""),
+    ("view", "image", "the viewer encodes the frames a job returns (JPEG while moving, the one PNG writer when still)"),
+    ("view", "scene", "the viewer turns the camera and edits the transfer function of the loaded scene, and writes it as a scene TOML"),
     ("bench", "job", ""),
     ("bench", "text", ""),
     ("bench", "cluster", "calibration times phase 2 alone (node lists) and local TCP workers"),

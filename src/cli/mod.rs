@@ -82,6 +82,8 @@ pub enum Command {
     Scene(scene::SceneArgs),
     /// Serve cluster frames as one worker process over TCP (see `cluster --transport`).
     Worker(worker::WorkerArgs),
+    /// Look at a scene live in a web browser: prints `view: http://127.0.0.1:PORT/?token=TOKEN`; drag to orbit, edit the transfer function (in this process, or --nodes N on a cluster).
+    View(Box<crate::view::ViewArgs>),
 }
 
 /// Logs to stderr at the level `-v` counts (warn, info, debug, trace;
@@ -122,5 +124,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fidelity(a) => fidelity::run(a),
         Command::Scene(a) => scene::run(a),
         Command::Worker(a) => worker::run(a),
+        Command::View(a) => crate::view::run(*a),
     }
 }

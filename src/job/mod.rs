@@ -18,6 +18,8 @@
 //!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]);
 //!   [`cluster_job`] is its one path: validated once, the scene read once
 //!   and its mesh, pieces or volume loaded ([`LoadedCluster`]), then run.
+//! - [`render_loaded`]: a render whose data stays loaded ([`LoadedRender`]),
+//!   frames with another camera, transfer function or size (the viewer).
 //! - [`validate`]: the one validation layer. Each job implements
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
 //!   are decided there (errors say what to do, warnings what will happen);
@@ -60,6 +62,7 @@ pub mod options;
 pub mod output;
 pub mod render;
 pub mod render_grid;
+pub mod render_loaded;
 pub mod render_mesh;
 pub mod render_splat;
 pub mod run;
@@ -77,6 +80,7 @@ pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
 pub use cluster_job::LoadedCluster;
 pub use render::RenderOutcome;
+pub use render_loaded::{LoadedRender, ViewChange};
 pub use session::{FrameRequest, Session};
 pub use sweep::{SweepCommand, SweepJob, SweepRow};
 pub use validate::Valid;

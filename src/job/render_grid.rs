@@ -149,6 +149,13 @@ pub fn default_renderer(a: &RenderArgs, input: &VolumeInput) -> RendererKind {
 
 /// Renders a grid scene as `pvrsim render` does.
 pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
+    let (input, load_s) = load_checked(a, scene)?;
+    render(a, &input, load_s, quiet)
+}
+
+/// Checks the grid options against each other and loads the volume of
+/// `scene`: the input [`render`] draws, any number of times.
+pub fn load_checked(a: &RenderArgs, scene: Scene) -> anyhow::Result<(VolumeInput, f64)> {
     refuse_mesh_options(a)?;
     // Before the volume is loaded, an unset renderer is checked as slice3d
     // when slice3d's options are given, else as shear-warp (which takes
@@ -183,8 +190,19 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
             || (a.classify.is_none() && a.order.is_none() && !a.no_empty_skip),
         "--classify, --order and --no-empty-skip apply to the slicers, not the reference"
     );
-    let (input, load_s) = load(a, scene)?;
-    let kind = a.renderer.unwrap_or_else(|| default_renderer(a, &input));
+    load(a, scene)
+}
+
+/// Renders a loaded grid input (its scene's camera, transfer function and
+/// image size) with the options `a`, as `pvrsim render` does after loading
+/// (the default renderer picked for this camera).
+pub fn render(
+    a: &RenderArgs,
+    input: &VolumeInput,
+    load_s: f64,
+    quiet: bool,
+) -> anyhow::Result<RenderOutcome> {
+    let kind = a.renderer.unwrap_or_else(|| default_renderer(a, input));
     let mut say = Vec::new();
     if a.renderer.is_none() {
         say.push(match kind {
@@ -192,14 +210,14 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
                 "renderer: shearwarp (the default for an orthographic grid view with pixels at \
                  least as large as the voxels, here {:.2} voxels a pixel; --renderer slice3d \
                  samples each pixel's own ray: lower max-abs error at sharp silhouettes, slower)",
-                shearwarp::warp_scale(&input)
+                shearwarp::warp_scale(input)
             ),
             _ => "renderer: slice3d (the default for this grid scene: a perspective or magnified \
                 view, a volume behind the eye plane, or slice3d's options given)"
                 .to_string(),
         });
     }
-    let (image, mut stats) = render_with(a, kind, &input, &mut say)?;
+    let (image, mut stats) = render_with(a, kind, input, &mut say)?;
     stats["time_load_s"] = serde_json::json!(load_s);
     stats["mesh_keys"] = serde_json::json!(
         "absent: a regular grid has no cells, segments or lists (cells_*, segments_*, list_len_*)"
@@ -210,7 +228,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
     );
     if a.compare {
         let (reference, rs) = super::with_threads(a.threads, || {
-            grid_reference::render(&input, &Default::default())
+            grid_reference::render(input, &Default::default())
         })?;
         let err = image.error_against(&reference);
         stats["error_vs_reference"] = serde_json::to_value(err)?;

@@ -15,12 +15,35 @@ use crate::scene::Scene;
 /// read once by the caller, the mesh read here), without writing files or
 /// warning (when `quiet`); [`super::run`] hands mesh scenes here.
 pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
+    let (input, load_s) = load(a, scene, quiet)?;
+    render(a, &input, load_s, quiet)
+}
+
+/// Reads the mesh of `scene` for the options `a` (the image size
+/// `--width`/`--height` applied, the field reported unless `quiet`, the
+/// other fields released): the input [`render`] draws, any number of times.
+pub fn load(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<(RenderInput, f64)> {
     refuse_grid_options(a)?;
     let (mut input, load_s) = RenderInput::read(scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
+    if !quiet {
+        super::warn_field(&input);
+    }
+    input.release_fields();
+    Ok((input, load_s))
+}
+
+/// Renders a loaded mesh input (its scene's camera, transfer function and
+/// image size) with the options `a`, as `pvrsim render` does after loading.
+pub fn render(
+    a: &RenderArgs,
+    input: &RenderInput,
+    load_s: f64,
+    quiet: bool,
+) -> anyhow::Result<RenderOutcome> {
     let threads = if a.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
@@ -37,10 +60,6 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         kind,
         crate::budget::available_bytes(),
     )?;
-    if !quiet {
-        super::warn_field(&input);
-    }
-    input.release_fields();
     let mut say = Vec::new();
     let opts = CellOptions {
         integrator: a.integrator,
@@ -70,12 +89,11 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
             unreachable!("refused above")
         }
         RendererKind::Cell => {
-            let (image, mut stats) =
-                super::with_threads(a.threads, || cell::render(&input, &opts))?;
+            let (image, mut stats) = super::with_threads(a.threads, || cell::render(input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
             let peak = crate::net::cpu::peak_rss_bytes();
-            cell_summary(a, &input, &stats, peak, &mut say);
+            cell_summary(a, input, &stats, peak, &mut say);
             let mut v = serde_json::to_value(&stats)?;
             v["peak_rss_bytes"] = serde_json::to_value(peak)?;
             (image, v)
@@ -83,7 +101,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
         RendererKind::Reference => {
             let adjacency = input.mesh.adjacency();
             let (image, stats) = super::with_threads(a.threads, || {
-                reference::render(&input, &adjacency, &Default::default())
+                reference::render(input, &adjacency, &Default::default())
             })?;
             say.push(format!(
                 "reference render of {}: {}x{} in {:.3} s (load {:.3} s)",
@@ -103,7 +121,7 @@ pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<Rend
     if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
         let adjacency = input.mesh.adjacency();
         let (reference, rs) = super::with_threads(a.threads, || {
-            reference::render(&input, &adjacency, &Default::default())
+            reference::render(input, &adjacency, &Default::default())
         })?;
         let err = image.error_against(&reference);
         let ert_bound = stats["ert_error_bound"].as_f64().unwrap_or(0.0);

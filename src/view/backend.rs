@@ -1,0 +1,389 @@
+//! Where the viewer's frames come from, behind one trait ([`Backend`]):
+//!
+//! - [`Local`]: in this process, exactly as `pvrsim render` draws (the
+//!   job layer's [`LoadedRender`]: the data loaded once, each frame with
+//!   the new camera, transfer function and size), so `/frame.png` equals
+//!   `pvrsim render` of `/scene.toml` bit for bit.
+//! - [`Cluster`] (`--nodes N`): `pvrsim cluster`'s frames of the current
+//!   view on N nodes (threads, worker processes or TCP workers) on the
+//!   job layer's persistent [`Session`] (nodes set up and data placed
+//!   once), with the per-node figures of each frame's report.
+
+use crate::image::Image;
+use crate::job::render::{RenderArgs, RendererKind};
+use crate::job::transport_args::TransportKind;
+use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
+use crate::scene::Scene;
+
+/// Bins of the histogram the page draws under the transfer function.
+pub const HISTOGRAM_BINS: usize = 128;
+
+/// What the page is told once, when it connects.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Info {
+    /// The scene file's name.
+    pub scene_name: String,
+    /// The field rendered.
+    pub field: String,
+    /// Its raw range (the transfer function's `[0, 1]`).
+    pub range: [f64; 2],
+    /// Counts over [`HISTOGRAM_BINS`] bins of the normalised field.
+    pub histogram: Vec<u64>,
+    /// The renderers the page may choose (by `--renderer` name).
+    pub renderers: Vec<String>,
+    /// The renderer in use.
+    pub renderer: String,
+    /// The ERT threshold in use.
+    pub ert: f64,
+    /// Cluster nodes (0: in this process).
+    pub nodes: usize,
+    /// The transport's name (`in-process` without --nodes).
+    pub transport: String,
+}
+
+/// A frame as a backend drew it.
+pub struct Rendered {
+    /// The image.
+    pub image: Image,
+    /// Seconds the backend took (rendering, and for a cluster the job).
+    pub render_s: f64,
+    /// Per node (cluster only): name -> value of the report's figures the
+    /// page draws as bars.
+    pub nodes: Vec<serde_json::Value>,
+}
+
+/// A source of frames for the viewer.
+pub trait Backend: Send {
+    /// The scene the next full frame draws (camera, transfer function and
+    /// image size as changed so far).
+    fn scene(&self) -> &Scene;
+    /// What the page is told when it connects.
+    fn info(&self) -> Info;
+    /// Applies a camera/transfer change to the scene of the next frames.
+    fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()>;
+    /// Changes the ERT threshold and/or the renderer.
+    fn set_options(
+        &mut self,
+        ert: Option<f64>,
+        renderer: Option<RendererKind>,
+    ) -> anyhow::Result<()>;
+    /// Draws the scene at `1/divisor` of its size along each axis.
+    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered>;
+    /// The `pvrsim render` / `pvrsim cluster` options that, with the scene
+    /// TOML `/scene.toml` serves, reproduce the full frame.
+    fn command_options(&self) -> String;
+}
+
+/// The backend `args` asks for, with the scene and data loaded.
+pub fn open(args: &super::ViewArgs) -> anyhow::Result<Box<dyn Backend>> {
+    Ok(match args.nodes {
+        None => Box::new(Local::open(&args.render)?),
+        Some(n) => Box::new(Cluster::open(args, n)?),
+    })
+}
+
+/// The reduced size of an interactive frame (each side at least 1).
+pub fn reduced(w: u32, h: u32, divisor: u32) -> (u32, u32) {
+    let d = divisor.max(1);
+    (w.div_ceil(d).max(1), h.div_ceil(d).max(1))
+}
+
+/// The renderer names for a mesh or a grid.
+fn renderer_names(grid: bool) -> Vec<String> {
+    let all: &[RendererKind] = if grid {
+        &[
+            RendererKind::ShearWarp,
+            RendererKind::Slice3d,
+            RendererKind::Slice2d,
+            RendererKind::Splat,
+            RendererKind::Reference,
+        ]
+    } else {
+        &[RendererKind::Cell, RendererKind::Reference]
+    };
+    all.iter().map(|k| renderer_name(Some(*k))).collect()
+}
+
+/// `--renderer`'s spelling of a renderer (`default` for none).
+pub fn renderer_name(k: Option<RendererKind>) -> String {
+    k.and_then(|k| clap::ValueEnum::to_possible_value(&k))
+        .map_or("default".into(), |v| v.get_name().to_string())
+}
+
+/// In this process, as `pvrsim render`.
+pub struct Local {
+    args: RenderArgs,
+    loaded: LoadedRender,
+    histogram: Vec<u64>,
+}
+
+impl Local {
+    /// Validates the render options once and loads the scene's data.
+    pub fn open(args: &RenderArgs) -> anyhow::Result<Local> {
+        let job = Valid::new(args)?;
+        job.print_warnings();
+        let loaded = job.load()?;
+        let histogram = loaded.histogram(HISTOGRAM_BINS);
+        Ok(Local {
+            args: args.clone(),
+            loaded,
+            histogram,
+        })
+    }
+}
+
+impl Backend for Local {
+    fn scene(&self) -> &Scene {
+        self.loaded.scene()
+    }
+
+    fn info(&self) -> Info {
+        let s = self.scene();
+        Info {
+            scene_name: self.args.scene.display().to_string(),
+            field: s.data.field.clone(),
+            range: self.loaded.range(),
+            histogram: self.histogram.clone(),
+            renderers: renderer_names(self.loaded.is_grid()),
+            renderer: renderer_name(self.args.renderer),
+            ert: f64::from(self.args.ert.threshold),
+            nodes: 0,
+            transport: "in-process".into(),
+        }
+    }
+
+    fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()> {
+        self.loaded.apply(change)
+    }
+
+    fn set_options(
+        &mut self,
+        ert: Option<f64>,
+        renderer: Option<RendererKind>,
+    ) -> anyhow::Result<()> {
+        let mut a = self.args.clone();
+        if let Some(t) = ert {
+            a.ert.threshold = t as f32;
+        }
+        if renderer.is_some() {
+            a.renderer = renderer;
+        }
+        let grid = self.loaded.is_grid();
+        if let Some(k) = a.renderer {
+            anyhow::ensure!(
+                renderer_names(grid).contains(&renderer_name(Some(k))),
+                "renderer {} does not draw this scene's {} (use {})",
+                renderer_name(Some(k)),
+                if grid {
+                    "regular grid"
+                } else {
+                    "tetrahedral mesh"
+                },
+                renderer_names(grid).join(", ")
+            );
+        }
+        Valid::new(&a)?;
+        self.args = a;
+        Ok(())
+    }
+
+    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered> {
+        let t = std::time::Instant::now();
+        let full = (self.scene().image.width, self.scene().image.height);
+        let image = if divisor <= 1 {
+            self.loaded.render(&self.args)?.image
+        } else {
+            let small = reduced(full.0, full.1, divisor);
+            self.loaded.apply(&ViewChange {
+                size: Some(small),
+                ..Default::default()
+            })?;
+            let out = self.loaded.render(&self.args);
+            self.loaded.apply(&ViewChange {
+                size: Some(full),
+                ..Default::default()
+            })?;
+            out?.image
+        };
+        Ok(Rendered {
+            image,
+            render_s: t.elapsed().as_secs_f64(),
+            nodes: Vec::new(),
+        })
+    }
+
+    fn command_options(&self) -> String {
+        let mut s = format!("--ert {}", self.args.ert.threshold);
+        if let Some(k) = self.args.renderer {
+            s += &format!(" --renderer {}", renderer_name(Some(k)));
+        }
+        if self.args.canonical {
+            s += " --canonical";
+        }
+        s
+    }
+}
+
+/// On a cluster: frames on a persistent session ([`Session`]: the nodes
+/// set up and the data placed once, each frame carrying the camera,
+/// transfer function and size).
+pub struct Cluster {
+    job: ClusterJob,
+    session: Option<Session>,
+    scene: Scene,
+    histogram: Vec<u64>,
+    range: [f64; 2],
+    transport: String,
+}
+
+impl Cluster {
+    /// The cluster job of `args` (its scene, `--nodes`, `--transport`,
+    /// `--ert`, `--canonical`, `--width`/`--height`) validated and its
+    /// session opened; the data also read here once for the histogram.
+    pub fn open(args: &super::ViewArgs, nodes: usize) -> anyhow::Result<Cluster> {
+        let r = &args.render;
+        let transport = args.transport.unwrap_or(TransportKind::Threads);
+        let mut job = ClusterJob::new(&r.scene);
+        job.nodes = nodes;
+        job.net.transport = Some(transport);
+        job.ert.threshold = r.ert.threshold;
+        job.canonical = r.canonical;
+        job.width = r.width;
+        job.height = r.height;
+        anyhow::ensure!(
+            r.renderer.is_none() || r.renderer == Some(RendererKind::Cell),
+            "--renderer with --nodes: a cluster draws meshes by cell projection; leave --renderer out"
+        );
+        let loaded = Valid::new(r)?.load()?;
+        anyhow::ensure!(
+            !loaded.is_grid(),
+            "{}: `pvrsim view --nodes` serves mesh scenes (a cluster session holds a mesh); view \
+             a grid without --nodes",
+            r.scene.display()
+        );
+        let histogram = loaded.histogram(HISTOGRAM_BINS);
+        let range = loaded.range();
+        drop(loaded);
+        let session = Session::open(&job).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let scene = session.scene().clone();
+        Ok(Cluster {
+            job,
+            session: Some(session),
+            scene,
+            histogram,
+            range,
+            transport: transport.name().to_string(),
+        })
+    }
+
+    fn session(&mut self) -> anyhow::Result<&mut Session> {
+        if self.session.is_none() {
+            self.session = Some(Session::open(&self.job).map_err(|e| anyhow::anyhow!("{e}"))?);
+        }
+        Ok(self.session.as_mut().expect("opened above"))
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        if let Some(s) = self.session.take() {
+            if let Err(e) = s.close() {
+                crate::job::output::warn(format!("closing the cluster session: {e}"));
+            }
+        }
+    }
+}
+
+impl Backend for Cluster {
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    fn info(&self) -> Info {
+        Info {
+            scene_name: self.job.scene.display().to_string(),
+            field: self.scene.data.field.clone(),
+            range: self.range,
+            histogram: self.histogram.clone(),
+            renderers: vec!["cell".into()],
+            renderer: "cell".into(),
+            ert: f64::from(self.job.ert.threshold),
+            nodes: self.job.nodes,
+            transport: self.transport.clone(),
+        }
+    }
+
+    fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()> {
+        if let Some(c) = &change.camera {
+            c.check()
+                .map_err(|(k, m)| anyhow::anyhow!("camera: {k}: {m}"))?;
+            self.scene.camera = *c;
+        }
+        if let Some(t) = &change.transfer {
+            self.scene.transfer = t.clone();
+        }
+        if let Some((w, h)) = change.size {
+            (self.scene.image.width, self.scene.image.height) = (w, h);
+        }
+        Ok(())
+    }
+
+    /// A new ERT threshold reopens the session (the nodes' options are
+    /// set when it opens).
+    fn set_options(
+        &mut self,
+        ert: Option<f64>,
+        renderer: Option<RendererKind>,
+    ) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            renderer.is_none() || renderer == Some(RendererKind::Cell),
+            "the renderer of a cluster is cell projection"
+        );
+        if let Some(t) = ert {
+            let mut j = self.job.clone();
+            j.ert.threshold = t as f32;
+            j.check().map_err(|e| anyhow::anyhow!("{e}"))?;
+            if let Some(s) = self.session.take() {
+                s.close().map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
+            self.job = j;
+        }
+        Ok(())
+    }
+
+    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered> {
+        let t = std::time::Instant::now();
+        let full = (self.scene.image.width, self.scene.image.height);
+        let req = FrameRequest {
+            camera: Some(self.scene.camera),
+            transfer: Some(self.scene.transfer.clone()),
+            step: None,
+            size: Some(reduced(full.0, full.1, divisor)),
+        };
+        let out = self
+            .session()?
+            .frame(&req)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let report = serde_json::to_value(&out.report)?;
+        let nodes = report["nodes"].as_array().cloned().unwrap_or_default();
+        Ok(Rendered {
+            image: out.image,
+            render_s: t.elapsed().as_secs_f64(),
+            nodes,
+        })
+    }
+
+    fn command_options(&self) -> String {
+        format!(
+            "--nodes {} --transport {} --ert {}{}",
+            self.job.nodes,
+            self.transport,
+            self.job.ert.threshold,
+            if self.job.canonical {
+                " --canonical"
+            } else {
+                ""
+            }
+        )
+    }
+}
