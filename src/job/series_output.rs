@@ -40,11 +40,10 @@ pub fn write_series_images(
 ) -> anyhow::Result<Vec<String>> {
     let mut said = Vec::new();
     match output {
-        Some(o) if written && frame_path(o, 0).is_some() => {
-            if images.len() > 2 {
-                said.push(format!("({} frames written)", images.len()));
-            }
+        Some(o) if written && frame_path(o, 0).is_some() && images.len() > 2 => {
+            said.push(format!("({} frames written)", images.len()));
         }
+        Some(o) if written && frame_path(o, 0).is_some() => {}
         Some(o) => write_frames(o, images, &mut said)?,
         None => {}
     }

@@ -231,15 +231,14 @@ impl Session {
         let f = match &mut self.engine {
             Engine::Local(nodes) => {
                 let out = if resized {
-                    let mut inputs = vec![step.input(&self.inputs).with_size(size.0, size.1)];
+                    let inputs = [step.input(&self.inputs).with_size(size.0, size.1)];
                     let one = Step {
                         data: 0,
                         ..step.clone()
                     };
                     // A new image size: nodes of that size (the kept data
                     // is per data state and camera independent, not size).
-                    LocalFrames::new(nodes.config().clone(), Coherence::Off)
-                        .frame(&inputs.drain(..).collect::<Vec<_>>(), &one)?
+                    LocalFrames::new(nodes.config().clone(), Coherence::Off).frame(&inputs, &one)?
                 } else {
                     nodes.frame(&self.inputs, step)?
                 };
