@@ -150,8 +150,7 @@ fn session_frames_equal_one_off_frames() {
         ];
         let mut s = Session::open_with(&job(&opts), Path::new(EXE)).unwrap();
         let base = s.scene().clone();
-        let mut turned = pvrsim::scene::orbit(&base.camera, 4, 35.0);
-        let cams: Vec<_> = turned.drain(..).collect();
+        let cams = pvrsim::scene::orbit(&base.camera, 4, 35.0);
         let mut tf = base.transfer.clone();
         for p in &mut tf.points {
             p.opacity *= 0.5;
@@ -223,7 +222,7 @@ fn children(pid: u32) -> Vec<u32> {
 fn alive(pid: u32) -> bool {
     // A zombie is gone for our purpose (its parent reaps it).
     std::fs::read_to_string(format!("/proc/{pid}/stat"))
-        .is_ok_and(|s| !s.split_whitespace().nth(2).is_some_and(|st| st == "Z"))
+        .is_ok_and(|s| s.split_whitespace().nth(2).is_none_or(|st| st != "Z"))
 }
 
 #[test]

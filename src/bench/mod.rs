@@ -397,6 +397,17 @@ fn print_row(r: &BenchRow) {
     );
 }
 
+/// `dir` as given, and where it resolves from the current folder when it
+/// is relative (`../shared/data (= /work/shared/data)`).
+pub fn shown_dir(dir: &std::path::Path) -> String {
+    match std::env::current_dir() {
+        Ok(cwd) if dir.is_relative() => {
+            format!("{} (= {})", dir.display(), cwd.join(dir).display())
+        }
+        _ => dir.display().to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -415,16 +426,5 @@ mod tests {
             "{e}"
         );
         assert_eq!(events, 0, "nothing is measured before the data is found");
-    }
-}
-
-/// `dir` as given, and where it resolves from the current folder when it
-/// is relative (`../shared/data (= /work/shared/data)`).
-pub fn shown_dir(dir: &std::path::Path) -> String {
-    match std::env::current_dir() {
-        Ok(cwd) if dir.is_relative() => {
-            format!("{} (= {})", dir.display(), cwd.join(dir).display())
-        }
-        _ => dir.display().to_string(),
     }
 }
