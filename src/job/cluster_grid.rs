@@ -175,20 +175,7 @@ pub fn run(a: &ClusterArgs, f: GridFrames) -> anyhow::Result<Vec<GridOutcome>> {
             run_processes(t, &exe, &input, &cfg, &cams)
         }
         Some(TransportKind::Tcp) => {
-            let workers = match &t.hostfile {
-                Some(p) => super::transport_args::read_hostfile(p)?,
-                None => t.workers.clone(),
-            };
-            anyhow::ensure!(
-                workers.len() == cfg.nodes,
-                "{} workers for --nodes {}: give one worker per node",
-                workers.len(),
-                cfg.nodes
-            );
-            let token = match &t.token_file {
-                Some(p) => Token::load(p)?,
-                None => Token::none(),
-            };
+            let (workers, token) = super::nodes::tcp_workers(t, cfg.nodes)?;
             run_remote_frames(
                 &remote(t, workers, token, TransportKind::Tcp),
                 &input,

@@ -107,9 +107,10 @@ pub fn local_coordinator(net: &TransportArgs, workers: &LocalWorkers) -> Coordin
     }
 }
 
-/// The coordinator of `--transport tcp`'s workers (`--workers` or
-/// `--hostfile`, one per node).
-pub fn tcp_coordinator(net: &TransportArgs, n: usize) -> anyhow::Result<Coordinator> {
+/// `--transport tcp`'s workers (`--workers` or `--hostfile`, one per
+/// node, `n` of them) and the token (`--token-file`, or none: loopback
+/// workers only).
+pub fn tcp_workers(net: &TransportArgs, n: usize) -> anyhow::Result<(Vec<String>, Token)> {
     let (workers, given) = match &net.hostfile {
         Some(p) => (read_hostfile(p)?, format!("{} lists", p.display())),
         None => (net.workers.clone(), "--workers lists".to_string()),
@@ -127,6 +128,12 @@ pub fn tcp_coordinator(net: &TransportArgs, n: usize) -> anyhow::Result<Coordina
         Some(p) => Token::load(p)?,
         None => Token::none(),
     };
+    Ok((workers, token))
+}
+
+/// The coordinator of `--transport tcp`'s workers ([`tcp_workers`]).
+pub fn tcp_coordinator(net: &TransportArgs, n: usize) -> anyhow::Result<Coordinator> {
+    let (workers, token) = tcp_workers(net, n)?;
     Ok(Coordinator {
         workers,
         token,

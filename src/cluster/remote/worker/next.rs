@@ -53,15 +53,29 @@ pub fn next_frame<T: RemoteTransport>(
                 flush(t, me, &mut flushed, codec, wait)?;
                 return Ok(Next::Frame(next));
             }
-            Ok(Session::Flush) if e.from.index() < flushed.len() => flushed[e.from.index()] = true,
-            Ok(Session::Failed(why)) => {
-                anyhow::bail!("{} failed: {why}", t.peer_name(e.from))
-            }
-            _ => anyhow::bail!(
-                "{} sent a session message out of turn between frames",
-                t.peer_name(e.from)
-            ),
+            other => take_flush(t, &e, other, &mut flushed)?,
         }
+    }
+}
+
+/// A peer's session message between frames: its `Flush` is counted in
+/// `flushed`; its failure, or anything else, is an error.
+fn take_flush<T: RemoteTransport>(
+    t: &T,
+    e: &crate::net::Envelope,
+    msg: crate::net::NetResult<Session>,
+    flushed: &mut [bool],
+) -> anyhow::Result<()> {
+    match msg {
+        Ok(Session::Flush) if e.from.index() < flushed.len() => {
+            flushed[e.from.index()] = true;
+            Ok(())
+        }
+        Ok(Session::Failed(why)) => anyhow::bail!("{} failed: {why}", t.peer_name(e.from)),
+        _ => anyhow::bail!(
+            "{} sent a session message out of turn between frames",
+            t.peer_name(e.from)
+        ),
     }
 }
 
@@ -105,16 +119,7 @@ pub fn flush<T: RemoteTransport>(
         if e.kind != MessageKind::Session {
             continue;
         }
-        match codec.decode::<Session>(&e.payload) {
-            Ok(Session::Flush) if e.from.index() < flushed.len() => flushed[e.from.index()] = true,
-            Ok(Session::Failed(why)) => {
-                anyhow::bail!("{} failed: {why}", t.peer_name(e.from))
-            }
-            _ => anyhow::bail!(
-                "{} sent a session message out of turn between frames",
-                t.peer_name(e.from)
-            ),
-        }
+        take_flush(t, &e, codec.decode::<Session>(&e.payload), flushed)?;
     }
     Ok(())
 }
