@@ -17,10 +17,16 @@ use crate::net::SimTrace;
 /// path first, then loads the scene once and runs it.
 pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
     // Under mpirun, ranks other than 0 serve a node and write nothing.
-    if a.net.serve_mpi_worker(a.nodes)? {
+    if crate::job::nodes::serve_mpi_worker(&a.net, a.nodes)? {
         return Ok(());
     }
-    let job = Valid::new(&a)?;
+    // An error on MPI rank 0 ends every rank of the job (MPI_Abort).
+    coordinate(&a).map_err(|e| crate::job::nodes::abort_on_error(&a.net, e))
+}
+
+/// `pvrsim cluster` on this process (MPI rank 0 under `mpirun`).
+fn coordinate(a: &ClusterArgs) -> anyhow::Result<()> {
+    let job = Valid::new(a)?;
     job.print_warnings();
     prepare_output("-o", &a.output, OutputKind::Png)?;
     for (flag, path, kind) in [

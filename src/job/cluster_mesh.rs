@@ -79,13 +79,6 @@ pub(super) fn mesh_config(
         a.nodes
     );
     let remote = a.net.apply(&mut cfg)?;
-    if a.series.is_series() {
-        anyhow::ensure!(
-            remote != Some(super::transport_args::TransportKind::Mpi),
-            "--frames/--series with --transport mpi: an MPI job renders one frame (its ranks \
-             serve one session); run a series on processes, tcp or threads"
-        );
-    }
     if remote.is_some() {
         anyhow::ensure!(
             a.ert_mode.manager_shards.is_none_or(|k| k == 1),

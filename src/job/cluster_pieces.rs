@@ -1,10 +1,10 @@
 //! A mesh cluster job whose workers read their own pieces: the scene's data
-//! is a `.pvtu` and the frame runs on `--transport processes` or `tcp`
-//! without `--placement` ([`reads_pieces`]). The coordinator reads the
+//! is a `.pvtu` and the frame runs on `--transport processes`, `tcp` or
+//! `mpi` without `--placement` ([`reads_pieces`]). The coordinator reads the
 //! `.pvtu` and the pieces' vertices (the field's and depth ranges), never the
 //! cells ([`crate::cluster::remote::pieces`]); the pieces are the initial
 //! placement. Frames of an orbit (`--frames`, `--turn`) run on the same
-//! workers, each frame reading its pieces again.
+//! workers, which read their pieces once.
 
 use anyhow::Context;
 
@@ -33,22 +33,22 @@ pub struct PieceFrames {
 }
 
 impl PieceFrames {
-    /// The transport the workers run on (`processes` or `tcp`).
+    /// The transport the workers run on (`processes`, `tcp` or `mpi`).
     pub fn kind(&self) -> TransportKind {
         self.kind
     }
 }
 
 /// Whether `scene` runs with the workers reading their own pieces (the one
-/// place that decides it): a `.pvtu` on worker processes or TCP workers,
-/// placed by its pieces (no `--placement`).
+/// place that decides it): a `.pvtu` on worker processes, TCP workers or
+/// MPI ranks, placed by its pieces (no `--placement`).
 pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
     let pvtu =
         crate::data::io::mesh_format(&scene.data.path) == Some(crate::data::io::MeshFormat::Pvtu);
     pvtu && matches!(a.placement, None | Some(PlacementMethod::Pieces))
         && matches!(
             a.net.transport,
-            Some(TransportKind::Processes | TransportKind::Tcp)
+            Some(TransportKind::Processes | TransportKind::Tcp | TransportKind::Mpi)
         )
 }
 

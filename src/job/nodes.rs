@@ -1,13 +1,14 @@
 //! Where a cluster's nodes run, from the transport options: worker
 //! processes spawned on this machine (`processes`), workers at the
-//! addresses given (`tcp`), or the ranks of an MPI job (`mpi`, one frame
-//! per job). The option struct ([`TransportArgs`]) only parses; spawning
-//! and dialling are here.
+//! addresses given (`tcp`), or the ranks of an MPI job (`mpi`: rank 0 is
+//! the coordinator, the other ranks serve their nodes,
+//! [`serve_mpi_worker`]). The option struct ([`TransportArgs`]) only
+//! parses; spawning, dialling and starting MPI are here.
 
 use std::path::Path;
 use std::time::Duration;
 
-use crate::cluster::remote::{Coordinator, LiveCluster, LocalWorkers, Measured};
+use crate::cluster::remote::{Coordinator, LiveCluster, LiveNodes, LocalWorkers, Measured};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
 use crate::job::transport_args::{read_hostfile, OnFailure, TransportArgs, TransportKind};
 use crate::net::tcp::Token;
@@ -17,8 +18,9 @@ use crate::render::RenderInput;
 /// children it runs on (ended and reaped when this is dropped, after the
 /// session's `End`).
 pub struct RemoteNodes {
-    /// The cluster of workers, connected at its first frame.
-    pub live: LiveCluster,
+    /// The session's nodes: workers connected at the first frame, or the
+    /// ranks of the MPI job.
+    pub live: LiveNodes,
     /// The worker processes started for it (`processes` only).
     pub children: Option<LocalWorkers>,
 }
@@ -53,18 +55,22 @@ pub fn open(
             // One session, unless a loss may need a second of the survivors.
             let once = net.on_failure != OnFailure::Reassign;
             let children = spawn_processes(net, exe, n, once)?;
-            let live = LiveCluster::new(local_coordinator(net, &children));
+            let live = LiveNodes::Links(LiveCluster::new(local_coordinator(net, &children)));
             Ok(RemoteNodes {
                 live,
                 children: Some(children),
             })
         }
         TransportKind::Tcp => Ok(RemoteNodes {
-            live: LiveCluster::new(tcp_coordinator(net, n)?),
+            live: LiveNodes::Links(LiveCluster::new(tcp_coordinator(net, n)?)),
+            children: None,
+        }),
+        TransportKind::Mpi => Ok(RemoteNodes {
+            live: mpi_nodes(net, n)?,
             children: None,
         }),
         other => anyhow::bail!(
-            "a persistent session runs on --transport processes or tcp, not {} (internal error)",
+            "a persistent session runs on --transport processes, tcp or mpi, not {} (internal error)",
             other.name()
         ),
     }
@@ -159,29 +165,67 @@ pub fn run_processes(
     Ok(out)
 }
 
-/// One mesh frame under `--transport mpi` (MPI rank 0; the other ranks
-/// serve a node for the frame: [`TransportArgs::serve_mpi_worker`]). An
-/// error is printed and ends every rank of the job.
-pub fn run_mpi(
-    net: &TransportArgs,
-    input: &RenderInput,
-    cfg: &ClusterConfig,
-) -> anyhow::Result<(ClusterOutcome, Measured)> {
+/// The receive deadline of `net` (`--recv-timeout`; 60 s when unset).
+#[cfg(feature = "mpi")]
+fn recv_timeout(net: &TransportArgs) -> Duration {
+    Duration::from_secs_f64(if net.recv_timeout.is_finite() && net.recv_timeout > 0.0 {
+        net.recv_timeout
+    } else {
+        60.0
+    })
+}
+
+/// The node ranks of an MPI job, this process rank 0 (`mpirun -n N+1`).
+fn mpi_nodes(net: &TransportArgs, n: usize) -> anyhow::Result<LiveNodes> {
     #[cfg(feature = "mpi")]
     {
-        let recv_timeout = Duration::from_secs_f64(net.recv_timeout);
-        match crate::cluster::remote::mpi::coordinate(input, cfg, recv_timeout) {
-            Ok(x) => Ok(x),
-            // Print here, then end every rank of the job.
-            Err(e) => {
-                eprint!("{}", crate::job::error_text(&e));
-                crate::net::mpi::abort(1)
-            }
-        }
+        crate::net::mpi::init(crate::net::DEFAULT_MAX_MESSAGE_BYTES)?;
+        Ok(LiveNodes::Mpi(
+            crate::cluster::remote::mpi::MpiCluster::new(n, recv_timeout(net))?,
+        ))
     }
     #[cfg(not(feature = "mpi"))]
     {
-        let _ = (net, input, cfg);
+        let _ = (net, n);
         anyhow::bail!(crate::job::transport_args::NO_MPI)
     }
+}
+
+/// Under `--transport mpi`, on an MPI rank other than 0: serves this
+/// rank's node for every frame of the session and returns `true` (the
+/// caller then does nothing else: rank 0 writes the images and the
+/// reports). `false` on rank 0 and for every other transport. Call it
+/// before loading anything. Without the `mpi` feature, `--transport mpi`
+/// is an error saying how to build with it.
+pub fn serve_mpi_worker(net: &TransportArgs, nodes: usize) -> anyhow::Result<bool> {
+    if net.transport != Some(TransportKind::Mpi) {
+        return Ok(false);
+    }
+    #[cfg(feature = "mpi")]
+    {
+        let (rank, _) = crate::net::mpi::init(crate::net::DEFAULT_MAX_MESSAGE_BYTES)?;
+        if rank == 0 {
+            return Ok(false);
+        }
+        crate::cluster::remote::mpi::serve_worker(nodes, recv_timeout(net))?;
+        Ok(true)
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        let _ = nodes;
+        anyhow::bail!(crate::job::transport_args::NO_MPI)
+    }
+}
+
+/// Under `--transport mpi`, rank 0: prints `e` and ends every rank of the
+/// job (`MPI_Abort`, exit code 1), so that no rank is left waiting for a
+/// frame that will not come. Other transports: returns `e`.
+pub fn abort_on_error(net: &TransportArgs, e: anyhow::Error) -> anyhow::Error {
+    #[cfg(feature = "mpi")]
+    if net.transport == Some(TransportKind::Mpi) {
+        eprint!("{}", crate::job::error_text(&e));
+        crate::net::mpi::abort(1)
+    }
+    let _ = net;
+    e
 }

@@ -207,37 +207,4 @@ impl TransportArgs {
             ..Default::default()
         }
     }
-
-    /// Under `--transport mpi`, on an MPI rank other than 0: serves this
-    /// rank's node for one frame and returns `true` (the caller then does
-    /// nothing else: rank 0 writes the image and the report). `false` on
-    /// rank 0 and for every other transport. Call it before loading
-    /// anything. Without the `mpi` feature, `--transport mpi` is an error
-    /// saying how to build with it.
-    pub fn serve_mpi_worker(&self, nodes: usize) -> anyhow::Result<bool> {
-        if self.transport != Some(TransportKind::Mpi) {
-            return Ok(false);
-        }
-        #[cfg(feature = "mpi")]
-        {
-            let (rank, _) = crate::net::mpi::init(crate::net::DEFAULT_MAX_MESSAGE_BYTES)?;
-            if rank == 0 {
-                return Ok(false);
-            }
-            let recv_timeout = Duration::from_secs_f64(
-                if self.recv_timeout.is_finite() && self.recv_timeout > 0.0 {
-                    self.recv_timeout
-                } else {
-                    60.0
-                },
-            );
-            crate::cluster::remote::mpi::serve_worker(nodes, recv_timeout)?;
-            Ok(true)
-        }
-        #[cfg(not(feature = "mpi"))]
-        {
-            let _ = nodes;
-            anyhow::bail!(NO_MPI)
-        }
-    }
 }

@@ -46,24 +46,9 @@ pub(super) fn part_cells(input: &RenderInput, placement: &Placement) -> Vec<(Vec
         .collect()
 }
 
-/// Each worker's set-up and encoded cells for `placement` (`addrs`: the
-/// workers' addresses by rank, for the mesh; empty when the transport
-/// already connects every rank).
-#[cfg(feature = "mpi")]
-pub(super) fn worker_setups(
-    input: &RenderInput,
-    cfg: &ClusterConfig,
-    placement: &Placement,
-    addrs: &[String],
-    codec: Codec,
-    recv_timeout: Duration,
-) -> Vec<(WorkerSetup, Vec<u8>)> {
-    let cells = part_cells(input, placement);
-    cell_setups(input, cfg, placement, &cells, addrs, codec, recv_timeout)
-}
-
-/// [`worker_setups`] with the parts' cells encoded before ([`part_cells`],
-/// kept across a session's frames).
+/// Each worker's set-up and encoded cells for `placement`, the parts'
+/// cells encoded before ([`part_cells`], kept across a session's frames;
+/// `addrs`: the workers' addresses, or names, by rank).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn cell_setups(
     input: &RenderInput,

@@ -12,6 +12,7 @@
 //! | [`compare`] | measured traffic beside the virtual model's for the same frame |
 //! | [`coordinator`] | the TCP coordinator: connect, set-up, cells |
 //! | [`live`] | a session: workers connected once, a frame per call, `End` |
+//! | [`engine`] | a session's nodes on TCP links or MPI ranks, driven alike |
 //! | [`drive`] | the coordinator's frame over any [`crate::net::RemoteTransport`]: manager, results, phase 2 |
 //! | [`grid`] | grid scenes: bricks to workers (cached), layers to the master |
 //! | [`grid_wire`] | a grid worker's set-up and the bricks' samples as bytes |
@@ -21,7 +22,7 @@
 //! | [`pieces`] | partitioned data: each worker reads its own pieces of a `.pvtu` |
 //! | [`mesh`] | a worker joins the mesh of its peers; its transport with the coordinator's link |
 //! | [`worker`] | `pvrsim worker`: sessions, one node |
-//! | `mpi` | (feature `mpi`) `--transport mpi`: the coordinator on MPI rank 0, the workers' set-up over MPI |
+//! | `mpi` | (feature `mpi`) `--transport mpi`: a session on MPI ranks, rank 0 the coordinator; ranks read their own pieces |
 //! | [`reassign`] | `--on-failure reassign`: lost workers' cells to the survivors, the frame again |
 //! | [`spawn`] | child worker processes on loopback, reaped on every path |
 //! | [`probe`] | the echo service for `pvrsim calibrate --network` |
@@ -30,6 +31,7 @@ pub mod accept;
 pub mod compare;
 pub mod coordinator;
 pub mod drive;
+pub mod engine;
 pub mod grid;
 pub mod grid_wire;
 pub mod guard;
@@ -49,6 +51,7 @@ pub mod worker;
 
 pub use compare::{transport_section, TransportSection};
 pub use coordinator::Coordinator;
+pub use engine::LiveNodes;
 pub use live::{LiveCluster, Work};
 pub use measured::Measured;
 pub use spawn::LocalWorkers;

@@ -2,8 +2,9 @@
 //! kept between frames, on every transport the job names: the simulated
 //! cluster or threads in this process (each node's cells and vertex data
 //! built once per data state, [`crate::cluster::series::LocalFrames`]),
-//! worker processes or TCP workers (connected once, their cells sent once
-//! or their pieces read once, [`crate::cluster::remote::LiveCluster`]).
+//! worker processes, TCP workers or MPI ranks (connected once, their cells
+//! sent once or their pieces read once,
+//! [`crate::cluster::remote::LiveNodes`]).
 //! Each frame carries only what changed: camera, transfer function, time
 //! step, image size. `pvrsim cluster --frames/--series`, the Python
 //! module's `Session` and the viewer all run their frames here.
@@ -83,8 +84,8 @@ pub struct Session {
 impl Session {
     /// Validates the cluster job once, loads its scene and data once and
     /// sets up its nodes (worker processes are spawned, TCP workers are
-    /// dialled at the first frame). Mesh scenes only; `--transport mpi`
-    /// runs one frame per job.
+    /// dialled at the first frame, MPI ranks wait for theirs). Mesh scenes
+    /// only.
     pub fn open(job: &ClusterArgs) -> Result<Session, JobError> {
         Session::open_with(job, &nodes::this_program().map_err(JobError::Failed)?)
     }
@@ -107,11 +108,6 @@ impl Session {
                 a.scene.display()
             ),
             LoadedCluster::Mesh(a, f) => {
-                anyhow::ensure!(
-                    f.remote != Some(TransportKind::Mpi),
-                    "--transport mpi runs one frame per MPI job; a session runs in this process, \
-                     on worker processes or on TCP workers"
-                );
                 let coherence = coherence(a, f.remote, &f.cfg);
                 let first = f.steps.first().cloned().expect("at least one step");
                 Session::of_mesh(a, f.inputs, f.cfg, f.remote, coherence, first, exe)
@@ -150,7 +146,7 @@ impl Session {
             .ok_or_else(|| anyhow::anyhow!("a session needs data (internal error)"))?;
         let engine = match remote {
             None => Engine::Local(LocalFrames::new(cfg, coherence)),
-            Some(TransportKind::Threads) | Some(TransportKind::Mpi) => anyhow::bail!(
+            Some(TransportKind::Threads) => anyhow::bail!(
                 "--transport {}: a session runs in this process, on worker processes or on TCP \
                  workers (internal error)",
                 remote.map_or("", |k| k.name())

@@ -1,6 +1,5 @@
 //! A loaded cluster job run into a [`ClusterResult`]: a mesh scene's frames
-//! on one [`Session`] (every transport but MPI, which runs one frame per
-//! job), a grid scene's frames on its own path
+//! on one [`Session`] (every transport, MPI included), a grid scene's frames on its own path
 //! ([`crate::job::cluster_grid`]). Each frame is handed to `progress` as it
 //! ends, so that a frontend can write it before the next one starts.
 
@@ -10,7 +9,6 @@ use crate::job::api::ClusterResult;
 use crate::job::cluster::ClusterArgs;
 use crate::job::cluster_job::LoadedCluster;
 use crate::job::cluster_mesh::MeshFrame;
-use crate::job::transport_args::TransportKind;
 
 use super::{coherence, Session};
 use crate::job::nodes;
@@ -49,23 +47,14 @@ impl LoadedCluster<'_> {
     }
 }
 
-/// A mesh job's frames: on a session, or, under `--transport mpi`, the
-/// one frame of the MPI job.
+/// A mesh job's frames on a session (under `--transport mpi`, on the MPI
+/// job's ranks).
 fn run_mesh(
     a: &ClusterArgs,
     f: MeshFrame,
-    mut progress: impl FnMut(usize, usize, &ClusterOutcome),
+    progress: impl FnMut(usize, usize, &ClusterOutcome),
 ) -> anyhow::Result<Vec<ClusterOutcome>> {
     let series = a.series.is_series();
-    if f.remote == Some(TransportKind::Mpi) {
-        let input = f.steps[0].input(&f.inputs);
-        let (mut out, m) = nodes::run_mpi(&a.net, &input, &f.cfg)?;
-        out.report.transport = Some(crate::cluster::remote::transport_section(
-            &input, &f.cfg, &out, m,
-        )?);
-        progress(0, 1, &out);
-        return Ok(vec![out]);
-    }
     let coherence = coherence(a, f.remote, &f.cfg);
     let start = resume_at(a, f.steps.len())?;
     let first = f.steps[start].clone();

@@ -10,7 +10,7 @@
 //! cells' cache); `node.rs` runs one node's frame over any transport (TCP
 //! and MPI workers both end there).
 
-mod next;
+pub mod next;
 mod node;
 
 pub use crate::cluster::remote::accept::{Accepted, Door, MAX_PENDING, PRE_AUTH};

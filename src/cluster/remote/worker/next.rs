@@ -113,8 +113,14 @@ pub fn flush<T: RemoteTransport>(
     while flushed.iter().any(|f| !f) {
         let left = until.saturating_duration_since(std::time::Instant::now());
         let e = t.recv_timeout(left)?.ok_or_else(|| {
-            let missing: Vec<usize> = (0..flushed.len()).filter(|&k| !flushed[k]).collect();
-            anyhow::anyhow!("between frames: no flush from nodes {missing:?} within {wait:?}")
+            let missing: Vec<String> = (0..flushed.len())
+                .filter(|&k| !flushed[k])
+                .map(|k| t.peer_name(NodeId::from(k)))
+                .collect();
+            anyhow::anyhow!(
+                "between frames: no flush from {} within {wait:?} (stalled or lost)",
+                missing.join(", ")
+            )
         })?;
         if e.kind != MessageKind::Session {
             continue;
