@@ -150,6 +150,23 @@ const ARROWS: &[(&str, &str, &str)] = &[
     ("image", "error", ""),
 ];
 
+/// The Python module (`python/src`, its own crate over `pvrsim`): a
+/// frontend beside `cli`. Every room of `pvrsim` it names, with the reason
+/// where it reaches past the job layer; `python_arrows_are_in_the_table`
+/// holds it to the code both ways, and `docs/architecture.md` shows each
+/// as `python -> ROOM`.
+const PYTHON_ARROWS: &[(&str, &str)] = &[
+    ("job", ""),
+    ("error", ""),
+    ("base", ""),
+    ("cli", "`pvrsim.main()` runs the command line in this process; `Scene.fit` parses the `scene` command's options"),
+    ("experiment", "`pvrsim.sweep` runs a sweep config as `pvrsim sweep` does"),
+    ("cluster", "a cluster result draws its timeline; worker processes are started as `python -m pvrsim worker`"),
+    ("data", "`Mesh.read` and `Volume.read` hand datasets to Python"),
+    ("scene", "`Scene` wraps the scene contract's type"),
+    ("image", "results hand their images to numpy"),
+];
+
 /// Circles inside rooms the code still holds, each a pair of children of
 /// one folder (`folder`, `a`, `b`) that name each other, with who breaks it.
 /// The circle check ignores these two arrows and nothing else; a pair that
@@ -464,4 +481,70 @@ fn the_checker_reads_every_form_of_path() {
     assert!(find_circle(&g).is_some());
     g.get_mut("b").unwrap().clear();
     assert!(find_circle(&g).is_none());
+}
+
+/// The rooms of `pvrsim` that the Python module's sources name
+/// (`pvrsim::ROOM`, comments and strings left out).
+fn python_rooms() -> BTreeSet<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/src");
+    let mut rooms = BTreeSet::new();
+    let mut stack = vec![dir];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                let text = code(&std::fs::read_to_string(&p).unwrap());
+                let mut rest = text.as_str();
+                while let Some(i) = rest.find("pvrsim::") {
+                    rest = &rest[i + "pvrsim::".len()..];
+                    let room: String = rest
+                        .chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                        .collect();
+                    if !room.is_empty() {
+                        rooms.insert(room);
+                    }
+                }
+            }
+        }
+    }
+    rooms
+}
+
+#[test]
+fn python_arrows_are_in_the_table() {
+    let found = python_rooms();
+    assert!(
+        found.contains("job"),
+        "the Python module calls the job layer"
+    );
+    let table: BTreeSet<String> = PYTHON_ARROWS.iter().map(|(r, _)| r.to_string()).collect();
+    let unlisted: Vec<_> = found.difference(&table).collect();
+    let unused: Vec<_> = table.difference(&found).collect();
+    assert!(
+        unlisted.is_empty() && unused.is_empty(),
+        "python/src names rooms not in PYTHON_ARROWS: {unlisted:?}; PYTHON_ARROWS rows the code \
+         no longer holds: {unused:?}"
+    );
+    for (room, why) in PYTHON_ARROWS {
+        assert!(
+            LEVELS.iter().any(|(r, _)| r == room),
+            "python -> {room}: not a room of the layer table"
+        );
+        assert!(
+            FRONTEND_PLAIN.contains(room) || *room == "cli" || !why.is_empty(),
+            "python -> {room} reaches past the job layer without a reason"
+        );
+    }
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/architecture.md"))
+            .unwrap();
+    for (room, _) in PYTHON_ARROWS {
+        assert!(
+            doc.contains(&format!("python -> {room}")),
+            "docs/architecture.md does not show `python -> {room}`"
+        );
+    }
 }

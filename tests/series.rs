@@ -38,7 +38,7 @@ fn scene_with_eye(dir: &Path, eye: [f64; 3]) -> PathBuf {
 }
 
 fn job(scene: &Path, opts: &[(&str, &str)]) -> ClusterJob {
-    let options: Vec<(String, pvrsim::job::options::ParamValue)> =
+    let options: Vec<(String, pvrsim::job::args::by_name::ParamValue)> =
         std::iter::once(("scene".to_string(), scene.display().to_string().into()))
             .chain(opts.iter().map(|(k, v)| (k.to_string(), value(v))))
             .collect();
@@ -46,7 +46,7 @@ fn job(scene: &Path, opts: &[(&str, &str)]) -> ClusterJob {
 }
 
 /// An option's value as a job file would type it.
-fn value(v: &str) -> pvrsim::job::options::ParamValue {
+fn value(v: &str) -> pvrsim::job::args::by_name::ParamValue {
     if v == "true" {
         true.into()
     } else if let Ok(i) = v.parse::<i64>() {

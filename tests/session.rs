@@ -23,7 +23,7 @@ fn data(name: &str) -> PathBuf {
 fn job(opts: &[&str]) -> ClusterJob {
     let mut argv = vec![data("aorta-small-view-b.toml").display().to_string()];
     argv.extend(opts.iter().map(|s| s.to_string()));
-    pvrsim::job::options::parse("pvrsim cluster", &argv).unwrap()
+    pvrsim::job::args::by_name::parse("pvrsim cluster", &argv).unwrap()
 }
 
 /// `img` as `pvrsim` writes it, decoded: RGBA bytes.

@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use pvrsim::job::options::{clap_message, flag, ParamValue};
+use pvrsim::job::args::by_name::{clap_message, flag, ParamValue};
 use pvrsim::job::JobError;
 use pyo3::prelude::*;
 

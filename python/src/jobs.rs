@@ -13,7 +13,7 @@ use anyhow::Context;
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray3};
 use pvrsim::image::Image;
-use pvrsim::job::options::ParamValue;
+use pvrsim::job::args::by_name::ParamValue;
 use pvrsim::job::output::{prepare_output, OutputKind};
 use pvrsim::job::{ClusterJob, ClusterResult, JobError, RenderJob};
 use pyo3::prelude::*;
@@ -133,10 +133,10 @@ fn write_cluster_outputs(
         // Every frame with a `%d` pattern in `output`, and the movie: the
         // command line's own writer.
         let output = has("output").then_some(job.output.as_path());
-        pvrsim::job::series_output::write_series_images(output, &job.series, &r.images(), false)?;
+        pvrsim::job::series::output::write_series_images(output, &job.series, &r.images(), false)?;
         if let ClusterResult::Mesh(frames) = r {
             if let Some(last) = frames.last() {
-                pvrsim::job::series_output::write_series_csv(&job.series, &last.report)?;
+                pvrsim::job::series::output::write_series_csv(&job.series, &last.report)?;
             }
         }
         if let (true, Some(p)) = (has("report"), &job.report) {

@@ -1,6 +1,6 @@
 //! `pvrsim._native`: the compiled half of the `pvrsim` Python package. It
 //! is thin over the job layer: options go in by flag name
-//! ([`pvrsim::job::options`]: the command line's names, defaults, parsing
+//! ([`pvrsim::job::args::by_name`]: the command line's names, defaults, parsing
 //! and validation), jobs run on a thread of their own while the calling
 //! thread waits without the GIL and polls for Ctrl-C ([`interrupt`]),
 //! results come back as numpy arrays and JSON text. The public API, its
@@ -10,7 +10,7 @@
 //! - [`errors`]: `JobError` and the library's errors to the package's
 //!   exception classes;
 //! - [`interrupt`]: running a job off the GIL, interruptible;
-//! - [`values`]: Python values to [`pvrsim::job::options::ParamValue`],
+//! - [`values`]: Python values to [`pvrsim::job::args::by_name::ParamValue`],
 //!   and the option tables that `help()` shows;
 //! - [`arrays`]: numpy arrays to and from flat vectors;
 //! - [`mesh`], [`volume`]: data in memory, read with the crate's readers,

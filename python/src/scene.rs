@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use pvrsim::cli::scene::SceneArgs;
-use pvrsim::job::options::ParamValue;
+use pvrsim::job::args::by_name::ParamValue;
 use pvrsim::scene::fit::{scene_text, FitSpec, SceneSource};
 use pvrsim::scene::Scene;
 use pyo3::prelude::*;

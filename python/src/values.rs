@@ -3,7 +3,7 @@
 //! option, default or help text is written twice).
 
 use clap::{Args, Command};
-use pvrsim::job::options::ParamValue;
+use pvrsim::job::args::by_name::ParamValue;
 use pvrsim::job::{ClusterJob, RenderJob};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString};

@@ -18,7 +18,7 @@ use anyhow::Context;
 use super::timer::Timer;
 use crate::data::builtin::BuiltIn;
 use crate::job::api::ClusterJob;
-use crate::job::options::ParamValue;
+use crate::job::args::by_name::ParamValue;
 use crate::node::lsq::nnls;
 
 /// One timed grid render.

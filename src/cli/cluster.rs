@@ -1,6 +1,6 @@
 //! `pvrsim cluster`: a scene on a simulated (or real) PC cluster. The options
 //! and the work are the job layer's ([`crate::job::cluster`], re-exported
-//! here; its one path is [`crate::job::cluster_job`]); this file checks the
+//! here; its one path is [`crate::job::cluster::load`]); this file checks the
 //! outputs, runs the job and writes its files.
 
 use anyhow::Context;
@@ -9,7 +9,7 @@ use crate::cluster::grid::GridOutcome;
 use crate::image::Image;
 pub use crate::job::cluster::*;
 use crate::job::output::{self, prepare_output, OutputKind};
-use crate::job::series_output;
+use crate::job::series::output as series_output;
 use crate::job::{ClusterResult, Valid};
 use crate::net::SimTrace;
 
@@ -69,7 +69,7 @@ fn coordinate(a: &ClusterArgs) -> anyhow::Result<()> {
     let result = match run {
         Ok(r) => r?,
         Err(p) if crate::base::cancel::is_cancelled(p.as_ref()) => {
-            let kept = match crate::job::series_args::frame_path(&a.output, 0) {
+            let kept = match crate::job::series::args::frame_path(&a.output, 0) {
                 Some(_) if done > 0 => format!(
                     "frames 0..{done} are on disk; add --resume to the same command to continue"
                 ),
@@ -80,7 +80,7 @@ fn coordinate(a: &ClusterArgs) -> anyhow::Result<()> {
         Err(p) => std::panic::resume_unwind(p),
     };
     match &result {
-        ClusterResult::Grid(outs) => write_grid(&a, outs)?,
+        ClusterResult::Grid(outs) => write_grid(a, outs)?,
         ClusterResult::Mesh(outs) => {
             let out = outs.last().expect("at least one frame");
             output::warn_if_empty(
@@ -98,7 +98,7 @@ fn coordinate(a: &ClusterArgs) -> anyhow::Result<()> {
                 println!("{line}");
             }
             let (trace, ranks) = result.trace();
-            write_outputs(&a, &out.report, &trace, ranks)?;
+            write_outputs(a, &out.report, &trace, ranks)?;
             if let Some(line) = series_output::write_series_csv(&a.series, &out.report)? {
                 println!("{line}");
             }

@@ -27,7 +27,7 @@ use clap::{Parser, Subcommand};
 
 use crate::bench::{self, calibrate, splat_experiments};
 /// The grid options of `cluster`, re-exported under the command's name.
-pub use crate::job::cluster_grid;
+pub use crate::job::cluster::grid as cluster_grid;
 pub use crate::job::error_text;
 pub(crate) use crate::job::{output, validate};
 pub(crate) use crate::job::{plural, with_threads};

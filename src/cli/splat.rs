@@ -5,7 +5,7 @@
 //! the modelled one-thread frame time beside the measured CPU time), with
 //! `--compare` against the grid reference and `--stats` JSON. The everyday
 //! path is `pvrsim render SCENE --renderer splat`, wired through the job
-//! layer (`job/render_splat.rs`); this command calls the renderer directly.
+//! layer (`job/render/splat.rs`); this command calls the renderer directly.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -50,7 +50,7 @@ impl OrderArg {
 
 /// Options of `pvrsim splat`.
 #[derive(Debug, Args)]
-#[command(mut_arg("ert", |a| a.help(crate::job::shared_args::SPLAT_ERT_HELP)))]
+#[command(mut_arg("ert", |a| a.help(crate::job::args::shared::SPLAT_ERT_HELP)))]
 pub struct SplatArgs {
     /// Scene file (TOML) whose data is a regular grid (.nhdr/.nrrd).
     pub scene: PathBuf,
@@ -93,10 +93,10 @@ pub struct SplatArgs {
     /// thread) instead of the transparency pre-pass and sparse walk.
     #[arg(long)]
     pub full_walk: bool,
-    /// Early termination threshold (declared once: [`crate::job::shared_args::ErtArg`];
+    /// Early termination threshold (declared once: [`crate::job::args::shared::ErtArg`];
     /// the help this command shows is `SPLAT_ERT_HELP`).
     #[command(flatten)]
-    pub ert: crate::job::shared_args::ErtArg,
+    pub ert: crate::job::args::shared::ErtArg,
     /// Also print the modelled one-thread frame time under this cost
     /// profile (`calibrated`, `pentium4`, `radeon9700` or a TOML file; its
     /// `per_splat_voxel`, `per_splat`, `per_splat_piece`, fitted by `pvrsim

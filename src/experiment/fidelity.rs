@@ -21,7 +21,7 @@ use tracing::info;
 use super::fidelity_rows::{merge_repeats, must_hold, BandResult, Frame, Row};
 use crate::data::builtin::BuiltIn;
 use crate::job::api::ClusterJob;
-use crate::job::options::ParamValue;
+use crate::job::args::by_name::ParamValue;
 
 /// What `pvrsim fidelity` was asked to do.
 #[derive(Debug, Clone)]

@@ -2,7 +2,7 @@
 //! range), zip groups (parameters that vary together), and their Cartesian
 //! product in a deterministic order.
 
-pub use crate::job::options::ParamValue;
+pub use crate::job::args::by_name::ParamValue;
 
 /// A range of numbers, `{ from, to, step }` or `{ from, to, count, log }`.
 #[derive(Debug, Clone, serde::Deserialize)]

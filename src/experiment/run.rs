@@ -1,5 +1,5 @@
 //! Running the points of a sweep: each point's parameters become a job
-//! (options by flag name, [`crate::job::options`]), parsed by the job's own
+//! (options by flag name, [`crate::job::args::by_name`]), parsed by the job's own
 //! clap definition, so the sweep never needs to know the options: whatever
 //! `render` accepts, a sweep can vary, under the same name.
 
@@ -7,7 +7,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::grid::{ParamValue, Point};
-use crate::job::options::{self, clap_message, flag};
+use crate::job::args::by_name::{self as options, clap_message, flag};
 use crate::job::{sweep, ClusterJob, JobError, RenderJob};
 
 /// A subcommand that sweeps can run.

@@ -1,15 +1,15 @@
 //! The typed entry points: a job is a command's options with the command
 //! line's defaults ([`RenderJob::new`], [`ClusterJob::new`]), built from a
 //! table of options by flag name (a job file, a sweep point:
-//! [`super::options`]), checked by the validation layer and run into typed
+//! [`super::args::by_name`]), checked by the validation layer and run into typed
 //! values. Errors say which stage refused the job ([`JobError`]).
 
 use std::path::PathBuf;
 
 use serde::de::{Deserialize, Deserializer};
 
+use super::args::by_name::{self as options, ParamValue};
 use super::cluster::ClusterArgs;
-use super::options::{self, ParamValue};
 use super::render::{RenderArgs, RenderOutcome};
 use super::validate;
 use crate::cluster::grid::GridOutcome;

@@ -6,29 +6,39 @@
 //! stderr, and the command line's own path (`run::render(.., quiet =
 //! false)`) also writes `--compare`'s strip.
 //!
-//! - [`render`]: a render's options and outcome; [`run`] validates them
-//!   once ([`Valid`]), loads the scene once and hands it to [`render_mesh`] (cell projection, the f64 reference)
-//!   or [`render_grid`] (slicing, adaptive, [`render_splat`], the grid
-//!   reference); [`grid_order`] is `--order`; [`compare`] is `--compare`'s
-//!   verdict and strip.
-//! - [`cluster`]: a cluster frame's options, of a mesh ([`cluster_mesh`];
-//!   a `.pvtu` whose workers read their own pieces: [`cluster_pieces`]) or
-//!   a grid ([`cluster_grid`], whose options are [`grid_args`]), or a
-//!   series of frames ([`series_args`], [`series_steps`], [`series_output`]), on
-//!   a transport ([`transport_args`]), with ERT modes ([`cluster_ert`]);
-//!   [`cluster_job`] is its one path: validated once, the scene read once
-//!   and its mesh, pieces or volume loaded ([`LoadedCluster`]), then run.
-//! - [`render_loaded`]: a render whose data stays loaded ([`LoadedRender`]),
-//!   frames with another camera, transfer function or size (the viewer).
+//! The rooms, by folder:
+//!
+//! - [`render`]: a render's options and outcome ([`render::mesh`]: cell
+//!   projection and the f64 reference; [`render::grid`]: slicing,
+//!   adaptive, [`render::splat`], the grid reference; [`render::loaded`]:
+//!   a render whose data stays loaded, [`LoadedRender`], frames with
+//!   another camera, transfer function or size, for the viewer); [`run`]
+//!   validates them once ([`Valid`]) and loads the scene once;
+//!   [`grid_order`] is `--order`; [`compare`] is `--compare`'s verdict and
+//!   strip.
+//! - [`cluster`]: a cluster job's options and its one path
+//!   ([`cluster::load`]: validated once, the scene read once, its mesh
+//!   ([`cluster::mesh`]), pieces ([`cluster::pieces`]: a `.pvtu` whose
+//!   workers read their own) or volume ([`cluster::grid`]) loaded,
+//!   [`LoadedCluster`]), with ERT modes ([`cluster::ert`]).
+//! - [`session`]: a cluster that stays up between frames ([`Session`]) on
+//!   every transport; where its nodes run (spawned processes, TCP workers,
+//!   MPI ranks) is [`nodes`]'s.
+//! - [`series`]: frames of a series: options ([`series::args`]), steps
+//!   ([`series::steps`]), each frame's files as it completes
+//!   ([`series::output`]).
+//! - [`args`]: option groups several commands share: the transport
+//!   ([`args::transport`]), the grid renderers ([`args::grid`]), `--ert`
+//!   ([`args::shared`]); options by flag name, the one mapping that job
+//!   files and sweeps share ([`args::by_name`]).
+//! - [`rules`]: the options that only matter with another setting, one
+//!   table per command, checked by [`validate`].
 //! - [`validate`]: the one validation layer. Each job implements
 //!   [`validate::Validate`]; ranges and the meaning of option combinations
 //!   are decided there (errors say what to do, warnings what will happen);
 //!   sweeps run the same checks on every run before the first.
-//! - [`option_rules`]: the options that only matter with another setting
-//!   (structure, sharing, transport, clock, renderer, series), one table
-//!   per command, refused or warned about by [`validate`].
 //! - [`output`]: output paths checked before work (extension, writability,
-//!   at most one new directory level), warnings, the broken-pipe stop.
+//!   missing folders created), warnings, the broken-pipe stop.
 //! - [`memory`]: a frame's memory, estimated and checked before allocating.
 //! - [`api`]: the typed entry points [`RenderJob`] and [`ClusterJob`]
 //!   (`new` with the command line's defaults, `from_options` by flag name,
@@ -38,49 +48,31 @@
 //!   typed rows); the config-file sweep frontend runs its points here.
 //! - [`scene_fit`]: a scene fitted to a data file (the data read as a
 //!   [`crate::scene::fit::SceneSource`], the fitting [`crate::scene::fit`]'s).
-//! - [`shared_args`]: options several commands share, declared once
-//!   (`--ert`).
-//! - [`options`]: options by flag name, the one mapping that job files,
-//!   and sweeps share.
 //!
 //! The crate documentation has examples.
 
 pub mod api;
+pub mod args;
 pub mod cluster;
-pub mod cluster_ert;
-pub mod cluster_grid;
-pub mod cluster_job;
-pub mod cluster_mesh;
-pub mod cluster_pieces;
 pub mod compare;
-pub mod grid_args;
 pub mod grid_order;
 pub mod memory;
 pub mod nodes;
-pub mod option_rules;
-pub mod options;
 pub mod output;
 pub mod render;
-pub mod render_grid;
-pub mod render_loaded;
-pub mod render_mesh;
-pub mod render_splat;
+pub mod rules;
 pub mod run;
 pub mod scene_fit;
-pub mod series_args;
-pub mod series_output;
-pub mod series_steps;
+pub mod series;
 pub mod session;
-pub mod shared_args;
 pub mod sweep;
-pub mod transport_args;
 pub mod validate;
 
 pub use crate::text::plural;
 pub use api::{ClusterJob, ClusterResult, JobError, RenderJob};
-pub use cluster_job::LoadedCluster;
+pub use cluster::load::LoadedCluster;
+pub use render::loaded::{LoadedRender, ViewChange};
 pub use render::RenderOutcome;
-pub use render_loaded::{LoadedRender, ViewChange};
 pub use session::{FrameRequest, Session};
 pub use sweep::{SweepCommand, SweepJob, SweepRow};
 pub use validate::Valid;

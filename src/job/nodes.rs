@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use crate::cluster::remote::{Coordinator, LiveCluster, LiveNodes, LocalWorkers, Measured};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
-use crate::job::transport_args::{read_hostfile, OnFailure, TransportArgs, TransportKind};
+use crate::job::args::transport::{read_hostfile, OnFailure, TransportArgs, TransportKind};
 use crate::net::tcp::Token;
 use crate::render::RenderInput;
 
@@ -187,7 +187,7 @@ fn mpi_nodes(net: &TransportArgs, n: usize) -> anyhow::Result<LiveNodes> {
     #[cfg(not(feature = "mpi"))]
     {
         let _ = (net, n);
-        anyhow::bail!(crate::job::transport_args::NO_MPI)
+        anyhow::bail!(crate::job::args::transport::NO_MPI)
     }
 }
 
@@ -213,7 +213,7 @@ pub fn serve_mpi_worker(net: &TransportArgs, nodes: usize) -> anyhow::Result<boo
     #[cfg(not(feature = "mpi"))]
     {
         let _ = nodes;
-        anyhow::bail!(crate::job::transport_args::NO_MPI)
+        anyhow::bail!(crate::job::args::transport::NO_MPI)
     }
 }
 

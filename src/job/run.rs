@@ -1,7 +1,7 @@
 //! Running a render job: options validated once
 //! ([`Valid<RenderArgs>`](super::validate::Valid)), the scene read once and
-//! handed to the mesh path ([`super::render_mesh`]) or the grid path
-//! ([`super::render_grid`]) by what its data is.
+//! handed to the mesh path ([`super::render::mesh`]) or the grid path
+//! ([`super::render::grid`]) by what its data is.
 
 use super::render::{RenderArgs, RenderOutcome};
 use super::validate::Valid;
@@ -21,10 +21,10 @@ impl Valid<'_, RenderArgs> {
     pub fn run(&self, quiet: bool) -> anyhow::Result<RenderOutcome> {
         let a = self.args();
         let scene = super::load_scene(&a.scene)?;
-        if super::render_grid::is_grid_scene(&scene) {
-            super::render_grid::execute(a, scene, quiet)
+        if super::render::grid::is_grid_scene(&scene) {
+            super::render::grid::execute(a, scene, quiet)
         } else {
-            super::render_mesh::execute(a, scene, quiet)
+            super::render::mesh::execute(a, scene, quiet)
         }
     }
 }

@@ -12,7 +12,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::api::{ClusterJob, ClusterResult, JobError, RenderJob};
-use super::options::ParamValue;
+use super::args::by_name::ParamValue;
 
 /// The command each point of a sweep runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -193,7 +193,7 @@ fn in_point(e: JobError, point: &Options) -> JobError {
     match e {
         JobError::Options(c) => JobError::Invalid(anyhow::anyhow!(
             "sweep point {at}: {}",
-            super::options::clap_message(&c)
+            super::args::by_name::clap_message(&c)
         )),
         JobError::Invalid(e) => JobError::Invalid(anyhow::anyhow!("sweep point {at}: {e:#}")),
         JobError::Failed(e) => JobError::Failed(e.context(format!("sweep point {at}"))),

@@ -23,7 +23,7 @@
 //!
 //! Options of `cluster` and `render` that only matter with another setting
 //! (a structure, sharing, a transport, a clock, a renderer, a series) are
-//! rows of one table, [`super::option_rules`], which applies [`needs`] and
+//! rows of one table, [`super::rules`], which applies [`needs`] and
 //! [`Checks::ignored`] and whose tests walk every row: a new such option is
 //! a new row there.
 

@@ -10,8 +10,8 @@
 //!   once), with the per-node figures of each frame's report.
 
 use crate::image::Image;
+use crate::job::args::transport::TransportKind;
 use crate::job::render::{RenderArgs, RendererKind};
-use crate::job::transport_args::TransportKind;
 use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
 use crate::scene::Scene;
 

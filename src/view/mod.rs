@@ -26,8 +26,8 @@ use std::sync::Arc;
 
 use clap::{Args, ValueEnum};
 
+use crate::job::args::transport::TransportKind;
 use crate::job::render::RenderArgs;
-use crate::job::transport_args::TransportKind;
 
 /// The resolution divisor of frames drawn while the user interacts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

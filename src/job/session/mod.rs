@@ -19,9 +19,9 @@ use std::path::Path;
 use crate::cluster::remote::{transport_section, Measured, Work};
 use crate::cluster::series::{Coherence, LocalFrames, Step};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
+use crate::job::args::transport::TransportKind;
+use crate::job::cluster::load::LoadedCluster;
 use crate::job::cluster::ClusterArgs;
-use crate::job::cluster_job::LoadedCluster;
-use crate::job::transport_args::TransportKind;
 use crate::job::{nodes, JobError, Valid};
 use crate::render::RenderInput;
 use crate::scene::{Camera, Scene, TransferFunction};
@@ -263,7 +263,7 @@ impl Session {
                 let (mut outcome, m) = remote.live.frame(Work::Pieces(pieces, &scene), cfg)?;
                 let wall_s = t0.elapsed().as_secs_f64();
                 let bytes = Some((m.frame_bytes(), m.cells_bytes_sent));
-                outcome.report.pieces = Some(crate::job::cluster_pieces::section(pieces, cfg, m));
+                outcome.report.pieces = Some(crate::job::cluster::pieces::section(pieces, cfg, m));
                 SessionFrame {
                     outcome,
                     wall_s,

@@ -1,14 +1,14 @@
 //! A loaded cluster job run into a [`ClusterResult`]: a mesh scene's frames
 //! on one [`Session`] (every transport, MPI included), a grid scene's frames on its own path
-//! ([`crate::job::cluster_grid`]). Each frame is handed to `progress` as it
+//! ([`crate::job::cluster::grid`]). Each frame is handed to `progress` as it
 //! ends, so that a frontend can write it before the next one starts.
 
 use crate::cluster::series::{Coherence, Step};
 use crate::cluster::ClusterOutcome;
 use crate::job::api::ClusterResult;
+use crate::job::cluster::load::LoadedCluster;
+use crate::job::cluster::mesh::MeshFrame;
 use crate::job::cluster::ClusterArgs;
-use crate::job::cluster_job::LoadedCluster;
-use crate::job::cluster_mesh::MeshFrame;
 
 use super::{coherence, Session};
 use crate::job::nodes;
@@ -27,7 +27,9 @@ impl LoadedCluster<'_> {
     ) -> anyhow::Result<ClusterResult> {
         Ok(match self {
             LoadedCluster::Mesh(a, f) => ClusterResult::Mesh(run_mesh(a, *f, progress)?),
-            LoadedCluster::Grid(a, f) => ClusterResult::Grid(crate::job::cluster_grid::run(a, *f)?),
+            LoadedCluster::Grid(a, f) => {
+                ClusterResult::Grid(crate::job::cluster::grid::run(a, *f)?)
+            }
             LoadedCluster::Pieces(a, f) => {
                 let steps = f.steps.clone();
                 let start = resume_at(a, steps.len())?;
@@ -71,7 +73,7 @@ fn resume_at(a: &ClusterArgs, frames: usize) -> anyhow::Result<usize> {
     anyhow::ensure!(
         start < frames,
         "--resume: all {frames} frames of the series are on disk already ({} and on)",
-        crate::job::series_args::frame_path(&a.output, 0).map_or_else(
+        crate::job::series::args::frame_path(&a.output, 0).map_or_else(
             || a.output.display().to_string(),
             |p| p.display().to_string()
         )

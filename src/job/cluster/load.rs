@@ -1,17 +1,17 @@
 //! A cluster job's one path: options validated once
-//! ([`Valid<ClusterArgs>`](super::validate::Valid)), the scene read once and,
+//! ([`Valid<ClusterArgs>`](crate::job::validate::Valid)), the scene read once and,
 //! by what its data is, its mesh or volume loaded (or, for a `.pvtu` on
 //! worker processes, its pieces' summaries: the workers read the cells) with the frame's
 //! configuration ([`LoadedCluster`]), then run into a [`ClusterResult`]
-//! (on a session, [`super::session::run`]). The command line and
-//! [`super::ClusterJob::run`] both take it; nothing on it checks the
+//! (on a session, [`crate::job::session::run`]). The command line and
+//! [`crate::job::ClusterJob::run`] both take it; nothing on it checks the
 //! options or reads the scene again.
 
-use super::cluster::ClusterArgs;
-use super::cluster_grid::{self, GridFrames};
-use super::cluster_mesh::{self, MeshFrame};
-use super::cluster_pieces::{self, PieceFrames};
-use super::validate::Valid;
+use crate::job::cluster::grid::{self, GridFrames};
+use crate::job::cluster::mesh::{self, MeshFrame};
+use crate::job::cluster::pieces::{self, PieceFrames};
+use crate::job::cluster::ClusterArgs;
+use crate::job::validate::Valid;
 
 /// A cluster job with its scene and data loaded, ready to run.
 pub enum LoadedCluster<'a> {
@@ -28,13 +28,13 @@ impl<'a> Valid<'a, ClusterArgs> {
     /// the scene's data is (the one place that decides it).
     pub fn load(&self) -> anyhow::Result<LoadedCluster<'a>> {
         let a = self.args();
-        let scene = super::load_scene(&a.scene)?;
-        Ok(if super::render_grid::is_grid_scene(&scene) {
-            LoadedCluster::Grid(a, Box::new(cluster_grid::load(a, scene)?))
-        } else if cluster_pieces::reads_pieces(a, &scene) {
-            LoadedCluster::Pieces(a, Box::new(cluster_pieces::load(a, scene)?))
+        let scene = crate::job::load_scene(&a.scene)?;
+        Ok(if crate::job::render::grid::is_grid_scene(&scene) {
+            LoadedCluster::Grid(a, Box::new(grid::load(a, scene)?))
+        } else if pieces::reads_pieces(a, &scene) {
+            LoadedCluster::Pieces(a, Box::new(pieces::load(a, scene)?))
         } else {
-            LoadedCluster::Mesh(a, Box::new(cluster_mesh::load_mesh(a, scene)?))
+            LoadedCluster::Mesh(a, Box::new(mesh::load_mesh(a, scene)?))
         })
     }
 }

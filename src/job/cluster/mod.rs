@@ -3,6 +3,12 @@
 //! compositing; writes the image, a JSON report, a Gantt chart and a Chrome
 //! trace, and prints a per-node summary.
 
+pub mod ert;
+pub mod grid;
+pub mod load;
+pub mod mesh;
+pub mod pieces;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -76,17 +82,17 @@ impl CodecChoice {
 
 /// Options of `pvrsim cluster`.
 #[derive(Debug, Clone, Args)]
-#[command(mut_arg("ert", |a| a.help(super::shared_args::CLUSTER_ERT_HELP)))]
+#[command(mut_arg("ert", |a| a.help(crate::job::args::shared::CLUSTER_ERT_HELP)))]
 pub struct ClusterArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
     /// Number of rendering nodes (the manager is one more rank).
     #[arg(long, default_value_t = 8)]
     pub nodes: usize,
-    /// Early termination threshold (declared once: [`super::shared_args::ErtArg`];
+    /// Early termination threshold (declared once: [`crate::job::args::shared::ErtArg`];
     /// the help this command shows is `CLUSTER_ERT_HELP`).
     #[command(flatten)]
-    pub ert: super::shared_args::ErtArg,
+    pub ert: crate::job::args::shared::ErtArg,
     /// ERT table of D x D entries over the whole image (the paper's best: 20).
     #[arg(long, value_name = "D", default_value_t = 20)]
     pub ert_table: u32,
@@ -115,7 +121,7 @@ pub struct ClusterArgs {
     pub share_sub: u8,
     /// ERT structure, front-first help, `--paper`.
     #[command(flatten)]
-    pub ert_mode: super::cluster_ert::ClusterErtArgs,
+    pub ert_mode: crate::job::cluster::ert::ClusterErtArgs,
     /// Shorthand for `--sharing manager`.
     #[arg(long, conflicts_with = "sharing")]
     pub share: bool,
@@ -233,13 +239,13 @@ pub struct ClusterArgs {
     pub trace: Option<PathBuf>,
     /// Grid scenes (sort-last bricks).
     #[command(flatten)]
-    pub grid: super::grid_args::GridArgs,
+    pub grid: crate::job::args::grid::GridArgs,
     /// A frame series (`--frames`, `--turn`, `--series-csv`).
     #[command(flatten)]
-    pub series: super::series_args::SeriesArgs,
+    pub series: crate::job::series::args::SeriesArgs,
     /// Where the nodes run (`--transport`, `--workers`, ...).
     #[command(flatten)]
-    pub net: super::transport_args::TransportArgs,
+    pub net: crate::job::args::transport::TransportArgs,
 }
 
 /// Where `--profile calibrated` is read from: `profiles/calibrated.toml`
@@ -316,7 +322,7 @@ impl ClusterArgs {
 }
 
 /// The configuration of a mesh frame that validated options describe
-/// (the validation layer ran before: [`super::cluster_job`]).
+/// (the validation layer ran before: [`crate::job::cluster::load`]).
 pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
     let network = a.network.as_deref().unwrap_or("gbe");
     let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("pentium4"))?;

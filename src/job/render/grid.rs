@@ -1,14 +1,14 @@
 //! `pvrsim render` for regular grids: the grid reference, `slice3d` and
-//! `slice2d`. [`render`](super::render) hands a scene over here when its
+//! `slice2d`. [`render`](crate::job::render) hands a scene over here when its
 //! data file is a volume; this file owns the grid options' meaning.
 
 use std::sync::Arc;
 
 use anyhow::Context;
 
-use super::grid_order::GridOrder;
-use super::render::{RenderArgs, RenderOutcome, RendererKind};
 use crate::image::Image;
+use crate::job::grid_order::GridOrder;
+use crate::job::render::{RenderArgs, RenderOutcome, RendererKind};
 use crate::render::adaptive::{self, AdaptiveOptions};
 use crate::render::cell::{CellOrder, ErtSpan, ErtStructure, Integrator};
 use crate::render::shearwarp::{self, ShearWarpOptions};
@@ -227,7 +227,7 @@ pub fn render(
         "internal error: the image has NaN or infinite pixels"
     );
     if a.compare {
-        let (reference, rs) = super::with_threads(a.threads, || {
+        let (reference, rs) = crate::job::with_threads(a.threads, || {
             grid_reference::render(input, &Default::default())
         })?;
         let err = image.error_against(&reference);
@@ -255,10 +255,10 @@ fn write_compare(
     image: &Image,
     reference: &Image,
 ) -> anyhow::Result<String> {
-    let path = super::render::compare_path(&a.output);
+    let path = crate::job::render::compare_path(&a.output);
     let label = clap::ValueEnum::to_possible_value(&kind)
         .map_or("grid".to_string(), |v| v.get_name().to_string());
-    super::compare::write_strip(image, reference, &label, 10.0, &path)?;
+    crate::job::compare::write_strip(image, reference, &label, 10.0, &path)?;
     Ok(format!(
         "wrote {} ({label} | reference | 10x difference, labelled)",
         path.display()
@@ -277,7 +277,7 @@ pub fn render_with(
     let name = a.scene.display();
     match kind {
         RendererKind::Reference => {
-            let (img, st) = super::with_threads(a.threads, || {
+            let (img, st) = crate::job::with_threads(a.threads, || {
                 grid_reference::render(input, &Default::default())
             })?;
             {
@@ -295,7 +295,7 @@ pub fn render_with(
         RendererKind::Slice3d | RendererKind::Slice2d | RendererKind::ShearWarp => {
             let (img, st) = if kind == RendererKind::Slice3d {
                 let o = slice3d_options(a)?;
-                super::with_threads(a.threads, || slice3d::render(input, &o))??
+                crate::job::with_threads(a.threads, || slice3d::render(input, &o))??
             } else if kind == RendererKind::ShearWarp {
                 anyhow::ensure!(
                     a.classify.is_none() && a.order.is_none(),
@@ -306,10 +306,10 @@ pub fn render_with(
                     ert: a.ert.threshold,
                     empty_skip: !a.no_empty_skip,
                 };
-                super::with_threads(a.threads, || shearwarp::render(input, &o))??
+                crate::job::with_threads(a.threads, || shearwarp::render(input, &o))??
             } else {
                 let o = slice2d_options(a)?;
-                super::with_threads(a.threads, || slice2d::render(input, &o))??
+                crate::job::with_threads(a.threads, || slice2d::render(input, &o))??
             };
             {
                 let taken = st.samples_taken as f64;
@@ -346,7 +346,7 @@ pub fn render_with(
             Ok((img, v))
         }
         RendererKind::Adaptive => render_adaptive(a, input, say),
-        RendererKind::Splat => super::render_splat::render(a, input, say),
+        RendererKind::Splat => crate::job::render::splat::render(a, input, say),
         RendererKind::Cell => unreachable!("refused by execute"),
     }
 }
@@ -361,8 +361,8 @@ fn render_adaptive(
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     let o = slice3d_options(a)?;
     let ad = adaptive_options(a);
-    let (img, st) = super::with_threads(a.threads, || adaptive::render(input, &o, &ad))??;
-    let (full, fst) = super::with_threads(a.threads, || slice3d::render(input, &o))??;
+    let (img, st) = crate::job::with_threads(a.threads, || adaptive::render(input, &o, &ad))??;
+    let (full, fst) = crate::job::with_threads(a.threads, || slice3d::render(input, &o))??;
     let err = img.error_against(&full);
     let s = &st.adaptive;
     {

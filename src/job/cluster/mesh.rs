@@ -1,13 +1,13 @@
 //! A mesh cluster job's frames: the scene's mesh read once with the
 //! frame's configuration ([`load_mesh`], [`mesh_config`]), then run in this
 //! process or on the workers the transport names (on a session,
-//! [`super::session`]). The options live in [`super::cluster`].
+//! [`crate::job::session`]). The options live in [`crate::job::cluster`].
 
 use anyhow::Context;
 
-use super::cluster::{config, ClusterArgs};
-use super::memory::{self, FrameKind};
 use crate::cluster::ClusterConfig;
+use crate::job::cluster::{config, ClusterArgs};
+use crate::job::memory::{self, FrameKind};
 use crate::node::{DataMode, PlacementMethod};
 use crate::render::RenderInput;
 
@@ -21,20 +21,20 @@ pub struct MeshFrame {
     /// One step per frame (`--frames`, `--turn`, `--series`; one without them).
     pub steps: Vec<crate::cluster::series::Step>,
     /// Where they run (`None`: this process).
-    pub remote: Option<super::transport_args::TransportKind>,
+    pub remote: Option<crate::job::args::transport::TransportKind>,
 }
 
 /// Prepares a mesh frame of validated options on `scene` (read once, by
 /// the caller): refuses grid-only options, reads the mesh, builds the
 /// configuration and checks memory and the transport's set-up.
 pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
-    super::grid_args::refuse_on_mesh(&a.grid)?;
+    crate::job::args::grid::refuse_on_mesh(&a.grid)?;
     let (mut input, _) = RenderInput::read(scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
     if let (Some(w), Some(h)) = (a.width, a.height) {
         input = input.with_size(w, h);
     }
-    super::warn_field(&input);
+    crate::job::warn_field(&input);
     let (mut cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
     match (a.placement, &input.pieces) {
         // A .pvtu is placed by its pieces unless told otherwise.
@@ -46,7 +46,7 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         ),
         _ => {}
     }
-    let (mut inputs, steps) = super::series_steps::mesh_steps(&a.series, input)?;
+    let (mut inputs, steps) = crate::job::series::steps::mesh_steps(&a.series, input)?;
     if let [one] = inputs.as_mut_slice() {
         one.release_fields();
     }
@@ -64,7 +64,10 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
 pub(super) fn mesh_config(
     a: &ClusterArgs,
     image: [u32; 2],
-) -> anyhow::Result<(ClusterConfig, Option<super::transport_args::TransportKind>)> {
+) -> anyhow::Result<(
+    ClusterConfig,
+    Option<crate::job::args::transport::TransportKind>,
+)> {
     let mut cfg = config(a)?;
     memory::check_fits(
         image[0],

@@ -5,9 +5,9 @@
 //! its bound `ert_error_bound` is in the stats). `--order` is shared with the slicers
 //! ([`GridOrder`]).
 
-use super::grid_order::GridOrder;
-use super::render::RenderArgs;
 use crate::image::Image;
+use crate::job::grid_order::GridOrder;
+use crate::job::render::RenderArgs;
 use crate::render::splat::{render_splat, SplatOptions};
 use crate::render::VolumeInput;
 
@@ -42,14 +42,14 @@ pub fn render(
     say: &mut Vec<String>,
 ) -> anyhow::Result<(Image, serde_json::Value)> {
     refuse_slicer_options(a)?;
-    super::validate::ert_mode(a.ert.threshold)?;
+    crate::job::validate::ert_mode(a.ert.threshold)?;
     let opts = SplatOptions {
         order: GridOrder::splat(a.order)?,
         // Early splat elimination at the common ERT threshold (1: off).
         ert: a.ert.threshold,
         ..Default::default()
     };
-    let (img, st) = super::with_threads(a.threads, || render_splat(input, &opts))??;
+    let (img, st) = crate::job::with_threads(a.threads, || render_splat(input, &opts))??;
     say.push(format!(
         "splat of {} ({}x{}, order {}): {} of {} voxels drawn (fill rate {:.4}), \
          order {:.1} ms, splat {:.1} ms",

@@ -8,14 +8,14 @@
 
 use anyhow::Context;
 
-use super::cluster::{ClusterArgs, Sharing};
-use super::cluster_mesh::mesh_config;
-use super::transport_args::TransportKind;
 use crate::cluster::remote::pieces::PieceSet;
 use crate::cluster::remote::Measured;
 use crate::cluster::report::transport::PiecesSection;
 use crate::cluster::series::Step;
 use crate::cluster::ClusterConfig;
+use crate::job::args::transport::TransportKind;
+use crate::job::cluster::mesh::mesh_config;
+use crate::job::cluster::{ClusterArgs, Sharing};
 use crate::node::PlacementMethod;
 use crate::scene::Scene;
 
@@ -56,7 +56,7 @@ pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
 /// pieces' summaries, one scene per camera. Refuses what needs the cells
 /// in the coordinator.
 pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
-    super::grid_args::refuse_on_mesh(&a.grid)?;
+    crate::job::args::grid::refuse_on_mesh(&a.grid)?;
     let why = "the workers read their own pieces of the .pvtu and the coordinator never holds \
                the cells; give --placement rcb to read the whole mesh in the coordinator and \
                send each worker its cells";

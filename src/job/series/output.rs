@@ -7,9 +7,9 @@ use std::path::Path;
 
 use anyhow::Context;
 
-use super::series_args::{frame_path, SeriesArgs};
 use crate::cluster::ClusterReport;
 use crate::image::Image;
+use crate::job::series::args::{frame_path, SeriesArgs};
 
 /// Writes frame `k` of `n` to `output` as the frame completes, when
 /// `output` has a `%d` pattern (every frame is then a file of its own);

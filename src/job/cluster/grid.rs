@@ -8,12 +8,12 @@ use std::time::Duration;
 
 use anyhow::Context;
 
-use super::cluster::{load_profile, ClusterArgs};
-use super::transport_args::TransportArgs;
 use crate::cluster::grid::{self, GridConfig, GridOutcome};
 use crate::cluster::remote::grid::GridRemote;
 use crate::cluster::ClockKind;
 use crate::compositor::strategy::Compositing;
+use crate::job::args::transport::TransportArgs;
+use crate::job::cluster::{load_profile, ClusterArgs};
 use crate::net::tcp::Token;
 use crate::node::grid::render::RendererKind;
 use crate::node::grid::BrickPlacement;
@@ -24,7 +24,7 @@ use crate::scene::Scene;
 /// The grid configuration the arguments describe (mesh-only options refused).
 pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
     let mut bad = Vec::new();
-    if a.share || a.sharing != super::cluster::Sharing::Off {
+    if a.share || a.sharing != crate::job::cluster::Sharing::Off {
         bad.push("--share/--sharing");
     }
     if a.dlb {
@@ -44,7 +44,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         "{} apply to cell projection (mesh scenes) only; grid nodes render bricks",
         bad.join(", ")
     );
-    use super::transport_args::TransportKind;
+    use crate::job::args::transport::TransportKind;
     let n = &a.net;
     n.worker_hook()?;
     anyhow::ensure!(
@@ -104,7 +104,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         } else {
             a.clock.unwrap_or(ClockKind::Virtual)
         },
-        network: super::cluster::load_network(network)?,
+        network: crate::job::cluster::load_network(network)?,
         network_name: network.to_string(),
         profile,
         profile_name,
@@ -166,7 +166,7 @@ pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
 /// Runs every frame on the same nodes (on the transport `a` names).
 pub fn run(a: &ClusterArgs, f: GridFrames) -> anyhow::Result<Vec<GridOutcome>> {
     let GridFrames { input, cfg, cams } = f;
-    use super::transport_args::TransportKind;
+    use crate::job::args::transport::TransportKind;
     let t = &a.net;
     match t.transport {
         None | Some(TransportKind::Threads) => grid::run_frames(&input, &cfg, &cams),
@@ -175,7 +175,7 @@ pub fn run(a: &ClusterArgs, f: GridFrames) -> anyhow::Result<Vec<GridOutcome>> {
             run_processes(t, &exe, &input, &cfg, &cams)
         }
         Some(TransportKind::Tcp) => {
-            let (workers, token) = super::nodes::tcp_workers(t, cfg.nodes)?;
+            let (workers, token) = crate::job::nodes::tcp_workers(t, cfg.nodes)?;
             run_remote_frames(
                 &remote(t, workers, token, TransportKind::Tcp),
                 &input,
@@ -195,7 +195,7 @@ fn remote(
     t: &TransportArgs,
     workers: Vec<String>,
     token: Token,
-    kind: super::transport_args::TransportKind,
+    kind: crate::job::args::transport::TransportKind,
 ) -> GridRemote {
     GridRemote {
         workers,
@@ -203,7 +203,7 @@ fn remote(
         tcp: t.tcp_options(),
         recv_timeout: Duration::from_secs_f64(t.recv_timeout),
         transport: kind.name().to_string(),
-        reassign: t.on_failure == super::transport_args::OnFailure::Reassign,
+        reassign: t.on_failure == crate::job::args::transport::OnFailure::Reassign,
     }
 }
 
@@ -216,11 +216,11 @@ pub fn run_processes(
     cfg: &GridConfig,
     cams: &[crate::scene::Camera],
 ) -> anyhow::Result<Vec<GridOutcome>> {
-    use super::transport_args::{OnFailure, TransportKind};
+    use crate::job::args::transport::{OnFailure, TransportKind};
     // Reassigning, and every frame after the first (one session a frame),
     // need workers that serve more than one session.
     let serving = t.on_failure == OnFailure::Reassign || cams.len() > 1;
-    let mut w = super::nodes::spawn_processes(t, exe, cfg.nodes, !serving)?;
+    let mut w = crate::job::nodes::spawn_processes(t, exe, cfg.nodes, !serving)?;
     let r = remote(
         t,
         w.addrs.clone(),

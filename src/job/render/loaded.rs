@@ -4,8 +4,8 @@
 //! frame `pvrsim render` draws of a scene file holding that camera,
 //! transfer function and size (the live viewer's in-process frames).
 
-use super::render::{RenderArgs, RenderOutcome};
-use super::validate::Valid;
+use crate::job::render::{RenderArgs, RenderOutcome};
+use crate::job::validate::Valid;
 use crate::render::{RenderInput, VolumeInput};
 use crate::scene::{Camera, Scene, TransferFunction};
 
@@ -35,11 +35,13 @@ impl<'a> Valid<'a, RenderArgs> {
     /// [`LoadedRender::render`].
     pub fn load(&self) -> anyhow::Result<LoadedRender> {
         let a = self.args();
-        let scene = super::load_scene(&a.scene)?;
-        Ok(if super::render_grid::is_grid_scene(&scene) {
-            LoadedRender::Grid(Box::new(super::render_grid::load_checked(a, scene)?.0))
+        let scene = crate::job::load_scene(&a.scene)?;
+        Ok(if crate::job::render::grid::is_grid_scene(&scene) {
+            LoadedRender::Grid(Box::new(
+                crate::job::render::grid::load_checked(a, scene)?.0,
+            ))
         } else {
-            LoadedRender::Mesh(Box::new(super::render_mesh::load(a, scene, true)?.0))
+            LoadedRender::Mesh(Box::new(crate::job::render::mesh::load(a, scene, true)?.0))
         })
     }
 }
@@ -95,8 +97,8 @@ impl LoadedRender {
     /// writing nothing and printing nothing.
     pub fn render(&self, a: &RenderArgs) -> anyhow::Result<RenderOutcome> {
         match self {
-            LoadedRender::Mesh(m) => super::render_mesh::render(a, m, 0.0, true),
-            LoadedRender::Grid(g) => super::render_grid::render(a, g, 0.0, true),
+            LoadedRender::Mesh(m) => crate::job::render::mesh::render(a, m, 0.0, true),
+            LoadedRender::Grid(g) => crate::job::render::grid::render(a, g, 0.0, true),
         }
     }
 

@@ -214,7 +214,7 @@ impl SeriesArgs {
             let crop = cropping_frames(&cams, width, height, points);
             if let Some(&first) = crop.first().filter(|&&f| f > 0) {
                 let turn = self.turn.unwrap_or(0.0);
-                super::output::warn(format!(
+                crate::job::output::warn(format!(
                     "the orbit crops the data in {} of {} frames (the first: frame {first}, turned \
                      {:.0} degrees): the scene's view holds the data from its own side only; \
                      --fit-orbit widens it to the data's bounding sphere (frames then differ \

@@ -1,7 +1,7 @@
 //! The transport options of `pvrsim cluster` (flattened into its
 //! arguments): where the nodes run and how they are reached. Parsing and
 //! checking only; the nodes are started and reached by
-//! [`super::nodes`].
+//! [`crate::job::nodes`].
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

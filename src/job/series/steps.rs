@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use anyhow::Context;
 
-use super::series_args::SeriesArgs;
 use crate::cluster::series::Step;
+use crate::job::series::args::SeriesArgs;
 use crate::render::RenderInput;
 
 /// The series' data states (the scene's first) and one step per frame.

@@ -1,5 +1,5 @@
 //! The ERT mode options of `pvrsim cluster` (flattened into
-//! [`super::cluster::ClusterArgs`]): which structure the nodes test cells
+//! [`crate::job::cluster::ClusterArgs`]): which structure the nodes test cells
 //! against, how sharing travels, front-first help, and `--paper`, the
 //! preset that reproduces the paper's protocol exactly.
 

@@ -10,10 +10,10 @@
 //! The tests walk every row with the arguments it names (the option
 //! without its setting: refused or warned; with it: nothing said about it).
 
-use super::cluster::{ClusterArgs, Sharing};
-use super::render::{RenderArgs, RendererKind};
-use super::validate::{self, at_least, needs, Checks, Validate};
 use crate::cluster::ClockKind;
+use crate::job::cluster::{ClusterArgs, Sharing};
+use crate::job::render::{RenderArgs, RendererKind};
+use crate::job::validate::{self, at_least, needs, Checks, Validate};
 use crate::node::DataMode;
 use crate::render::cell::ert::ErtStructure;
 
@@ -112,7 +112,7 @@ fn manager_sharing(a: &ClusterArgs) -> bool {
 }
 
 fn wall_clock(a: &ClusterArgs) -> bool {
-    use super::transport_args::TransportKind;
+    use crate::job::args::transport::TransportKind;
     a.clock == Some(ClockKind::Wall) || a.net.transport == Some(TransportKind::Threads)
 }
 
@@ -251,7 +251,7 @@ pub const CLUSTER: &[Rule<ClusterArgs>] = &[
         given: |a| {
             !a.net.workers.is_empty() || a.net.hostfile.is_some() || a.net.token_file.is_some()
         },
-        holds: |a| a.net.transport == Some(super::transport_args::TransportKind::Tcp),
+        holds: |a| a.net.transport == Some(crate::job::args::transport::TransportKind::Tcp),
         without: &["--workers", "a:1,b:2", "--nodes", "2"],
         with: &["--workers", "a:1,b:2", "--nodes", "2", "--transport", "tcp"],
     },
@@ -416,7 +416,7 @@ impl Validate for ClusterArgs {
                 t.name()
             );
         }
-        use super::transport_args::TransportKind;
+        use crate::job::args::transport::TransportKind;
         if let Some(coh) = self.series.coherence {
             anyhow::ensure!(
                 coh == crate::cluster::series::Coherence::Off
@@ -441,7 +441,7 @@ impl Validate for ClusterArgs {
 /// `--transport tcp`: one worker per node, counted before any work
 /// (`--workers` as given, `--hostfile` as read).
 fn check_worker_count(a: &ClusterArgs) -> anyhow::Result<()> {
-    use super::transport_args::{read_hostfile, TransportKind};
+    use crate::job::args::transport::{read_hostfile, TransportKind};
     if a.net.transport != Some(TransportKind::Tcp) {
         return Ok(());
     }
@@ -483,8 +483,8 @@ impl Validate for RenderArgs {
 
 #[cfg(test)]
 mod tests {
-    use super::super::validate::check;
     use super::*;
+    use crate::job::validate::check;
     use clap::Parser;
 
     #[derive(Debug, Parser)]

@@ -1,6 +1,11 @@
-//! `pvrsim render`'s options ([`RenderArgs`]; validated in [`super::option_rules`]) and what a
-//! render produces ([`RenderOutcome`]). The work is in [`super::run`]
-//! (load, dispatch), [`super::render_mesh`] and [`super::render_grid`].
+//! `pvrsim render`'s options ([`RenderArgs`]; validated in [`crate::job::rules`]) and what a
+//! render produces ([`RenderOutcome`]). The work is in [`crate::job::run`]
+//! (load, dispatch), [`crate::job::render::mesh`] and [`crate::job::render::grid`].
+
+pub mod grid;
+pub mod loaded;
+pub mod mesh;
+pub mod splat;
 
 use std::path::PathBuf;
 
@@ -35,7 +40,7 @@ pub enum RendererKind {
 
 /// Options of `pvrsim render`.
 #[derive(Debug, Clone, Args)]
-#[command(mut_arg("ert", |a| a.help(super::shared_args::RENDER_ERT_HELP)))]
+#[command(mut_arg("ert", |a| a.help(crate::job::args::shared::RENDER_ERT_HELP)))]
 pub struct RenderArgs {
     /// Scene file (TOML, see the scene contract).
     pub scene: PathBuf,
@@ -60,7 +65,7 @@ pub struct RenderArgs {
     /// with ERT; `back-to-front` blends with (1, 1 - A_s) as the paper), or
     /// splatting's visit order (`axis`, `dda` default, `sort`, `radix`).
     #[arg(long, value_enum)]
-    pub order: Option<super::grid_order::GridOrder>,
+    pub order: Option<crate::job::grid_order::GridOrder>,
     /// Grids (slice3d): number of view-aligned slices across the volume's
     /// depth. Default: one per voxel layer a ray along the view direction
     /// crosses (the papers' largest dimension for an axis-aligned view).
@@ -106,10 +111,10 @@ pub struct RenderArgs {
     /// change with it (within the ERT error bound). Never with the thread count.
     #[arg(long, default_value_t = 32)]
     pub tile: u32,
-    /// Early termination threshold (declared once: [`super::shared_args::ErtArg`];
+    /// Early termination threshold (declared once: [`crate::job::args::shared::ErtArg`];
     /// the help this command shows is `RENDER_ERT_HELP`).
     #[command(flatten)]
-    pub ert: super::shared_args::ErtArg,
+    pub ert: crate::job::args::shared::ErtArg,
     /// ERT table of D x D entries (flat structure; entries of ceil(W/D) x
     /// ceil(H/D) pixels; for the pyramid: its level-0 blocks). Default: 20 for
     /// `flat` (the paper's best), 1-pixel blocks for `pyramid`.

@@ -4,8 +4,8 @@
 
 use anyhow::Context;
 
-use super::memory::{self, FrameKind};
-use super::render::{compare_path, RenderArgs, RenderOutcome, RendererKind};
+use crate::job::memory::{self, FrameKind};
+use crate::job::render::{compare_path, RenderArgs, RenderOutcome, RendererKind};
 use crate::render::cell::ert::EntrySize;
 use crate::render::cell::{self, CellOptions, ErtOptions};
 use crate::render::{reference, RenderInput};
@@ -13,7 +13,7 @@ use crate::scene::Scene;
 
 /// Renders a mesh scene (cell projection or the f64 reference; `scene`
 /// read once by the caller, the mesh read here), without writing files or
-/// warning (when `quiet`); [`super::run`] hands mesh scenes here.
+/// warning (when `quiet`); [`crate::job::run`] hands mesh scenes here.
 pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
     let (input, load_s) = load(a, scene, quiet)?;
     render(a, &input, load_s, quiet)
@@ -30,7 +30,7 @@ pub fn load(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<(Render
         input = input.with_size(w, h);
     }
     if !quiet {
-        super::warn_field(&input);
+        crate::job::warn_field(&input);
     }
     input.release_fields();
     Ok((input, load_s))
@@ -89,7 +89,8 @@ pub fn render(
             unreachable!("refused above")
         }
         RendererKind::Cell => {
-            let (image, mut stats) = super::with_threads(a.threads, || cell::render(input, &opts))?;
+            let (image, mut stats) =
+                crate::job::with_threads(a.threads, || cell::render(input, &opts))?;
             stats.time_load_s = load_s;
             stats.time_total_s += load_s;
             let peak = crate::net::cpu::peak_rss_bytes();
@@ -100,7 +101,7 @@ pub fn render(
         }
         RendererKind::Reference => {
             let adjacency = input.mesh.adjacency();
-            let (image, stats) = super::with_threads(a.threads, || {
+            let (image, stats) = crate::job::with_threads(a.threads, || {
                 reference::render(input, &adjacency, &Default::default())
             })?;
             say.push(format!(
@@ -120,12 +121,12 @@ pub fn render(
     );
     if a.compare && a.renderer.unwrap_or(RendererKind::Cell) == RendererKind::Cell {
         let adjacency = input.mesh.adjacency();
-        let (reference, rs) = super::with_threads(a.threads, || {
+        let (reference, rs) = crate::job::with_threads(a.threads, || {
             reference::render(input, &adjacency, &Default::default())
         })?;
         let err = image.error_against(&reference);
         let ert_bound = stats["ert_error_bound"].as_f64().unwrap_or(0.0);
-        let v = super::compare::verdict(&err, a.integrator, ert_bound);
+        let v = crate::job::compare::verdict(&err, a.integrator, ert_bound);
         stats["error_vs_reference"] = serde_json::to_value(err)?;
         stats["compare_verdict"] = serde_json::to_value(&v)?;
         stats["reference_time_s"] = serde_json::to_value(rs.time_s)?;
@@ -134,7 +135,7 @@ pub fn render(
         if !quiet {
             let path = compare_path(&a.output);
             let label = format!("this: cell ({})", a.integrator_name());
-            super::compare::write_strip(&image, &reference, &label, 10.0, &path)?;
+            crate::job::compare::write_strip(&image, &reference, &label, 10.0, &path)?;
             say.push(format!(
                 "wrote {} (labelled: this | reference | 10x difference)",
                 path.display()
@@ -197,7 +198,7 @@ fn cell_summary(
         s.integrator,
         s.cell_order,
         if s.partial_composition { "on" } else { "off" },
-        super::plural(s.threads, "thread")
+        crate::job::plural(s.threads, "thread")
     ));
     say.push(format!(
         "  cells: {} total, {} culled empty, {} culled off-screen, {} projected",

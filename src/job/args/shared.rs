@@ -10,7 +10,7 @@ use clap::Args;
 /// (rays, splats, slices), in (0, 1]; 1 turns it off. What it means for a
 /// command is in that command's help ([`RENDER_ERT_HELP`],
 /// [`CLUSTER_ERT_HELP`], [`SPLAT_ERT_HELP`]); the validation layer decides
-/// it ([`super::validate::ert_mode`]).
+/// it ([`crate::job::validate::ert_mode`]).
 #[derive(Debug, Clone, Copy, PartialEq, Args)]
 pub struct ErtArg {
     /// Early termination threshold, in (0, 1]; 1 turns it off.
