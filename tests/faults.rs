@@ -283,3 +283,70 @@ fn grid_frames_survive_every_fault_at_every_phase() {
         }
     }
 }
+
+/// Issue 54, the stalled-peer race: worker 2 stops (SIGSTOP) at the start
+/// of phase 2; its peers' deadline (1 s) passes long before the
+/// coordinator's (4 s), and the stopped worker is continued as soon as a
+/// peer has closed a connection to it, so the coordinator's own deadline
+/// never passes (its heartbeats resume; with its 4 s deadline it has not
+/// stalled out either). The peer that noticed reports worker 2 lost
+/// (`Lost`), and the coordinator drops it as it would on its own
+/// deadline: worker 2's cells go to the survivors and the image is the
+/// undisturbed one. (Before, the peer's `Failed` ended the frame with no
+/// worker lost, and the frame failed even with reassign.)
+#[test]
+fn a_peer_that_notices_a_stalled_worker_first_gets_its_cells_reassigned() {
+    let (input, cfg) = config(
+        &data("aorta-small-view-b.toml"),
+        &["--nodes", "4", "--canonical", "--ert", "1"],
+    );
+    let mut pool = Pool::new();
+    pool.victim(&[]);
+    let reference = bits(&coordinator(&pool, false).run(&input, &cfg).unwrap().0.image);
+    pool.victim = Some(WorkerProc::start_with(
+        Some(&pool.tok),
+        &[
+            "--heartbeat-timeout",
+            "4",
+            "--test-stop",
+            "--test-kill-in-phase2",
+        ],
+        false,
+    ));
+    let pid = pool.victim.as_ref().unwrap().child.id();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let d = std::sync::Arc::clone(&done);
+    let cont = std::thread::spawn(move || {
+        use std::sync::atomic::Ordering;
+        while !(stat(pid).is_some_and(|(st, _)| st == 'T') && peer_closed_on(pid)) {
+            if d.load(Ordering::SeqCst) {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        // SAFETY: kill has no preconditions; `pid` is our child.
+        unsafe { libc::kill(pid as libc::pid_t, libc::SIGCONT) == 0 }
+    });
+    let mut c = coordinator(&pool, true);
+    c.tcp = pvrsim::net::tcp::TcpOptions {
+        deadline: Duration::from_secs(4),
+        ..tcp_opts()
+    };
+    let r = c.run(&input, &cfg);
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    let continued = cont.join().unwrap();
+    let (out, m) = r.unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(continued, "worker 2 was not continued during its frame");
+    assert_eq!(bits(&out.image), reference, "not the undisturbed image");
+    assert_eq!(out.report.n_nodes, 3);
+    let re = m.reassigned.expect("a reassignment in the report");
+    let ev = assert_one_loss("stalled peer", &re, "phase 2", "worker 2 ");
+    // Dropped on a peer's report, not on the coordinator's deadline.
+    assert!(ev.error.contains("lost by worker"), "{ev:?}");
+    // The continued worker gives the frame up: its coordinator dropped it.
+    let v = pool.victim.as_ref().unwrap();
+    assert!(
+        v.wait_line("failed", Duration::from_secs(6)),
+        "worker 2 did not give the frame up"
+    );
+}

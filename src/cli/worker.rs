@@ -43,6 +43,10 @@ pub struct WorkerArgs {
     /// the links to the peers are up. Hidden.
     #[arg(long, hide = true)]
     pub test_kill_at_setup: bool,
+    /// Test hook: SIGKILL this process when phase 1 of frame F (from 1)
+    /// of a session starts (a loss in the middle of a series). Hidden.
+    #[arg(long, value_name = "F", hide = true)]
+    pub test_kill_at_frame: Option<u64>,
     /// Test hook: the hooks above stop the process with SIGSTOP instead
     /// of killing it (once; it runs on when sent SIGCONT). Hidden.
     #[arg(long, hide = true)]
@@ -75,6 +79,11 @@ pub fn run(a: WorkerArgs) -> anyhow::Result<()> {
     w.kill_after_chunks = a.test_kill_after_chunks;
     w.kill_in_phase2 = a.test_kill_in_phase2;
     w.kill_at_setup = a.test_kill_at_setup;
+    anyhow::ensure!(
+        a.test_kill_at_frame != Some(0),
+        "--test-kill-at-frame counts frames from 1"
+    );
+    w.kill_at_frame = a.test_kill_at_frame;
     if a.test_stop {
         crate::cluster::remote::worker::hooks_stop_instead();
     }

@@ -178,6 +178,11 @@ pub fn report(
                 cells_bytes,
                 cells_skipped_ert: r.cells_skipped_ert,
                 cells_moved: r.cells_moved,
+                reassigned: r
+                    .transport
+                    .as_ref()
+                    .and_then(|t| t.reassigned.clone())
+                    .or_else(|| r.pieces.as_ref().and_then(|p| p.reassigned.clone())),
             }
         })
         .collect();

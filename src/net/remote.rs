@@ -72,6 +72,26 @@ pub trait RemoteTransport: Transport {
         false
     }
 
+    /// The peers this rank lost (links that ended without `Goodbye`:
+    /// closed, or silent past this rank's deadline), for a failure report
+    /// that blames them, so that a coordinator whose own deadline has not
+    /// passed yet drops the right worker. None if this process was itself
+    /// not running long enough since `since` for the silence to be its own
+    /// (see [`Self::close_after_failure`]). The default (MPI: a lost rank
+    /// ends the job) blames no one.
+    fn lost_peers(&self, since: std::time::Instant) -> Vec<NodeId> {
+        let _ = since;
+        Vec::new()
+    }
+
+    /// Another rank reported `rank` lost ([`Self::lost_peers`]): its link
+    /// counts as lost ([`Self::link_endings`] says `Some(false)`), as if
+    /// this rank's own deadline had passed, and closes without `Goodbye`.
+    /// The default (MPI) does nothing.
+    fn blame(&self, rank: NodeId) {
+        let _ = rank;
+    }
+
     /// How each rank's link ended, after waiting at most `wait` for the
     /// links still open to end (messages read meanwhile are dropped):
     /// `Some(true)` a clean `Goodbye`, `Some(false)` lost, `None` still

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::guard::SessionGuard;
+use super::guard::{take_blame, SessionGuard};
 use super::measured::Measured;
 use super::phase2::{exec_options, replay_plan, stats_from_logs, Gather, RankLog};
 use super::pieces::PieceSet;
@@ -273,6 +273,10 @@ fn drive_phases<T: RemoteTransport>(
             Ok(Session::Failed(why)) => {
                 anyhow::bail!("set-up: {} failed: {why}", t.peer_name(e.from))
             }
+            Ok(Session::Lost(r)) => {
+                let (who, why) = take_blame(t, e.from, &r);
+                anyhow::bail!("set-up: {who} {why}")
+            }
             _ => anyhow::bail!(
                 "set-up: {} sent a {} message instead of Ready",
                 t.peer_name(e.from),
@@ -330,6 +334,10 @@ fn drive_phases<T: RemoteTransport>(
             match codec.decode::<Session>(&e.payload) {
                 Ok(Session::Failed(why)) => {
                     anyhow::bail!("collecting results: {} failed: {why}", t.peer_name(e.from))
+                }
+                Ok(Session::Lost(r)) => {
+                    let (who, why) = take_blame(t, e.from, &r);
+                    anyhow::bail!("collecting results: {who} {why}")
                 }
                 Ok(Session::Result(r)) if k < n => {
                     results[k] = Some(*r);
@@ -471,6 +479,10 @@ fn phase2<T: RemoteTransport>(
                     "phase 2 (compositing): {} failed: {why}",
                     t.peer_name(e.from)
                 ),
+                Ok(Session::Lost(r)) => {
+                    let (who, why) = take_blame(t, e.from, &r);
+                    anyhow::bail!("phase 2 (compositing): {who} {why}")
+                }
                 _ => anyhow::bail!(
                     "phase 2 (compositing): {} sent a session message out of turn",
                     t.peer_name(e.from)

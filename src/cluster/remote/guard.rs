@@ -64,6 +64,10 @@ impl<'a, T: RemoteTransport> SessionGuard<'a, T> {
         }
         let peer = self.inner.peer_name(e.from);
         let reason = match self.codec.decode::<Session>(&e.payload) {
+            Ok(Session::Lost(ranks)) => {
+                let (peer, reason) = take_blame(self.inner, e.from, &ranks);
+                return Err(NetError::PeerLost { peer, reason });
+            }
             Ok(Session::Failed(why)) => format!("failed: {why}"),
             Ok(other) => format!("sent {} out of turn", variant(&other)),
             Err(err) => format!("sent a bad session message: {err}"),
@@ -93,6 +97,7 @@ fn variant(s: &Session) -> &'static str {
         Session::Grid(_) => "a grid message",
         Session::End => "the end of the session",
         Session::Flush => "a flush",
+        Session::Lost(_) => "a report of lost peers",
     }
 }
 
@@ -179,4 +184,64 @@ pub fn close_failed<T: RemoteTransport>(t: &T, since: Instant) {
             crate::net::stall::longest_since(since).as_secs_f64()
         ));
     }
+}
+
+/// A worker's failure report to the coordinator `coord` (its frame began
+/// at `since`): `Lost` with the peers whose links it lost
+/// ([`RemoteTransport::lost_peers`]; the coordinator excepted), if any,
+/// then `Failed(why)`. Send errors are ignored: the links may be gone.
+pub fn report_failure<T: RemoteTransport>(
+    t: &T,
+    coord: NodeId,
+    codec: &Codec,
+    why: &str,
+    since: Instant,
+) {
+    let lost: Vec<u32> = t
+        .lost_peers(since)
+        .into_iter()
+        .filter(|&r| r != coord)
+        .map(|r| r.0)
+        .collect();
+    if !lost.is_empty() {
+        if let Ok(b) = codec.encode(&Session::Lost(lost)) {
+            let _ = t.send(coord, MessageKind::Session, b);
+        }
+    }
+    if let Ok(b) = codec.encode(&Session::Failed(why.to_string())) {
+        let _ = t.send(coord, MessageKind::Session, b);
+    }
+}
+
+/// The coordinator's side of a worker's `Lost(ranks)` report (from
+/// `from`): each reported worker (a rank of `t` other than `from` and
+/// the coordinator itself) counts as lost ([`RemoteTransport::blame`]).
+/// Returns the names of the blamed workers and the reason, for the
+/// frame's error (the report ends the frame; the `Failed` that follows
+/// it says why `from` gave up).
+pub fn take_blame<T: RemoteTransport>(t: &T, from: NodeId, ranks: &[u32]) -> (String, String) {
+    let mut names = Vec::new();
+    // Only the coordinator (the last rank) takes a report: a worker that
+    // is sent one blames no one.
+    let coordinator = t.rank().index() + 1 == t.size();
+    for &r in ranks.iter().filter(|_| coordinator) {
+        let r = NodeId(r);
+        if r != from && r != t.rank() && r.index() < t.size() {
+            t.blame(r);
+            names.push(t.peer_name(r));
+        }
+    }
+    let from = t.peer_name(from);
+    if names.is_empty() {
+        return (
+            from,
+            "sent a report of lost peers that names none of them".into(),
+        );
+    }
+    (
+        names.join(", "),
+        format!(
+            "lost by {from}: its link ended without Goodbye (closed, or silent past that worker's deadline)"
+        ),
+    )
 }

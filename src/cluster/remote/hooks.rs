@@ -43,6 +43,12 @@ pub struct Hooks {
     pub kill_after_chunks: Option<u64>,
     /// SIGKILL when phase 2 starts.
     pub kill_in_phase2: bool,
+    /// SIGKILL when phase 1 of the session's frame `F` starts (frames of
+    /// a session counted from 1).
+    pub kill_at_frame: Option<u64>,
+    /// The session's frame being run (from 1; set by the worker's frame
+    /// loop, 0 outside a session).
+    pub frame: u64,
 }
 
 /// This worker's rank in its session (`u32::MAX`: none yet), named in

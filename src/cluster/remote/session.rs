@@ -27,6 +27,9 @@
 //!                                    is stale and dropped)
 //! worker → coordinator  Need(bool)   as above, then Cells, Ready, Go, ...
 //! coordinator → worker  End          the session is over: links close
+//! worker → coordinator  Lost, Failed on a failure: the peers it lost (if
+//!                                    any, and it was itself running), then
+//!                                    why
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -74,6 +77,12 @@ pub enum Session {
     /// worker, sent when the next `Setup` arrives): what the peer read
     /// from this link before it belongs to the frame before.
     Flush,
+    /// The peers (ranks) a failing worker lost: their links to it ended
+    /// without `Goodbye` (closed, or silent past its deadline), sent just
+    /// before its `Failed` (worker → coordinator). The coordinator counts
+    /// them lost as if its own link to them had ended, so that a stalled
+    /// worker is the one dropped even when a peer's deadline passes first.
+    Lost(Vec<u32>),
 }
 
 impl Message for Session {

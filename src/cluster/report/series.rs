@@ -47,6 +47,12 @@ pub struct SeriesFrame {
     pub cells_skipped_ert: u64,
     /// Cells moved by DLB.
     pub cells_moved: u64,
+    /// Workers lost in this frame and what was done (`--on-failure
+    /// reassign`: the frame ran again on the survivors, who serve the
+    /// frames after it): the frame's `transport.reassigned` (or
+    /// `pieces.reassigned`). Absent when no worker was lost.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reassigned: Option<super::transport::Reassigned>,
 }
 
 /// The series section of a report (`series.fps`, `series.frames[i]...`).

@@ -310,6 +310,32 @@ impl RemoteTransport for TcpTransport {
         lost
     }
 
+    /// See [`RemoteTransport::lost_peers`]: the links marked lost, unless
+    /// this process stalled out since `since`.
+    fn lost_peers(&self, since: Instant) -> Vec<NodeId> {
+        if self.stalled_out(since).is_some() {
+            return Vec::new();
+        }
+        lock(&self.peers)
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.as_ref().is_some_and(|p| p.lost))
+            .map(|(k, _)| NodeId::from(k))
+            .collect()
+    }
+
+    /// See [`RemoteTransport::blame`]: the link is marked lost and its
+    /// writer gets the empty frame that shuts the socket down without
+    /// `Goodbye`.
+    fn blame(&self, rank: NodeId) {
+        if let Some(Some(p)) = lock(&self.peers).get_mut(rank.index()) {
+            p.lost = true;
+            if let Some(tx) = p.tx.take() {
+                let _ = tx.send(Vec::new());
+            }
+        }
+    }
+
     /// How each rank's link ended, after waiting at most `wait` for the
     /// links still open to end (messages read meanwhile are dropped):
     /// `Some(true)` a clean `Goodbye`, `Some(false)` lost (closed without

@@ -12,6 +12,7 @@ use crate::cluster::remote::coordinator::{busy_wait, hand_setup, join_setups};
 use crate::cluster::remote::grid_wire::{
     encode_bricks, wire_planes, GridSetup, WireBrick, WireSlice,
 };
+use crate::cluster::remote::guard::take_blame;
 use crate::cluster::remote::phase2::{decode_message, RankLog};
 use crate::cluster::remote::reassign::{endings_wait, lost_on, with_reassign};
 use crate::cluster::remote::session::{new_session_id, sha256, Session};
@@ -351,6 +352,10 @@ impl GridRemote {
                         other => anyhow::bail!("{name} sent {other:?} out of turn"),
                     },
                     Session::Failed(why) => anyhow::bail!("{name}: {why}"),
+                    Session::Lost(r) => {
+                        let (who, why) = take_blame(t, e.from, &r);
+                        anyhow::bail!("{who} {why}")
+                    }
                     other => anyhow::bail!("{name} sent {other:?} out of turn"),
                 },
                 k => anyhow::bail!("{name} sent a {k:?} message to the coordinator"),

@@ -11,7 +11,7 @@ use tokio::runtime::Runtime;
 
 use super::{GridMsg, GridResult};
 use crate::cluster::remote::grid_wire::{decode_bricks, GridSetup};
-use crate::cluster::remote::guard::{close_failed, given_up_while_stopped};
+use crate::cluster::remote::guard::{close_failed, given_up_while_stopped, report_failure};
 use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::cluster::remote::mesh::Mesh;
 use crate::cluster::remote::phase2::run_partial;
@@ -247,9 +247,7 @@ fn serve_p2p(
         }
         Err(e) => {
             let why = format!("grid node {}: {e:#}", setup.rank);
-            let _ = codec
-                .encode(&Session::Failed(why.clone()))
-                .map(|b| t.send(coord, MessageKind::Session, b));
+            report_failure(&t, coord, &codec, &why, since);
             close_failed(&t, since);
             anyhow::bail!(why)
         }

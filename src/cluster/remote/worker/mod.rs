@@ -27,7 +27,7 @@ use tokio::runtime::Runtime;
 
 use crate::cluster::remote::session::{Session, WorkerSetup};
 use crate::net::tcp::{self, Role, TcpOptions, Token};
-use crate::net::{Codec, NodeId, RemoteTransport, Transport};
+use crate::net::{Codec, NodeId, RemoteTransport};
 
 /// Longest an authenticated coordinator may wait before it sends its
 /// set-up (it sends it right after the handshake).
@@ -57,6 +57,10 @@ pub struct Worker {
     /// set-up has arrived and been validated, before the peer links are
     /// dialled: a deterministic death at set-up.
     pub kill_at_setup: bool,
+    /// Test hook (hidden `--test-kill-at-frame F`): SIGKILL when phase 1
+    /// of the session's frame `F` (counted from 1) starts: a loss in the
+    /// middle of a series.
+    pub kill_at_frame: Option<u64>,
 }
 
 /// Test hook (hidden `--test-stop`): the kill hooks stop the process with
@@ -95,6 +99,7 @@ impl Worker {
             kill_after_chunks: None,
             kill_in_phase2: false,
             kill_at_setup: false,
+            kill_at_frame: None,
         })
     }
 
@@ -200,6 +205,7 @@ impl Worker {
                         Hooks {
                             kill_after_chunks: self.kill_after_chunks,
                             kill_in_phase2: self.kill_in_phase2,
+                            ..Hooks::default()
                         },
                     );
                 }
@@ -274,16 +280,20 @@ impl Worker {
             stream,
             codec,
         )?;
-        let hooks = Hooks {
+        let mut hooks = Hooks {
             kill_after_chunks: self.kill_after_chunks,
             kill_in_phase2: self.kill_in_phase2,
+            kill_at_frame: self.kill_at_frame,
+            frame: 0,
         };
         // The session's frames on these links, until the coordinator ends it.
         let mut setup = setup;
         let mut cells = cells;
         let mut held = None;
         loop {
+            hooks.frame += 1;
             run_node(&t, &setup, &cells, &mut held, d, hooks)?;
+            let between = std::time::Instant::now();
             let r = next::next_frame(&t, &setup, codec, d).and_then(|n| match n {
                 next::Next::End => Ok(None),
                 next::Next::Frame(s) => {
@@ -305,9 +315,7 @@ impl Worker {
                 }
                 Err(e) => {
                     let why = format!("node {} between frames: {e:#}", setup.rank);
-                    if let Ok(b) = codec.encode(&Session::Failed(why.clone())) {
-                        let _ = t.send(coord, crate::net::MessageKind::Session, b);
-                    }
+                    crate::cluster::remote::guard::report_failure(&t, coord, &codec, &why, between);
                     t.close(Duration::from_secs(2));
                     anyhow::bail!(why);
                 }

@@ -6,7 +6,9 @@
 use std::path::Path;
 use std::time::Duration;
 
-use crate::cluster::remote::guard::{close_failed, given_up_while_stopped, SessionGuard};
+use crate::cluster::remote::guard::{
+    close_failed, given_up_while_stopped, report_failure, SessionGuard,
+};
 use crate::cluster::remote::hooks::{kill_self, Hooks};
 use crate::cluster::remote::session::{NodeResult, Session, WorkerSetup};
 use crate::cluster::report::NodeRaw;
@@ -106,11 +108,7 @@ pub fn run_node<T: RemoteTransport>(
         Ok(a) => a,
         Err(e) => {
             let why = format!("node {}: {e:#}", setup.rank);
-            let _ = t.send(
-                coord,
-                MessageKind::Session,
-                codec.encode(&Session::Failed(why))?,
-            );
+            report_failure(t, coord, &codec, &why, since);
             t.close(Duration::from_secs(2));
             return Err(e);
         }
@@ -122,6 +120,12 @@ pub fn run_node<T: RemoteTransport>(
     // Wait for Go; messages from peers that started earlier are kept.
     let early = SessionGuard::wait_go(t, coord, codec, d)?;
     crate::cluster::remote::hooks::progress(&format!("node {}: phase 1 started", setup.rank));
+    if hooks.kill_at_frame == Some(hooks.frame) {
+        kill_self(&format!(
+            "at frame {} of its session (--test-kill-at-frame)",
+            hooks.frame
+        ));
+    }
     let clock = WallClock::start();
     let timeout = Duration::from_secs_f64(setup.recv_timeout_s);
     let wire0 = t.stats();
@@ -141,13 +145,10 @@ pub fn run_node<T: RemoteTransport>(
     let (stop, trace, traffic) = match run {
         Ok(x) => x,
         Err(e) => {
-            // Tell the coordinator why (a lost peer, most likely).
+            // Tell the coordinator why (a lost peer, most likely: named,
+            // so that it is the one dropped).
             let why = format!("node {} in phase 1: {e}", setup.rank);
-            let _ = t.send(
-                coord,
-                MessageKind::Session,
-                codec.encode(&Session::Failed(why.clone()))?,
-            );
+            report_failure(t, coord, &codec, &why, since);
             close_failed(t, since);
             anyhow::bail!(why);
         }
@@ -202,11 +203,7 @@ pub fn run_node<T: RemoteTransport>(
         }
         Err(e) => {
             let why = format!("node {} in phase 2: {e:#}", setup.rank);
-            let _ = t.send(
-                coord,
-                MessageKind::Session,
-                codec.encode(&Session::Failed(why.clone()))?,
-            );
+            report_failure(t, coord, &codec, &why, since);
             close_failed(t, since);
             anyhow::bail!(why)
         }
