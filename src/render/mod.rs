@@ -16,6 +16,7 @@ pub mod adaptive;
 pub mod cell;
 pub mod gauss;
 pub mod grid_reference;
+pub mod coarse;
 pub mod input;
 pub mod reference;
 pub mod shearwarp;
