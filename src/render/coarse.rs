@@ -60,9 +60,11 @@ impl RenderInput {
             let mut a = [0usize; 3];
             let mut b = [0usize; 3];
             for ax in 0..3 {
-                let (mn, mx) = p.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(mn, mx), q| {
-                    (mn.min(q[ax]), mx.max(q[ax]))
-                });
+                let (mn, mx) = p
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(mn, mx), q| {
+                        (mn.min(q[ax]), mx.max(q[ax]))
+                    });
                 a[ax] = (((mn - lo[ax]) / step[ax]).ceil().max(0.0) as usize).min(n[ax]);
                 b[ax] = (((mx - lo[ax]) / step[ax]).floor().max(0.0) as usize).min(n[ax]);
             }
@@ -171,13 +173,7 @@ struct Barycentric {
 impl Barycentric {
     /// `None` for a tetrahedron without volume.
     fn new(p: &[[f64; 3]; 4]) -> Option<Barycentric> {
-        let e = |k: usize| {
-            [
-                p[k][0] - p[0][0],
-                p[k][1] - p[0][1],
-                p[k][2] - p[0][2],
-            ]
-        };
+        let e = |k: usize| [p[k][0] - p[0][0], p[k][1] - p[0][1], p[k][2] - p[0][2]];
         let m = glam::DMat3::from_cols(e(1).into(), e(2).into(), e(3).into());
         let det = m.determinant();
         if !(det.abs() > 1e-300) || !det.is_finite() {
@@ -200,9 +196,7 @@ impl Barycentric {
             x[1] - self.origin[1],
             x[2] - self.origin[2],
         ];
-        let l = self
-            .inv
-            .map(|r| r[0] * d[0] + r[1] * d[1] + r[2] * d[2]);
+        let l = self.inv.map(|r| r[0] * d[0] + r[1] * d[1] + r[2] * d[2]);
         let w0 = 1.0 - l[0] - l[1] - l[2];
         if w0 < -EPS || l.iter().any(|&v| v < -EPS) {
             return None;
@@ -261,7 +255,9 @@ mod tests {
             let want = 0.01 * p[0] + 0.02 * p[1] + 0.03 * p[2];
             assert!((s - want).abs() < 1e-12, "{p:?}: {s} != {want}");
         }
-        let v: f64 = (0..c.mesh.tets.len()).map(|t| c.mesh.tet_volume(t).abs()).sum();
+        let v: f64 = (0..c.mesh.tets.len())
+            .map(|t| c.mesh.tet_volume(t).abs())
+            .sum();
         assert!((v - 12.0 * 5.0 * 16.0).abs() < 1e-6, "volume {v}");
     }
 }

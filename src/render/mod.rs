@@ -14,9 +14,9 @@
 
 pub mod adaptive;
 pub mod cell;
+pub mod coarse;
 pub mod gauss;
 pub mod grid_reference;
-pub mod coarse;
 pub mod input;
 pub mod reference;
 pub mod shearwarp;
