@@ -36,7 +36,7 @@ impl RenderInput {
         let (lo, hi) = mesh.bounds();
         let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
         let volume: f64 = (0..mesh.tets.len()).map(|t| mesh.tet_volume(t).abs()).sum();
-        if !(volume > 0.0) || ext.iter().any(|&e| !(e > 0.0)) {
+        if !volume.is_finite() || volume <= 0.0 || ext.iter().any(|&e| !e.is_finite() || e <= 0.0) {
             return None;
         }
         // Cubes of edge h filling the mesh's volume: about max_cells / 6.
@@ -176,7 +176,7 @@ impl Barycentric {
         let e = |k: usize| [p[k][0] - p[0][0], p[k][1] - p[0][1], p[k][2] - p[0][2]];
         let m = glam::DMat3::from_cols(e(1).into(), e(2).into(), e(3).into());
         let det = m.determinant();
-        if !(det.abs() > 1e-300) || !det.is_finite() {
+        if !det.is_finite() || det.abs() <= 1e-300 {
             return None;
         }
         let inv = m.inverse();

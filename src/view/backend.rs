@@ -26,6 +26,10 @@ pub const HISTOGRAM_BINS: usize = 128;
 /// one core (docs/viewer.md).
 pub const COARSE_CELLS: usize = 20_000;
 
+/// Meshes of more cells than this get a coarse stand-in (smaller ones are
+/// drawn at 1/2 to 1/8 of the image size in a few tens of ms).
+pub const COARSE_ABOVE: usize = 4 * COARSE_CELLS;
+
 /// What the page is told once, when it connects.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Info {
@@ -82,7 +86,7 @@ pub trait Backend: Send {
     /// backend has one).
     fn frame(&mut self, level: Level) -> anyhow::Result<Rendered>;
     /// Whether a coarse stand-in of the data exists (a mesh of more than
-    /// [`COARSE_CELLS`] cells, with `--interactive-scale auto`).
+    /// [`COARSE_ABOVE`] cells, with `--interactive-scale auto`).
     fn has_coarse(&self) -> bool;
     /// The `pvrsim render` / `pvrsim cluster` options that, with the scene
     /// TOML `/scene.toml` serves, reproduce the full frame.
@@ -144,10 +148,18 @@ impl Local {
         let histogram = loaded.histogram(HISTOGRAM_BINS);
         Ok(Local {
             args: args.clone(),
-            coarse: coarse.then(|| loaded.coarse(COARSE_CELLS)).flatten(),
+            coarse: coarse.then(|| coarse_of(&loaded)).flatten(),
             loaded,
             histogram,
         })
+    }
+}
+
+/// The coarse stand-in of a mesh of more than [`COARSE_ABOVE`] cells.
+fn coarse_of(loaded: &LoadedRender) -> Option<LoadedRender> {
+    match loaded {
+        LoadedRender::Mesh(m) if m.mesh.tets.len() > COARSE_ABOVE => loaded.coarse(COARSE_CELLS),
+        _ => None,
     }
 }
 
@@ -336,7 +348,7 @@ impl Cluster {
             LoadedRender::Grid(_) => 0,
         };
         let coarse = (args.interactive_scale == super::InteractiveScale::Auto)
-            .then(|| loaded.coarse(COARSE_CELLS))
+            .then(|| coarse_of(&loaded))
             .flatten()
             .map(|c| {
                 let mut a = r.clone();
