@@ -17,6 +17,7 @@
 //!   validated by the crate's checks, written with its writers;
 //! - [`scene`]: loading, checking and fitting scenes;
 //! - [`jobs`]: render, cluster and sweep;
+//! - [`view`]: the live viewer's server (`pvrsim.view`);
 //! - [`cli`]: the command line itself (`python -m pvrsim`), which is also
 //!   how `transport="processes"` starts its workers.
 
@@ -31,6 +32,7 @@ mod mesh;
 mod scene;
 mod session;
 mod values;
+mod view;
 mod volume;
 
 /// The compiled module.
@@ -40,6 +42,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mesh::NativeMesh>()?;
     m.add_class::<volume::NativeVolume>()?;
     m.add_class::<session::NativeSession>()?;
+    m.add_class::<view::NativeViewer>()?;
     m.add_function(wrap_pyfunction!(values::option_table, m)?)?;
     m.add_function(wrap_pyfunction!(scene::check_scene, m)?)?;
     m.add_function(wrap_pyfunction!(scene::rewrite_scene, m)?)?;

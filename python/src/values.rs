@@ -50,11 +50,12 @@ pub fn options(py: Python<'_>, kw: &Bound<'_, PyList>) -> PyResult<Vec<(String, 
     Ok(out)
 }
 
-/// The clap definition of `command` (`"render"` or `"cluster"`).
+/// The clap definition of `command` (`"render"`, `"cluster"` or `"view"`).
 fn definition(command: &str) -> PyResult<Command> {
     Ok(match command {
         "render" => RenderJob::augment_args(Command::new("pvrsim render")),
         "cluster" => ClusterJob::augment_args(Command::new("pvrsim cluster")),
+        "view" => pvrsim::view::ViewArgs::augment_args(Command::new("pvrsim view")),
         other => {
             return Err(pyo3::exceptions::PyValueError::new_err(format!(
                 "no option table for {other:?}"

@@ -14,6 +14,7 @@
 
 pub mod adaptive;
 pub mod cell;
+pub mod coarse;
 pub mod gauss;
 pub mod grid_reference;
 pub mod input;

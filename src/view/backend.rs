@@ -15,8 +15,20 @@ use crate::job::render::{RenderArgs, RendererKind};
 use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
 use crate::scene::Scene;
 
+use super::pace::Level;
+
 /// Bins of the histogram the page draws under the transfer function.
 pub const HISTOGRAM_BINS: usize = 128;
+
+/// Cells of the coarse stand-in of a mesh drawn while the user moves the
+/// view (`--interactive-scale auto`; meshes with more cells only): small
+/// enough that cell projection draws it in a few tens of ms at 256x256 on
+/// one core (docs/viewer.md).
+pub const COARSE_CELLS: usize = 20_000;
+
+/// Meshes of more cells than this get a coarse stand-in (smaller ones are
+/// drawn at 1/2 to 1/8 of the image size in a few tens of ms).
+pub const COARSE_ABOVE: usize = 4 * COARSE_CELLS;
 
 /// What the page is told once, when it connects.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -50,6 +62,8 @@ pub struct Rendered {
     /// Per node (cluster only): name -> value of the report's figures the
     /// page draws as bars.
     pub nodes: Vec<serde_json::Value>,
+    /// Cells drawn (of the coarse stand-in when the level asked for it).
+    pub cells: usize,
 }
 
 /// A source of frames for the viewer.
@@ -67,8 +81,13 @@ pub trait Backend: Send {
         ert: Option<f64>,
         renderer: Option<RendererKind>,
     ) -> anyhow::Result<()>;
-    /// Draws the scene at `1/divisor` of its size along each axis.
-    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered>;
+    /// Draws the scene at `1/level.divisor` of its size along each axis,
+    /// from the coarse stand-in of the mesh when `level.coarse` (and the
+    /// backend has one).
+    fn frame(&mut self, level: Level) -> anyhow::Result<Rendered>;
+    /// Whether a coarse stand-in of the data exists (a mesh of more than
+    /// [`COARSE_ABOVE`] cells, with `--interactive-scale auto`).
+    fn has_coarse(&self) -> bool;
     /// The `pvrsim render` / `pvrsim cluster` options that, with the scene
     /// TOML `/scene.toml` serves, reproduce the full frame.
     fn command_options(&self) -> String;
@@ -76,8 +95,9 @@ pub trait Backend: Send {
 
 /// The backend `args` asks for, with the scene and data loaded.
 pub fn open(args: &super::ViewArgs) -> anyhow::Result<Box<dyn Backend>> {
+    let coarse = args.interactive_scale == super::InteractiveScale::Auto;
     Ok(match args.nodes {
-        None => Box::new(Local::open(&args.render)?),
+        None => Box::new(Local::open(&args.render, coarse)?),
         Some(n) => Box::new(Cluster::open(args, n)?),
     })
 }
@@ -114,22 +134,63 @@ pub fn renderer_name(k: Option<RendererKind>) -> String {
 pub struct Local {
     args: RenderArgs,
     loaded: LoadedRender,
+    coarse: Option<LoadedRender>,
     histogram: Vec<u64>,
 }
 
 impl Local {
-    /// Validates the render options once and loads the scene's data.
-    pub fn open(args: &RenderArgs) -> anyhow::Result<Local> {
+    /// Validates the render options once and loads the scene's data (and
+    /// builds the coarse stand-in of a large mesh when `coarse`).
+    pub fn open(args: &RenderArgs, coarse: bool) -> anyhow::Result<Local> {
         let job = Valid::new(args)?;
         job.print_warnings();
         let loaded = job.load()?;
         let histogram = loaded.histogram(HISTOGRAM_BINS);
         Ok(Local {
             args: args.clone(),
+            coarse: coarse.then(|| coarse_of(&loaded)).flatten(),
             loaded,
             histogram,
         })
     }
+}
+
+/// The coarse stand-in of a mesh of more than [`COARSE_ABOVE`] cells.
+fn coarse_of(loaded: &LoadedRender) -> Option<LoadedRender> {
+    match loaded {
+        LoadedRender::Mesh(m) if m.mesh.tets.len() > COARSE_ABOVE => loaded.coarse(COARSE_CELLS),
+        _ => None,
+    }
+}
+
+/// A frame of the coarse stand-in `coarse` of a scene: its camera and
+/// transfer function, at `size`, drawn with the options `a` (lists not
+/// kept canonical: the frame is a stand-in, not `pvrsim render`'s).
+fn coarse_frame(
+    coarse: &mut LoadedRender,
+    scene: &Scene,
+    size: (u32, u32),
+    a: &RenderArgs,
+) -> anyhow::Result<Rendered> {
+    let t = std::time::Instant::now();
+    coarse.apply(&ViewChange {
+        camera: Some(scene.camera),
+        transfer: Some(scene.transfer.clone()),
+        size: Some(size),
+    })?;
+    let mut a = a.clone();
+    a.canonical = false;
+    let image = coarse.render(&a)?.image;
+    let cells = match coarse {
+        LoadedRender::Mesh(m) => m.mesh.tets.len(),
+        LoadedRender::Grid(_) => 0,
+    };
+    Ok(Rendered {
+        image,
+        render_s: t.elapsed().as_secs_f64(),
+        nodes: Vec::new(),
+        cells,
+    })
 }
 
 impl Backend for Local {
@@ -187,9 +248,18 @@ impl Backend for Local {
         Ok(())
     }
 
-    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered> {
+    fn has_coarse(&self) -> bool {
+        self.coarse.is_some()
+    }
+
+    fn frame(&mut self, level: Level) -> anyhow::Result<Rendered> {
         let t = std::time::Instant::now();
+        let divisor = level.divisor;
         let full = (self.scene().image.width, self.scene().image.height);
+        if let (true, Some(c)) = (level.coarse, self.coarse.as_mut()) {
+            let size = reduced(full.0, full.1, divisor);
+            return coarse_frame(c, self.loaded.scene(), size, &self.args);
+        }
         let image = if divisor <= 1 {
             self.loaded.render(&self.args)?.image
         } else {
@@ -209,6 +279,10 @@ impl Backend for Local {
             image,
             render_s: t.elapsed().as_secs_f64(),
             nodes: Vec::new(),
+            cells: match &self.loaded {
+                LoadedRender::Mesh(m) => m.mesh.tets.len(),
+                LoadedRender::Grid(g) => g.volume.voxels.len() as usize,
+            },
         })
     }
 
@@ -230,6 +304,12 @@ impl Backend for Local {
 pub struct Cluster {
     job: ClusterJob,
     session: Option<Session>,
+    /// The coarse stand-in of the mesh, drawn in this process while the
+    /// user moves the view (`--interactive-scale auto`; as ParaView draws
+    /// its level of detail on the client), with the options it is drawn
+    /// with.
+    coarse: Option<(LoadedRender, RenderArgs)>,
+    cells: usize,
     scene: Scene,
     histogram: Vec<u64>,
     range: [f64; 2],
@@ -263,12 +343,26 @@ impl Cluster {
         );
         let histogram = loaded.histogram(HISTOGRAM_BINS);
         let range = loaded.range();
+        let cells = match &loaded {
+            LoadedRender::Mesh(m) => m.mesh.tets.len(),
+            LoadedRender::Grid(_) => 0,
+        };
+        let coarse = (args.interactive_scale == super::InteractiveScale::Auto)
+            .then(|| coarse_of(&loaded))
+            .flatten()
+            .map(|c| {
+                let mut a = r.clone();
+                a.renderer = Some(RendererKind::Cell);
+                (c, a)
+            });
         drop(loaded);
         let session = Session::open(&job).map_err(|e| anyhow::anyhow!("{e}"))?;
         let scene = session.scene().clone();
         Ok(Cluster {
             job,
             session: Some(session),
+            coarse,
+            cells,
             scene,
             histogram,
             range,
@@ -347,13 +441,24 @@ impl Backend for Cluster {
                 s.close().map_err(|e| anyhow::anyhow!("{e}"))?;
             }
             self.job = j;
+            if let Some((_, a)) = self.coarse.as_mut() {
+                a.ert.threshold = t as f32;
+            }
         }
         Ok(())
     }
 
-    fn frame(&mut self, divisor: u32) -> anyhow::Result<Rendered> {
+    fn has_coarse(&self) -> bool {
+        self.coarse.is_some()
+    }
+
+    fn frame(&mut self, level: Level) -> anyhow::Result<Rendered> {
         let t = std::time::Instant::now();
+        let divisor = level.divisor;
         let full = (self.scene.image.width, self.scene.image.height);
+        if let (true, Some((c, a))) = (level.coarse, self.coarse.as_mut()) {
+            return coarse_frame(c, &self.scene, reduced(full.0, full.1, divisor), a);
+        }
         let req = FrameRequest {
             camera: Some(self.scene.camera),
             transfer: Some(self.scene.transfer.clone()),
@@ -370,6 +475,7 @@ impl Backend for Cluster {
             image: out.image,
             render_s: t.elapsed().as_secs_f64(),
             nodes,
+            cells: self.cells,
         })
     }
 

@@ -17,6 +17,7 @@ pub mod assets;
 pub mod backend;
 pub mod encode;
 pub mod messages;
+pub mod pace;
 pub mod render_loop;
 pub mod server;
 pub mod shared;
@@ -32,9 +33,9 @@ use crate::job::render::RenderArgs;
 /// The resolution divisor of frames drawn while the user interacts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum InteractiveScale {
-    /// Chosen per drag from the last full frame's render time: the
-    /// smallest of 2, 4, 8 whose estimated frame time (full time / s^2)
-    /// is at most 50 ms.
+    /// Chosen per frame to hold a frame-time target ([`pace`]): the
+    /// data at 1/2 or 1/4, or a coarse stand-in of a large mesh at 1/2,
+    /// 1/4 or 1/8 (the finest that holds it, from measured frame times).
     Auto,
     /// Full resolution while moving (JPEG still).
     #[value(name = "1")]
@@ -48,26 +49,16 @@ pub enum InteractiveScale {
 }
 
 impl InteractiveScale {
-    /// The divisor for an interactive frame, given the last full frame's
-    /// render seconds (`None` before any).
-    pub fn divisor(self, full_render_s: Option<f64>) -> u32 {
+    /// The divisor of a fixed scale (`auto`: 2, its finest; [`pace`]
+    /// chooses per frame).
+    pub fn divisor(self) -> u32 {
         match self {
             InteractiveScale::One => 1,
-            InteractiveScale::Two => 2,
+            InteractiveScale::Two | InteractiveScale::Auto => 2,
             InteractiveScale::Four => 4,
-            InteractiveScale::Auto => {
-                let t = full_render_s.unwrap_or(0.0);
-                [2u32, 4, 8]
-                    .into_iter()
-                    .find(|&s| t / f64::from(s * s) <= AUTO_TARGET_S)
-                    .unwrap_or(8)
-            }
         }
     }
 }
-
-/// The frame-time target of `--interactive-scale auto`, seconds.
-pub const AUTO_TARGET_S: f64 = 0.05;
 
 /// Options of `pvrsim view`: the scene and `pvrsim render`'s options, the
 /// server's, and optionally a cluster.
@@ -88,8 +79,8 @@ pub struct ViewArgs {
     /// Launch the system browser (`xdg-open`) on the page.
     #[arg(long)]
     pub open: bool,
-    /// Resolution divisor while the user drags: `auto` (2, 4 or 8 to hold
-    /// ~50 ms a frame), 1, 2 or 4.
+    /// Resolution divisor while the user drags: `auto` (1/2 to 1/8, and a
+    /// coarse stand-in of a large mesh, to hold ~40 ms a frame), 1, 2 or 4.
     #[arg(long, value_enum, default_value_t = InteractiveScale::Auto)]
     pub interactive_scale: InteractiveScale,
     /// Render on a cluster of N nodes (`pvrsim cluster`'s frames) instead

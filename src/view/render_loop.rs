@@ -7,7 +7,9 @@
 //! - **nothing while idle**: with nothing pending the loop sleeps on a
 //!   condition variable (no timer, no polling);
 //! - **reduced while interacting**: an input marked `interacting` is drawn
-//!   at `1/s` of the size (`--interactive-scale`), and a full frame follows
+//!   at `1/s` of the size (`--interactive-scale`; `auto`: the level
+//!   [`Pace`] chooses, maybe of a coarse stand-in of the mesh), and a full
+//!   frame follows
 //!   [`SETTLE`] after the last input (or at once when the page says the
 //!   drag ended).
 
@@ -17,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use super::backend::{Backend, Rendered};
 use super::encode::{self, FrameFormat};
+use super::pace::{Level, Pace};
 use super::shared::{scene_json, Outgoing, Shared};
 use super::InteractiveScale;
 use crate::job::render::RendererKind;
@@ -97,7 +100,7 @@ fn run(
     scale: InteractiveScale,
 ) -> anyhow::Result<()> {
     let mut seq = 0u64;
-    let mut last_full_s: Option<f64> = None;
+    let mut pace = Pace::new(scale, backend.has_coarse());
     let mut shown: VecDeque<Instant> = VecDeque::new();
     let data_path = std::fs::canonicalize(&backend.scene().data.path)
         .unwrap_or_else(|_| backend.scene().data.path.clone());
@@ -112,10 +115,10 @@ fn run(
                 continue;
             }
         }
-        let divisor = if w.interacting {
-            scale.divisor(last_full_s)
+        let level = if w.interacting {
+            pace.choose()
         } else {
-            1
+            Level::FULL
         };
         let format = if w.interacting {
             FrameFormat::Jpeg
@@ -126,16 +129,14 @@ fn run(
             image,
             render_s,
             nodes,
-        } = match backend.frame(divisor) {
+            cells,
+        } = match backend.frame(level) {
             Ok(r) => r,
             Err(e) => {
                 shared.send(Outgoing::error(format!("{e:#}")));
                 continue;
             }
         };
-        if divisor == 1 {
-            last_full_s = Some(render_s);
-        }
         let t = Instant::now();
         let bytes = match encode::encode(&image, format) {
             Ok(b) => b,
@@ -145,6 +146,8 @@ fn run(
             }
         };
         let encode_s = t.elapsed().as_secs_f64();
+        pace.record(level, render_s + encode_s);
+        let divisor = level.divisor;
         seq += 1;
         let now = Instant::now();
         shown.push_back(now);
@@ -161,6 +164,8 @@ fn run(
             "type": "frame",
             "seq": seq,
             "scale": divisor,
+            "coarse": level.coarse,
+            "cells": cells,
             "width": image.width,
             "height": image.height,
             "format": format.mime(),
@@ -175,6 +180,8 @@ fn run(
         shared.set_state(serde_json::json!({
             "seq": seq,
             "scale": divisor,
+            "coarse": level.coarse,
+            "cells": cells,
             "interacting": w.interacting,
             "camera": meta["scene"]["camera"].clone(),
             "render_ms": 1e3 * render_s,

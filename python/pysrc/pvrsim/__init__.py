@@ -63,6 +63,7 @@ from ._jobs import ClusterResult, RenderResult, cluster, render, sweep
 from ._options import doc as _doc
 from ._scene import Scene
 from ._session import Session
+from ._view import Viewer, view
 
 __version__: str = _native.__version__
 
@@ -74,6 +75,7 @@ if _sys.executable:
 # The option lists come from the command line's definitions.
 render.__doc__ = (render.__doc__ or "") + "\n" + _doc("render")
 cluster.__doc__ = (cluster.__doc__ or "") + "\n" + _doc("cluster")
+view.__doc__ = (view.__doc__ or "") + "\n" + _doc("view")
 
 __all__ = [
     "Mesh",
@@ -82,6 +84,8 @@ __all__ = [
     "render",
     "cluster",
     "Session",
+    "view",
+    "Viewer",
     "sweep",
     "RenderResult",
     "ClusterResult",

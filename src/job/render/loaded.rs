@@ -125,6 +125,18 @@ impl LoadedRender {
         h
     }
 
+    /// A coarse stand-in of a loaded mesh of at most about `max_cells`
+    /// tetrahedra ([`RenderInput::coarse`](crate::render::RenderInput::coarse):
+    /// the field resampled on a lattice), with the same scene: frames drawn
+    /// while the user moves the view. `None` for a grid or a mesh that is
+    /// already that small.
+    pub fn coarse(&self, max_cells: usize) -> Option<LoadedRender> {
+        match self {
+            LoadedRender::Mesh(m) => m.coarse(max_cells).map(|c| LoadedRender::Mesh(Box::new(c))),
+            LoadedRender::Grid(_) => None,
+        }
+    }
+
     /// The raw scalar range that maps to the transfer function's `[0, 1]`.
     pub fn range(&self) -> [f64; 2] {
         match self {

@@ -102,11 +102,11 @@ function onFrame(meta, blob) {
       sentAt.delete(meta.input);
       stats.latencies.push({ ms: latency, scale: meta.scale, seq: meta.seq });
     }
-    stats.frames.push({ seq: meta.seq, scale: meta.scale, at: now, render_ms: meta.render_ms, encode_ms: meta.encode_ms, bytes: meta.bytes });
+    stats.frames.push({ seq: meta.seq, scale: meta.scale, coarse: meta.coarse, at: now, render_ms: meta.render_ms, encode_ms: meta.encode_ms, bytes: meta.bytes });
     if (stats.frames.length > 5000) stats.frames.shift();
     const recent = stats.latencies.slice(-30).map((l) => l.ms);
     $("stats").textContent =
-      `frame ${meta.seq}  ${meta.width}x${meta.height} (1/${meta.scale})  ${meta.format.replace("image/", "")} ${(meta.bytes / 1024).toFixed(1)} KiB\n` +
+      `frame ${meta.seq}  ${meta.width}x${meta.height} (1/${meta.scale}${meta.coarse ? ", coarse mesh" : ""}, ${meta.cells} cells)  ${meta.format.replace("image/", "")} ${(meta.bytes / 1024).toFixed(1)} KiB\n` +
       `render ${meta.render_ms.toFixed(1)} ms  encode ${meta.encode_ms.toFixed(1)} ms  ` +
       `latency ${latency === null ? "-" : latency.toFixed(0)} ms (median ${median(recent).toFixed(0)})  ${meta.fps.toFixed(1)} fps`;
     if (meta.nodes && meta.nodes.length) nodeBars(meta.nodes);
