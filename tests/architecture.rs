@@ -161,6 +161,7 @@ const PYTHON_ARROWS: &[(&str, &str)] = &[
     ("base", ""),
     ("cli", "`pvrsim.main()` runs the command line in this process; `Scene.fit` parses the `scene` command's options"),
     ("experiment", "`pvrsim.sweep` runs a sweep config as `pvrsim sweep` does"),
+    ("view", "`pvrsim.view` starts the viewer's server, as `pvrsim view` does"),
     ("cluster", "a cluster result draws its timeline; worker processes are started as `python -m pvrsim worker`"),
     ("data", "`Mesh.read` and `Volume.read` hand datasets to Python"),
     ("scene", "`Scene` wraps the scene contract's type"),

@@ -4,7 +4,7 @@
 //! the server and its render loop run on threads of their own until
 //! `close()`.
 
-use pvrsim::job::options::from_options;
+use pvrsim::job::args::by_name::from_options;
 use pvrsim::job::JobError;
 use pvrsim::view::{ViewArgs, Viewer};
 use pyo3::prelude::*;
