@@ -124,7 +124,9 @@ function onFrame(meta, blob) {
 
 const BARS = [
   ["scan", (n) => n.scan_s ?? n.render_s ?? 0, (v) => `${(v * 1e3).toFixed(0)} ms`],
-  ["composite", (n) => n.composite_s ?? 0, (v) => `${(v * 1e3).toFixed(0)} ms`],
+  // Per-node compositing time is modelled only (null on the wall clock,
+  // where the report has no per-node phase-2 figure): say so, never "0 ms".
+  ["composite", (n) => n.composite_s ?? null, (v) => (v == null ? "n/a (wall clock)" : `${(v * 1e3).toFixed(0)} ms`)],
   ["cells", (n) => n.cells_processed ?? n.voxels ?? 0, (v) => `${v}`],
   ["skipped", (n) => n.cells_skipped_ert ?? 0, (v) => `${v}`],
   ["bytes", (n) => n.bytes_sent ?? 0, (v) => `${(v / 1024).toFixed(0)} KiB`],
@@ -138,7 +140,7 @@ function nodeBars(nodes) {
   nodes.forEach((n, i) => {
     html += `<div class="node"><span>${n.rank ?? i}</span>` + BARS.map(([, f, fmt], k) => {
       const v = f(n);
-      return `<div class="bar"><div style="width:${(100 * v) / max[k]}%"></div><span>${fmt(v)}</span></div>`;
+      return `<div class="bar"><div style="width:${(100 * (v ?? 0)) / max[k]}%"></div><span>${fmt(v)}</span></div>`;
     }).join("") + "</div>";
   });
   box.innerHTML = html;
