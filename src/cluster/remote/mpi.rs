@@ -31,7 +31,7 @@ use super::drive::{cell_setups, drive, part_cells, piece_setups, DriveOptions};
 use super::hooks::Hooks;
 use super::live::Work;
 use super::measured::Measured;
-use super::session::{sha256, Session, WorkerSetup};
+use super::session::{Session, WorkerSetup};
 use super::worker::{next, run_node, Held};
 use crate::cluster::{ClockKind, ClusterConfig, ClusterOutcome, FrameData};
 use crate::net::mpi::MpiTransport;
@@ -326,16 +326,5 @@ fn need_cells(
     if kept {
         return Ok(None);
     }
-    let e = t
-        .recv_timeout(wait)?
-        .ok_or_else(|| anyhow::anyhow!("no cells from the coordinator within {wait:?}"))?;
-    let m: Session = codec.decode(&e.payload)?;
-    let Session::Cells(bytes) = m else {
-        anyhow::bail!("the coordinator sent {m:?} instead of the cells");
-    };
-    anyhow::ensure!(
-        e.from == coord && sha256(&bytes) == setup.cells_sha256,
-        "the cells from the coordinator do not match their SHA-256"
-    );
-    Ok(Some(bytes))
+    next::recv_cells(t, coord, &setup.cells_sha256, codec, wait).map(Some)
 }

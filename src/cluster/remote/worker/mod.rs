@@ -350,17 +350,7 @@ impl Worker {
         if let Some(i) = cached {
             return Ok(Some(self.cache[i].1.clone()));
         }
-        let e = t
-            .recv_timeout(wait)?
-            .ok_or_else(|| anyhow::anyhow!("no cells from the coordinator within {wait:?}"))?;
-        let m: Session = codec.decode(&e.payload)?;
-        let Session::Cells(bytes) = m else {
-            anyhow::bail!("the coordinator sent {m:?} instead of the cells");
-        };
-        anyhow::ensure!(
-            e.from == coord && crate::cluster::remote::session::sha256(&bytes) == next.cells_sha256,
-            "the cells from the coordinator do not match their SHA-256"
-        );
+        let bytes = next::recv_cells(t, coord, &next.cells_sha256, codec, wait)?;
         if self.cache.len() >= CACHE_ENTRIES {
             self.cache.pop_front();
         }

@@ -129,3 +129,26 @@ pub fn flush<T: RemoteTransport>(
     }
     Ok(())
 }
+
+/// The coordinator's `Cells` for a frame whose set-up names `sha` (after
+/// this worker's `Need(true)`), checked against it; at most `wait`.
+pub fn recv_cells<T: RemoteTransport>(
+    t: &T,
+    coord: NodeId,
+    sha: &[u8; 32],
+    codec: Codec,
+    wait: Duration,
+) -> anyhow::Result<Vec<u8>> {
+    let e = t
+        .recv_timeout(wait)?
+        .ok_or_else(|| anyhow::anyhow!("no cells from the coordinator within {wait:?}"))?;
+    let m: Session = codec.decode(&e.payload)?;
+    let Session::Cells(bytes) = m else {
+        anyhow::bail!("the coordinator sent {m:?} instead of the cells");
+    };
+    anyhow::ensure!(
+        e.from == coord && crate::cluster::remote::session::sha256(&bytes) == *sha,
+        "the cells from the coordinator do not match their SHA-256"
+    );
+    Ok(bytes)
+}
