@@ -7,16 +7,18 @@
 //! ## Layers
 //!
 //! Every room (top-level module) imports only rooms below it; no two rooms
-//! import each other, and inside a room no two files do, but for the few
-//! circles the table still lists (`docs/architecture.md` draws it;
+//! import each other, and inside a room no two files do
+//! (`docs/architecture.md` draws it;
 //! `tests/architecture.rs` holds the table of allowed arrows and checks it:
 //! `cargo test --release --test architecture -- --nocapture` prints the
 //! arrows found):
 //!
 //! ```text
 //! frontends   cli (clap, printing)   experiment (sweeps)   bench (benchmarks, calibration)
+//!             view (the live viewer)   python/ (the Python module, its own crate)
 //!                         \               |               /
-//! job layer                job: typed jobs, validation, output and memory checks
+//! job layer                job: typed jobs, validation, output and memory checks,
+//!                          the cluster session (job::Session) and where its nodes run
 //!                                          |
 //! engine      cluster -> {manager, node, compositor, render, net}
 //!             manager -> node   node -> {compositor, render, net}
@@ -26,8 +28,9 @@
 //! base        scene, image, net, budget; base (Rect, Rgba, Segment, canonical); error, text
 //! ```
 //!
-//! `cli` calls `job`, `bench` and `experiment`; `experiment` and `bench`
-//! call `job`; nothing below `job` knows a frontend. Not every frontend path
+//! `cli` calls `job`, `bench`, `experiment` and `view`; `experiment`,
+//! `bench`, `view` and the Python module call `job`; nothing below `job`
+//! knows a frontend. Not every frontend path
 //! goes through `job`: the benchmarks time one phase of the engine directly
 //! (`bench -> render, node, compositor, cluster, net`), and `cli` reads data
 //! and scenes for the commands that have no job of their own (`info`,
@@ -56,7 +59,7 @@
 //!
 //! ```
 //! # fn main() -> anyhow::Result<()> {
-//! use pvrsim::job::{transport_args::TransportKind, ClusterJob};
+//! use pvrsim::job::{args::transport::TransportKind, ClusterJob};
 //! let mut job = ClusterJob::new("tests/data/aorta-small-view-b.toml");
 //! job.nodes = 4;
 //! job.net.transport = Some(TransportKind::Threads);
