@@ -44,15 +44,7 @@ pub fn cropping_frames(
             )
         },
     );
-    let corners: Vec<[f64; 3]> = (0..8)
-        .map(|k| {
-            [
-                if k & 1 == 0 { lo[0] } else { hi[0] },
-                if k & 2 == 0 { lo[1] } else { hi[1] },
-                if k & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        })
-        .collect();
+    let corners = box_corners(lo, hi);
     let outside = |v: &super::View, p: &[f64; 3]| match v.camera_to_pixel(v.to_camera(*p)) {
         Some([x, y]) => !(0.0..=width as f64).contains(&x) || !(0.0..=height as f64).contains(&y),
         None => true,
@@ -120,6 +112,19 @@ pub fn fit_orbit(
         }
     }
     Some(out)
+}
+
+/// The eight corners of the axis-aligned box `lo..hi`.
+pub fn box_corners(lo: [f64; 3], hi: [f64; 3]) -> Vec<[f64; 3]> {
+    (0..8)
+        .map(|k| {
+            [
+                if k & 1 == 0 { lo[0] } else { hi[0] },
+                if k & 2 == 0 { lo[1] } else { hi[1] },
+                if k & 4 == 0 { lo[2] } else { hi[2] },
+            ]
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -29,33 +29,30 @@ pub const JPEG_QUALITY: u8 = 85;
 
 /// Encodes `image` as `format`.
 pub fn encode(image: &Image, format: FrameFormat) -> anyhow::Result<Vec<u8>> {
-    Ok(match format {
-        FrameFormat::Png => {
-            use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-            use image::ImageEncoder;
-            let mut out = Vec::new();
-            PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
-                .write_image(
-                    &image.to_rgb8(),
-                    image.width,
-                    image.height,
-                    image::ExtendedColorType::Rgb8,
-                )?;
-            out
-        }
-        FrameFormat::Jpeg => {
-            use image::ImageEncoder;
-            let mut out = Vec::new();
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY)
-                .write_image(
-                    &image.to_rgb8(),
-                    image.width,
-                    image.height,
-                    image::ExtendedColorType::Rgb8,
-                )?;
-            out
-        }
-    })
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let mut out = Vec::new();
+    match format {
+        FrameFormat::Png => write_rgb(
+            PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub),
+            image,
+        )?,
+        FrameFormat::Jpeg => write_rgb(
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY),
+            image,
+        )?,
+    }
+    Ok(out)
+}
+
+/// Writes `image` as 8-bit RGB through `encoder`.
+fn write_rgb(encoder: impl image::ImageEncoder, image: &Image) -> anyhow::Result<()> {
+    encoder.write_image(
+        &image.to_rgb8(),
+        image.width,
+        image.height,
+        image::ExtendedColorType::Rgb8,
+    )?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -147,15 +147,7 @@ pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
         input = input.with_size(w, h);
     }
     // The grid's box is its data: its corners decide a crop.
-    let corners: Vec<[f64; 3]> = (0..8)
-        .map(|k| {
-            [
-                if k & 1 == 0 { lo[0] } else { hi[0] },
-                if k & 2 == 0 { lo[1] } else { hi[1] },
-                if k & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        })
-        .collect();
+    let corners = crate::scene::orbit::box_corners(lo, hi);
     let image = &input.scene.image;
     let cams = a
         .series
