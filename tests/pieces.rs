@@ -303,15 +303,42 @@ fn small_mesh(n: usize, seed: u64) -> TetMesh {
     }
 }
 
+/// A mesh of `cells` tetrahedra on scattered points (ties in coordinates
+/// included), for cuts by centroid.
+fn scattered_mesh(cells: usize, seed: u64) -> pvrsim::data::TetMesh {
+    let mut x = seed | 1;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % 64) as f64 * 0.5
+    };
+    let points: Vec<[f64; 3]> = (0..64).map(|_| [next(), next(), next()]).collect();
+    let tets = (0..cells)
+        .map(|i| {
+            let a = (i * 7 % 61) as u32;
+            [a, a + 1, a + 2, (a + 3) % 64]
+        })
+        .collect();
+    pvrsim::data::TetMesh {
+        points,
+        tets,
+        ..Default::default()
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
     /// The pieces' runs: every piece on exactly one node, each node's
     /// pieces one ascending run and the runs in node order, no node empty
     /// when there are as many pieces as nodes; the placement from them
-    /// holds every cell once, a node's cells being its pieces'.
+    /// holds every cell once, a node's cells being its pieces' (or, with
+    /// fewer pieces than nodes, its part of a split piece: as many cells as
+    /// the piece map's unit says, every node one unit).
     #[test]
-    fn piece_runs_cover_in_order(w in prop::collection::vec(0u64..5000, 1..40), n in 1usize..20) {
+    fn piece_runs_cover_in_order(w in prop::collection::vec(0u64..500, 1..40), n in 1usize..20, seed in any::<u64>()) {
+        use pvrsim::node::piece_map::{shares, unit_weights};
         use pvrsim::node::placement::piece_runs;
         let runs = piece_runs(&w, n);
         prop_assert_eq!(runs.len(), n);
@@ -320,17 +347,32 @@ proptest! {
         if w.len() >= n {
             prop_assert!(runs.iter().all(|r| !r.is_empty()), "{:?}", runs);
         }
-        let p = pvrsim::node::Placement::from_pieces(&w, n);
         let total: u64 = w.iter().sum();
+        let mesh = scattered_mesh(total as usize, seed);
+        let p = pvrsim::node::Placement::from_pieces(&mesh, &w, n);
         let mut cells: Vec<u32> = p.parts.iter().flatten().copied().collect();
         cells.sort_unstable();
         prop_assert_eq!(cells, (0..total as u32).collect::<Vec<_>>());
-        for (run, part) in runs.iter().zip(&p.parts) {
-            let want: u64 = run.iter().map(|&i| w[i as usize]).sum();
-            prop_assert_eq!(part.len() as u64, want);
+        prop_assert!(p.parts.iter().all(|q| q.windows(2).all(|x| x[0] < x[1])));
+        let units = shares(&w, n);
+        if w.len() >= n || total == 0 {
+            prop_assert_eq!(units.len(), w.len());
+            for (run, part) in runs.iter().zip(&p.parts) {
+                let want: u64 = run.iter().map(|&i| w[i as usize]).sum();
+                prop_assert_eq!(part.len() as u64, want);
+            }
+        } else {
+            prop_assert_eq!(units.len(), n);
+            let uw = unit_weights(&w, &units);
+            for (k, part) in p.parts.iter().enumerate() {
+                prop_assert_eq!(part.len() as u64, uw[k], "node {}", k);
+            }
+            // Every piece has a node.
+            for i in 0..w.len() as u32 {
+                prop_assert!(units.iter().any(|u| u.piece == i));
+            }
         }
     }
-
 
     /// Every cell in exactly one piece; sizes within one cell of the
     /// share; the pieces' centroid boxes together no larger than the whole

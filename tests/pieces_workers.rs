@@ -76,8 +76,9 @@ fn workers_reading_their_pieces_render_the_union_bit_for_bit() {
         let d = pieces_scene(enc, |_| {});
         let want = single(d.path());
         // 4 nodes: a piece each; 3 nodes: runs of pieces; 6 nodes: two
-        // start empty and DLB gives them cells (cells move with their
-        // vertices, duplicated boundary vertices and all).
+        // pieces split in two (each of their nodes reads the piece and keeps
+        // its part), and DLB moves cells with their vertices, duplicated
+        // boundary vertices and all.
         for (nodes, extra) in [("4", &[][..]), ("3", &[][..]), ("6", &["--dlb"][..])] {
             let (ok, err, png, json) = cluster(d.path(), nodes, extra);
             assert!(ok, "{enc}, {nodes} nodes: {err}");
@@ -228,49 +229,67 @@ fn the_pieces_place_the_nodes_on_every_transport() {
     let scene = d.path().join("scene.toml");
     // The simulated cluster and threads: the union in this process, placed
     // by the pieces by default; the same image as the workers' and the
-    // single-process render's, and the same cells per node.
-    let mut cells_per_node = Vec::new();
-    for transport in [None, Some("threads"), Some("processes")] {
-        let o = d.path().join("t.png");
-        let r = d.path().join("t.json");
-        let mut args = vec![
-            "cluster",
-            s(&scene),
-            "--nodes",
-            "3",
-            "--canonical",
-            "--ert",
-            "1",
-            "--no-baselines",
-            "-o",
-            s(&o),
-            "--report",
-            s(&r),
-        ];
-        if let Some(t) = transport {
-            args.extend(["--transport", t]);
+    // single-process render's, and the same cells per node. On 6 nodes the
+    // 4 pieces are split (every node works), alike in this process and by
+    // the workers reading their pieces.
+    for nodes in ["3", "6"] {
+        let mut cells_per_node = Vec::new();
+        for transport in [None, Some("threads"), Some("processes")] {
+            let o = d.path().join("t.png");
+            let r = d.path().join("t.json");
+            let mut args = vec![
+                "cluster",
+                s(&scene),
+                "--nodes",
+                nodes,
+                "--canonical",
+                "--ert",
+                "1",
+                "--no-baselines",
+                "-o",
+                s(&o),
+                "--report",
+                s(&r),
+            ];
+            if let Some(t) = transport {
+                args.extend(["--transport", t]);
+            }
+            let (ok, err) = pvrsim(&args);
+            assert!(ok, "{transport:?}: {err}");
+            assert!(
+                std::fs::read(&o).unwrap() == want,
+                "{nodes} nodes, {transport:?}: the image differs"
+            );
+            let json: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
+            assert_eq!(json["placement"], "pieces", "{transport:?}");
+            let per_node: Vec<u64> = json["nodes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|n| n["cells_initial"].as_u64().unwrap())
+                .collect();
+            assert!(
+                per_node.iter().all(|&c| c > 0),
+                "{nodes} nodes, {transport:?}: a node started empty: {per_node:?}"
+            );
+            assert_eq!(per_node.iter().sum::<u64>(), 20169);
+            if transport == Some("processes") {
+                let split = json["pieces"]["shares"].as_array().map(|a| a.len());
+                assert_eq!(
+                    split,
+                    (nodes == "6").then_some(6),
+                    "the report's shares: {}",
+                    json["pieces"]
+                );
+            }
+            cells_per_node.push(per_node);
         }
-        let (ok, err) = pvrsim(&args);
-        assert!(ok, "{transport:?}: {err}");
         assert!(
-            std::fs::read(&o).unwrap() == want,
-            "{transport:?}: the image differs"
+            cells_per_node.windows(2).all(|w| w[0] == w[1]),
+            "{nodes} nodes: {cells_per_node:?}"
         );
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&r).unwrap()).unwrap();
-        assert_eq!(json["placement"], "pieces", "{transport:?}");
-        let per_node: Vec<u64> = json["nodes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|n| n["cells_initial"].as_u64().unwrap())
-            .collect();
-        cells_per_node.push(per_node);
     }
-    assert!(
-        cells_per_node.windows(2).all(|w| w[0] == w[1]),
-        "{cells_per_node:?}"
-    );
     // One file has no pieces.
     let (ok, err) = pvrsim(&[
         "cluster",

@@ -147,14 +147,26 @@ pub fn carried(placement: &Placement, processed: &[Vec<u32>]) -> Option<Placemen
     Some(Placement { parts })
 }
 
+/// What a real transport measured of one frame of a series.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeasuredFrame {
+    /// Wall seconds, from its set-up to the image.
+    pub frame_s: f64,
+    /// Bytes on the wire (set-up and cells included).
+    pub bytes: u64,
+    /// Of them, the cells sent at set-up.
+    pub cells_bytes: u64,
+    /// The slowest worker's compress seconds.
+    pub compress_s: Option<f64>,
+}
+
 /// The series section of `outs` (one outcome per step of `steps`).
-/// `measured[i]`: frame i's measured wall seconds, wire bytes and
-/// cell bytes on a real transport (`None`: the report's own times and
-/// modelled bytes).
+/// `measured[i]`: what a real transport measured of frame i (`None`: the
+/// report's own times and modelled bytes).
 pub fn report(
     outs: &[ClusterOutcome],
     steps: &[Step],
-    measured: Option<&[(f64, u64, u64)]>,
+    measured: Option<&[MeasuredFrame]>,
     coherence: Coherence,
 ) -> SeriesReport {
     let frames: Vec<SeriesFrame> = outs
@@ -163,9 +175,9 @@ pub fn report(
         .enumerate()
         .map(|(f, (o, c))| {
             let r = &o.report;
-            let (frame_s, bytes, cells_bytes) = match measured.and_then(|m| m.get(f)) {
-                Some(&(s, b, cb)) => (s, b, cb),
-                None => (r.frame_s, r.bytes_total, 0),
+            let (frame_s, bytes, cells_bytes, compress_s) = match measured.and_then(|m| m.get(f)) {
+                Some(m) => (m.frame_s, m.bytes, m.cells_bytes, m.compress_s),
+                None => (r.frame_s, r.bytes_total, 0, None),
             };
             SeriesFrame {
                 frame: f,
@@ -174,6 +186,7 @@ pub fn report(
                 frame_s,
                 phase1_s: r.phase1_s,
                 composite_s: r.composite_s,
+                compress_s,
                 bytes,
                 cells_bytes,
                 cells_skipped_ert: r.cells_skipped_ert,

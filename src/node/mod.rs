@@ -45,6 +45,7 @@ pub mod levels;
 pub mod lsq;
 pub mod manager_table;
 pub mod ops;
+pub mod piece_map;
 pub mod pixel_share;
 pub mod placement;
 pub mod protocol;

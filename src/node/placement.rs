@@ -121,16 +121,20 @@ pub struct FootprintReport {
 pub fn centroids(mesh: &TetMesh) -> Vec<[f64; 3]> {
     mesh.tets
         .iter()
-        .map(|t| {
-            let mut c = [0.0; 3];
-            for &v in t {
-                for (a, ca) in c.iter_mut().enumerate() {
-                    *ca += mesh.points[v as usize][a];
-                }
-            }
-            c.map(|x| x * 0.25)
-        })
+        .map(|t| centroid(&mesh.points, t))
         .collect()
+}
+
+/// The centroid of tetrahedron `t` of `points` (the vertices summed in
+/// `t`'s order: every reader of a piece gets the same bits).
+pub fn centroid(points: &[[f64; 3]], t: &[u32; 4]) -> [f64; 3] {
+    let mut c = [0.0; 3];
+    for &v in t {
+        for (a, ca) in c.iter_mut().enumerate() {
+            *ca += points[v as usize][a];
+        }
+    }
+    c.map(|x| x * 0.25)
 }
 
 /// Target counts: `m` cells over `n` parts, the first `m mod n` one larger.
@@ -198,9 +202,10 @@ fn morton3(x: u64, y: u64, z: u64) -> u64 {
 
 /// Pieces per node: `n` contiguous runs of the pieces (weights `w`, e.g.
 /// their cells) of about equal weight, every node a piece when there are at
-/// least `n`; with fewer pieces than nodes, the last nodes get none. The
-/// same runs wherever pieces are placed (in this process, or by workers
-/// that read their own).
+/// least `n`; with fewer pieces than nodes, the last nodes get none (the
+/// piece map then splits pieces: [`crate::node::piece_map`]). The same
+/// runs wherever pieces are placed (in this process, or by workers that
+/// read their own).
 pub fn piece_runs(w: &[u64], n: usize) -> Vec<Vec<u32>> {
     let n = n.max(1);
     let mut parts = vec![Vec::new(); n];
@@ -301,26 +306,41 @@ impl Placement {
         Placement { parts }
     }
 
-    /// Places a mesh made of pieces of `cells[i]` cells each, one piece
-    /// after the other, on `n >= 1` nodes: node `k` the cells of its pieces
-    /// ([`piece_runs`]).
-    pub fn from_pieces(cells: &[u64], n: usize) -> Placement {
+    /// Places `mesh`, made of pieces of `cells[i]` cells each, one piece
+    /// after the other, on `n >= 1` nodes by the piece map
+    /// ([`crate::node::piece_map`]): node `k` the cells of its run of
+    /// pieces, or with fewer pieces than nodes its part of a split piece.
+    pub fn from_pieces(mesh: &TetMesh, cells: &[u64], n: usize) -> Placement {
+        use crate::node::piece_map::{shares, split, unit_weights};
         let mut first = Vec::with_capacity(cells.len());
         let mut acc = 0u64;
         for &c in cells {
             first.push(acc);
             acc += c;
         }
-        let parts = piece_runs(cells, n.max(1))
+        let units = shares(cells, n.max(1));
+        let runs = piece_runs(&unit_weights(cells, &units), n.max(1));
+        // The parts of each split piece, cut once.
+        let mut cut: std::collections::HashMap<u32, Vec<Vec<u32>>> = Default::default();
+        let mut unit_cells = |u: usize| -> Vec<u32> {
+            let s = units[u];
+            let a = first[s.piece as usize] as u32;
+            let len = cells[s.piece as usize] as u32;
+            if s.of <= 1 {
+                return (a..a + len).collect();
+            }
+            let parts = cut.entry(s.piece).or_insert_with(|| {
+                let c: Vec<[f64; 3]> = mesh.tets[a as usize..(a + len) as usize]
+                    .iter()
+                    .map(|t| centroid(&mesh.points, t))
+                    .collect();
+                split(&c, s.of)
+            });
+            parts[s.part as usize].iter().map(|&i| a + i).collect()
+        };
+        let parts = runs
             .into_iter()
-            .map(|run| {
-                run.iter()
-                    .flat_map(|&i| {
-                        let a = first[i as usize];
-                        a as u32..(a + cells[i as usize]) as u32
-                    })
-                    .collect()
-            })
+            .map(|run| run.iter().flat_map(|&u| unit_cells(u as usize)).collect())
             .collect();
         Placement { parts }
     }

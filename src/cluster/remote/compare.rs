@@ -175,9 +175,10 @@ pub fn transport_section(
             .phase2_ranks
             .iter()
             .enumerate()
-            .map(|(k, &(wall_s, cpu_s))| Phase2Rank {
-                wall_s,
-                cpu_s,
+            .map(|(k, r)| Phase2Rank {
+                wall_s: r.wall_s,
+                cpu_s: r.cpu_s,
+                compress_s: r.compress_s,
                 modelled_compute_s: model2.busy_s.get(k).copied().unwrap_or(0.0),
             })
             .collect(),

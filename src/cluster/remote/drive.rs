@@ -406,7 +406,14 @@ fn drive_phases<T: RemoteTransport>(
         .flatten()
         .fold(0.0f64, |a, &b| a.max(b));
     measured.phase2_handoff_bytes = logs.iter().map(|l| l.handoff_bytes).sum();
-    measured.phase2_ranks = logs.iter().map(|l| (l.seconds, l.cpu_s)).collect();
+    measured.phase2_ranks = logs
+        .iter()
+        .map(|l| super::measured::RankTimes {
+            wall_s: l.seconds,
+            cpu_s: l.cpu_s,
+            compress_s: l.compress_s,
+        })
+        .collect();
     measured.phase2_handoff_messages = logs.iter().map(|l| l.handoff_messages).sum();
     let out = crate::cluster::finish_with(
         data,

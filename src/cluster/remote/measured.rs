@@ -29,14 +29,33 @@ pub struct Measured {
     pub phase2_handoff_messages: u64,
     /// Seconds from the start of phase 2 to the last pixels in.
     pub phase2_s: f64,
-    /// Per worker (rank order): its phase-2 wall and thread CPU seconds
-    /// (from its log).
-    pub phase2_ranks: Vec<(f64, f64)>,
+    /// Per worker (rank order): its phase-2 times (from its log).
+    pub phase2_ranks: Vec<RankTimes>,
     /// Set when `--on-failure reassign` re-ran the frame on survivors.
     pub reassigned: Option<Reassigned>,
 }
 
+/// One worker's phase-2 times, as its log gives them.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct RankTimes {
+    /// Wall seconds from its start of phase 2 to its last send.
+    pub wall_s: f64,
+    /// Thread CPU seconds of the same span.
+    pub cpu_s: f64,
+    /// Wall seconds of it spent encoding with the codec (compress).
+    pub compress_s: f64,
+}
+
 impl Measured {
+    /// The slowest worker's compress seconds of the frame (IceT's per
+    /// frame compress time, the critical path's), `None` without workers.
+    pub fn compress_s(&self) -> Option<f64> {
+        self.phase2_ranks
+            .iter()
+            .map(|r| r.compress_s)
+            .reduce(f64::max)
+    }
+
     /// Every byte of the frame the transport wrote: both phases' wire
     /// bytes (frames, heartbeats, goodbyes), the root's hand-off and the
     /// cells sent at set-up.

@@ -182,6 +182,10 @@ pub struct RankLog {
     /// handing bytes to the transport; [`crate::net::cpu`]).
     #[serde(default)]
     pub cpu_s: f64,
+    /// Wall seconds of the same span spent encoding its messages and its
+    /// hand-off with the codec (IceT's compress time).
+    #[serde(default)]
+    pub compress_s: f64,
 }
 
 /// Runs rank `me`'s part of `schedule` over `t`, starting from `lists`;
@@ -240,12 +244,14 @@ pub fn run_partial<T: Transport, P: RankPartial>(
         match round.kind {
             RoundKind::Lists => {
                 let mut out = Vec::new();
+                let tc = Instant::now();
                 for e in round.sends.iter().filter(|e| e.from == me) {
                     let enc = state.encode(e.what)?.ok_or_else(|| {
                         anyhow::anyhow!("phase 2, round {r}: rank {me} holds nothing to send")
                     })?;
                     out.push((e.to, e.what, enc));
                 }
+                log.compress_s += tc.elapsed().as_secs_f64();
                 state.keep(round.keep.get(me).copied().flatten());
                 for (to, what, enc) in out {
                     log.sent.push(SentLog {
@@ -296,7 +302,10 @@ pub fn run_partial<T: Transport, P: RankPartial>(
             }
             RoundKind::Gather => {
                 for e in round.sends.iter().filter(|e| e.from == me) {
-                    let Some(enc) = state.encode(e.what)? else {
+                    let tc = Instant::now();
+                    let enc = state.encode(e.what)?;
+                    log.compress_s += tc.elapsed().as_secs_f64();
+                    let Some(enc) = enc else {
                         continue;
                     };
                     log.sent.push(SentLog {
@@ -315,7 +324,10 @@ pub fn run_partial<T: Transport, P: RankPartial>(
                     )?;
                 }
                 if me == schedule.root {
-                    for (rect, bytes) in state.handoff() {
+                    let tc = Instant::now();
+                    let handoff = state.handoff();
+                    log.compress_s += tc.elapsed().as_secs_f64();
+                    for (rect, bytes) in handoff {
                         log.handoff_bytes += bytes.len() as u64;
                         log.handoff_messages += 1;
                         t.send(

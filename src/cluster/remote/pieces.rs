@@ -1,11 +1,13 @@
 //! Partitioned data read where it is used: a scene whose data is a `.pvtu`
 //! runs on worker processes or TCP workers with **each worker reading its
-//! own pieces** ([`load`]); the coordinator reads the `.pvtu` and each
+//! own pieces** ([`read_units`]); the coordinator reads the `.pvtu` and each
 //! piece's vertices for the field's range and the scene's depth range, in
 //! one pass ([`PieceSet::open`]), never the cells. The pieces are the initial
 //! placement, as the paper's nodes held what the simulation wrote: node `k`
-//! gets a contiguous run of pieces ([`PieceSet::parts`]); DLB then moves
-//! cells with their vertices as with any partitioned data.
+//! gets a contiguous run of pieces ([`PieceSet::parts`]), or with fewer
+//! pieces than nodes its part of a split piece
+//! ([`crate::node::piece_map`]: every node works); DLB then moves cells
+//! with their vertices as with any partitioned data.
 //!
 //! **Numbering.** A worker numbers piece `i`'s vertices `vertex_base(i) +
 //! local` (the pieces' vertex counts summed in the `.pvtu`'s order) and its
@@ -29,6 +31,7 @@ use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use crate::data::io::pvtu::{self, summary::Summary};
+use crate::node::piece_map::{self, Share};
 use crate::node::renderer::NodeRenderer;
 use crate::node::work::{WorkCell, WorkUnit};
 use crate::scene::Scene;
@@ -49,6 +52,10 @@ pub struct WirePiece {
     pub cell_base: u32,
     /// Most tetrahedra it may hold (`TETS_PER_CELL` x its declared cells).
     pub cells_max: u32,
+    /// Which part of the piece the worker keeps (`0..of`).
+    pub part: u32,
+    /// How many parts the piece is split into (1: the whole piece).
+    pub of: u32,
 }
 
 /// The pieces a worker reads (in its set-up, instead of cells).
@@ -86,12 +93,16 @@ pub struct PieceSet {
     /// The `.pvtu`'s absolute path, as the workers are told it (whatever
     /// folder they run in).
     absolute: PathBuf,
+    /// The piece map's units for the nodes the set was opened for: the
+    /// pieces, or with fewer pieces than nodes their parts.
+    units: Vec<Share>,
 }
 
 impl PieceSet {
     /// Reads the `.pvtu` of `scene`'s data and its pieces' vertices (once:
-    /// the field's range and the depth extent for `scene`'s camera).
-    pub fn open(scene: &Scene) -> anyhow::Result<PieceSet> {
+    /// the field's range and the depth extent for `scene`'s camera), to
+    /// be placed on `nodes` nodes.
+    pub fn open(scene: &Scene, nodes: usize) -> anyhow::Result<PieceSet> {
         let path = &scene.data.path;
         let view = scene.view();
         let (summary, extents) =
@@ -125,6 +136,7 @@ impl PieceSet {
         }
         let absolute = std::fs::canonicalize(path)
             .with_context(|| format!("cannot resolve {}", path.display()))?;
+        let units = piece_map::shares(&declared(&summary), nodes);
         Ok(PieceSet {
             summary,
             field: scene.data.field.clone(),
@@ -132,6 +144,7 @@ impl PieceSet {
             bases,
             depths: (view, extents.into_iter().fold(EMPTY, union)),
             absolute,
+            units,
         })
     }
 
@@ -140,38 +153,53 @@ impl PieceSet {
         &self.summary.path
     }
 
-    /// Pieces per node: `n` contiguous runs of about equal declared cells
-    /// ([`crate::node::placement::piece_runs`], as a run in this process
-    /// places the pieces).
+    /// The piece map's units ([`crate::node::piece_map`]): unit `u` of a
+    /// part in [`PieceSet::parts`] is `units()[u]`.
+    pub fn units(&self) -> &[Share] {
+        &self.units
+    }
+
+    /// Whether a piece is split over several nodes (fewer pieces than
+    /// nodes).
+    pub fn splits(&self) -> bool {
+        self.units.iter().any(|s| s.of > 1)
+    }
+
+    /// Units per node: `n` contiguous runs of about equal declared cells
+    /// ([`crate::node::placement::piece_runs`] over the units, as a run in
+    /// this process places the pieces); one unit a node when pieces are
+    /// split.
     pub fn parts(&self, n: usize) -> Vec<Vec<u32>> {
-        let w: Vec<u64> = self
-            .summary
-            .pieces
-            .iter()
-            .map(|p| p.cells_declared)
-            .collect();
+        let w = piece_map::unit_weights(&declared(&self.summary), &self.units);
         crate::node::placement::piece_runs(&w, n)
     }
 
-    /// What a worker holding pieces `part` is told.
+    /// What a worker holding units `part` is told.
     pub fn source(&self, part: &[u32]) -> PieceSource {
+        let mut pieces: Vec<WirePiece> = part
+            .iter()
+            .map(|&u| {
+                let s = self.units[u as usize];
+                let i = s.piece;
+                let (vertex_base, cell_base, cells_max) = self.bases[i as usize];
+                WirePiece {
+                    index: i,
+                    points: self.summary.pieces[i as usize].points as u32,
+                    vertex_base,
+                    cell_base,
+                    cells_max,
+                    part: s.part,
+                    of: s.of,
+                }
+            })
+            .collect();
+        // A survivor may take a lost worker's part of a piece it shares.
+        pieces.sort_by_key(|p| (p.index, p.part));
         PieceSource {
             pvtu: self.absolute.to_string_lossy().into_owned(),
             field: self.field.clone(),
             range: self.range,
-            pieces: part
-                .iter()
-                .map(|&i| {
-                    let (vertex_base, cell_base, cells_max) = self.bases[i as usize];
-                    WirePiece {
-                        index: i,
-                        points: self.summary.pieces[i as usize].points as u32,
-                        vertex_base,
-                        cell_base,
-                        cells_max,
-                    }
-                })
-                .collect(),
+            pieces,
         }
     }
 
@@ -190,6 +218,11 @@ impl PieceSet {
         };
         Ok(crate::cluster::phase1::padded_depths(ext))
     }
+}
+
+/// Each piece's declared cells (the piece map's weights).
+fn declared(summary: &Summary) -> Vec<u64> {
+    summary.pieces.iter().map(|p| p.cells_declared).collect()
 }
 
 /// The extent of no depth.
@@ -212,15 +245,36 @@ fn fold_depths(view: &crate::scene::View) -> impl Fn(&mut (f64, f64), &[[f64; 3]
 pub fn read_units(src: &PieceSource) -> anyhow::Result<Vec<WorkUnit>> {
     let path = PathBuf::from(&src.pvtu);
     let head = pvtu::read_header(&path)?;
-    let mut last: Option<u32> = None;
-    let mut units = Vec::with_capacity(src.pieces.len());
+    let mut last: Option<(u32, u32)> = None;
     for wp in &src.pieces {
         anyhow::ensure!(
-            last.is_none_or(|l| l < wp.index),
-            "the set-up's pieces are not ascending (piece {})",
+            last.is_none_or(|l| l < (wp.index, wp.part)),
+            "the set-up's pieces are not ascending (piece {} part {})",
+            wp.index,
+            wp.part
+        );
+        last = Some((wp.index, wp.part));
+        anyhow::ensure!(
+            (1..=piece_map::MAX_SPLIT).contains(&wp.of) && wp.part < wp.of,
+            "the set-up asks for part {} of {} of piece {} (parts are 0..of, of in 1..={})",
+            wp.part,
+            wp.of,
+            wp.index,
+            piece_map::MAX_SPLIT
+        );
+    }
+    let mut units = Vec::with_capacity(src.pieces.len());
+    // The parts one worker keeps of a piece, read once.
+    for group in src.pieces.chunk_by(|a, b| a.index == b.index) {
+        let wp = &group[0];
+        anyhow::ensure!(
+            group.iter().all(
+                |g| (g.points, g.vertex_base, g.cell_base, g.cells_max, g.of)
+                    == (wp.points, wp.vertex_base, wp.cell_base, wp.cells_max, wp.of)
+            ),
+            "the set-up describes piece {} two ways",
             wp.index
         );
-        last = Some(wp.index);
         let k = wp.index as usize;
         anyhow::ensure!(
             k < head.pieces.len(),
@@ -268,26 +322,85 @@ pub fn read_units(src: &PieceSource) -> anyhow::Result<Vec<WorkUnit>> {
                 src.range
             );
         }
-        // Ascending and unique by construction, as a unit's are; the
-        // reader checked every index against the piece's vertices.
-        let ids: Vec<u32> = (0..wp.points).map(|v| wp.vertex_base + v).collect();
         let crate::data::TetMesh { points, tets, .. } = mesh;
-        let cells = tets
+        if wp.of == 1 {
+            // Ascending and unique by construction, as a unit's are; the
+            // reader checked every index against the piece's vertices.
+            let ids: Vec<u32> = (0..wp.points).map(|v| wp.vertex_base + v).collect();
+            let cells = tets
+                .iter()
+                .enumerate()
+                .map(|(c, t)| WorkCell {
+                    id: wp.cell_base + c as u32,
+                    v: *t,
+                })
+                .collect();
+            units.push(WorkUnit {
+                vertex_ids: ids,
+                positions: points,
+                scalars,
+                cells,
+            });
+            continue;
+        }
+        let centroids: Vec<[f64; 3]> = tets
             .iter()
-            .enumerate()
-            .map(|(c, t)| WorkCell {
-                id: wp.cell_base + c as u32,
-                v: *t,
-            })
+            .map(|t| crate::node::placement::centroid(&points, t))
             .collect();
-        units.push(WorkUnit {
-            vertex_ids: ids,
-            positions: points,
-            scalars,
-            cells,
-        });
+        let parts = piece_map::split(&centroids, wp.of);
+        drop(centroids);
+        for g in group {
+            units.push(part_unit(
+                wp,
+                &parts[g.part as usize],
+                &points,
+                &scalars,
+                &tets,
+            ));
+        }
     }
     Ok(units)
+}
+
+/// The unit of a split piece's cells `keep` (local, ascending): the
+/// vertices they use (ids `vertex_base + local`, ascending) and the cells
+/// (ids `cell_base + local`) on them.
+fn part_unit(
+    wp: &WirePiece,
+    keep: &[u32],
+    points: &[[f64; 3]],
+    scalars: &[f32],
+    tets: &[[u32; 4]],
+) -> WorkUnit {
+    const NONE: u32 = u32::MAX;
+    let mut new = vec![NONE; points.len()];
+    for &c in keep {
+        for &v in &tets[c as usize] {
+            new[v as usize] = 0;
+        }
+    }
+    let (mut ids, mut positions, mut kept) = (Vec::new(), Vec::new(), Vec::new());
+    for (v, slot) in new.iter_mut().enumerate() {
+        if *slot != NONE {
+            *slot = ids.len() as u32;
+            ids.push(wp.vertex_base + v as u32);
+            positions.push(points[v]);
+            kept.push(scalars[v]);
+        }
+    }
+    let cells = keep
+        .iter()
+        .map(|&c| WorkCell {
+            id: wp.cell_base + c,
+            v: tets[c as usize].map(|v| new[v as usize]),
+        })
+        .collect();
+    WorkUnit {
+        vertex_ids: ids,
+        positions,
+        scalars: kept,
+        cells,
+    }
 }
 
 /// Adds units read by [`read_units`] (or decoded and validated once) to a
@@ -330,6 +443,8 @@ mod tests {
             vertex_base,
             cell_base: 0,
             cells_max: 6 * 6000,
+            part: 0,
+            of: 1,
         };
         let src = |pieces| PieceSource {
             pvtu: pvtu.into(),

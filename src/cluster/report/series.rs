@@ -35,6 +35,10 @@ pub struct SeriesFrame {
     pub phase1_s: f64,
     /// Compositing seconds (same clock).
     pub composite_s: f64,
+    /// Of phase 2, the seconds the slowest worker spent encoding
+    /// (compressing) its messages with the codec, measured on a real
+    /// transport (IceT's compress time); `null` in this process.
+    pub compress_s: Option<f64>,
     /// Bytes of the frame: payload of every message of both phases (the
     /// report's `bytes_total`: modelled on the virtual clock, counted by the
     /// channels with threads); over worker processes or TCP, every byte
@@ -80,11 +84,11 @@ impl SeriesReport {
     /// The per-frame rows as CSV (a header line, then one line a frame).
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "frame,data,eye_x,eye_y,eye_z,frame_s,phase1_s,composite_s,bytes,cells_bytes,cells_skipped_ert,cells_moved\n",
+            "frame,data,eye_x,eye_y,eye_z,frame_s,phase1_s,composite_s,bytes,cells_bytes,cells_skipped_ert,cells_moved,compress_s\n",
         );
         for f in &self.frames {
             s.push_str(&format!(
-                "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 f.frame,
                 f.data,
                 f.eye[0],
@@ -96,7 +100,8 @@ impl SeriesReport {
                 f.bytes,
                 f.cells_bytes,
                 f.cells_skipped_ert,
-                f.cells_moved
+                f.cells_moved,
+                f.compress_s.map(|c| c.to_string()).unwrap_or_default()
             ));
         }
         s

@@ -77,7 +77,19 @@ pub fn summary(r: &ClusterReport) -> String {
         let _ = writeln!(s, "{line}");
     }
     if let Some(p) = &r.pieces {
-        let parts: Vec<String> = p.parts.iter().map(|q| format!("{q:?}")).collect();
+        let parts: Vec<String> = match &p.shares {
+            Some(sh) => sh
+                .iter()
+                .map(|q| {
+                    let one: Vec<String> = q
+                        .iter()
+                        .map(|x| format!("{} ({} of {})", x.piece, x.part + 1, x.of))
+                        .collect();
+                    format!("[{}]", one.join(", "))
+                })
+                .collect(),
+            None => p.parts.iter().map(|q| format!("{q:?}")).collect(),
+        };
         let _ = writeln!(
             s,
             "pieces: the {} pieces of {} read by the workers themselves (by rank: {}); the coordinator read {} vertices, no cells{}",

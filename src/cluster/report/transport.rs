@@ -78,6 +78,9 @@ pub struct Phase2Rank {
     pub wall_s: f64,
     /// Measured thread CPU seconds of the same span.
     pub cpu_s: f64,
+    /// Measured wall seconds of it encoding messages with the codec
+    /// (IceT's compress time).
+    pub compress_s: f64,
     /// Modelled compute seconds (merges, compositing, pasting).
     pub modelled_compute_s: f64,
 }
@@ -171,6 +174,10 @@ pub struct PiecesSection {
     pub vertices_read_by_coordinator: u64,
     /// Per node of the run that completed, the pieces it read.
     pub parts: Vec<Vec<u32>>,
+    /// With fewer pieces than nodes, per node the parts of split pieces it
+    /// kept ([`crate::node::piece_map`]); absent when no piece is split.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shares: Option<Vec<Vec<crate::node::piece_map::Share>>>,
     /// Seconds of connection, set-up, reading the pieces and the mesh.
     pub setup_s: f64,
     /// Bytes written on the wire in phase 1 (frames, heartbeats, goodbyes).

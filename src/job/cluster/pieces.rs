@@ -16,6 +16,7 @@ use crate::cluster::ClusterConfig;
 use crate::job::args::transport::TransportKind;
 use crate::job::cluster::mesh::mesh_config;
 use crate::job::cluster::{ClusterArgs, Sharing};
+use crate::node::piece_map::Share;
 use crate::node::PlacementMethod;
 use crate::scene::Scene;
 
@@ -76,17 +77,22 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
     let (mut cfg, remote) = mesh_config(a, [scene.image.width, scene.image.height])?;
     cfg.placement = PlacementMethod::Pieces;
     let kind = remote.context("workers reading pieces need a remote transport (internal error)")?;
-    let pieces = PieceSet::open(&scene)
+    let pieces = PieceSet::open(&scene, a.nodes)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
-    if pieces.summary.pieces.len() < a.nodes {
-        eprintln!(
-            "note: {} has {} pieces for {} nodes: nodes {}..{} start with no cells{}",
+    if pieces.splits() {
+        let per: Vec<String> = pieces
+            .units()
+            .iter()
+            .filter(|s| s.part == 0)
+            .map(|s| s.of.to_string())
+            .collect();
+        tracing::info!(
+            "{} has {} pieces for {} nodes: each piece is split over {} nodes (by its cells' \
+             centroids; every node reads its piece and keeps its part)",
             pieces.path().display(),
             pieces.summary.pieces.len(),
             a.nodes,
-            pieces.summary.pieces.len(),
-            a.nodes - 1,
-            if a.dlb { " (DLB gives them work)" } else { "" }
+            per.join(", ")
         );
     }
     anyhow::ensure!(
@@ -124,14 +130,29 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
 /// The report's pieces section of a frame: what the coordinator read, the
 /// parts (after any reassignment) and what the transport measured.
 pub fn section(pieces: &PieceSet, cfg: &ClusterConfig, m: Measured) -> PiecesSection {
+    // The parts are the piece map's units (pieces, or parts of split ones).
+    let units = match &m.reassigned {
+        Some(r) => r.parts.clone(),
+        None => pieces.parts(cfg.phase1.nodes),
+    };
+    let shares: Vec<Vec<Share>> = units
+        .iter()
+        .map(|part| part.iter().map(|&u| pieces.units()[u as usize]).collect())
+        .collect();
+    let parts = shares
+        .iter()
+        .map(|s| {
+            let mut p: Vec<u32> = s.iter().map(|x| x.piece).collect();
+            p.dedup();
+            p
+        })
+        .collect();
     PiecesSection {
         pvtu: pieces.path().display().to_string(),
         pieces: pieces.summary.pieces.len(),
         vertices_read_by_coordinator: pieces.summary.points(),
-        parts: match &m.reassigned {
-            Some(r) => r.parts.clone(),
-            None => pieces.parts(cfg.phase1.nodes),
-        },
+        parts,
+        shares: pieces.splits().then_some(shares),
         setup_s: m.setup_s,
         phase1_wire_bytes: m.phase1.wire_bytes_sent,
         phase2_wire_bytes: m.phase2.wire_bytes_sent,

@@ -52,6 +52,8 @@ pub struct SessionFrame {
     pub wall_s: f64,
     /// Measured bytes (wire, cells) on real transports.
     pub bytes: Option<(u64, u64)>,
+    /// The slowest worker's compress seconds on real transports.
+    pub compress_s: Option<f64>,
 }
 
 /// Where the session's nodes are.
@@ -242,6 +244,7 @@ impl Session {
                     wall_s: out.report.frame_s,
                     outcome: out,
                     bytes: None,
+                    compress_s: None,
                 }
             }
             Engine::Cells(remote, cfg) => {
@@ -263,11 +266,13 @@ impl Session {
                 let (mut outcome, m) = remote.live.frame(Work::Pieces(pieces, &scene), cfg)?;
                 let wall_s = t0.elapsed().as_secs_f64();
                 let bytes = Some((m.frame_bytes(), m.cells_bytes_sent));
+                let compress_s = m.compress_s();
                 outcome.report.pieces = Some(crate::job::cluster::pieces::section(pieces, cfg, m));
                 SessionFrame {
                     outcome,
                     wall_s,
                     bytes,
+                    compress_s,
                 }
             }
         };
@@ -300,11 +305,13 @@ fn measured_frame(
 ) -> anyhow::Result<SessionFrame> {
     let wall_s = t0.elapsed().as_secs_f64();
     let bytes = Some((m.frame_bytes(), m.cells_bytes_sent));
+    let compress_s = m.compress_s();
     out.report.transport = Some(transport_section(input, cfg, &out, m)?);
     Ok(SessionFrame {
         outcome: out,
         wall_s,
         bytes,
+        compress_s,
     })
 }
 

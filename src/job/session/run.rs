@@ -3,6 +3,7 @@
 //! ([`crate::job::cluster::grid`]). Each frame is handed to `progress` as it
 //! ends, so that a frontend can write it before the next one starts.
 
+use crate::cluster::series::MeasuredFrame;
 use crate::cluster::series::{Coherence, Step};
 use crate::cluster::ClusterOutcome;
 use crate::job::api::ClusterResult;
@@ -108,7 +109,12 @@ pub fn run_series(
             _ => e.context(format!("frame {f} of {n}")),
         })?;
         match frame.bytes {
-            Some((b, cb)) => rows.push((frame.wall_s, b, cb)),
+            Some((bytes, cells_bytes)) => rows.push(MeasuredFrame {
+                frame_s: frame.wall_s,
+                bytes,
+                cells_bytes,
+                compress_s: frame.compress_s,
+            }),
             None => measured = false,
         }
         progress(f, n, &frame.outcome);
