@@ -197,8 +197,8 @@ fn check_continued(what: &str, continued: usize) {
     );
 }
 
-fn exe() -> &'static Path {
-    Path::new(EXE)
+fn program() -> pvrsim::cluster::remote::spawn::WorkerProgram {
+    pvrsim::cluster::remote::spawn::WorkerProgram::exe(Path::new(EXE))
 }
 
 #[test]
@@ -209,7 +209,7 @@ fn mesh_frames_over_processes_survive_every_fault_at_every_phase() {
         let a = args(&common, on_failure, fault);
         let (input, cfg) = config(&scene, &strs(&a));
         let net = cluster_args(&scene, &strs(&a)).net;
-        pvrsim::job::nodes::run_processes(&net, exe(), &input, &cfg)
+        pvrsim::job::nodes::run_processes(&net, &program(), &input, &cfg)
     };
     let reference = bits(&frame("abort", None).unwrap().0.image);
     let hooks = [
@@ -250,7 +250,7 @@ fn grid_frames_over_processes_survive_every_fault_at_every_phase() {
             let (input, cfg) = grid_config(&scene, &strs(&a));
             let net = cluster_args(&scene, &strs(&a)).net;
             let cams = [input.scene.camera];
-            pvrsim::cli::cluster_grid::run_processes(&net, exe(), &input, &cfg, &cams)
+            pvrsim::cli::cluster_grid::run_processes(&net, &program(), &input, &cfg, &cams)
                 .map(|mut v| v.pop().expect("one frame"))
         };
         let reference = frame("abort", None).unwrap().image;

@@ -418,6 +418,8 @@ mod seeds {
                     vertex_base: 9,
                     cell_base: 12,
                     cells_max: 6,
+                    part: 1,
+                    of: 2,
                 }],
             }),
             recv_timeout_s: 30.0,

@@ -13,6 +13,7 @@ use clap::Parser;
 use pvrsim::cli::{Cli, Command as Cmd};
 use pvrsim::cluster::grid::{run, GridConfig};
 use pvrsim::cluster::remote::grid::GridRemote;
+use pvrsim::cluster::remote::spawn::WorkerProgram;
 use pvrsim::cluster::remote::LocalWorkers;
 use pvrsim::cluster::ClockKind;
 use pvrsim::net::tcp::TcpOptions;
@@ -54,9 +55,14 @@ fn same_grid_image_on_the_virtual_clock_threads_and_processes() {
     let s1 = scene(dir.path(), "[60, -50, 70]");
     let s2 = scene(dir.path(), "[-40, -70, 50.5]");
     let args = ["--nodes", "4", "--subvolumes", "2", "--master"];
-    let workers =
-        LocalWorkers::spawn_serving(Path::new(EXE), 4, &[], Duration::from_secs(30), false)
-            .unwrap();
+    let workers = LocalWorkers::spawn_serving(
+        &WorkerProgram::exe(Path::new(EXE)),
+        4,
+        &[],
+        Duration::from_secs(30),
+        false,
+    )
+    .unwrap();
     for (k, s) in [&s1, &s2].into_iter().enumerate() {
         for extra in [&[][..], &["--codec", "rle-paper", "--blocks", "2"][..]] {
             let mut a = args.to_vec();
@@ -104,9 +110,14 @@ fn grid_workers_composite_worker_to_worker_as_threads_do() {
     let dir = tempfile::tempdir().unwrap();
     let s1 = scene(dir.path(), "[60, -50, 70]");
     let s2 = scene(dir.path(), "[-40, -70, 50.5]");
-    let workers =
-        LocalWorkers::spawn_serving(Path::new(EXE), 4, &[], Duration::from_secs(30), false)
-            .unwrap();
+    let workers = LocalWorkers::spawn_serving(
+        &WorkerProgram::exe(Path::new(EXE)),
+        4,
+        &[],
+        Duration::from_secs(30),
+        false,
+    )
+    .unwrap();
     for comp in ["binary-swap", "direct-send", "radix-k", "master"] {
         for (k, s) in [&s1, &s2].into_iter().enumerate() {
             let args = ["--nodes", "4", "--subvolumes", "2", "--compositor", comp];

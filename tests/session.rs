@@ -148,7 +148,11 @@ fn session_frames_equal_one_off_frames() {
             transport,
             "--no-baselines",
         ];
-        let mut s = Session::open_with(&job(&opts), Path::new(EXE)).unwrap();
+        let mut s = Session::open_with(
+            &job(&opts),
+            &pvrsim::cluster::remote::spawn::WorkerProgram::exe(Path::new(EXE)),
+        )
+        .unwrap();
         let base = s.scene().clone();
         let cams = pvrsim::scene::orbit(&base.camera, 4, 35.0);
         let mut tf = base.transfer.clone();

@@ -10,6 +10,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use pvrsim::cluster::remote::spawn::WorkerProgram;
 use pvrsim::cluster::remote::{Coordinator, LocalWorkers};
 use pvrsim::net::tcp::{TcpOptions, Token};
 
@@ -47,8 +48,13 @@ fn same_image_on_threads_processes_and_tcp() {
         assert_eq!(bits(&threads.image), bits(&virt.image), "{extra:?}");
 
         let n = cfg.phase1.nodes;
-        let workers =
-            LocalWorkers::spawn(Path::new(EXE), n, &slow_ok(), Duration::from_secs(30)).unwrap();
+        let workers = LocalWorkers::spawn(
+            &WorkerProgram::exe(Path::new(EXE)),
+            n,
+            &slow_ok(),
+            Duration::from_secs(30),
+        )
+        .unwrap();
         let (procs, m) = Coordinator {
             workers: workers.addrs.clone(),
             token: workers.token().clone(),

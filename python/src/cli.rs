@@ -2,7 +2,8 @@
 //! `pvrsim ARGS` (the same parser, commands, messages and exit codes as the
 //! binary's `main`). `transport="processes"` starts its workers this way
 //! (`python -m pvrsim worker ...`), so a pip install needs no separate
-//! executable: [`set_worker_program`] points the spawner at it.
+//! executable: [`worker_program`] is the program each job passes to the
+//! spawner.
 
 use clap::Parser;
 use pyo3::prelude::*;
@@ -35,11 +36,20 @@ pub fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
     })
 }
 
-/// Makes `transport="processes"` start its workers as `argv` followed by
-/// `worker ...` (the package passes `[sys.executable, "-m", "pvrsim"]`).
-#[pyfunction]
-pub fn set_worker_program(argv: Vec<std::path::PathBuf>) {
-    pvrsim::cluster::remote::spawn::set_worker_program(
-        argv.into_iter().map(|p| p.into_os_string()).collect(),
-    );
+/// The program a job's `transport="processes"` starts its workers with:
+/// this interpreter with `-m pvrsim` (`sys.executable`; `None` when Python
+/// cannot name its interpreter, and the job then says it cannot start
+/// workers).
+pub fn worker_program(
+    py: Python<'_>,
+) -> PyResult<Option<pvrsim::cluster::remote::spawn::WorkerProgram>> {
+    let exe: Option<std::path::PathBuf> = py.import("sys")?.getattr("executable")?.extract()?;
+    Ok(exe.filter(|p| !p.as_os_str().is_empty()).and_then(|p| {
+        pvrsim::cluster::remote::spawn::WorkerProgram::new(vec![
+            p.into_os_string(),
+            "-m".into(),
+            "pvrsim".into(),
+        ])
+        .ok()
+    }))
 }

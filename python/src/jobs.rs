@@ -166,7 +166,8 @@ fn write_cluster_outputs(
 pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<Bound<'py, PyDict>> {
     let opts = crate::values::options(py, options)?;
     let err = |e: JobError| job_error(py, e, &opts);
-    let job = ClusterJob::from_options(&opts).map_err(err)?;
+    let mut job = ClusterJob::from_options(&opts).map_err(err)?;
+    job.net.worker_program = crate::cli::worker_program(py)?;
     let warnings = job.check().map_err(err)?;
     prepare(
         &opts,

@@ -54,6 +54,5 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(jobs::toml_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(cli::cli_main, m)?)?;
     m.add_function(wrap_pyfunction!(interrupt::jobs_running, m)?)?;
-    m.add_function(wrap_pyfunction!(cli::set_worker_program, m)?)?;
     Ok(())
 }

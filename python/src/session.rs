@@ -26,7 +26,8 @@ impl NativeSession {
     fn new(py: Python<'_>, options: &Bound<'_, PyList>) -> PyResult<Self> {
         let opts = crate::values::options(py, options)?;
         let err = |e: JobError| job_error(py, e, &opts);
-        let job = ClusterJob::from_options(&opts).map_err(err)?;
+        let mut job = ClusterJob::from_options(&opts).map_err(err)?;
+        job.net.worker_program = crate::cli::worker_program(py)?;
         let warnings = job.check().map_err(err)?;
         let s = py.allow_threads(|| Session::open(&job)).map_err(err)?;
         Ok(NativeSession {

@@ -26,8 +26,9 @@ impl NativeViewer {
     fn new(py: Python<'_>, options: &Bound<'_, PyList>) -> PyResult<Self> {
         let opts = crate::values::options(py, options)?;
         let err = |e: JobError| job_error(py, e, &opts);
-        let args: ViewArgs = from_options("pvrsim view", &["scene"], &opts)
+        let mut args: ViewArgs = from_options("pvrsim view", &["scene"], &opts)
             .map_err(|e| err(JobError::Options(Box::new(e))))?;
+        args.worker_program = crate::cli::worker_program(py)?;
         args.check().map_err(|e| err(JobError::Invalid(e)))?;
         let v = py
             .allow_threads(|| Viewer::start(&args))

@@ -130,8 +130,8 @@ pub fn run(a: &NetworkCalibrateArgs) -> anyhow::Result<()> {
             },
         ),
         None => {
-            let exe = std::env::current_exe().context("cannot find this program's path")?;
-            let w = LocalWorkers::spawn(&exe, 1, &[], Duration::from_secs(30))?;
+            let program = crate::cluster::remote::spawn::WorkerProgram::this()?;
+            let w = LocalWorkers::spawn(&program, 1, &[], Duration::from_secs(30))?;
             let r = (w.addrs[0].clone(), w.token().clone());
             _local = Some(w);
             r

@@ -5,9 +5,9 @@
 //! [`serve_mpi_worker`]). The option struct ([`TransportArgs`]) only
 //! parses; spawning, dialling and starting MPI are here.
 
-use std::path::Path;
 use std::time::Duration;
 
+use crate::cluster::remote::spawn::WorkerProgram;
 use crate::cluster::remote::{Coordinator, LiveCluster, LiveNodes, LocalWorkers, Measured};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
 use crate::job::args::transport::{read_hostfile, OnFailure, TransportArgs, TransportKind};
@@ -42,19 +42,19 @@ impl RemoteNodes {
 }
 
 /// The nodes of `net`'s transport `kind` for `n` nodes: worker processes
-/// of `exe` (this program, or `pvrsim` from a test) for `processes`, the
-/// listed workers for `tcp`.
+/// of `program` (this program, `python -m pvrsim` under the Python module,
+/// or `pvrsim` from a test) for `processes`, the listed workers for `tcp`.
 pub fn open(
     net: &TransportArgs,
     kind: TransportKind,
     n: usize,
-    exe: &Path,
+    program: &WorkerProgram,
 ) -> anyhow::Result<RemoteNodes> {
     match kind {
         TransportKind::Processes => {
             // One session, unless a loss may need a second of the survivors.
             let once = net.on_failure != OnFailure::Reassign;
-            let children = spawn_processes(net, exe, n, once)?;
+            let children = spawn_processes(net, program, n, once)?;
             let live = LiveNodes::Links(LiveCluster::new(local_coordinator(net, &children)));
             Ok(RemoteNodes {
                 live,
@@ -76,20 +76,14 @@ pub fn open(
     }
 }
 
-/// This program's path (the workers' program for `processes`).
-pub fn this_program() -> anyhow::Result<std::path::PathBuf> {
-    use anyhow::Context;
-    std::env::current_exe().context("cannot find this program's path")
-}
-
-/// Starts the `processes` children: `n` workers of `exe` with the
+/// Starts the `processes` children: `n` workers of `program` with the
 /// heartbeat deadline (and `--test-worker-hook`'s arguments for its
 /// rank). With `once` they serve one session (`--once`: they exit after
 /// it), else every session until they are killed (a retry after a loss is
 /// a new session of the survivors).
 pub fn spawn_processes(
     net: &TransportArgs,
-    exe: &Path,
+    program: &WorkerProgram,
     n: usize,
     once: bool,
 ) -> anyhow::Result<LocalWorkers> {
@@ -99,7 +93,7 @@ pub fn spawn_processes(
     ];
     let hook = net.worker_hook()?;
     let hook = hook.as_ref().map(|(r, a)| (*r, a.as_slice()));
-    LocalWorkers::spawn_hooked(exe, n, &extra, hook, Duration::from_secs(30), once)
+    LocalWorkers::spawn_hooked(program, n, &extra, hook, Duration::from_secs(30), once)
 }
 
 /// The coordinator of worker processes started on this machine.
@@ -149,15 +143,15 @@ pub fn tcp_coordinator(net: &TransportArgs, n: usize) -> anyhow::Result<Coordina
     })
 }
 
-/// One mesh frame over worker processes of `exe` (a session of one frame),
-/// the children ended after it.
+/// One mesh frame over worker processes of `program` (a session of one
+/// frame), the children ended after it.
 pub fn run_processes(
     net: &TransportArgs,
-    exe: &Path,
+    program: &WorkerProgram,
     input: &RenderInput,
     cfg: &ClusterConfig,
 ) -> anyhow::Result<(ClusterOutcome, Measured)> {
-    let mut nodes = open(net, TransportKind::Processes, cfg.phase1.nodes, exe)?;
+    let mut nodes = open(net, TransportKind::Processes, cfg.phase1.nodes, program)?;
     let out = nodes
         .live
         .frame(crate::cluster::remote::Work::Cells(input, 0), cfg)?;

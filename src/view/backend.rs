@@ -326,6 +326,7 @@ impl Cluster {
         let mut job = ClusterJob::new(&r.scene);
         job.nodes = nodes;
         job.net.transport = Some(transport);
+        job.net.worker_program = args.worker_program.clone();
         job.ert.threshold = r.ert.threshold;
         job.canonical = r.canonical;
         job.width = r.width;

@@ -91,6 +91,10 @@ pub struct ViewArgs {
     /// processes or tcp.
     #[arg(long, value_enum, requires = "nodes")]
     pub transport: Option<TransportKind>,
+    /// The program that starts worker processes (the Python module sets
+    /// its interpreter with `-m pvrsim`). Not a command-line option.
+    #[arg(skip)]
+    pub worker_program: Option<crate::cluster::remote::spawn::WorkerProgram>,
 }
 
 impl ViewArgs {

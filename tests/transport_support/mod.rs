@@ -221,7 +221,13 @@ pub fn cluster_cli(args: &[&str], deadline: Duration) -> (bool, String, f64) {
 /// The frame on `n` worker processes (loopback, fresh token).
 pub fn on_processes(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::ClusterOutcome {
     let n = cfg.phase1.nodes;
-    let workers = LocalWorkers::spawn(Path::new(EXE), n, &[], Duration::from_secs(30)).unwrap();
+    let workers = LocalWorkers::spawn(
+        &pvrsim::cluster::remote::spawn::WorkerProgram::exe(Path::new(EXE)),
+        n,
+        &[],
+        Duration::from_secs(30),
+    )
+    .unwrap();
     Coordinator {
         workers: workers.addrs.clone(),
         token: workers.token().clone(),

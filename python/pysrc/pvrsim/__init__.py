@@ -53,7 +53,6 @@ repository.
 
 from __future__ import annotations
 
-import sys as _sys
 
 from . import _native
 from ._data import Mesh, Volume
@@ -66,11 +65,6 @@ from ._session import Session
 from ._view import Viewer, view
 
 __version__: str = _native.__version__
-
-# `transport="processes"` starts its workers through this module (the
-# interpreter is this process's executable, not a pvrsim binary).
-if _sys.executable:
-    _native.set_worker_program([_sys.executable, "-m", "pvrsim"])
 
 # The option lists come from the command line's definitions.
 render.__doc__ = (render.__doc__ or "") + "\n" + _doc("render")

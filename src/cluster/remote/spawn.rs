@@ -13,30 +13,47 @@ use anyhow::Context;
 
 use crate::net::tcp::Token;
 
-/// The program (and its first arguments) that starts a worker process in
-/// place of the `exe` callers pass, when an embedding sets one: under the
-/// Python module `current_exe()` is the Python interpreter, so the module
-/// sets `[python, -m, pvrsim]` (see `python/` and docs/python.md). Unset
-/// (the command line): `exe` itself.
-static WORKER_PROGRAM: std::sync::OnceLock<Vec<std::ffi::OsString>> = std::sync::OnceLock::new();
-
-/// Sets the worker program once per process (later calls are ignored); the
-/// first element is the executable, the rest its leading arguments.
-pub fn set_worker_program(argv: Vec<std::ffi::OsString>) {
-    if !argv.is_empty() {
-        let _ = WORKER_PROGRAM.set(argv);
-    }
+/// The program (and its leading arguments) that starts a worker process:
+/// this program's own path on the command line; under the Python module
+/// the interpreter with `-m pvrsim` (`current_exe()` is the interpreter
+/// there: see `python/` and docs/python.md). Passed down explicitly from
+/// the job's options (`TransportArgs::worker_program`), never a
+/// process-wide setting.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WorkerProgram {
+    argv: Vec<std::ffi::OsString>,
 }
 
-/// `exe`, or the program an embedding set ([`set_worker_program`]).
-fn worker_command(exe: &Path) -> Command {
-    match WORKER_PROGRAM.get() {
-        Some(argv) => {
-            let mut c = Command::new(&argv[0]);
-            c.args(&argv[1..]);
-            c
+impl WorkerProgram {
+    /// `argv[0]` started with `argv[1..]` before the worker's arguments.
+    pub fn new(argv: Vec<std::ffi::OsString>) -> anyhow::Result<WorkerProgram> {
+        anyhow::ensure!(!argv.is_empty(), "a worker program needs an executable");
+        Ok(WorkerProgram { argv })
+    }
+
+    /// The executable `exe` alone (a `pvrsim` binary).
+    pub fn exe(exe: &Path) -> WorkerProgram {
+        WorkerProgram {
+            argv: vec![exe.as_os_str().to_owned()],
         }
-        None => Command::new(exe),
+    }
+
+    /// This program (when it is a `pvrsim` binary).
+    pub fn this() -> anyhow::Result<WorkerProgram> {
+        let exe = std::env::current_exe().context("cannot find this program's path")?;
+        Ok(WorkerProgram::exe(&exe))
+    }
+
+    /// The executable and its leading arguments.
+    pub fn argv(&self) -> &[std::ffi::OsString] {
+        &self.argv
+    }
+
+    /// A command that starts it (the worker's arguments still to add).
+    fn command(&self) -> Command {
+        let mut c = Command::new(&self.argv[0]);
+        c.args(&self.argv[1..]);
+        c
     }
 }
 
@@ -52,30 +69,35 @@ pub struct LocalWorkers {
 }
 
 impl LocalWorkers {
-    /// Starts `n` workers: `exe worker --listen 127.0.0.1:0 --token-file T
-    /// --once --accept-timeout S` plus `extra` arguments, and reads each one's
-    /// address from its first stdout line (within `wait`).
-    pub fn spawn(exe: &Path, n: usize, extra: &[String], wait: Duration) -> anyhow::Result<Self> {
-        Self::spawn_serving(exe, n, extra, wait, true)
+    /// Starts `n` workers: `PROGRAM worker --listen 127.0.0.1:0
+    /// --token-file T --once --accept-timeout S` plus `extra` arguments, and
+    /// reads each one's address from its first stdout line (within `wait`).
+    pub fn spawn(
+        program: &WorkerProgram,
+        n: usize,
+        extra: &[String],
+        wait: Duration,
+    ) -> anyhow::Result<Self> {
+        Self::spawn_serving(program, n, extra, wait, true)
     }
 
     /// [`LocalWorkers::spawn`]; without `once`, the workers serve sessions
     /// until they are stopped (on drop) or their accept timeout passes.
     pub fn spawn_serving(
-        exe: &Path,
+        program: &WorkerProgram,
         n: usize,
         extra: &[String],
         wait: Duration,
         once: bool,
     ) -> anyhow::Result<Self> {
-        Self::spawn_hooked(exe, n, extra, None, wait, once)
+        Self::spawn_hooked(program, n, extra, None, wait, once)
     }
 
     /// [`LocalWorkers::spawn_serving`], with `hook = Some((rank, args))`:
     /// `args` go to that rank's child only, after `extra` (the worker's
     /// hidden test hooks, from `pvrsim cluster --test-worker-hook`).
     pub fn spawn_hooked(
-        exe: &Path,
+        program: &WorkerProgram,
         n: usize,
         extra: &[String],
         hook: Option<(usize, &[String])>,
@@ -116,7 +138,8 @@ impl LocalWorkers {
         let accept_timeout = (wait.as_secs_f64() * 4.0).max(30.0);
         let (tx, rx) = crossbeam_channel::unbounded();
         for k in 0..n {
-            let mut c = worker_command(exe)
+            let mut c = program
+                .command()
                 .arg("worker")
                 // Their progress lines only when this process shows its own.
                 .args(tracing::enabled!(tracing::Level::INFO).then_some("-v"))
@@ -131,7 +154,12 @@ impl LocalWorkers {
                 .stdout(Stdio::piped())
                 .stderr(Stdio::inherit())
                 .spawn()
-                .with_context(|| format!("cannot start worker {k} ({})", exe.display()))?;
+                .with_context(|| {
+                    format!(
+                        "cannot start worker {k} ({})",
+                        program.argv[0].to_string_lossy()
+                    )
+                })?;
             let out = c.stdout.take();
             me.children.push(c);
             let tx = tx.clone();

@@ -93,6 +93,11 @@ pub struct TransportArgs {
     /// rank RANK only, e.g. `2:--test-stop --test-kill-in-phase2`. Hidden.
     #[arg(long, value_name = "RANK:ARGS", hide = true)]
     pub test_worker_hook: Option<String>,
+    /// The program that starts a worker process (`--transport processes`):
+    /// this program unless a frontend names another (the Python module:
+    /// its interpreter with `-m pvrsim`). Not a command-line option.
+    #[arg(skip)]
+    pub worker_program: Option<crate::cluster::remote::spawn::WorkerProgram>,
 }
 
 /// The error of `--transport mpi` in a build without the `mpi` feature.
@@ -129,6 +134,15 @@ pub fn read_hostfile(path: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 impl TransportArgs {
+    /// The program that starts worker processes: the one a frontend set
+    /// ([`TransportArgs::worker_program`]), else this program.
+    pub fn worker_program(&self) -> anyhow::Result<crate::cluster::remote::spawn::WorkerProgram> {
+        match &self.worker_program {
+            Some(p) => Ok(p.clone()),
+            None => crate::cluster::remote::spawn::WorkerProgram::this(),
+        }
+    }
+
     /// Checks the combination of options and applies `threads` to `cfg`
     /// (the wall clock). Returns the kind if the run needs this module.
     pub fn apply(&self, cfg: &mut ClusterConfig) -> anyhow::Result<Option<TransportKind>> {

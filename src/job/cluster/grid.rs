@@ -163,8 +163,7 @@ pub fn run(a: &ClusterArgs, f: GridFrames) -> anyhow::Result<Vec<GridOutcome>> {
     match t.transport {
         None | Some(TransportKind::Threads) => grid::run_frames(&input, &cfg, &cams),
         Some(TransportKind::Processes) => {
-            let exe = std::env::current_exe().context("cannot find this program's path")?;
-            run_processes(t, &exe, &input, &cfg, &cams)
+            run_processes(t, &t.worker_program()?, &input, &cfg, &cams)
         }
         Some(TransportKind::Tcp) => {
             let (workers, token) = crate::job::nodes::tcp_workers(t, cfg.nodes)?;
@@ -203,7 +202,7 @@ fn remote(
 /// `exe` (this program, or `pvrsim` from a test), one per node.
 pub fn run_processes(
     t: &TransportArgs,
-    exe: &std::path::Path,
+    program: &crate::cluster::remote::spawn::WorkerProgram,
     input: &VolumeInput,
     cfg: &GridConfig,
     cams: &[crate::scene::Camera],
@@ -212,7 +211,7 @@ pub fn run_processes(
     // Reassigning, and every frame after the first (one session a frame),
     // need workers that serve more than one session.
     let serving = t.on_failure == OnFailure::Reassign || cams.len() > 1;
-    let mut w = crate::job::nodes::spawn_processes(t, exe, cfg.nodes, !serving)?;
+    let mut w = crate::job::nodes::spawn_processes(t, program, cfg.nodes, !serving)?;
     let r = remote(
         t,
         w.addrs.clone(),

@@ -14,8 +14,7 @@
 
 pub mod run;
 
-use std::path::Path;
-
+use crate::cluster::remote::spawn::WorkerProgram;
 use crate::cluster::remote::{transport_section, Measured, Work};
 use crate::cluster::series::{Coherence, LocalFrames, Step};
 use crate::cluster::{ClusterConfig, ClusterOutcome};
@@ -89,20 +88,23 @@ impl Session {
     /// dialled at the first frame, MPI ranks wait for theirs). Mesh scenes
     /// only.
     pub fn open(job: &ClusterArgs) -> Result<Session, JobError> {
-        Session::open_with(job, &nodes::this_program().map_err(JobError::Failed)?)
+        Session::open_with(job, &job.net.worker_program().map_err(JobError::Failed)?)
     }
 
     /// [`Session::open`], worker processes (`--transport processes`)
-    /// started from `exe` (a `pvrsim` binary: this program when it is one,
-    /// or the one a test or an embedding program names).
-    pub fn open_with(job: &ClusterArgs, exe: &Path) -> Result<Session, JobError> {
+    /// started as `program` (a `pvrsim` binary: this program when it is
+    /// one, or the one a test or an embedding program names).
+    pub fn open_with(job: &ClusterArgs, program: &WorkerProgram) -> Result<Session, JobError> {
         let valid = Valid::new(job).map_err(JobError::Invalid)?;
         let loaded = valid.load().map_err(JobError::Failed)?;
-        Session::from_loaded(loaded, exe).map_err(JobError::Failed)
+        Session::from_loaded(loaded, program).map_err(JobError::Failed)
     }
 
     /// A session of a loaded job, worker processes started from `exe`.
-    pub(crate) fn from_loaded(loaded: LoadedCluster<'_>, exe: &Path) -> anyhow::Result<Session> {
+    pub(crate) fn from_loaded(
+        loaded: LoadedCluster<'_>,
+        program: &WorkerProgram,
+    ) -> anyhow::Result<Session> {
         match loaded {
             LoadedCluster::Grid(a, _) => anyhow::bail!(
                 "{}: a grid scene on a cluster runs its frames as a job (pvrsim cluster \
@@ -112,12 +114,12 @@ impl Session {
             LoadedCluster::Mesh(a, f) => {
                 let coherence = coherence(a, f.remote, &f.cfg);
                 let first = f.steps.first().cloned().expect("at least one step");
-                Session::of_mesh(a, f.inputs, f.cfg, f.remote, coherence, first, exe)
+                Session::of_mesh(a, f.inputs, f.cfg, f.remote, coherence, first, program)
             }
             LoadedCluster::Pieces(a, f) => {
                 let kind = f.kind();
                 let n = f.cfg.phase1.nodes;
-                let remote = nodes::open(&a.net, kind, n, exe)?;
+                let remote = nodes::open(&a.net, kind, n, program)?;
                 let scene = f.scenes.first().cloned().expect("at least one frame");
                 let first = f.steps.first().cloned().expect("at least one step");
                 Ok(Session {
@@ -140,7 +142,7 @@ impl Session {
         remote: Option<TransportKind>,
         coherence: Coherence,
         first: Step,
-        exe: &Path,
+        program: &WorkerProgram,
     ) -> anyhow::Result<Session> {
         let scene = inputs
             .first()
@@ -155,7 +157,7 @@ impl Session {
             ),
             Some(kind) => {
                 let n = cfg.phase1.nodes;
-                Engine::Cells(nodes::open(&a.net, kind, n, exe)?, cfg)
+                Engine::Cells(nodes::open(&a.net, kind, n, program)?, cfg)
             }
         };
         Ok(Session {

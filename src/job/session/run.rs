@@ -12,7 +12,6 @@ use crate::job::cluster::mesh::MeshFrame;
 use crate::job::cluster::ClusterArgs;
 
 use super::{coherence, Session};
-use crate::job::nodes;
 
 impl LoadedCluster<'_> {
     /// Runs the frame(s), writing nothing.
@@ -35,8 +34,8 @@ impl LoadedCluster<'_> {
                 let steps = f.steps.clone();
                 let start = resume_at(a, steps.len())?;
                 let series = a.series.is_series();
-                let exe = nodes::this_program()?;
-                let session = Session::from_loaded(LoadedCluster::Pieces(a, f), &exe)?;
+                let program = a.net.worker_program()?;
+                let session = Session::from_loaded(LoadedCluster::Pieces(a, f), &program)?;
                 ClusterResult::Mesh(run_series(
                     session,
                     &steps,
@@ -61,9 +60,9 @@ fn run_mesh(
     let coherence = coherence(a, f.remote, &f.cfg);
     let start = resume_at(a, f.steps.len())?;
     let first = f.steps[start].clone();
-    let exe = nodes::this_program()?;
+    let program = a.net.worker_program()?;
     let steps = f.steps;
-    let session = Session::of_mesh(a, f.inputs, f.cfg, f.remote, coherence, first, &exe)?;
+    let session = Session::of_mesh(a, f.inputs, f.cfg, f.remote, coherence, first, &program)?;
     run_series(session, &steps, start, series, coherence, progress)
 }
 
