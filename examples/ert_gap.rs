@@ -31,7 +31,7 @@ fn main() -> anyhow::Result<()> {
     let all: Vec<u32> = (0..cells as u32).collect();
     let opts = NodeOptions {
         ert: NodeErt {
-            threshold: 0.9,
+            mode: pvrsim::render::cell::ert::ErtMode::On(0.9),
             span: ErtSpan::Single,
             structure: ErtStructure::Pyramid,
             share_levels: 4,

@@ -71,7 +71,7 @@ fn main() -> anyhow::Result<()> {
                     let b: u32 = b.parse().unwrap();
                     let l: usize = l.parse().unwrap();
                     let (bx, by) = (w.div_ceil(b), h.div_ceil(b));
-                    let thr = opts.ert.threshold;
+                    let thr = opts.ert.threshold();
                     let a: Vec<f32> = (1..=l)
                         .map(|j| {
                             if j == l {

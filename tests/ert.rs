@@ -122,7 +122,7 @@ fn ert(
     c: u32,
 ) -> ErtOptions {
     ErtOptions {
-        threshold,
+        mode: pvrsim::render::cell::ert::ErtMode::of_threshold(threshold),
         entry,
         update_c: c,
         span,
@@ -352,7 +352,7 @@ fn aorta_small_against_reference_and_oracle() {
                 "view {view} {m:?}: {} > oracle {oracle}",
                 s.cells_skipped_ert
             );
-            if m.threshold < 0.95 {
+            if m.threshold() < 0.95 {
                 assert!(oracle > 0 && s.cells_skipped_ert > 0, "view {view} {m:?}");
             }
             skipped.push(s.cells_skipped_ert);

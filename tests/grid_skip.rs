@@ -234,7 +234,7 @@ fn cluster_vs_single(name: &str, scene: &Path, inp: &VolumeInput) {
     let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
         unreachable!()
     };
-    let cfg = pvrsim::cli::cluster_grid::config(&a).unwrap();
+    let cfg = pvrsim::cli::cluster_grid::config(&pvrsim::job::Valid::new(&*a).unwrap()).unwrap();
     let out = pvrsim::cluster::grid::run(inp, &cfg).unwrap();
     let one = slice3d::render(
         inp,

@@ -32,7 +32,7 @@ fn config(scene: &Path, args: &[&str]) -> anyhow::Result<(VolumeInput, GridConfi
     let Cmd::Cluster(a) = Cli::try_parse_from(v).unwrap().command else {
         unreachable!()
     };
-    let cfg = pvrsim::cli::cluster_grid::config(&a)?;
+    let cfg = pvrsim::cli::cluster_grid::config(&pvrsim::job::Valid::new(&*a)?)?;
     let sc = pvrsim::scene::Scene::load(&a.scene).unwrap();
     let vol = pvrsim::data::io::read_volume(&sc.data.path, &sc.data.field).unwrap();
     Ok((VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg))

@@ -195,7 +195,7 @@ fn scan_ert(input: &RenderInput, opts: &CellOptions, one_pixel: OnePixelMode) ->
 #[test]
 fn one_pixel_segments_keep_ert_bit_for_bit() {
     let ert = |threshold, structure, span| ErtOptions {
-        threshold,
+        mode: pvrsim::render::cell::ert::ErtMode::of_threshold(threshold),
         structure,
         span,
         update_c: 7,

@@ -54,6 +54,8 @@ pub const MAX_CELLS: usize = 20_000_000;
 pub const MAX_CELLS_PIECES: usize = 100_000_000;
 
 impl Validate for DemoArgs {
+    type Parsed = ();
+
     fn validate(&self, _c: &mut Checks) -> anyhow::Result<()> {
         let max = if self.pieces > 0 && self.nodes == 0 {
             MAX_CELLS_PIECES

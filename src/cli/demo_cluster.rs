@@ -54,7 +54,7 @@ pub fn run_cluster(
         "--dlb".into(),
     ])?;
     let job = crate::job::Valid::new(&line.args)?;
-    let cfg = super::cluster::config(job.args())?;
+    let cfg = super::cluster::config(&job)?;
     let t = std::time::Instant::now();
     let out = super::with_threads(threads, || cluster::run(input, &cfg))??;
     let host_s = t.elapsed().as_secs_f64();

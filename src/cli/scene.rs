@@ -68,6 +68,8 @@ pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
 }
 
 impl Validate for SceneArgs {
+    type Parsed = ();
+
     fn validate(&self, _c: &mut Checks) -> anyhow::Result<()> {
         parse_size(&self.size)?;
         parse_view(&self.view)?;

@@ -391,8 +391,10 @@ pub const RENDER: &[Rule<RenderArgs>] = &[
 ];
 
 impl Validate for ClusterArgs {
-    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        validate::ert_mode(self.ert.threshold)?;
+    type Parsed = crate::job::cluster::ClusterChoices;
+
+    fn validate(&self, c: &mut Checks) -> anyhow::Result<Self::Parsed> {
+        let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--nodes", self.nodes, 1)?;
         at_least("--ert-table", self.ert_table, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
@@ -434,7 +436,16 @@ impl Validate for ClusterArgs {
         if let Some(how) = local {
             crate::budget::local_nodes("--nodes", self.nodes, how)?;
         }
-        Ok(())
+        Ok(crate::job::cluster::ClusterChoices {
+            ert,
+            compositing: if self.grid.master {
+                // Checked against --compositor and --radix-k with the grid's
+                // options (a mesh refuses --master).
+                crate::compositor::strategy::Compositing::Master
+            } else {
+                self.compositing()?
+            },
+        })
     }
 }
 
@@ -463,8 +474,10 @@ fn check_worker_count(a: &ClusterArgs) -> anyhow::Result<()> {
 }
 
 impl Validate for RenderArgs {
-    fn validate(&self, c: &mut Checks) -> anyhow::Result<()> {
-        validate::ert_mode(self.ert.threshold)?;
+    type Parsed = crate::job::render::RenderChoices;
+
+    fn validate(&self, c: &mut Checks) -> anyhow::Result<Self::Parsed> {
+        let ert = validate::ert_mode(self.ert.threshold)?;
         at_least("--tile", self.tile, 1)?;
         at_least("--ert-update", self.ert_update, 1)?;
         if let Some(d) = self.ert_table {
@@ -477,7 +490,7 @@ impl Validate for RenderArgs {
         crate::budget::threads("--threads", self.threads)?;
         crate::budget::slices("--slices", self.slices.unwrap_or(0))?;
         apply(RENDER, self, c)?;
-        Ok(())
+        Ok(crate::job::render::RenderChoices { ert })
     }
 }
 

@@ -24,7 +24,7 @@ impl Valid<'_, RenderArgs> {
         if super::render::grid::is_grid_scene(&scene) {
             super::render::grid::execute(a, scene, quiet)
         } else {
-            super::render::mesh::execute(a, scene, quiet)
+            super::render::mesh::execute(self, scene, quiet)
         }
     }
 }

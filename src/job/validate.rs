@@ -59,9 +59,15 @@ impl Checks {
 
 /// Options that can be checked before any work.
 pub trait Validate {
+    /// The typed values validation decides once (the ERT mode, the
+    /// compositor), which the job then runs from ([`Valid::parsed`])
+    /// instead of deciding again from the raw options.
+    type Parsed: std::fmt::Debug;
+
     /// Returns an error for a value or combination that cannot run, and
-    /// records a warning for one that runs but not as the user may expect.
-    fn validate(&self, c: &mut Checks) -> anyhow::Result<()>;
+    /// records a warning for one that runs but not as the user may expect;
+    /// else the typed values.
+    fn validate(&self, c: &mut Checks) -> anyhow::Result<Self::Parsed>;
 }
 
 #[cfg(test)]
@@ -86,28 +92,41 @@ pub fn check<T: Validate + ?Sized>(args: &T) -> anyhow::Result<Vec<String>> {
     Ok(c.warnings)
 }
 
-/// Options that passed the validation layer, with its warnings: what a
-/// job runs from (`Valid<RenderArgs>::run`, `Valid<ClusterArgs>::load`),
-/// so that every run validates its options exactly once and nothing below
-/// checks them again.
+/// Options that passed the validation layer, with its warnings and the
+/// typed values it decided: what a job runs from
+/// (`Valid<RenderArgs>::run`, `Valid<ClusterArgs>::load`), so that every
+/// run validates its options exactly once and nothing below decides them
+/// again.
 #[derive(Debug)]
-pub struct Valid<'a, T: ?Sized> {
+pub struct Valid<'a, T: Validate + ?Sized> {
     args: &'a T,
+    parsed: T::Parsed,
     warnings: Vec<String>,
 }
 
 impl<'a, T: Validate + ?Sized> Valid<'a, T> {
-    /// Validates `args`: the error, or the options with the warnings.
+    /// Validates `args`: the error, or the options with the warnings and
+    /// the typed values.
     pub fn new(args: &'a T) -> anyhow::Result<Self> {
-        let warnings = check(args)?;
-        Ok(Valid { args, warnings })
+        #[cfg(test)]
+        CHECKS.with(|c| c.set(c.get() + 1));
+        let mut c = Checks::new();
+        let parsed = args.validate(&mut c)?;
+        Ok(Valid {
+            args,
+            parsed,
+            warnings: c.warnings,
+        })
     }
-}
 
-impl<'a, T: ?Sized> Valid<'a, T> {
     /// The options.
     pub fn args(&self) -> &'a T {
         self.args
+    }
+
+    /// The typed values validation decided.
+    pub fn parsed(&self) -> &T::Parsed {
+        &self.parsed
     }
 
     /// The warnings, in the order found.
@@ -146,21 +165,7 @@ pub fn unit_interval(option: &str, v: f32, hint: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What `--ert THRESHOLD` means.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ErtMode {
-    /// Threshold 1: no test, no update.
-    Off,
-    /// A pixel terminates where the alpha in front reaches the threshold.
-    On(f32),
-}
-
-impl ErtMode {
-    /// Whether ERT runs.
-    pub fn is_on(self) -> bool {
-        matches!(self, ErtMode::On(_))
-    }
-}
+pub use crate::render::cell::ert::ErtMode;
 
 /// Decides what `--ert THRESHOLD` means: (0, 1) on, 1 off, else an error.
 pub fn ert_mode(threshold: f32) -> anyhow::Result<ErtMode> {
@@ -169,11 +174,7 @@ pub fn ert_mode(threshold: f32) -> anyhow::Result<ErtMode> {
         threshold,
         " (a threshold below 1 turns early ray termination on, e.g. 0.9 or 0.99; 1 turns it off)",
     )?;
-    Ok(if threshold < 1.0 {
-        ErtMode::On(threshold)
-    } else {
-        ErtMode::Off
-    })
+    Ok(ErtMode::of_threshold(threshold))
 }
 
 /// `option` (given) only works when `condition` holds; otherwise an error

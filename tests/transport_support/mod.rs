@@ -48,7 +48,7 @@ pub fn config(scene: &Path, args: &[&str]) -> (RenderInput, ClusterConfig) {
     v.extend_from_slice(args);
     let a = cluster_args(scene, &v);
     let (input, _) = RenderInput::load(&a.scene).unwrap();
-    let cfg = pvrsim::cli::cluster::config(&a).unwrap();
+    let cfg = pvrsim::cli::cluster::config(&pvrsim::job::Valid::new(&*a).unwrap()).unwrap();
     (input, cfg)
 }
 
@@ -251,7 +251,7 @@ pub fn on_threads(input: &RenderInput, cfg: &ClusterConfig) -> pvrsim::cluster::
 /// for a grid scene.
 pub fn grid_config(scene: &Path, args: &[&str]) -> (VolumeInput, GridConfig) {
     let a = cluster_args(scene, args);
-    let cfg = pvrsim::cli::cluster_grid::config(&a).unwrap();
+    let cfg = pvrsim::cli::cluster_grid::config(&pvrsim::job::Valid::new(&*a).unwrap()).unwrap();
     let sc = pvrsim::scene::Scene::load(&a.scene).unwrap();
     let vol = pvrsim::data::io::read_volume(&sc.data.path, &sc.data.field).unwrap();
     (VolumeInput::new(sc, Arc::new(vol)).unwrap(), cfg)

@@ -131,7 +131,7 @@ impl From<NodeOptions> for WireNodeOptions {
             partial_composition: o.partial_composition,
             cell_order: o.cell_order,
             ert: WireErt {
-                threshold: e.threshold,
+                threshold: e.mode.threshold(),
                 divisions: e.divisions,
                 update_c: e.update_c,
                 span: e.span,
@@ -152,7 +152,7 @@ impl From<WireNodeOptions> for NodeOptions {
             partial_composition: o.partial_composition,
             cell_order: o.cell_order,
             ert: NodeErt {
-                threshold: e.threshold,
+                mode: crate::render::cell::ert::ErtMode::of_threshold(e.threshold),
                 divisions: e.divisions,
                 update_c: e.update_c,
                 span: e.span,
@@ -297,6 +297,10 @@ impl WorkerSetup {
         }
         if !(self.recv_timeout_s.is_finite() && self.recv_timeout_s > 0.0) {
             return Err(format!("recv timeout {} s", self.recv_timeout_s));
+        }
+        let t = self.node.ert.threshold;
+        if !(t.is_finite() && t > 0.0 && t <= 1.0) {
+            return Err(format!("ERT threshold {t} (must be in (0, 1])"));
         }
         if let Some(p) = &self.pieces {
             // A worker reads only `.pvtu` files (and the pieces they name,

@@ -233,7 +233,7 @@ pub fn build(i: Inputs) -> ClusterReport {
             .unwrap_or_default(),
         compositor: cfg.compositor.to_string(),
         codec: cfg.codec.to_string(),
-        ert_threshold: p1.node.ert.threshold,
+        ert_threshold: p1.node.ert.threshold(),
         ert_table: p1.node.ert.divisions,
         ert_update: p1.node.ert.update_c,
         share: (p1.share || p1.overlap) && ert_on,

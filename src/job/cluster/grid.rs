@@ -22,7 +22,8 @@ use crate::render::VolumeInput;
 use crate::scene::Scene;
 
 /// The grid configuration the arguments describe (mesh-only options refused).
-pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
+pub fn config(v: &crate::job::Valid<'_, ClusterArgs>) -> anyhow::Result<GridConfig> {
+    let a = v.args();
     let mut bad = Vec::new();
     if a.share || a.sharing != crate::job::cluster::Sharing::Off {
         bad.push("--share/--sharing");
@@ -71,7 +72,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<GridConfig> {
         }
         Compositing::Master
     } else {
-        a.compositing()?
+        v.parsed().compositing
     };
     // `rle` (the default) means the paper's RLE at 16 bits for layers.
     let codec = a.codec.layers();
@@ -127,8 +128,9 @@ pub struct GridFrames {
 /// Prepares the frames of validated options on a grid `scene` (read once,
 /// by the caller): refuses mesh-only options, builds the configuration and
 /// the cameras, reads the volume.
-pub fn load(a: &ClusterArgs, scene: Scene) -> anyhow::Result<GridFrames> {
-    let cfg = config(a)?;
+pub fn load(v: &crate::job::Valid<'_, ClusterArgs>, scene: Scene) -> anyhow::Result<GridFrames> {
+    let a = v.args();
+    let cfg = config(v)?;
     anyhow::ensure!(
         a.series.series.is_none(),
         "--series replays a session of a mesh scene; a grid scene's series is an orbit \

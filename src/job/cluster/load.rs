@@ -30,11 +30,11 @@ impl<'a> Valid<'a, ClusterArgs> {
         let a = self.args();
         let scene = crate::job::load_scene(&a.scene)?;
         Ok(if crate::job::render::grid::is_grid_scene(&scene) {
-            LoadedCluster::Grid(a, Box::new(grid::load(a, scene)?))
+            LoadedCluster::Grid(a, Box::new(grid::load(self, scene)?))
         } else if pieces::reads_pieces(a, &scene) {
-            LoadedCluster::Pieces(a, Box::new(pieces::load(a, scene)?))
+            LoadedCluster::Pieces(a, Box::new(pieces::load(self, scene)?))
         } else {
-            LoadedCluster::Mesh(a, Box::new(mesh::load_mesh(a, scene)?))
+            LoadedCluster::Mesh(a, Box::new(mesh::load_mesh(self, scene)?))
         })
     }
 }

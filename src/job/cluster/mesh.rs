@@ -27,7 +27,11 @@ pub struct MeshFrame {
 /// Prepares a mesh frame of validated options on `scene` (read once, by
 /// the caller): refuses grid-only options, reads the mesh, builds the
 /// configuration and checks memory and the transport's set-up.
-pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<MeshFrame> {
+pub fn load_mesh(
+    v: &crate::job::Valid<'_, ClusterArgs>,
+    scene: crate::scene::Scene,
+) -> anyhow::Result<MeshFrame> {
+    let a = v.args();
     crate::job::args::grid::refuse_on_mesh(&a.grid)?;
     let (mut input, _) = RenderInput::read(scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
@@ -35,7 +39,7 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
         input = input.with_size(w, h);
     }
     crate::job::warn_field(&input);
-    let (mut cfg, remote) = mesh_config(a, [input.scene.image.width, input.scene.image.height])?;
+    let (mut cfg, remote) = mesh_config(v, [input.scene.image.width, input.scene.image.height])?;
     match (a.placement, &input.pieces) {
         // A .pvtu is placed by its pieces unless told otherwise.
         (None, Some(_)) => cfg.placement = PlacementMethod::Pieces,
@@ -62,13 +66,14 @@ pub fn load_mesh(a: &ClusterArgs, scene: crate::scene::Scene) -> anyhow::Result<
 /// (`None`: this process): checks memory, the node count and what the
 /// transport accepts (remote workers hold partitioned data).
 pub(super) fn mesh_config(
-    a: &ClusterArgs,
+    v: &crate::job::Valid<'_, ClusterArgs>,
     image: [u32; 2],
 ) -> anyhow::Result<(
     ClusterConfig,
     Option<crate::job::args::transport::TransportKind>,
 )> {
-    let mut cfg = config(a)?;
+    let a = v.args();
+    let mut cfg = config(v)?;
     memory::check_fits(
         image[0],
         image[1],

@@ -299,6 +299,17 @@ pub(crate) fn load_network(name: &str) -> anyhow::Result<NetworkModel> {
     })
 }
 
+/// What validating [`ClusterArgs`] decided once
+/// ([`crate::job::Valid::parsed`]): the job runs from these, not from the
+/// raw options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClusterChoices {
+    /// `--ert`: on with its threshold, or off.
+    pub ert: crate::render::cell::ert::ErtMode,
+    /// `--compositor`, `--radix-k`, `--master`.
+    pub compositing: Compositing,
+}
+
 impl ClusterArgs {
     /// The compositing strategy `--compositor` and `--radix-k` name
     /// (default binary swap); `--radix-k` without `--compositor radix-k`
@@ -323,7 +334,8 @@ impl ClusterArgs {
 
 /// The configuration of a mesh frame that validated options describe
 /// (the validation layer ran before: [`crate::job::cluster::load`]).
-pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
+pub fn config(v: &crate::job::Valid<'_, ClusterArgs>) -> anyhow::Result<ClusterConfig> {
+    let (a, choices) = (v.args(), v.parsed());
     let network = a.network.as_deref().unwrap_or("gbe");
     let (profile, profile_name) = load_profile(a.profile.as_deref().unwrap_or("pentium4"))?;
     let mode = a.ert_mode.resolve(a.share_levels)?;
@@ -336,7 +348,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
                 partial_composition: !a.no_partial_composition,
                 cell_order: CellOrder::FrontToBack,
                 ert: NodeErt {
-                    threshold: a.ert.threshold,
+                    mode: choices.ert,
                     divisions: a.ert_table,
                     update_c: a.ert_update,
                     span: a.ert_span,
@@ -368,7 +380,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             manager_shards: a.ert_mode.manager_shards,
             schedule_waves: a.ert_mode.schedule_waves.unwrap_or(
                 if !paper
-                    && a.ert.threshold < 1.0
+                    && choices.ert.is_on()
                     && a.sharing_mode() == Sharing::Manager
                     && a.dlb
                     && mode.structure == crate::render::cell::ert::ErtStructure::Pyramid
@@ -396,7 +408,7 @@ pub fn config(a: &ClusterArgs) -> anyhow::Result<ClusterConfig> {
             record_trace: true,
         },
         placement: a.placement.unwrap_or(PlacementMethod::Rcb),
-        compositor: a.compositing()?,
+        compositor: choices.compositing,
         codec: a.codec.list()?,
         network: load_network(network)?,
         network_name: network.to_string(),

@@ -56,7 +56,11 @@ pub fn reads_pieces(a: &ClusterArgs, scene: &Scene) -> bool {
 /// Prepares the frames: the configuration (as for any mesh frame), the
 /// pieces' summaries, one scene per camera. Refuses what needs the cells
 /// in the coordinator.
-pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
+pub fn load(
+    v: &crate::job::Valid<'_, ClusterArgs>,
+    mut scene: Scene,
+) -> anyhow::Result<PieceFrames> {
+    let a = v.args();
     crate::job::args::grid::refuse_on_mesh(&a.grid)?;
     let why = "the workers read their own pieces of the .pvtu and the coordinator never holds \
                the cells; give --placement rcb to read the whole mesh in the coordinator and \
@@ -74,7 +78,7 @@ pub fn load(a: &ClusterArgs, mut scene: Scene) -> anyhow::Result<PieceFrames> {
         scene.image.width = w;
         scene.image.height = h;
     }
-    let (mut cfg, remote) = mesh_config(a, [scene.image.width, scene.image.height])?;
+    let (mut cfg, remote) = mesh_config(v, [scene.image.width, scene.image.height])?;
     cfg.placement = PlacementMethod::Pieces;
     let kind = remote.context("workers reading pieces need a remote transport (internal error)")?;
     let pieces = PieceSet::open(&scene, a.nodes)

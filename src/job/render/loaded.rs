@@ -94,10 +94,13 @@ impl LoadedRender {
 
     /// Draws the loaded scene with the options `a` (those `load` was given,
     /// or others of the same data kind: another renderer, ERT threshold),
-    /// writing nothing and printing nothing.
+    /// writing nothing and printing nothing. The options are validated
+    /// here (a frontend may have changed them since `load`).
     pub fn render(&self, a: &RenderArgs) -> anyhow::Result<RenderOutcome> {
         match self {
-            LoadedRender::Mesh(m) => crate::job::render::mesh::render(a, m, 0.0, true),
+            LoadedRender::Mesh(m) => {
+                crate::job::render::mesh::render(&Valid::new(a)?, m, 0.0, true)
+            }
             LoadedRender::Grid(g) => crate::job::render::grid::render(a, g, 0.0, true),
         }
     }

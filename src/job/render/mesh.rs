@@ -6,6 +6,7 @@ use anyhow::Context;
 
 use crate::job::memory::{self, FrameKind};
 use crate::job::render::{compare_path, RenderArgs, RenderOutcome, RendererKind};
+use crate::job::validate::Valid;
 use crate::render::cell::ert::EntrySize;
 use crate::render::cell::{self, CellOptions, ErtOptions};
 use crate::render::{reference, RenderInput};
@@ -14,9 +15,13 @@ use crate::scene::Scene;
 /// Renders a mesh scene (cell projection or the f64 reference; `scene`
 /// read once by the caller, the mesh read here), without writing files or
 /// warning (when `quiet`); [`crate::job::run`] hands mesh scenes here.
-pub fn execute(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<RenderOutcome> {
-    let (input, load_s) = load(a, scene, quiet)?;
-    render(a, &input, load_s, quiet)
+pub fn execute(
+    v: &Valid<'_, RenderArgs>,
+    scene: Scene,
+    quiet: bool,
+) -> anyhow::Result<RenderOutcome> {
+    let (input, load_s) = load(v.args(), scene, quiet)?;
+    render(v, &input, load_s, quiet)
 }
 
 /// Reads the mesh of `scene` for the options `a` (the image size
@@ -37,13 +42,15 @@ pub fn load(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<(Render
 }
 
 /// Renders a loaded mesh input (its scene's camera, transfer function and
-/// image size) with the options `a`, as `pvrsim render` does after loading.
+/// image size) with the validated options `v`, as `pvrsim render` does
+/// after loading.
 pub fn render(
-    a: &RenderArgs,
+    v: &Valid<'_, RenderArgs>,
     input: &RenderInput,
     load_s: f64,
     quiet: bool,
 ) -> anyhow::Result<RenderOutcome> {
+    let a = v.args();
     let threads = if a.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
@@ -67,7 +74,7 @@ pub fn render(
         tile_size: a.tile,
         cell_order: a.cell_order,
         ert: ErtOptions {
-            threshold: a.ert.threshold,
+            mode: v.parsed().ert,
             entry: a
                 .ert_entry_px
                 .map(EntrySize::Pixels)

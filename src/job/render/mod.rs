@@ -38,6 +38,14 @@ pub enum RendererKind {
     ShearWarp,
 }
 
+/// What validating [`RenderArgs`] decided once
+/// ([`crate::job::Valid::parsed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderChoices {
+    /// `--ert`: on with its threshold, or off.
+    pub ert: crate::render::cell::ert::ErtMode,
+}
+
 /// Options of `pvrsim render`.
 #[derive(Debug, Clone, Args)]
 #[command(mut_arg("ert", |a| a.help(crate::job::args::shared::RENDER_ERT_HELP)))]

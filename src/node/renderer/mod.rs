@@ -80,6 +80,7 @@ use crate::base::segment::Segment;
 use crate::base::Rect;
 use crate::render::cell::ert::pyramid::Pyramid;
 use crate::render::cell::ert::schedule;
+use crate::render::cell::ert::ErtMode;
 use crate::render::cell::ert::{ErtSpan, ErtStructure};
 
 use crate::render::cell::list::SegmentLists;
@@ -91,8 +92,8 @@ use crate::scene::View;
 /// Early ray termination on a node.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NodeErt {
-    /// Opacity at which a pixel terminates; `>= 1` turns ERT off.
-    pub threshold: f32,
+    /// On with its threshold, or off.
+    pub mode: ErtMode,
     /// `D`: the table has `D x D` entries over the whole image.
     pub divisions: u32,
     /// Update constant `C`.
@@ -114,13 +115,13 @@ pub struct NodeErt {
 impl NodeErt {
     /// ERT off.
     pub const OFF: NodeErt = NodeErt {
-        threshold: 1.0,
+        mode: ErtMode::Off,
         ..NodeErt::PAPER
     };
 
     /// The paper's setting: threshold 0.9, `D = 20`, `C = 100`, single-entry test.
     pub const PAPER: NodeErt = NodeErt {
-        threshold: 0.9,
+        mode: ErtMode::On(0.9),
         divisions: 20,
         update_c: 100,
         span: ErtSpan::Single,
@@ -131,7 +132,12 @@ impl NodeErt {
 
     /// Whether ERT runs.
     pub fn enabled(&self) -> bool {
-        self.threshold < 1.0
+        self.mode.is_on()
+    }
+
+    /// The threshold (1 when off).
+    pub fn threshold(&self) -> f32 {
+        self.mode.threshold()
     }
 
     /// Whether weak sharing sends opacity levels per block
@@ -425,7 +431,7 @@ impl NodeRenderer {
         if !self.opts.ert.enabled() {
             return ops;
         }
-        let thr = self.opts.ert.threshold;
+        let thr = self.opts.ert.threshold();
         let w = self.view.width;
         let flat = self.flat_table();
         let Self {

@@ -23,7 +23,7 @@ impl NodeRenderer {
         }
         let (w, h) = (self.view.width, self.view.height);
         let l = e.share_levels.clamp(1, 16) as usize;
-        self.pixel_levels = Some(NodePixelLevels::new(w, h, e.threshold, l, quant));
+        self.pixel_levels = Some(NodePixelLevels::new(w, h, e.threshold(), l, quant));
     }
 
     /// The frame's depth range width (per-pixel sharing's codes), if on.
@@ -128,7 +128,7 @@ impl NodeRenderer {
         let l = e.share_levels.clamp(1, 16) as usize;
         self.levels = Some(NodeLevels {
             grid,
-            alphas: level_alphas(e.threshold, l),
+            alphas: level_alphas(e.threshold(), l),
             pix: vec![f32::INFINITY; (w * h) as usize * l],
             block: vec![None; grid.len() * l],
             dirty_flag: vec![false; grid.len()],

@@ -405,7 +405,7 @@ pub fn render(input: &RenderInput, opts: &CellOptions) -> (Image, CellStats) {
         cell_order: opts.cell_order.to_string(),
         tile_dims: [frame.tile_dims.0, frame.tile_dims.1],
         ert_threshold: if opts.ert.enabled() {
-            f32_to_f64_short(opts.ert.threshold)
+            f32_to_f64_short(opts.ert.threshold())
         } else {
             1.0
         },

@@ -61,11 +61,48 @@ pub enum EntrySize {
     Pixels(u32),
 }
 
+/// What an ERT threshold means, decided once where the threshold is
+/// parsed (`--ert`, a scene, the viewer's page, a worker's set-up): the
+/// renderers ask the mode, never the raw number, whether ERT runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ErtMode {
+    /// Threshold 1: no test, no update.
+    Off,
+    /// A pixel terminates where the alpha in front reaches the threshold
+    /// (in (0, 1)).
+    On(f32),
+}
+
+impl ErtMode {
+    /// The mode of a threshold already checked to be in (0, 1]: below 1
+    /// on, 1 (or more) off. The one place that says what 1 means.
+    pub fn of_threshold(threshold: f32) -> ErtMode {
+        if threshold < 1.0 {
+            ErtMode::On(threshold)
+        } else {
+            ErtMode::Off
+        }
+    }
+
+    /// Whether ERT runs.
+    pub fn is_on(self) -> bool {
+        matches!(self, ErtMode::On(_))
+    }
+
+    /// The threshold (1 when off).
+    pub fn threshold(self) -> f32 {
+        match self {
+            ErtMode::On(t) => t,
+            ErtMode::Off => 1.0,
+        }
+    }
+}
+
 /// Options of early ray termination.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ErtOptions {
-    /// Opacity at which a pixel terminates; `>= 1` turns ERT off entirely.
-    pub threshold: f32,
+    /// On with its threshold, or off.
+    pub mode: ErtMode,
     /// Entry size; `None`: `D = 20` for the flat table, 1 pixel for the pyramid.
     pub entry: Option<EntrySize>,
     /// Update constant `C`: rebuild after every `remaining / C` cells.
@@ -84,13 +121,13 @@ pub struct ErtOptions {
 impl ErtOptions {
     /// ERT off.
     pub const OFF: ErtOptions = ErtOptions {
-        threshold: 1.0,
+        mode: ErtMode::Off,
         ..ErtOptions::DEFAULT
     };
 
     /// The defaults: threshold 0.99 (scene.md), pyramid over pixels, `C = 100`.
     pub const DEFAULT: ErtOptions = ErtOptions {
-        threshold: 0.99,
+        mode: ErtMode::On(0.99),
         entry: None,
         update_c: 100,
         span: ErtSpan::Multi,
@@ -100,7 +137,12 @@ impl ErtOptions {
 
     /// Whether ERT runs at all.
     pub fn enabled(&self) -> bool {
-        self.threshold < 1.0
+        self.mode.is_on()
+    }
+
+    /// The threshold (1 when off).
+    pub fn threshold(&self) -> f32 {
+        self.mode.threshold()
     }
 
     /// Entry (or level-0 block) width and height in pixels for a `width x height` image.

@@ -107,7 +107,7 @@ pub fn oracle(input: &RenderInput, opts: &CellOptions, threshold: f32) -> Oracle
 /// Runs the oracle at the threshold of `opts.ert` and adds it to `stats`.
 pub fn fill_stats(stats: &mut CellStats, input: &RenderInput, opts: &CellOptions) {
     let t = Instant::now();
-    let r = oracle(input, opts, opts.ert.threshold);
+    let r = oracle(input, opts, opts.ert.threshold());
     stats.oracle_time_s = Some(t.elapsed().as_secs_f64());
     stats.oracle_cells_considered = Some(r.cells_considered);
     stats.oracle_cells_skippable = Some(r.cells_skippable);

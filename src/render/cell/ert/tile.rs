@@ -209,7 +209,7 @@ pub fn scan_tile_ert(
     // drained and the update points have nothing to settle. In
     // perspective it watches from the start.
     if perspective.is_some() {
-        lists.track_terminations(ert.threshold);
+        lists.track_terminations(ert.threshold());
     } else {
         pending.spanned = Some(Extent::new(nearest(&cells, segs, opts.cell_order)));
     }
@@ -263,7 +263,7 @@ pub fn scan_tile_ert(
             let t0 = (gate(min_depth) < f32::INFINITY).then(Instant::now);
             if to_drain {
                 lists.drain_changed(|idx, list| {
-                    let d = termination_depth(list, ert.threshold);
+                    let d = termination_depth(list, ert.threshold());
                     if d == f32::INFINITY {
                         return;
                     }
@@ -355,11 +355,11 @@ pub fn scan_tile_ert(
         }
         if let Some(spanned) = target.pending.extent() {
             let dpl = tf.max_depth_per_length();
-            if cannot_cross(spanned, dpl, range.end as u64, ert.threshold) {
+            if cannot_cross(spanned, dpl, range.end as u64, ert.threshold()) {
                 continue;
             }
             // Records the lists that may have crossed already.
-            target.lists.track_terminations(ert.threshold);
+            target.lists.track_terminations(ert.threshold());
             target.pending.spanned = None;
         }
         to_drain = target.settle();
