@@ -349,7 +349,7 @@ proptest! {
         }
         let total: u64 = w.iter().sum();
         let mesh = scattered_mesh(total as usize, seed);
-        let p = pvrsim::node::Placement::from_pieces(&mesh, &w, n);
+        let p = pvrsim::node::piece_map::place(&mesh, &w, n);
         let mut cells: Vec<u32> = p.parts.iter().flatten().copied().collect();
         cells.sort_unstable();
         prop_assert_eq!(cells, (0..total as u32).collect::<Vec<_>>());

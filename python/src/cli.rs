@@ -42,10 +42,10 @@ pub fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
 /// workers).
 pub fn worker_program(
     py: Python<'_>,
-) -> PyResult<Option<pvrsim::cluster::remote::spawn::WorkerProgram>> {
+) -> PyResult<Option<pvrsim::job::args::transport::WorkerProgram>> {
     let exe: Option<std::path::PathBuf> = py.import("sys")?.getattr("executable")?.extract()?;
     Ok(exe.filter(|p| !p.as_os_str().is_empty()).and_then(|p| {
-        pvrsim::cluster::remote::spawn::WorkerProgram::new(vec![
+        pvrsim::job::args::transport::WorkerProgram::new(vec![
             p.into_os_string(),
             "-m".into(),
             "pvrsim".into(),

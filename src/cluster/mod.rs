@@ -116,7 +116,7 @@ pub fn place(input: &RenderInput, cfg: &ClusterConfig) -> Placement {
 /// its pieces ([`PlacementMethod::Pieces`] of a `.pvtu`).
 pub fn place_on(input: &RenderInput, method: PlacementMethod, n: usize) -> Placement {
     match (&input.pieces, method) {
-        (Some(p), PlacementMethod::Pieces) => Placement::from_pieces(&input.mesh, p, n),
+        (Some(p), PlacementMethod::Pieces) => crate::node::piece_map::place(&input.mesh, p, n),
         _ => Placement::new(&input.mesh, n, method, Some(&input.scene.view())),
     }
 }

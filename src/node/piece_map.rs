@@ -17,7 +17,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::node::placement::{rcb, targets};
+use crate::data::TetMesh;
+use crate::node::placement::{centroid, piece_runs, rcb, targets, Placement};
 
 /// Most nodes one piece is split over (a share's part is 32-bit, but a
 /// piece of a few cells over thousands of nodes helps nobody).
@@ -108,6 +109,44 @@ pub fn split(centroids: &[[f64; 3]], of: u32) -> Vec<Vec<u32>> {
     let t = targets(ids.len(), of);
     rcb(&mut ids, centroids, 3, &t, &mut out);
     out
+}
+
+/// Places `mesh`, made of pieces of `cells[i]` cells each, one piece
+/// after the other, on `n >= 1` nodes by the piece map
+/// ([`crate::node::piece_map`]): node `k` the cells of its run of
+/// pieces, or with fewer pieces than nodes its part of a split piece.
+pub fn place(mesh: &TetMesh, cells: &[u64], n: usize) -> Placement {
+    let mut first = Vec::with_capacity(cells.len());
+    let mut acc = 0u64;
+    for &c in cells {
+        first.push(acc);
+        acc += c;
+    }
+    let units = shares(cells, n.max(1));
+    let runs = piece_runs(&unit_weights(cells, &units), n.max(1));
+    // The parts of each split piece, cut once.
+    let mut cut: std::collections::HashMap<u32, Vec<Vec<u32>>> = Default::default();
+    let mut unit_cells = |u: usize| -> Vec<u32> {
+        let s = units[u];
+        let a = first[s.piece as usize] as u32;
+        let len = cells[s.piece as usize] as u32;
+        if s.of <= 1 {
+            return (a..a + len).collect();
+        }
+        let parts = cut.entry(s.piece).or_insert_with(|| {
+            let c: Vec<[f64; 3]> = mesh.tets[a as usize..(a + len) as usize]
+                .iter()
+                .map(|t| centroid(&mesh.points, t))
+                .collect();
+            split(&c, s.of)
+        });
+        parts[s.part as usize].iter().map(|&i| a + i).collect()
+    };
+    let parts = runs
+        .into_iter()
+        .map(|run| run.iter().flat_map(|&u| unit_cells(u as usize)).collect())
+        .collect();
+    Placement::from_parts(parts)
 }
 
 #[cfg(test)]

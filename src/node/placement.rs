@@ -306,45 +306,6 @@ impl Placement {
         Placement { parts }
     }
 
-    /// Places `mesh`, made of pieces of `cells[i]` cells each, one piece
-    /// after the other, on `n >= 1` nodes by the piece map
-    /// ([`crate::node::piece_map`]): node `k` the cells of its run of
-    /// pieces, or with fewer pieces than nodes its part of a split piece.
-    pub fn from_pieces(mesh: &TetMesh, cells: &[u64], n: usize) -> Placement {
-        use crate::node::piece_map::{shares, split, unit_weights};
-        let mut first = Vec::with_capacity(cells.len());
-        let mut acc = 0u64;
-        for &c in cells {
-            first.push(acc);
-            acc += c;
-        }
-        let units = shares(cells, n.max(1));
-        let runs = piece_runs(&unit_weights(cells, &units), n.max(1));
-        // The parts of each split piece, cut once.
-        let mut cut: std::collections::HashMap<u32, Vec<Vec<u32>>> = Default::default();
-        let mut unit_cells = |u: usize| -> Vec<u32> {
-            let s = units[u];
-            let a = first[s.piece as usize] as u32;
-            let len = cells[s.piece as usize] as u32;
-            if s.of <= 1 {
-                return (a..a + len).collect();
-            }
-            let parts = cut.entry(s.piece).or_insert_with(|| {
-                let c: Vec<[f64; 3]> = mesh.tets[a as usize..(a + len) as usize]
-                    .iter()
-                    .map(|t| centroid(&mesh.points, t))
-                    .collect();
-                split(&c, s.of)
-            });
-            parts[s.part as usize].iter().map(|&i| a + i).collect()
-        };
-        let parts = runs
-            .into_iter()
-            .map(|run| run.iter().flat_map(|&u| unit_cells(u as usize)).collect())
-            .collect();
-        Placement { parts }
-    }
-
     /// A placement from explicit parts (e.g. random, for comparison).
     pub fn from_parts(parts: Vec<Vec<u32>>) -> Placement {
         Placement { parts }

@@ -94,7 +94,7 @@ pub struct ViewArgs {
     /// The program that starts worker processes (the Python module sets
     /// its interpreter with `-m pvrsim`). Not a command-line option.
     #[arg(skip)]
-    pub worker_program: Option<crate::cluster::remote::spawn::WorkerProgram>,
+    pub worker_program: Option<crate::job::args::transport::WorkerProgram>,
 }
 
 impl ViewArgs {

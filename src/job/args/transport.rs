@@ -50,6 +50,8 @@ pub enum OnFailure {
     Reassign,
 }
 
+pub use crate::cluster::remote::spawn::WorkerProgram;
+
 /// Transport options of `pvrsim cluster`.
 #[derive(Debug, Clone, Args)]
 pub struct TransportArgs {

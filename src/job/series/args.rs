@@ -50,8 +50,9 @@ pub struct SeriesArgs {
     pub coherence: Option<Coherence>,
     /// With --frames: write one CSV row per frame here (frame, eye,
     /// frame_s, phase1_s, composite_s, bytes, cells_bytes,
-    /// cells_skipped_ert, cells_moved; times modelled on the virtual
-    /// clock, measured on a real transport).
+    /// cells_skipped_ert, cells_moved, compress_s; times modelled on the
+    /// virtual clock, measured on a real transport; compress_s, the
+    /// slowest worker's codec encoding, on real transports only).
     #[arg(long, value_name = "FILE")]
     pub series_csv: Option<PathBuf>,
     /// With a series: make a movie of the frames (`.mp4` or animated
