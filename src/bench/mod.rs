@@ -18,6 +18,7 @@ pub mod grid;
 pub mod orderings;
 pub mod scaling;
 pub mod scaling_plot;
+pub mod scaling_scenes;
 pub mod splat;
 pub mod splat_experiments;
 pub mod timer;
@@ -138,6 +139,13 @@ pub struct BenchArgs {
     /// Folder for `--scaling`'s CSV, plots and per-point stats.
     #[arg(long, default_value = "scaling-out")]
     pub scaling_out: PathBuf,
+    /// `--scaling` on these scene files (comma-separated) instead of the
+    /// generated vessels (`--scaling-cells` is then not used): e.g. the
+    /// gmsh parts and the permuted demo of `bench/meshes/make.sh`. Writes
+    /// `scaling-scenes.csv` (ns a cell, ns a segment, B a tet) into
+    /// `--scaling-out`.
+    #[arg(long, value_delimiter = ',')]
+    pub scaling_scenes: Vec<PathBuf>,
 }
 
 /// One timed configuration.
@@ -175,6 +183,22 @@ fn median(v: &mut [f64]) -> f64 {
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if a.orderings {
         return orderings::run(a.json.as_deref());
+    }
+    if !a.scaling && !a.scaling_scenes.is_empty() {
+        anyhow::bail!("--scaling-scenes is an option of --scaling (add --scaling)");
+    }
+    if a.scaling && !a.scaling_scenes.is_empty() {
+        let rows = scaling_scenes::run(
+            &a.scaling_scenes,
+            &a.scaling_sizes,
+            a.scaling_threads,
+            &a.scaling_out,
+        )?;
+        if let Some(path) = &a.json {
+            std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+            println!("wrote {}", path.display());
+        }
+        return Ok(());
     }
     if a.scaling {
         let b = scaling::ScalingBench {

@@ -92,7 +92,7 @@ impl ScalingRow {
 
 /// Runs `cmd` to completion; returns (wall seconds, peak RSS bytes) of that
 /// child alone, or an error naming `what` with its stderr tail.
-fn run_measured(mut cmd: Command, what: &str) -> anyhow::Result<(f64, u64)> {
+pub(super) fn run_measured(mut cmd: Command, what: &str) -> anyhow::Result<(f64, u64)> {
     let t = Instant::now();
     let child = cmd
         .stdout(std::process::Stdio::null())
@@ -125,13 +125,13 @@ fn run_measured(mut cmd: Command, what: &str) -> anyhow::Result<(f64, u64)> {
     Ok((secs, ru.ru_maxrss.max(0) as u64 * 1024))
 }
 
-fn read_stats(path: &Path) -> anyhow::Result<serde_json::Value> {
+pub(super) fn read_stats(path: &Path) -> anyhow::Result<serde_json::Value> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("render stats {}", path.display()))?;
     serde_json::from_str(&text).with_context(|| format!("render stats {}", path.display()))
 }
 
-fn stat(v: &serde_json::Value, key: &str, path: &Path) -> anyhow::Result<f64> {
+pub(super) fn stat(v: &serde_json::Value, key: &str, path: &Path) -> anyhow::Result<f64> {
     v.get(key)
         .and_then(|x| x.as_f64())
         .with_context(|| format!("render stats {}: no number `{key}`", path.display()))

@@ -91,11 +91,14 @@ pub fn setup_tet(ids: [u32; 4], p: &[[f32; 3]; 4], sv: &[f32; 4]) -> Option<TetS
     // face's vertex triple is then this order with one vertex left out, so
     // it is sorted without sorting it again, and the edges from the lowest
     // vertex are shared by the three faces that hold it.
+    // The swaps are selects, not branches: on a mesh's cells in depth
+    // order each comparison goes either way at random.
     let mut o = [0usize, 1, 2, 3];
     for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-        if after(&ids, p, o[a], o[b]) {
-            o.swap(a, b);
-        }
+        let (x, y) = (o[a], o[b]);
+        let m = (after(&ids, p, x, y) as usize).wrapping_neg() & (x ^ y);
+        o[a] = x ^ m;
+        o[b] = y ^ m;
     }
     let q = [p[o[0]], p[o[1]], p[o[2]], p[o[3]]];
     let (e01, e02, e03) = (sub(q[1], q[0]), sub(q[2], q[0]), sub(q[3], q[0]));
