@@ -15,8 +15,10 @@
 
 pub mod assets;
 pub mod backend;
+pub mod cluster;
 pub mod encode;
 pub mod messages;
+pub mod movie;
 pub mod pace;
 pub mod render_loop;
 pub mod server;
@@ -83,6 +85,13 @@ pub struct ViewArgs {
     /// coarse stand-in of a large mesh, to hold ~40 ms a frame), 1, 2 or 4.
     #[arg(long, value_enum, default_value_t = InteractiveScale::Auto)]
     pub interactive_scale: InteractiveScale,
+    /// Mesh scenes: the time steps of a series file (`pvrsim cluster
+    /// --series`'s format): the scene's mesh, then each other mesh its
+    /// frames name (`mesh = ...`, same topology), in order; the page's
+    /// time-step slider picks one (its cameras and transfer functions
+    /// are not replayed: `pvrsim cluster --series` does that).
+    #[arg(long, value_name = "FILE.toml")]
+    pub series: Option<std::path::PathBuf>,
     /// Render on a cluster of N nodes (`pvrsim cluster`'s frames) instead
     /// of in this process.
     #[arg(long, value_name = "N")]
