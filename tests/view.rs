@@ -416,7 +416,7 @@ async fn answer(ws: &mut Ws, m: serde_json::Value) -> serde_json::Value {
 /// The field and time-step choice: the data's fields and the series' time
 /// steps in `hello`; another field changes the histogram and the frame,
 /// `/scene.toml` names it and reproduces `/frame.png` (in this process and
-/// on a cluster of 2 threads against `pvrsim cluster`); an unknown field
+/// on 2 worker processes against `pvrsim cluster`); an unknown field
 /// and a time step that does not exist are refused with a message while
 /// the server keeps serving.
 #[test]
@@ -434,7 +434,15 @@ fn fields_and_time_steps_are_chosen_and_checked() {
         ];
         args.extend(size);
         if cluster {
-            args.extend(["--nodes", "2", "--canonical", "--ert", "1"]);
+            args.extend([
+                "--nodes",
+                "2",
+                "--transport",
+                "processes",
+                "--canonical",
+                "--ert",
+                "1",
+            ]);
         }
         let s = Server::start(&args);
         let rt = tokio::runtime::Runtime::new().unwrap();
@@ -451,20 +459,43 @@ fn fields_and_time_steps_are_chosen_and_checked() {
             for f in ["speed", "pressure", "potential"] {
                 assert!(fields.contains(&f), "{fields:?}");
             }
-            assert_eq!(hello["steps"], serde_json::json!(["aorta-small.vtk", "step1.vtk"]));
+            assert_eq!(
+                hello["steps"],
+                serde_json::json!(["aorta-small.vtk", "step1.vtk"])
+            );
             let (first, _) = next_frame(&mut ws).await;
 
             // Another field: a data note (its histogram), then its frame.
-            let d = answer(&mut ws, serde_json::json!({"type": "data", "field": "pressure"})).await;
+            let d = answer(
+                &mut ws,
+                serde_json::json!({"type": "data", "field": "pressure"}),
+            )
+            .await;
             assert_eq!(d["type"], "data", "{d}");
             assert_eq!(d["field"], "pressure");
-            assert_ne!(d["histogram"], hello["histogram"], "the histogram follows the field");
+            assert_ne!(
+                d["histogram"], hello["histogram"],
+                "the histogram follows the field"
+            );
             let (f, png) = next_frame(&mut ws).await;
-            assert_eq!((f["scale"].as_u64(), f["field"].as_str()), (Some(1), Some("pressure")));
+            assert_eq!(
+                (f["scale"].as_u64(), f["field"].as_str()),
+                (Some(1), Some("pressure"))
+            );
             assert_ne!(f["seq"], first["seq"]);
             let (_, speed_png) = (first, png.clone());
             let command: &[&str] = if cluster {
-                &["cluster", "--nodes", "2", "--canonical", "--ert", "1", "--no-baselines"]
+                &[
+                    "cluster",
+                    "--nodes",
+                    "2",
+                    "--transport",
+                    "processes",
+                    "--canonical",
+                    "--ert",
+                    "1",
+                    "--no-baselines",
+                ]
             } else {
                 &["render"]
             };
@@ -472,17 +503,37 @@ fn fields_and_time_steps_are_chosen_and_checked() {
             assert!(toml.contains("field = \"pressure\""), "{toml}");
 
             // Refused: an unknown field, a time step that does not exist.
-            let e = answer(&mut ws, serde_json::json!({"type": "data", "field": "temperature"})).await;
+            let e = answer(
+                &mut ws,
+                serde_json::json!({"type": "data", "field": "temperature"}),
+            )
+            .await;
             assert_eq!(e["type"], "error", "{e}");
-            assert!(e["message"].as_str().unwrap().contains("unknown field \"temperature\""), "{e}");
+            assert!(
+                e["message"]
+                    .as_str()
+                    .unwrap()
+                    .contains("unknown field \"temperature\""),
+                "{e}"
+            );
             let e = answer(&mut ws, serde_json::json!({"type": "data", "step": 2})).await;
             assert_eq!(e["type"], "error", "{e}");
-            assert!(e["message"].as_str().unwrap().contains("time step 2 does not exist"), "{e}");
+            assert!(
+                e["message"]
+                    .as_str()
+                    .unwrap()
+                    .contains("time step 2 does not exist"),
+                "{e}"
+            );
 
             // The server keeps serving: time step 1 (the same data in
             // another file: the same image), named by /scene.toml.
             let d = answer(&mut ws, serde_json::json!({"type": "data", "step": 1})).await;
-            assert_eq!((d["step"].as_u64(), d["field"].as_str()), (Some(1), Some("pressure")), "{d}");
+            assert_eq!(
+                (d["step"].as_u64(), d["field"].as_str()),
+                (Some(1), Some("pressure")),
+                "{d}"
+            );
             let (f, png) = next_frame(&mut ws).await;
             assert_eq!(f["step"], 1, "{f}");
             assert_eq!(png, speed_png, "the time step holds the same data");
@@ -491,7 +542,10 @@ fn fields_and_time_steps_are_chosen_and_checked() {
             let (st, state) = s.get(&format!("/state.json?token={}", s.token));
             assert_eq!(st, 200);
             let state: serde_json::Value = serde_json::from_slice(&state).unwrap();
-            assert_eq!((state["step"].as_u64(), state["field"].as_str()), (Some(1), Some("pressure")));
+            assert_eq!(
+                (state["step"].as_u64(), state["field"].as_str()),
+                (Some(1), Some("pressure"))
+            );
         });
         s.interrupt();
     }
@@ -517,7 +571,11 @@ fn a_grid_lists_its_one_field() {
         assert_eq!(hello["fields"].as_array().unwrap().len(), 1, "{hello}");
         assert_eq!(hello["steps"].as_array().unwrap().len(), 1, "{hello}");
         let _ = next_frame(&mut ws).await;
-        let e = answer(&mut ws, serde_json::json!({"type": "data", "field": "speed"})).await;
+        let e = answer(
+            &mut ws,
+            serde_json::json!({"type": "data", "field": "speed"}),
+        )
+        .await;
         assert_eq!(e["type"], "error", "{e}");
     });
     s.interrupt();
@@ -551,7 +609,10 @@ fn a_movie_of_the_full_frames_shown_while_recording() {
     let bin = dir.path().join("bin");
     let log = dir.path().join("frames.txt");
     fake_ffmpeg(&bin, &log);
-    let real = Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success());
+    let real = Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
     if !real {
         eprintln!("a_movie_of_the_full_frames_shown_while_recording: no ffmpeg on PATH: the movie is made by a stand-in ffmpeg only");
     }
@@ -559,13 +620,22 @@ fn a_movie_of_the_full_frames_shown_while_recording() {
     let fake_path = format!("{}:{sys_path}", bin.display());
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
-    let mut runs = vec![("stand-in", fake_path.clone()), ("none", empty.display().to_string())];
+    let mut runs = vec![
+        ("stand-in", fake_path.clone()),
+        ("none", empty.display().to_string()),
+    ];
     if real {
         runs.push(("ffmpeg", sys_path.clone()));
     }
     for (which, path) in runs {
         let s = Server::start_with_path(
-            &["tests/data/aorta-small-view-b.toml", "--width", "64", "--height", "48"],
+            &[
+                "tests/data/aorta-small-view-b.toml",
+                "--width",
+                "64",
+                "--height",
+                "48",
+            ],
             Some(&path),
         );
         let rt = tokio::runtime::Runtime::new().unwrap();
@@ -574,13 +644,27 @@ fn a_movie_of_the_full_frames_shown_while_recording() {
             let _ = next(&mut ws).await;
             let (first, _) = next_frame(&mut ws).await;
             let cam = first["scene"]["camera"].clone();
-            let m = answer(&mut ws, serde_json::json!({"type": "movie", "action": "start"})).await;
+            let m = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "start"}),
+            )
+            .await;
             if which == "none" {
                 assert_eq!(m["type"], "error", "{m}");
-                assert!(m["message"].as_str().unwrap().contains("ffmpeg is not on PATH"), "{m}");
+                assert!(
+                    m["message"]
+                        .as_str()
+                        .unwrap()
+                        .contains("ffmpeg is not on PATH"),
+                    "{m}"
+                );
                 return;
             }
-            assert_eq!((m["type"].as_str(), m["state"].as_str()), (Some("movie"), Some("recording")), "{m}");
+            assert_eq!(
+                (m["type"].as_str(), m["state"].as_str()),
+                (Some("movie"), Some("recording")),
+                "{m}"
+            );
             assert_eq!(m["frames"], 1, "the frame shown now is the first: {m}");
             for k in 1..=2u64 {
                 let msg = camera_msg(&cam, 20.0 * k as f64, false, k);
@@ -588,11 +672,23 @@ fn a_movie_of_the_full_frames_shown_while_recording() {
                 let (f, _) = next_frame(&mut ws).await;
                 assert_eq!(f["scale"], 1);
             }
-            let m = answer(&mut ws, serde_json::json!({"type": "movie", "action": "stop"})).await;
+            let m = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "stop"}),
+            )
+            .await;
             assert_eq!(m["state"], "writing", "{m}");
             let (m, _) = next(&mut ws).await;
-            assert_eq!((m["state"].as_str(), m["frames"].as_u64()), (Some("ready"), Some(3)), "{m}");
-            let e = answer(&mut ws, serde_json::json!({"type": "movie", "action": "stop"})).await;
+            assert_eq!(
+                (m["state"].as_str(), m["frames"].as_u64()),
+                (Some("ready"), Some(3)),
+                "{m}"
+            );
+            let e = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "stop"}),
+            )
+            .await;
             assert_eq!(e["type"], "error", "stop without a recording: {e}");
         });
         if which == "none" {
@@ -606,7 +702,11 @@ fn a_movie_of_the_full_frames_shown_while_recording() {
         assert!(!movie.is_empty());
         if which == "stand-in" {
             assert_eq!(movie, b"movie\n");
-            assert_eq!(std::fs::read_to_string(&log).unwrap().trim(), "3", "3 frames to ffmpeg");
+            assert_eq!(
+                std::fs::read_to_string(&log).unwrap().trim(),
+                "3",
+                "3 frames to ffmpeg"
+            );
         } else {
             assert_eq!(&movie[4..8], b"ftyp", "an MP4");
         }

@@ -123,8 +123,10 @@ pub fn step_names(states: &DataStates) -> Vec<String> {
         .steps
         .iter()
         .map(|p| {
-            p.file_name()
-                .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+            p.file_name().map_or_else(
+                || p.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
         })
         .collect()
 }
@@ -395,4 +397,3 @@ impl Backend for Local {
         s
     }
 }
-

@@ -14,7 +14,8 @@ use crate::render::RenderInput;
 use crate::scene::Scene;
 
 use super::backend::{
-    chosen, coarse_frame, coarse_of, reduced, step_names, step_paths, Backend, Info, Rendered, HISTOGRAM_BINS,
+    chosen, coarse_frame, coarse_of, reduced, step_names, step_paths, Backend, Info, Rendered,
+    HISTOGRAM_BINS,
 };
 use super::pace::Level;
 
@@ -162,7 +163,11 @@ impl Backend for Cluster {
             step_paths: step_paths(&self.states),
             step: self.step,
             range: self.summaries.get(self.state).map_or([0.0, 1.0], |s| s.1),
-            histogram: self.summaries.get(self.state).map(|s| s.0.clone()).unwrap_or_default(),
+            histogram: self
+                .summaries
+                .get(self.state)
+                .map(|s| s.0.clone())
+                .unwrap_or_default(),
             renderers: vec!["cell".into()],
             renderer: "cell".into(),
             ert: f64::from(self.job.ert.threshold),

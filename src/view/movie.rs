@@ -105,14 +105,13 @@ pub fn write(frames: &[Arc<Vec<u8>>]) -> anyhow::Result<Vec<u8>> {
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
-    let movie = std::env::temp_dir().join(format!(
-        "pvrsim-view-{}-{nanos}.mp4",
-        std::process::id()
-    ));
-    let made = crate::job::series::output::make_movie_of(&movie, MOVIE_FPS, frames.len(), |k, p| {
-        std::fs::write(p, frames[k].as_slice())
-            .with_context(|| format!("cannot write {}", p.display()))
-    });
+    let movie =
+        std::env::temp_dir().join(format!("pvrsim-view-{}-{nanos}.mp4", std::process::id()));
+    let made =
+        crate::job::series::output::make_movie_of(&movie, MOVIE_FPS, frames.len(), |k, p| {
+            std::fs::write(p, frames[k].as_slice())
+                .with_context(|| format!("cannot write {}", p.display()))
+        });
     let bytes = made.and_then(|()| {
         std::fs::read(&movie).with_context(|| format!("cannot read {}", movie.display()))
     });
@@ -137,7 +136,9 @@ mod tests {
             assert!(r.add(Arc::new(vec![0; 10])).is_none());
         }
         assert_eq!(r.frames(), MAX_MOVIE_FRAMES);
-        let e = r.add(Arc::new(vec![0; 10])).expect("a refusal past the limit");
+        let e = r
+            .add(Arc::new(vec![0; 10]))
+            .expect("a refusal past the limit");
         assert!(e.contains("limit"), "{e}");
         assert!(r.add(Arc::new(vec![0; 10])).is_none(), "said once");
         assert_eq!(r.stop().unwrap().len(), MAX_MOVIE_FRAMES);

@@ -212,8 +212,8 @@ fn run(
             "step": step_shown,
         }));
         if format == FrameFormat::Png {
-            let data_path = std::fs::canonicalize(&scene.data.path)
-                .unwrap_or_else(|_| scene.data.path.clone());
+            let data_path =
+                std::fs::canonicalize(&scene.data.path).unwrap_or_else(|_| scene.data.path.clone());
             shared.set_full(image, scene.to_toml(&data_path.to_string_lossy()));
             shared.sent_full(Arc::new(bytes.clone()));
         }

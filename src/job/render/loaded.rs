@@ -76,7 +76,11 @@ impl DataStates {
         if step >= self.steps.len() {
             return Err(no_such_step(step, self.steps.len()));
         }
-        Ok(self.table.get(step * self.fields.len() + f).copied().unwrap_or(0))
+        Ok(self
+            .table
+            .get(step * self.fields.len() + f)
+            .copied()
+            .unwrap_or(0))
     }
 
     /// The position of `field` among [`DataStates::fields`].
@@ -132,10 +136,7 @@ impl<'a> Valid<'a, RenderArgs> {
     /// between: the scene's fields, and the time steps of `series` (a
     /// series file; mesh scenes only). The loaded render draws the scene's
     /// own state; [`LoadedRender::select`] switches.
-    pub fn load_states(
-        &self,
-        series: Option<&Path>,
-    ) -> anyhow::Result<(LoadedRender, DataStates)> {
+    pub fn load_states(&self, series: Option<&Path>) -> anyhow::Result<(LoadedRender, DataStates)> {
         let a = self.args();
         let scene = crate::job::load_scene(&a.scene)?;
         if crate::job::render::grid::is_grid_scene(&scene) {
