@@ -200,7 +200,7 @@ impl LoadedRender {
             let mut next = input.clone();
             next.scene.camera = m.scene.camera;
             next.scene.transfer = m.scene.transfer.clone();
-            next.scene.image = m.scene.image.clone();
+            next.scene.image = m.scene.image;
             **m = next;
         }
     }
