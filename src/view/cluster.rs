@@ -10,7 +10,6 @@ use crate::job::cluster::load::LoadedCluster;
 use crate::job::render::loaded::DataStates;
 use crate::job::render::{RenderArgs, RendererKind};
 use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
-use crate::render::RenderInput;
 use crate::scene::Scene;
 
 use super::backend::{
@@ -19,9 +18,10 @@ use super::backend::{
 };
 use super::pace::Level;
 
-/// The session of `job` holding the data states `inputs` (the scene's
+/// The session of `job` holding the data states of `states` (the scene's
 /// first, as the job loads it; more than one: every field and time step).
-fn open_session(job: &ClusterJob, inputs: &[RenderInput]) -> anyhow::Result<Session> {
+fn open_session(job: &ClusterJob, states: &DataStates) -> anyhow::Result<Session> {
+    let inputs = &states.inputs;
     let valid = Valid::new(job)?;
     let loaded = match valid.load()? {
         LoadedCluster::Mesh(a, mut f) if inputs.len() > 1 => {
@@ -112,7 +112,7 @@ impl Cluster {
                 (c, a)
             });
         drop(loaded);
-        let session = open_session(&job, &states.inputs)?;
+        let session = open_session(&job, &states)?;
         let scene = session.scene().clone();
         Ok(Cluster {
             job,
@@ -133,7 +133,7 @@ impl Cluster {
 
     fn session(&mut self) -> anyhow::Result<&mut Session> {
         if self.session.is_none() {
-            self.session = Some(open_session(&self.job, &self.states.inputs)?);
+            self.session = Some(open_session(&self.job, &self.states)?);
         }
         Ok(self.session.as_mut().expect("opened above"))
     }
