@@ -4,7 +4,7 @@
 //!   job layer's [`LoadedRender`]: the data loaded once, each frame with
 //!   the new camera, transfer function and size), so `/frame.png` equals
 //!   `pvrsim render` of `/scene.toml` bit for bit.
-//! - [`Cluster`](super::cluster::Cluster) (`--nodes N`): `pvrsim cluster`'s frames of the current
+//! - `Cluster` (`view::cluster`, `--nodes N`): `pvrsim cluster`'s frames of the current
 //!   view on N nodes (threads, worker processes or TCP workers) on the
 //!   job layer's persistent [`Session`](crate::job::Session) (nodes set up and data placed
 //!   once), with the per-node figures of each frame's report.
@@ -106,15 +106,6 @@ pub trait Backend: Send {
     /// The `pvrsim render` / `pvrsim cluster` options that, with the scene
     /// TOML `/scene.toml` serves, reproduce the full frame.
     fn command_options(&self) -> String;
-}
-
-/// The backend `args` asks for, with the scene and data loaded.
-pub fn open(args: &super::ViewArgs) -> anyhow::Result<Box<dyn Backend>> {
-    let coarse = args.interactive_scale == super::InteractiveScale::Auto;
-    Ok(match args.nodes {
-        None => Box::new(Local::open(&args.render, args.series.as_deref(), coarse)?),
-        Some(n) => Box::new(super::cluster::Cluster::open(args, n)?),
-    })
 }
 
 /// The time steps' names the page lists (file names).

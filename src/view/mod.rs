@@ -150,7 +150,7 @@ impl Viewer {
     /// first frame can be asked for.
     pub fn start(args: &ViewArgs) -> anyhow::Result<Viewer> {
         args.check()?;
-        let backend = backend::open(args)?;
+        let backend = open_backend(args)?;
         let token = fresh_token()?;
         let listener = std::net::TcpListener::bind((args.bind, args.port))
             .map_err(|e| anyhow::anyhow!("--bind {} --port {}: {e}", args.bind, args.port))?;
@@ -225,6 +225,20 @@ impl Drop for Viewer {
             let _ = self.stop_now();
         }
     }
+}
+
+/// The backend `args` asks for, with the scene and data loaded: in this
+/// process ([`backend::Local`]) or on a cluster ([`cluster::Cluster`]).
+fn open_backend(args: &ViewArgs) -> anyhow::Result<Box<dyn backend::Backend>> {
+    let coarse = args.interactive_scale == InteractiveScale::Auto;
+    Ok(match args.nodes {
+        None => Box::new(backend::Local::open(
+            &args.render,
+            args.series.as_deref(),
+            coarse,
+        )?),
+        Some(n) => Box::new(cluster::Cluster::open(args, n)?),
+    })
 }
 
 /// A fresh random token: 16 bytes from the OS, hex.
