@@ -24,7 +24,16 @@ struct Server {
 
 impl Server {
     fn start(args: &[&str]) -> Server {
-        let mut child = Command::new(BIN)
+        Server::start_with_path(args, None)
+    }
+
+    /// [`Server::start`] with `PATH` set to `path` (a stand-in ffmpeg).
+    fn start_with_path(args: &[&str], path: Option<&str>) -> Server {
+        let mut cmd = Command::new(BIN);
+        if let Some(p) = path {
+            cmd.env("PATH", p);
+        }
+        let mut child = cmd
             .arg("view")
             .args(args)
             .stdout(Stdio::piped())
@@ -362,4 +371,345 @@ fn a_grid_scene_is_served() {
     assert!(st.success());
     assert_eq!(std::fs::read(&out).unwrap(), png);
     s.interrupt();
+}
+
+/// `pvrsim render` (or `pvrsim cluster` with `opts`) of the scene
+/// `/scene.toml` serves gives `/frame.png` bit for bit; the scene's text.
+fn same_as_command(s: &Server, dir: &std::path::Path, name: &str, command: &[&str]) -> String {
+    let (st, png) = s.get(&format!("/frame.png?token={}", s.token));
+    assert_eq!(st, 200);
+    let (st, toml) = s.get(&format!("/scene.toml?token={}", s.token));
+    assert_eq!(st, 200);
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, &toml).unwrap();
+    let out = dir.join(format!("{name}.png"));
+    let st = Command::new(BIN)
+        .arg(command[0])
+        .arg(&scene)
+        .args(&command[1..])
+        .arg("-o")
+        .arg(&out)
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(st.success());
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        png,
+        "{command:?} of /scene.toml gives /frame.png bit for bit"
+    );
+    String::from_utf8(toml).unwrap()
+}
+
+/// Sends a message and returns the next message that is not a frame
+/// (a `data` note or an error).
+async fn answer(ws: &mut Ws, m: serde_json::Value) -> serde_json::Value {
+    ws.send(Message::Text(m.to_string().into())).await.unwrap();
+    loop {
+        let (v, bytes) = next(ws).await;
+        if bytes.is_none() {
+            return v;
+        }
+    }
+}
+
+/// The field and time-step choice: the data's fields and the series' time
+/// steps in `hello`; another field changes the histogram and the frame,
+/// `/scene.toml` names it and reproduces `/frame.png` (in this process and
+/// on 2 worker processes against `pvrsim cluster`); an unknown field
+/// and a time step that does not exist are refused with a message while
+/// the server keeps serving.
+#[test]
+fn fields_and_time_steps_are_chosen_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy("tests/data/aorta-small.vtk", dir.path().join("step1.vtk")).unwrap();
+    let series = dir.path().join("steps.toml");
+    std::fs::write(&series, "[[frame]]\n[[frame]]\nmesh = \"step1.vtk\"\n").unwrap();
+    let size = ["--width", "96", "--height", "72"];
+    for cluster in [false, true] {
+        let mut args = vec![
+            "tests/data/aorta-small-view-b.toml",
+            "--series",
+            series.to_str().unwrap(),
+        ];
+        args.extend(size);
+        if cluster {
+            args.extend([
+                "--nodes",
+                "2",
+                "--transport",
+                "processes",
+                "--canonical",
+                "--ert",
+                "1",
+            ]);
+        }
+        let s = Server::start(&args);
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        rt.block_on(async {
+            let (mut ws, _) = tokio_tungstenite::connect_async(s.ws_url()).await.unwrap();
+            let (hello, _) = next(&mut ws).await;
+            assert_eq!(hello["field"], "speed", "{hello}");
+            let fields: Vec<&str> = hello["fields"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|f| f.as_str().unwrap())
+                .collect();
+            for f in ["speed", "pressure", "potential"] {
+                assert!(fields.contains(&f), "{fields:?}");
+            }
+            assert_eq!(
+                hello["steps"],
+                serde_json::json!(["aorta-small.vtk", "step1.vtk"])
+            );
+            let (first, _) = next_frame(&mut ws).await;
+
+            // Another field: a data note (its histogram), then its frame.
+            let d = answer(
+                &mut ws,
+                serde_json::json!({"type": "data", "field": "pressure"}),
+            )
+            .await;
+            assert_eq!(d["type"], "data", "{d}");
+            assert_eq!(d["field"], "pressure");
+            assert_ne!(
+                d["histogram"], hello["histogram"],
+                "the histogram follows the field"
+            );
+            let (f, png) = next_frame(&mut ws).await;
+            assert_eq!(
+                (f["scale"].as_u64(), f["field"].as_str()),
+                (Some(1), Some("pressure"))
+            );
+            assert_ne!(f["seq"], first["seq"]);
+            let (_, speed_png) = (first, png.clone());
+            let command: &[&str] = if cluster {
+                &[
+                    "cluster",
+                    "--nodes",
+                    "2",
+                    "--transport",
+                    "processes",
+                    "--canonical",
+                    "--ert",
+                    "1",
+                    "--no-baselines",
+                ]
+            } else {
+                &["render"]
+            };
+            let toml = same_as_command(&s, dir.path(), "pressure", command);
+            assert!(toml.contains("field = \"pressure\""), "{toml}");
+
+            // Refused: an unknown field, a time step that does not exist.
+            let e = answer(
+                &mut ws,
+                serde_json::json!({"type": "data", "field": "temperature"}),
+            )
+            .await;
+            assert_eq!(e["type"], "error", "{e}");
+            assert!(
+                e["message"]
+                    .as_str()
+                    .unwrap()
+                    .contains("unknown field \"temperature\""),
+                "{e}"
+            );
+            let e = answer(&mut ws, serde_json::json!({"type": "data", "step": 2})).await;
+            assert_eq!(e["type"], "error", "{e}");
+            assert!(
+                e["message"]
+                    .as_str()
+                    .unwrap()
+                    .contains("time step 2 does not exist"),
+                "{e}"
+            );
+
+            // The server keeps serving: time step 1 (the same data in
+            // another file: the same image), named by /scene.toml.
+            let d = answer(&mut ws, serde_json::json!({"type": "data", "step": 1})).await;
+            assert_eq!(
+                (d["step"].as_u64(), d["field"].as_str()),
+                (Some(1), Some("pressure")),
+                "{d}"
+            );
+            let (f, png) = next_frame(&mut ws).await;
+            assert_eq!(f["step"], 1, "{f}");
+            assert_eq!(png, speed_png, "the time step holds the same data");
+            let toml = same_as_command(&s, dir.path(), "step1", command);
+            assert!(toml.contains("step1.vtk"), "{toml}");
+            let (st, state) = s.get(&format!("/state.json?token={}", s.token));
+            assert_eq!(st, 200);
+            let state: serde_json::Value = serde_json::from_slice(&state).unwrap();
+            assert_eq!(
+                (state["step"].as_u64(), state["field"].as_str()),
+                (Some(1), Some("pressure"))
+            );
+        });
+        s.interrupt();
+    }
+}
+
+/// A grid has one field: the selector lists it; another is refused.
+#[test]
+fn a_grid_lists_its_one_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let st = Command::new(BIN)
+        .args(["demo", "--cells", "2000", "--nodes", "0", "--out-dir"])
+        .arg(dir.path())
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let scene = dir.path().join("hydrogen.toml");
+    let s = Server::start(&[scene.to_str().unwrap(), "--width", "48", "--height", "48"]);
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    rt.block_on(async {
+        let (mut ws, _) = tokio_tungstenite::connect_async(s.ws_url()).await.unwrap();
+        let (hello, _) = next(&mut ws).await;
+        assert_eq!(hello["fields"].as_array().unwrap().len(), 1, "{hello}");
+        assert_eq!(hello["steps"].as_array().unwrap().len(), 1, "{hello}");
+        let _ = next_frame(&mut ws).await;
+        let e = answer(
+            &mut ws,
+            serde_json::json!({"type": "data", "field": "speed"}),
+        )
+        .await;
+        assert_eq!(e["type"], "error", "{e}");
+    });
+    s.interrupt();
+}
+
+/// Writes a stand-in `ffmpeg` into `bin` that answers `-version`, counts
+/// the PNG frames of its input folder into `log` and writes a movie.
+#[cfg(unix)]
+fn fake_ffmpeg(bin: &std::path::Path, log: &std::path::Path) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::create_dir_all(bin).unwrap();
+    let fake = bin.join("ffmpeg");
+    std::fs::write(
+        &fake,
+        format!(
+            "#!/bin/sh\n[ \"$1\" = -version ] && exit 0\nfor a in \"$@\"; do last=$a; done\nls $(dirname \"$7\") | grep -c png > {}\necho movie > \"$last\"\n",
+            log.display()
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+/// Records a movie: the full frames shown while recording (the current
+/// one and one per view change) go to ffmpeg, the movie is served at
+/// `/movie.mp4`; without ffmpeg the page is told so.
+#[cfg(unix)]
+#[test]
+fn a_movie_of_the_full_frames_shown_while_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    let log = dir.path().join("frames.txt");
+    fake_ffmpeg(&bin, &log);
+    let real = Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !real {
+        eprintln!("a_movie_of_the_full_frames_shown_while_recording: no ffmpeg on PATH: the movie is made by a stand-in ffmpeg only");
+    }
+    let sys_path = std::env::var("PATH").unwrap_or_default();
+    let fake_path = format!("{}:{sys_path}", bin.display());
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let mut runs = vec![
+        ("stand-in", fake_path.clone()),
+        ("none", empty.display().to_string()),
+    ];
+    if real {
+        runs.push(("ffmpeg", sys_path.clone()));
+    }
+    for (which, path) in runs {
+        let s = Server::start_with_path(
+            &[
+                "tests/data/aorta-small-view-b.toml",
+                "--width",
+                "64",
+                "--height",
+                "48",
+            ],
+            Some(&path),
+        );
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        rt.block_on(async {
+            let (mut ws, _) = tokio_tungstenite::connect_async(s.ws_url()).await.unwrap();
+            let _ = next(&mut ws).await;
+            let (first, _) = next_frame(&mut ws).await;
+            let cam = first["scene"]["camera"].clone();
+            let m = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "start"}),
+            )
+            .await;
+            if which == "none" {
+                assert_eq!(m["type"], "error", "{m}");
+                assert!(
+                    m["message"]
+                        .as_str()
+                        .unwrap()
+                        .contains("ffmpeg is not on PATH"),
+                    "{m}"
+                );
+                return;
+            }
+            assert_eq!(
+                (m["type"].as_str(), m["state"].as_str()),
+                (Some("movie"), Some("recording")),
+                "{m}"
+            );
+            assert_eq!(m["frames"], 1, "the frame shown now is the first: {m}");
+            for k in 1..=2u64 {
+                let msg = camera_msg(&cam, 20.0 * k as f64, false, k);
+                ws.send(Message::Text(msg.into())).await.unwrap();
+                let (f, _) = next_frame(&mut ws).await;
+                assert_eq!(f["scale"], 1);
+            }
+            let m = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "stop"}),
+            )
+            .await;
+            assert_eq!(m["state"], "writing", "{m}");
+            let (m, _) = next(&mut ws).await;
+            assert_eq!(
+                (m["state"].as_str(), m["frames"].as_u64()),
+                (Some("ready"), Some(3)),
+                "{m}"
+            );
+            let e = answer(
+                &mut ws,
+                serde_json::json!({"type": "movie", "action": "stop"}),
+            )
+            .await;
+            assert_eq!(e["type"], "error", "stop without a recording: {e}");
+        });
+        if which == "none" {
+            assert_eq!(s.get(&format!("/movie.mp4?token={}", s.token)).0, 404);
+            s.interrupt();
+            continue;
+        }
+        assert_eq!(s.get("/movie.mp4").0, 403, "the movie needs the token");
+        let (st, movie) = s.get(&format!("/movie.mp4?token={}", s.token));
+        assert_eq!(st, 200);
+        assert!(!movie.is_empty());
+        if which == "stand-in" {
+            assert_eq!(movie, b"movie\n");
+            assert_eq!(
+                std::fs::read_to_string(&log).unwrap().trim(),
+                "3",
+                "3 frames to ffmpeg"
+            );
+        } else {
+            assert_eq!(&movie[4..8], b"ftyp", "an MP4");
+        }
+        s.interrupt();
+    }
 }

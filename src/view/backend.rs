@@ -4,15 +4,18 @@
 //!   job layer's [`LoadedRender`]: the data loaded once, each frame with
 //!   the new camera, transfer function and size), so `/frame.png` equals
 //!   `pvrsim render` of `/scene.toml` bit for bit.
-//! - [`Cluster`] (`--nodes N`): `pvrsim cluster`'s frames of the current
+//! - `Cluster` (`view::cluster`, `--nodes N`): `pvrsim cluster`'s frames of the current
 //!   view on N nodes (threads, worker processes or TCP workers) on the
-//!   job layer's persistent [`Session`] (nodes set up and data placed
+//!   job layer's persistent [`Session`](crate::job::Session) (nodes set up and data placed
 //!   once), with the per-node figures of each frame's report.
 
 use crate::image::Image;
-use crate::job::args::transport::TransportKind;
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::job::render::loaded::DataStates;
 use crate::job::render::{RenderArgs, RendererKind};
-use crate::job::{ClusterJob, FrameRequest, LoadedRender, Session, Valid, ViewChange};
+use crate::job::{LoadedRender, Valid, ViewChange};
 use crate::scene::Scene;
 
 use super::pace::Level;
@@ -37,6 +40,14 @@ pub struct Info {
     pub scene_name: String,
     /// The field rendered.
     pub field: String,
+    /// The data's point fields (a grid: its one field).
+    pub fields: Vec<String>,
+    /// The time steps' mesh file names (the scene's first; `--series`).
+    pub steps: Vec<String>,
+    /// Their absolute paths (a recorded series names them).
+    pub step_paths: Vec<String>,
+    /// The time step shown.
+    pub step: usize,
     /// Its raw range (the transfer function's `[0, 1]`).
     pub range: [f64; 2],
     /// Counts over [`HISTOGRAM_BINS`] bins of the normalised field.
@@ -75,6 +86,10 @@ pub trait Backend: Send {
     fn info(&self) -> Info;
     /// Applies a camera/transfer change to the scene of the next frames.
     fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()>;
+    /// Switches to time step `step` and/or the field `field` (the
+    /// camera, transfer function and size kept); the histogram and range
+    /// of [`Backend::info`] follow.
+    fn select(&mut self, step: Option<usize>, field: Option<&str>) -> anyhow::Result<()>;
     /// Changes the ERT threshold and/or the renderer.
     fn set_options(
         &mut self,
@@ -93,13 +108,46 @@ pub trait Backend: Send {
     fn command_options(&self) -> String;
 }
 
-/// The backend `args` asks for, with the scene and data loaded.
-pub fn open(args: &super::ViewArgs) -> anyhow::Result<Box<dyn Backend>> {
-    let coarse = args.interactive_scale == super::InteractiveScale::Auto;
-    Ok(match args.nodes {
-        None => Box::new(Local::open(&args.render, coarse)?),
-        Some(n) => Box::new(Cluster::open(args, n)?),
-    })
+/// The time steps' names the page lists (file names).
+pub fn step_names(states: &DataStates) -> Vec<String> {
+    states
+        .steps
+        .iter()
+        .map(|p| {
+            p.file_name().map_or_else(
+                || p.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        })
+        .collect()
+}
+
+/// The time steps' absolute paths.
+pub fn step_paths(states: &DataStates) -> Vec<String> {
+    states
+        .steps
+        .iter()
+        .map(|p| {
+            std::fs::canonicalize(p)
+                .unwrap_or_else(|_| p.clone())
+                .display()
+                .to_string()
+        })
+        .collect()
+}
+
+/// The (time step, field) `step`/`field` ask for, the others kept from
+/// `now`: the index of its data state, checked.
+pub fn chosen(
+    states: &DataStates,
+    now: (usize, &str),
+    step: Option<usize>,
+    field: Option<&str>,
+) -> anyhow::Result<(usize, String, usize)> {
+    let step = step.unwrap_or(now.0);
+    let field = field.unwrap_or(now.1).to_string();
+    let state = states.state(step, &field).map_err(anyhow::Error::msg)?;
+    Ok((step, field, state))
 }
 
 /// The reduced size of an interactive frame (each side at least 1).
@@ -109,7 +157,7 @@ pub fn reduced(w: u32, h: u32, divisor: u32) -> (u32, u32) {
 }
 
 /// The renderer names for a mesh or a grid.
-fn renderer_names(grid: bool) -> Vec<String> {
+pub(super) fn renderer_names(grid: bool) -> Vec<String> {
     let all: &[RendererKind] = if grid {
         &[
             RendererKind::ShearWarp,
@@ -134,29 +182,54 @@ pub fn renderer_name(k: Option<RendererKind>) -> String {
 pub struct Local {
     args: RenderArgs,
     loaded: LoadedRender,
-    coarse: Option<LoadedRender>,
+    states: DataStates,
+    /// The time step, field and data state shown.
+    step: usize,
+    field: String,
+    state: usize,
+    /// Whether large meshes get a coarse stand-in (`auto`), and the
+    /// stand-ins built so far, per data state.
+    coarse_wanted: bool,
+    coarse: HashMap<usize, Option<LoadedRender>>,
     histogram: Vec<u64>,
 }
 
 impl Local {
-    /// Validates the render options once and loads the scene's data (and
-    /// builds the coarse stand-in of a large mesh when `coarse`).
-    pub fn open(args: &RenderArgs, coarse: bool) -> anyhow::Result<Local> {
+    /// Validates the render options once and loads the scene's data with
+    /// every field and the time steps of `series` (and builds the coarse
+    /// stand-in of a large mesh when `coarse`).
+    pub fn open(args: &RenderArgs, series: Option<&Path>, coarse: bool) -> anyhow::Result<Local> {
         let job = Valid::new(args)?;
         job.print_warnings();
-        let loaded = job.load()?;
+        let (loaded, states) = job.load_states(series)?;
         let histogram = loaded.histogram(HISTOGRAM_BINS);
-        Ok(Local {
+        let field = loaded.scene().data.field.clone();
+        let mut l = Local {
             args: args.clone(),
-            coarse: coarse.then(|| coarse_of(&loaded)).flatten(),
+            coarse: HashMap::new(),
+            coarse_wanted: coarse,
             loaded,
+            step: 0,
+            state: 0,
+            field,
+            states,
             histogram,
-        })
+        };
+        l.build_coarse();
+        Ok(l)
+    }
+
+    /// The coarse stand-in of the state shown, built once per state.
+    fn build_coarse(&mut self) {
+        if self.coarse_wanted && !self.coarse.contains_key(&self.state) {
+            let c = coarse_of(&self.loaded);
+            self.coarse.insert(self.state, c);
+        }
     }
 }
 
 /// The coarse stand-in of a mesh of more than [`COARSE_ABOVE`] cells.
-fn coarse_of(loaded: &LoadedRender) -> Option<LoadedRender> {
+pub(super) fn coarse_of(loaded: &LoadedRender) -> Option<LoadedRender> {
     match loaded {
         LoadedRender::Mesh(m) if m.mesh.tets.len() > COARSE_ABOVE => loaded.coarse(COARSE_CELLS),
         _ => None,
@@ -166,7 +239,7 @@ fn coarse_of(loaded: &LoadedRender) -> Option<LoadedRender> {
 /// A frame of the coarse stand-in `coarse` of a scene: its camera and
 /// transfer function, at `size`, drawn with the options `a` (lists not
 /// kept canonical: the frame is a stand-in, not `pvrsim render`'s).
-fn coarse_frame(
+pub(super) fn coarse_frame(
     coarse: &mut LoadedRender,
     scene: &Scene,
     size: (u32, u32),
@@ -203,6 +276,10 @@ impl Backend for Local {
         Info {
             scene_name: self.args.scene.display().to_string(),
             field: s.data.field.clone(),
+            fields: self.states.fields.clone(),
+            steps: step_names(&self.states),
+            step_paths: step_paths(&self.states),
+            step: self.step,
             range: self.loaded.range(),
             histogram: self.histogram.clone(),
             renderers: renderer_names(self.loaded.is_grid()),
@@ -215,6 +292,19 @@ impl Backend for Local {
 
     fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()> {
         self.loaded.apply(change)
+    }
+
+    fn select(&mut self, step: Option<usize>, field: Option<&str>) -> anyhow::Result<()> {
+        let (step, field, state) = chosen(&self.states, (self.step, &self.field), step, field)?;
+        if state != self.state {
+            if let Some(input) = self.states.inputs.get(state) {
+                self.loaded.select(input);
+            }
+            self.histogram = self.loaded.histogram(HISTOGRAM_BINS);
+        }
+        (self.step, self.field, self.state) = (step, field, state);
+        self.build_coarse();
+        Ok(())
     }
 
     fn set_options(
@@ -249,14 +339,15 @@ impl Backend for Local {
     }
 
     fn has_coarse(&self) -> bool {
-        self.coarse.is_some()
+        self.coarse.get(&self.state).is_some_and(Option::is_some)
     }
 
     fn frame(&mut self, level: Level) -> anyhow::Result<Rendered> {
         let t = std::time::Instant::now();
         let divisor = level.divisor;
         let full = (self.scene().image.width, self.scene().image.height);
-        if let (true, Some(c)) = (level.coarse, self.coarse.as_mut()) {
+        let coarse = self.coarse.get_mut(&self.state).and_then(Option::as_mut);
+        if let (true, Some(c)) = (level.coarse, coarse) {
             let size = reduced(full.0, full.1, divisor);
             return coarse_frame(c, self.loaded.scene(), size, &self.args);
         }
@@ -295,202 +386,5 @@ impl Backend for Local {
             s += " --canonical";
         }
         s
-    }
-}
-
-/// On a cluster: frames on a persistent session ([`Session`]: the nodes
-/// set up and the data placed once, each frame carrying the camera,
-/// transfer function and size).
-pub struct Cluster {
-    job: ClusterJob,
-    session: Option<Session>,
-    /// The coarse stand-in of the mesh, drawn in this process while the
-    /// user moves the view (`--interactive-scale auto`; as ParaView draws
-    /// its level of detail on the client), with the options it is drawn
-    /// with.
-    coarse: Option<(LoadedRender, RenderArgs)>,
-    cells: usize,
-    scene: Scene,
-    histogram: Vec<u64>,
-    range: [f64; 2],
-    transport: String,
-}
-
-impl Cluster {
-    /// The cluster job of `args` (its scene, `--nodes`, `--transport`,
-    /// `--ert`, `--canonical`, `--width`/`--height`) validated and its
-    /// session opened; the data also read here once for the histogram.
-    pub fn open(args: &super::ViewArgs, nodes: usize) -> anyhow::Result<Cluster> {
-        let r = &args.render;
-        let transport = args.transport.unwrap_or(TransportKind::Threads);
-        let mut job = ClusterJob::new(&r.scene);
-        job.nodes = nodes;
-        job.net.transport = Some(transport);
-        job.net.worker_program = args.worker_program.clone();
-        job.ert.threshold = r.ert.threshold;
-        job.canonical = r.canonical;
-        job.width = r.width;
-        job.height = r.height;
-        anyhow::ensure!(
-            r.renderer.is_none() || r.renderer == Some(RendererKind::Cell),
-            "--renderer with --nodes: a cluster draws meshes by cell projection; leave --renderer out"
-        );
-        let loaded = Valid::new(r)?.load()?;
-        anyhow::ensure!(
-            !loaded.is_grid(),
-            "{}: `pvrsim view --nodes` serves mesh scenes (a cluster session holds a mesh); view \
-             a grid without --nodes",
-            r.scene.display()
-        );
-        let histogram = loaded.histogram(HISTOGRAM_BINS);
-        let range = loaded.range();
-        let cells = match &loaded {
-            LoadedRender::Mesh(m) => m.mesh.tets.len(),
-            LoadedRender::Grid(_) => 0,
-        };
-        let coarse = (args.interactive_scale == super::InteractiveScale::Auto)
-            .then(|| coarse_of(&loaded))
-            .flatten()
-            .map(|c| {
-                let mut a = r.clone();
-                a.renderer = Some(RendererKind::Cell);
-                (c, a)
-            });
-        drop(loaded);
-        let session = Session::open(&job).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let scene = session.scene().clone();
-        Ok(Cluster {
-            job,
-            session: Some(session),
-            coarse,
-            cells,
-            scene,
-            histogram,
-            range,
-            transport: transport.name().to_string(),
-        })
-    }
-
-    fn session(&mut self) -> anyhow::Result<&mut Session> {
-        if self.session.is_none() {
-            self.session = Some(Session::open(&self.job).map_err(|e| anyhow::anyhow!("{e}"))?);
-        }
-        Ok(self.session.as_mut().expect("opened above"))
-    }
-}
-
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        if let Some(s) = self.session.take() {
-            if let Err(e) = s.close() {
-                crate::job::output::warn(format!("closing the cluster session: {e}"));
-            }
-        }
-    }
-}
-
-impl Backend for Cluster {
-    fn scene(&self) -> &Scene {
-        &self.scene
-    }
-
-    fn info(&self) -> Info {
-        Info {
-            scene_name: self.job.scene.display().to_string(),
-            field: self.scene.data.field.clone(),
-            range: self.range,
-            histogram: self.histogram.clone(),
-            renderers: vec!["cell".into()],
-            renderer: "cell".into(),
-            ert: f64::from(self.job.ert.threshold),
-            nodes: self.job.nodes,
-            transport: self.transport.clone(),
-        }
-    }
-
-    fn apply(&mut self, change: &ViewChange) -> anyhow::Result<()> {
-        if let Some(c) = &change.camera {
-            c.check()
-                .map_err(|(k, m)| anyhow::anyhow!("camera: {k}: {m}"))?;
-            self.scene.camera = *c;
-        }
-        if let Some(t) = &change.transfer {
-            self.scene.transfer = t.clone();
-        }
-        if let Some((w, h)) = change.size {
-            (self.scene.image.width, self.scene.image.height) = (w, h);
-        }
-        Ok(())
-    }
-
-    /// A new ERT threshold reopens the session (the nodes' options are
-    /// set when it opens).
-    fn set_options(
-        &mut self,
-        ert: Option<f64>,
-        renderer: Option<RendererKind>,
-    ) -> anyhow::Result<()> {
-        anyhow::ensure!(
-            renderer.is_none() || renderer == Some(RendererKind::Cell),
-            "the renderer of a cluster is cell projection"
-        );
-        if let Some(t) = ert {
-            let mut j = self.job.clone();
-            j.ert.threshold = t as f32;
-            j.check().map_err(|e| anyhow::anyhow!("{e}"))?;
-            if let Some(s) = self.session.take() {
-                s.close().map_err(|e| anyhow::anyhow!("{e}"))?;
-            }
-            self.job = j;
-            if let Some((_, a)) = self.coarse.as_mut() {
-                a.ert.threshold = t as f32;
-            }
-        }
-        Ok(())
-    }
-
-    fn has_coarse(&self) -> bool {
-        self.coarse.is_some()
-    }
-
-    fn frame(&mut self, level: Level) -> anyhow::Result<Rendered> {
-        let t = std::time::Instant::now();
-        let divisor = level.divisor;
-        let full = (self.scene.image.width, self.scene.image.height);
-        if let (true, Some((c, a))) = (level.coarse, self.coarse.as_mut()) {
-            return coarse_frame(c, &self.scene, reduced(full.0, full.1, divisor), a);
-        }
-        let req = FrameRequest {
-            camera: Some(self.scene.camera),
-            transfer: Some(self.scene.transfer.clone()),
-            step: None,
-            size: Some(reduced(full.0, full.1, divisor)),
-        };
-        let out = self
-            .session()?
-            .frame(&req)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let report = serde_json::to_value(&out.report)?;
-        let nodes = report["nodes"].as_array().cloned().unwrap_or_default();
-        Ok(Rendered {
-            image: out.image,
-            render_s: t.elapsed().as_secs_f64(),
-            nodes,
-            cells: self.cells,
-        })
-    }
-
-    fn command_options(&self) -> String {
-        format!(
-            "--nodes {} --transport {} --ert {}{}",
-            self.job.nodes,
-            self.transport,
-            self.job.ert.threshold,
-            if self.job.canonical {
-                " --canonical"
-            } else {
-                ""
-            }
-        )
     }
 }

@@ -55,6 +55,27 @@ enum RawMessage {
         #[serde(default)]
         input: u64,
     },
+    Data {
+        field: Option<String>,
+        step: Option<u64>,
+        #[serde(default)]
+        input: u64,
+    },
+    Movie {
+        action: String,
+        #[serde(default)]
+        #[allow(dead_code)]
+        input: u64,
+    },
+}
+
+/// What the page asks of the movie recorder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MovieAction {
+    /// Start keeping the full-resolution frames shown.
+    Start,
+    /// Stop and write the movie of the frames kept.
+    Stop,
 }
 
 /// A validated message from the page.
@@ -81,6 +102,40 @@ pub enum ClientMessage {
         /// The page's input number.
         input: u64,
     },
+    /// Another field and/or time step (checked against the data's by
+    /// [`check_data`]).
+    Data {
+        /// The point field's name.
+        field: Option<String>,
+        /// The time step's index.
+        step: Option<usize>,
+        /// The page's input number.
+        input: u64,
+    },
+    /// Start or stop recording a movie.
+    Movie(MovieAction),
+}
+
+/// The longest field name a message may carry.
+pub const MAX_FIELD_NAME: usize = 256;
+
+/// Checks a [`ClientMessage::Data`] against the data's `fields` and its
+/// number of time `steps` (a refusal the page shows; other messages pass).
+pub fn check_data(m: &ClientMessage, fields: &[String], steps: usize) -> Result<(), String> {
+    let ClientMessage::Data { field, step, .. } = m else {
+        return Ok(());
+    };
+    if let Some(f) = field {
+        if !fields.contains(f) {
+            return Err(crate::job::render::loaded::unknown_field(f, fields));
+        }
+    }
+    if let Some(k) = step {
+        if *k >= steps {
+            return Err(crate::job::render::loaded::no_such_step(*k, steps));
+        }
+    }
+    Ok(())
 }
 
 /// Parses and validates one text message.
@@ -127,7 +182,32 @@ pub fn parse(text: &str) -> Result<ClientMessage, String> {
                 input,
             }
         }
+        RawMessage::Data { field, step, input } => {
+            if let Some(f) = &field {
+                if f.is_empty() || f.len() > MAX_FIELD_NAME {
+                    return Err(format!(
+                        "field: must name a point field (1 to {MAX_FIELD_NAME} bytes)"
+                    ));
+                }
+            }
+            step_index(step).map(|step| ClientMessage::Data { field, step, input })?
+        }
+        RawMessage::Movie { action, .. } => ClientMessage::Movie(match action.as_str() {
+            "start" => MovieAction::Start,
+            "stop" => MovieAction::Stop,
+            other => {
+                return Err(format!(
+                    "movie.action: must be \"start\" or \"stop\", got \"{other}\""
+                ))
+            }
+        }),
     })
+}
+
+/// A time step's index as a `usize`.
+fn step_index(step: Option<u64>) -> Result<Option<usize>, String> {
+    step.map(|k| usize::try_from(k).map_err(|_| format!("time step {k} does not exist")))
+        .transpose()
 }
 
 fn camera_of(c: &CameraMsg) -> Result<Camera, String> {
@@ -209,6 +289,9 @@ mod tests {
                 r#"{"type":"options","renderer":"magic"}"#,
                 "unknown renderer",
             ),
+            (r#"{"type":"data","field":""}"#, "field"),
+            (r#"{"type":"data","step":-1}"#, "malformed"),
+            (r#"{"type":"movie","action":"rewind"}"#, "movie.action"),
         ];
         for (text, want) in cases {
             let e = parse(text).unwrap_err();
@@ -221,5 +304,18 @@ mod tests {
             "x".repeat(MAX_MESSAGE_BYTES)
         );
         assert!(parse(&big).unwrap_err().contains("exceeds"));
+    }
+
+    #[test]
+    fn fields_and_steps_are_checked_against_the_data() {
+        let fields = ["speed".to_string(), "pressure".to_string()];
+        let m = parse(r#"{"type":"data","field":"pressure","step":1}"#).unwrap();
+        assert!(check_data(&m, &fields, 2).is_ok());
+        let e = check_data(&m, &fields, 1).unwrap_err();
+        assert!(e.contains("time step 1 does not exist"), "{e}");
+        let m = parse(r#"{"type":"data","field":"temperature"}"#).unwrap();
+        let e = check_data(&m, &fields, 2).unwrap_err();
+        assert!(e.contains("unknown field \"temperature\""), "{e}");
+        assert!(e.contains("\"speed\", \"pressure\""), "{e}");
     }
 }

@@ -15,8 +15,10 @@
 
 pub mod assets;
 pub mod backend;
+pub mod cluster;
 pub mod encode;
 pub mod messages;
+pub mod movie;
 pub mod pace;
 pub mod render_loop;
 pub mod server;
@@ -83,6 +85,13 @@ pub struct ViewArgs {
     /// coarse stand-in of a large mesh, to hold ~40 ms a frame), 1, 2 or 4.
     #[arg(long, value_enum, default_value_t = InteractiveScale::Auto)]
     pub interactive_scale: InteractiveScale,
+    /// Mesh scenes: the time steps of a series file (`pvrsim cluster
+    /// --series`'s format): the scene's mesh, then each other mesh its
+    /// frames name (`mesh = ...`, same topology), in order; the page's
+    /// time-step slider picks one (its cameras and transfer functions
+    /// are not replayed: `pvrsim cluster --series` does that).
+    #[arg(long, value_name = "FILE.toml")]
+    pub series: Option<std::path::PathBuf>,
     /// Render on a cluster of N nodes (`pvrsim cluster`'s frames) instead
     /// of in this process.
     #[arg(long, value_name = "N")]
@@ -141,7 +150,7 @@ impl Viewer {
     /// first frame can be asked for.
     pub fn start(args: &ViewArgs) -> anyhow::Result<Viewer> {
         args.check()?;
-        let backend = backend::open(args)?;
+        let backend = open_backend(args)?;
         let token = fresh_token()?;
         let listener = std::net::TcpListener::bind((args.bind, args.port))
             .map_err(|e| anyhow::anyhow!("--bind {} --port {}: {e}", args.bind, args.port))?;
@@ -216,6 +225,20 @@ impl Drop for Viewer {
             let _ = self.stop_now();
         }
     }
+}
+
+/// The backend `args` asks for, with the scene and data loaded: in this
+/// process ([`backend::Local`]) or on a cluster ([`cluster::Cluster`]).
+fn open_backend(args: &ViewArgs) -> anyhow::Result<Box<dyn backend::Backend>> {
+    let coarse = args.interactive_scale == InteractiveScale::Auto;
+    Ok(match args.nodes {
+        None => Box::new(backend::Local::open(
+            &args.render,
+            args.series.as_deref(),
+            coarse,
+        )?),
+        Some(n) => Box::new(cluster::Cluster::open(args, n)?),
+    })
 }
 
 /// A fresh random token: 16 bytes from the OS, hex.

@@ -33,6 +33,8 @@ struct Work {
     change: ViewChange,
     ert: Option<f64>,
     renderer: Option<RendererKind>,
+    field: Option<String>,
+    step: Option<usize>,
     interacting: bool,
     input: u64,
 }
@@ -53,6 +55,8 @@ fn next(shared: &Shared) -> Option<Work> {
                 change: std::mem::take(&mut p.change),
                 ert: p.ert.take(),
                 renderer: p.renderer.take(),
+                field: p.field.take(),
+                step: p.step.take(),
                 interacting: p.interacting,
                 input: p.input,
             });
@@ -66,6 +70,8 @@ fn next(shared: &Shared) -> Option<Work> {
                     change: ViewChange::default(),
                     ert: None,
                     renderer: None,
+                    field: None,
+                    step: None,
                     interacting: false,
                     input: p.input,
                 });
@@ -102,12 +108,23 @@ fn run(
     let mut seq = 0u64;
     let mut pace = Pace::new(scale, backend.has_coarse());
     let mut shown: VecDeque<Instant> = VecDeque::new();
-    let data_path = std::fs::canonicalize(&backend.scene().data.path)
-        .unwrap_or_else(|_| backend.scene().data.path.clone());
+    let mut step_shown = 0usize;
     while let Some(w) = next(shared) {
         if let Err(e) = backend.apply(&w.change) {
             shared.send(Outgoing::error(format!("{e:#}")));
             continue;
+        }
+        if w.field.is_some() || w.step.is_some() {
+            if let Err(e) = backend.select(w.step, w.field.as_deref()) {
+                shared.send(Outgoing::error(format!("{e:#}")));
+                continue;
+            }
+            let info = backend.info();
+            step_shown = info.step;
+            let mut note = serde_json::to_value(&info).unwrap_or_default();
+            note["type"] = "data".into();
+            shared.set_info(info);
+            shared.send(Outgoing::note(note));
         }
         if w.ert.is_some() || w.renderer.is_some() {
             if let Err(e) = backend.set_options(w.ert, w.renderer) {
@@ -166,6 +183,8 @@ fn run(
             "scale": divisor,
             "coarse": level.coarse,
             "cells": cells,
+            "field": scene.data.field,
+            "step": step_shown,
             "width": image.width,
             "height": image.height,
             "format": format.mime(),
@@ -189,9 +208,14 @@ fn run(
             "fps": fps,
             "nodes": meta["nodes"].clone(),
             "options": backend.command_options(),
+            "field": scene.data.field,
+            "step": step_shown,
         }));
         if format == FrameFormat::Png {
+            let data_path =
+                std::fs::canonicalize(&scene.data.path).unwrap_or_else(|_| scene.data.path.clone());
             shared.set_full(image, scene.to_toml(&data_path.to_string_lossy()));
+            shared.sent_full(Arc::new(bytes.clone()));
         }
         shared.send(Outgoing::frame(meta, bytes));
     }

@@ -10,7 +10,8 @@
 //! - `GET /frame.png` the last full-resolution frame (the PNG `pvrsim
 //!   render` writes), `GET /scene.toml` its scene (the current view and
 //!   transfer function), `GET /state.json` the camera, the last frame's
-//!   timings, per-node figures and fps.
+//!   timings, per-node figures and fps; `GET /movie.mp4` the last movie
+//!   recorded ([`super::movie`]).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -180,7 +181,7 @@ async fn session(mut socket: WebSocket, s: Arc<Shared>) {
     let mut frames = s.frames.subscribe();
     let mut closing = s.closing.subscribe();
     let hello = {
-        let mut v = serde_json::to_value(&s.info).unwrap_or_default();
+        let mut v = serde_json::to_value(s.info()).unwrap_or_default();
         v["type"] = "hello".into();
         v
     };
@@ -209,8 +210,8 @@ async fn session(mut socket: WebSocket, s: Arc<Shared>) {
                 Err(broadcast::error::RecvError::Closed) => return,
             },
             m = socket.recv() => match m {
-                Some(Ok(Message::Text(t))) => match messages::parse(t.as_str()) {
-                    Ok(m) => s.request(m),
+                Some(Ok(Message::Text(t))) => match accept(&s, t.as_str()) {
+                    Ok(()) => {}
                     Err(e) => {
                         let err = Outgoing::error(e);
                         if socket.send(Message::Text(err.meta.into())).await.is_err() {
@@ -228,6 +229,44 @@ async fn session(mut socket: WebSocket, s: Arc<Shared>) {
                 Some(Err(_)) | None => return,
             },
         }
+    }
+}
+
+/// A page's text message: parsed, checked against the data (fields, time
+/// steps), handed to the movie recorder or the render loop.
+fn accept(s: &Arc<Shared>, text: &str) -> Result<(), String> {
+    let m = messages::parse(text)?;
+    {
+        let info = s.info();
+        messages::check_data(&m, &info.fields, info.steps.len())?;
+    }
+    match m {
+        messages::ClientMessage::Movie(action) => s.movie(action),
+        m => {
+            s.request(m);
+            Ok(())
+        }
+    }
+}
+
+async fn movie_mp4(State(s): State<Arc<Shared>>, Query(q): Q, h: HeaderMap) -> Response {
+    if !authorized(&s, &q, &h) {
+        return forbidden();
+    }
+    match s.movie_bytes() {
+        Some(m) => (
+            [
+                (header::CONTENT_TYPE, "video/mp4"),
+                (header::CACHE_CONTROL, "no-store"),
+            ],
+            m.as_ref().clone(),
+        )
+            .into_response(),
+        None => (
+            StatusCode::NOT_FOUND,
+            "no movie recorded yet: Record movie, then Stop, in the page\n",
+        )
+            .into_response(),
     }
 }
 
@@ -252,6 +291,7 @@ pub async fn serve(
         .route("/frame.png", get(frame_png))
         .route("/scene.toml", get(scene_toml))
         .route("/state.json", get(state_json))
+        .route("/movie.mp4", get(movie_mp4))
         .with_state(shared.clone());
     let listener = tokio::net::TcpListener::from_std(listener)?;
     axum::serve(listener, app)

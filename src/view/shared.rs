@@ -9,7 +9,8 @@ use std::time::Instant;
 use tokio::sync::broadcast;
 
 use super::backend::Info;
-use super::messages::ClientMessage;
+use super::messages::{ClientMessage, MovieAction};
+use super::movie::Recorder;
 use crate::job::render::RendererKind;
 use crate::job::ViewChange;
 use crate::scene::camera::Projection;
@@ -20,6 +21,8 @@ pub struct Pending {
     pub(super) change: ViewChange,
     pub(super) ert: Option<f64>,
     pub(super) renderer: Option<RendererKind>,
+    pub(super) field: Option<String>,
+    pub(super) step: Option<usize>,
     pub(super) dirty: bool,
     pub(super) interacting: bool,
     pub(super) input: u64,
@@ -34,6 +37,8 @@ impl Default for Pending {
             change: ViewChange::default(),
             ert: None,
             renderer: None,
+            field: None,
+            step: None,
             // The first frame is drawn as soon as the loop starts.
             dirty: true,
             interacting: false,
@@ -78,6 +83,14 @@ impl Pending {
                 self.interacting = false;
                 self.input = input;
             }
+            ClientMessage::Data { field, step, input } => {
+                self.field = field.or(self.field.take());
+                self.step = step.or(self.step);
+                self.interacting = false;
+                self.input = input;
+            }
+            // The recorder's, not the render loop's.
+            ClientMessage::Movie(_) => return,
         }
         self.dirty = true;
         self.last_input = Instant::now();
@@ -107,6 +120,14 @@ impl Outgoing {
         }
     }
 
+    /// A status message (JSON) to every page, no frame.
+    pub fn note(meta: serde_json::Value) -> Outgoing {
+        Outgoing {
+            meta: meta.to_string(),
+            bytes: None,
+        }
+    }
+
     /// An error the page shows.
     pub fn error(message: String) -> Outgoing {
         Outgoing {
@@ -124,13 +145,15 @@ pub(super) struct Last {
     pub(super) toml: Option<String>,
     pub(super) state: serde_json::Value,
     pub(super) frame: Option<Arc<Outgoing>>,
+    /// The lossless PNG of the last full frame sent (a movie's first).
+    pub(super) full_sent: Option<Arc<Vec<u8>>>,
 }
 
 /// State shared by the server's tasks and the render loop.
 pub struct Shared {
     pub(super) token: String,
     pub(super) cookie: String,
-    pub(super) info: Info,
+    pub(super) info: Mutex<Info>,
     /// The request the render loop draws next.
     pub pending: Mutex<Pending>,
     /// Wakes the render loop.
@@ -138,6 +161,7 @@ pub struct Shared {
     pub(super) frames: broadcast::Sender<Arc<Outgoing>>,
     pub(super) last: Mutex<Last>,
     pub(super) closing: tokio::sync::watch::Sender<bool>,
+    pub(super) recorder: Mutex<Recorder>,
 }
 
 impl Shared {
@@ -146,13 +170,90 @@ impl Shared {
         Shared {
             token,
             cookie: format!("pvrsim_view_{port}"),
-            info,
+            info: Mutex::new(info),
             pending: Mutex::new(Pending::default()),
             wake: Condvar::new(),
             frames: broadcast::channel(16).0,
             last: Mutex::new(Last::default()),
             closing: tokio::sync::watch::channel(false).0,
+            recorder: Mutex::new(Recorder::default()),
         }
+    }
+
+    /// What a page is told when it connects (the field and time step
+    /// shown now).
+    pub fn info(&self) -> Info {
+        self.info.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// Records a new field or time step (pages connecting later are told).
+    pub fn set_info(&self, info: Info) {
+        *self.info.lock().unwrap_or_else(|e| e.into_inner()) = info;
+    }
+
+    fn recorder(&self) -> std::sync::MutexGuard<'_, Recorder> {
+        self.recorder.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Keeps the lossless PNG of a full frame sent: the next movie's first
+    /// frame, and a frame of the movie being recorded.
+    pub fn sent_full(&self, png: Arc<Vec<u8>>) {
+        self.last().full_sent = Some(png.clone());
+        let said = self.recorder().add(png);
+        if let Some(m) = said {
+            self.send(Outgoing::error(m));
+        }
+    }
+
+    /// The page's "Record movie": starts keeping the full frames shown
+    /// (ffmpeg must be on PATH to make the movie: refused, saying so,
+    /// otherwise) or stops and writes the movie on a thread of its own,
+    /// telling every page when `GET /movie.mp4` serves it.
+    pub fn movie(self: &Arc<Self>, action: MovieAction) -> Result<(), String> {
+        match action {
+            MovieAction::Start => {
+                if !crate::job::series::args::ffmpeg_found() {
+                    return Err("Record movie: ffmpeg is not on PATH on the machine running                                 pvrsim view, so no movie can be made (install ffmpeg; Record                                 series works without it)"
+                        .into());
+                }
+                let current = self.last().full_sent.clone();
+                let mut r = self.recorder();
+                r.start(current)?;
+                let n = r.frames();
+                drop(r);
+                self.send(Outgoing::note(
+                    serde_json::json!({"type": "movie", "state": "recording", "frames": n}),
+                ));
+                Ok(())
+            }
+            MovieAction::Stop => {
+                let frames = self.recorder().stop()?;
+                self.send(Outgoing::note(serde_json::json!({
+                    "type": "movie", "state": "writing", "frames": frames.len()
+                })));
+                let me = self.clone();
+                std::thread::Builder::new()
+                    .name("pvrsim-view-movie".into())
+                    .spawn(move || match super::movie::write(&frames) {
+                        Ok(bytes) => {
+                            let n = bytes.len();
+                            me.recorder().movie = Some(Arc::new(bytes));
+                            me.send(Outgoing::note(serde_json::json!({
+                                "type": "movie", "state": "ready", "frames": frames.len(),
+                                "bytes": n, "url": "movie.mp4"
+                            })));
+                        }
+                        Err(e) => me.send(Outgoing::error(format!("movie: {e:#}"))),
+                    })
+                    .map_err(|e| format!("movie: no thread to write it: {e}"))?;
+                Ok(())
+            }
+        }
+    }
+
+    /// The last movie recorded.
+    pub(super) fn movie_bytes(&self) -> Option<Arc<Vec<u8>>> {
+        self.recorder().movie.clone()
     }
 
     /// The last frame's records.

@@ -3,7 +3,8 @@ by Selenium): the page loads, draws its first frame, a drag across the frame
 shows reduced-resolution frames (data-scale > 1) and the release a
 full-resolution one (data-scale = 1); `pvrsim render` of /scene.toml gives
 /frame.png bit for bit (in this process, and over 4 worker processes with
---canonical --ert 1 against `pvrsim cluster`); a grid scene; the token check;
+--canonical --ert 1 against `pvrsim cluster`); the field selector and the
+time-step slider; a grid scene; the token check;
 a malformed message shown in the page while the server keeps serving.
 
 Run by scripts/ci-viewer.sh (which installs chromium when root and skips
@@ -280,6 +281,52 @@ def test_cluster_of_4_worker_processes_equals_pvrsim_cluster(browser, tmp_path):
         if shot and os.environ.get("PVRSIM_VIEWER_SHOT_CLUSTER"):
             d.save_screenshot(shot)
         same_as_render(v, tmp_path, "cluster", "--nodes", "4", "--transport", "processes", *opts)
+    finally:
+        v.close()
+
+
+def test_field_and_time_step_in_the_page(browser, tmp_path):
+    """The field selector and the time-step slider: another field changes
+    the histogram and the frame, /scene.toml names it and `pvrsim render`
+    of it gives /frame.png; the movie button says what it needs."""
+    shutil.copy(ROOT / "tests/data/aorta-small.vtk", tmp_path / "step1.vtk")
+    series = tmp_path / "steps.toml"
+    series.write_text('[[frame]]\n[[frame]]\nmesh = "step1.vtk"\n')
+    v = Viewer(str(ROOT / "tests/data/aorta-small-view-b.toml"), "--width", "200", "--height", "160",
+               "--series", str(series))
+    try:
+        d = browser
+        d.get(v.url)
+        wait_for(lambda: frame_attr(d)[0] >= 1 and frame_attr(d)[1] == 1, what="the first frame")
+        names = d.execute_script(
+            "return [...document.getElementById('field-select').options].map(o => o.value)")
+        assert {"speed", "pressure", "potential"} <= set(names), names
+        assert d.find_element(By.ID, "steps").is_displayed(), "the time-step slider is shown"
+        hist = d.execute_script("return document.getElementById('field').textContent")
+        seq = frame_attr(d)[0]
+        d.execute_script("""const f = document.getElementById('field-select');
+                            f.value = 'pressure'; f.dispatchEvent(new Event('change'));""")
+        wait_full_frame_after(d, seq)
+        wait_for(lambda: d.execute_script("return document.getElementById('field').textContent") != hist,
+                 30, "the range of the new field")
+        st, toml = v.get("/scene.toml")
+        assert b'field = "pressure"' in toml, toml
+        same_as_render(v, tmp_path, "render")
+        seq = frame_attr(d)[0]
+        d.execute_script("""const s = document.getElementById('step');
+                            s.value = '1'; s.dispatchEvent(new Event('input'));""")
+        wait_full_frame_after(d, seq)
+        assert "step1.vtk" in d.find_element(By.ID, "step-name").text
+        st, toml = v.get("/scene.toml")
+        assert b"step1.vtk" in toml, toml
+        # An unknown field from the page's own socket: shown, serving goes on.
+        d.execute_script("window.pvrsimSend({type: 'data', field: 'temperature'})")
+        err = wait_for(lambda: d.find_element(By.ID, "error").text, 30, "the error shown")
+        assert "unknown field" in err
+        if not shutil.which("ffmpeg"):
+            d.find_element(By.ID, "movie").click()
+            err = wait_for(lambda: "ffmpeg" in d.find_element(By.ID, "error").text, 30,
+                           "the movie's ffmpeg message")
     finally:
         v.close()
 

@@ -7,6 +7,8 @@
 use crate::job::render::{RenderArgs, RenderOutcome};
 use crate::job::validate::Valid;
 use crate::render::{RenderInput, VolumeInput};
+use std::path::{Path, PathBuf};
+
 use crate::scene::{Camera, Scene, TransferFunction};
 
 /// The loaded data of a render job: a mesh or a grid, with the scene whose
@@ -46,7 +48,163 @@ impl<'a> Valid<'a, RenderArgs> {
     }
 }
 
+/// Every data state a live view can switch between: the time steps'
+/// meshes (the scene's first, then those a series file names) and the
+/// point fields of the data; each (time step, field) pair is one input,
+/// built as a series' frame naming that mesh and field
+/// ([`crate::job::series::steps::data_states`]: the same mesh numbering,
+/// topology check and scene, so that a cluster session holds the same
+/// inputs).
+pub struct DataStates {
+    /// The time steps' mesh files (the scene's data first).
+    pub steps: Vec<PathBuf>,
+    /// The point fields of the data (a grid: its one field).
+    pub fields: Vec<String>,
+    /// One input per distinct (time step, field) of a mesh scene (empty
+    /// for a grid); the scene's own first.
+    pub inputs: Vec<RenderInput>,
+    /// The input of (step `s`, field `f`) at `s * fields.len() + f`.
+    table: Vec<usize>,
+}
+
+impl DataStates {
+    /// The index in [`DataStates::inputs`] of time step `step` and field
+    /// `field`; a refusal the page shows for a step or field that does not
+    /// exist.
+    pub fn state(&self, step: usize, field: &str) -> Result<usize, String> {
+        let f = self.field_index(field)?;
+        if step >= self.steps.len() {
+            return Err(no_such_step(step, self.steps.len()));
+        }
+        Ok(self
+            .table
+            .get(step * self.fields.len() + f)
+            .copied()
+            .unwrap_or(0))
+    }
+
+    /// The position of `field` among [`DataStates::fields`].
+    pub fn field_index(&self, field: &str) -> Result<usize, String> {
+        self.fields
+            .iter()
+            .position(|f| f == field)
+            .ok_or_else(|| unknown_field(field, &self.fields))
+    }
+}
+
+/// The refusal of a field the data does not have.
+pub fn unknown_field(field: &str, fields: &[String]) -> String {
+    format!(
+        "unknown field \"{field}\": the data has {}",
+        fields
+            .iter()
+            .map(|f| format!("\"{f}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+/// The refusal of time step `step` of `steps`.
+pub fn no_such_step(step: usize, steps: usize) -> String {
+    format!(
+        "time step {step} does not exist: the viewer holds {steps} (0..{}){}",
+        steps.saturating_sub(1),
+        if steps == 1 {
+            "; pvrsim view --series FILE.toml loads a series' time steps"
+        } else {
+            ""
+        }
+    )
+}
+
+/// The time steps of a series file over `scene`: the scene's mesh, then
+/// every other mesh its frames name, in order, each once (its cameras,
+/// transfer functions and fields are not replayed: the page chooses).
+pub fn series_steps(series: &Path, scene: &Scene) -> anyhow::Result<Vec<PathBuf>> {
+    let specs = crate::scene::series::load(series, scene)?;
+    let mut steps = vec![scene.data.path.clone()];
+    for f in specs {
+        if !steps.contains(&f.mesh) {
+            steps.push(f.mesh);
+        }
+    }
+    Ok(steps)
+}
+
+impl<'a> Valid<'a, RenderArgs> {
+    /// [`Valid::load`] with every data state a live view can switch
+    /// between: the scene's fields, and the time steps of `series` (a
+    /// series file; mesh scenes only). The loaded render draws the scene's
+    /// own state; [`LoadedRender::select`] switches.
+    pub fn load_states(&self, series: Option<&Path>) -> anyhow::Result<(LoadedRender, DataStates)> {
+        let a = self.args();
+        let scene = crate::job::load_scene(&a.scene)?;
+        if crate::job::render::grid::is_grid_scene(&scene) {
+            if let Some(p) = series {
+                anyhow::bail!(
+                    "--series {}: time steps are a mesh scene's; {} is a regular grid",
+                    p.display(),
+                    a.scene.display()
+                );
+            }
+            let states = DataStates {
+                steps: vec![scene.data.path.clone()],
+                fields: vec![scene.data.field.clone()],
+                inputs: Vec::new(),
+                table: vec![0],
+            };
+            let grid = crate::job::render::grid::load_checked(a, scene)?.0;
+            return Ok((LoadedRender::Grid(Box::new(grid)), states));
+        }
+        let steps = match series {
+            Some(p) => series_steps(p, &scene)?,
+            None => vec![scene.data.path.clone()],
+        };
+        let (mut input, _) = crate::job::render::mesh::load_keeping_fields(a, scene, true)?;
+        let fields: Vec<String> = input.mesh.fields.iter().map(|f| f.name.clone()).collect();
+        let specs = steps
+            .iter()
+            .flat_map(|m| {
+                fields.iter().map(|f| crate::scene::series::FrameSpec {
+                    camera: input.scene.camera,
+                    transfer: input.scene.transfer.clone(),
+                    field: f.clone(),
+                    mesh: m.clone(),
+                })
+            })
+            .collect();
+        let like = input.renumbering.take();
+        let origin = series.unwrap_or(&a.scene).to_path_buf();
+        let (inputs, per_spec) =
+            crate::job::series::steps::data_states(specs, input, like.as_deref(), &origin)?;
+        let table = per_spec.iter().map(|s| s.data).collect();
+        let loaded = LoadedRender::Mesh(Box::new(inputs[0].clone()));
+        Ok((
+            loaded,
+            DataStates {
+                steps,
+                fields,
+                inputs,
+                table,
+            },
+        ))
+    }
+}
+
 impl LoadedRender {
+    /// Switches a loaded mesh to `input` (a state of [`DataStates`]),
+    /// keeping the camera, transfer function and image size of the frames
+    /// so far.
+    pub fn select(&mut self, input: &RenderInput) {
+        if let LoadedRender::Mesh(m) = self {
+            let mut next = input.clone();
+            next.scene.camera = m.scene.camera;
+            next.scene.transfer = m.scene.transfer.clone();
+            next.scene.image = m.scene.image;
+            **m = next;
+        }
+    }
+
     /// The scene the next frame draws (with the changes applied so far).
     pub fn scene(&self) -> &Scene {
         match self {

@@ -28,6 +28,18 @@ pub fn execute(
 /// `--width`/`--height` applied, the field reported unless `quiet`, the
 /// other fields released): the input [`render`] draws, any number of times.
 pub fn load(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<(RenderInput, f64)> {
+    let (mut input, load_s) = load_keeping_fields(a, scene, quiet)?;
+    input.release_fields();
+    Ok((input, load_s))
+}
+
+/// [`load`] with every point field of the mesh kept (a live view switches
+/// between them).
+pub fn load_keeping_fields(
+    a: &RenderArgs,
+    scene: Scene,
+    quiet: bool,
+) -> anyhow::Result<(RenderInput, f64)> {
     refuse_grid_options(a)?;
     let (mut input, load_s) = RenderInput::read(scene)
         .with_context(|| format!("cannot load scene {}", a.scene.display()))?;
@@ -37,7 +49,6 @@ pub fn load(a: &RenderArgs, scene: Scene, quiet: bool) -> anyhow::Result<(Render
     if !quiet {
         crate::job::warn_field(&input);
     }
-    input.release_fields();
     Ok((input, load_s))
 }
 

@@ -95,6 +95,22 @@ fn write_frames(output: &Path, images: &[&Image], said: &mut Vec<String>) -> any
 /// Makes the movie with ffmpeg from the frames (written to a private
 /// folder first, removed on every path).
 fn make_movie(s: &SeriesArgs, movie: &Path, images: &[&Image]) -> anyhow::Result<()> {
+    make_movie_of(movie, s.movie_fps.unwrap_or(10), images.len(), |k, p| {
+        images[k].save_png(p).map_err(Into::into)
+    })
+}
+
+/// Makes the movie `movie` (`.mp4` or `.gif`) at `fps` frames a second
+/// with ffmpeg from `n` frames, frame `k` written as a PNG to the path
+/// given by `write(k, path)` in a private folder (removed on every path):
+/// the one movie writer of every frontend (`--movie`, the viewer's
+/// recorded movies).
+pub fn make_movie_of(
+    movie: &Path,
+    fps: u32,
+    n: usize,
+    mut write: impl FnMut(usize, &Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     struct Frames(std::path::PathBuf);
     impl Drop for Frames {
         fn drop(&mut self) {
@@ -108,10 +124,10 @@ fn make_movie(s: &SeriesArgs, movie: &Path, images: &[&Image]) -> anyhow::Result
         Frames(std::env::temp_dir().join(format!("pvrsim-movie-{}-{nanos}", std::process::id())));
     std::fs::create_dir(&dir.0)
         .with_context(|| format!("cannot make {} for the movie's frames", dir.0.display()))?;
-    for (k, img) in images.iter().enumerate() {
-        img.save_png(&dir.0.join(format!("f{k:06}.png")))?;
+    for k in 0..n {
+        write(k, &dir.0.join(format!("f{k:06}.png")))?;
     }
-    let fps = s.movie_fps.unwrap_or(10).to_string();
+    let fps = fps.to_string();
     let mut cmd = std::process::Command::new("ffmpeg");
     cmd.args(["-loglevel", "error", "-y", "-framerate", &fps, "-i"])
         .arg(dir.0.join("f%06d.png"));
@@ -130,7 +146,7 @@ fn make_movie(s: &SeriesArgs, movie: &Path, images: &[&Image]) -> anyhow::Result
     let st = cmd
         .arg(movie)
         .status()
-        .context("cannot run ffmpeg for --movie")?;
+        .with_context(|| format!("cannot run ffmpeg to make {}", movie.display()))?;
     anyhow::ensure!(
         st.success(),
         "ffmpeg failed making {} ({st})",

@@ -38,6 +38,22 @@ pub fn mesh_steps(
         return Ok((vec![input], steps));
     };
     let specs = crate::scene::series::load(path, &input.scene)?;
+    data_states(specs, input, like.as_deref(), path)
+}
+
+/// The data states of `specs` (frames naming a mesh and a field): the
+/// scene's `input` first, then each other (mesh, field) pair once (its
+/// mesh read numbered as the scene's, `like`, and checked for the scene
+/// mesh's topology), with one step per spec naming its state. `origin`
+/// names the specs' file in errors. The series' and the live viewer's
+/// time steps and fields (`pvrsim view --series`).
+pub fn data_states(
+    specs: Vec<crate::scene::series::FrameSpec>,
+    input: RenderInput,
+    like: Option<&crate::data::locality::Renumbering>,
+    origin: &std::path::Path,
+) -> anyhow::Result<(Vec<RenderInput>, Vec<Step>)> {
+    let path = origin;
     let base = input.mesh.clone();
     let mut keys: Vec<(PathBuf, String)> = vec![(
         input.scene.data.path.clone(),
@@ -56,7 +72,7 @@ pub fn mesh_steps(
                 let mesh = match meshes.iter().find(|(p, _)| *p == f.mesh) {
                     Some((_, m)) => m.clone(),
                     None => {
-                        let m = crate::data::io::read_mesh_like(&f.mesh, like.as_deref())
+                        let m = crate::data::io::read_mesh_like(&f.mesh, like)
                             .with_context(|| format!("{}: the time step's mesh", at()))?;
                         anyhow::ensure!(
                             m.points.len() == base.points.len() && m.tets == base.tets,

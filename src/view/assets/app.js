@@ -23,6 +23,8 @@ let inputNo = 0;
 const sentAt = new Map(); // input number -> performance.now() when sent
 let shownUrl = null;
 let recording = null;    // the series being recorded: [[frame]] tables
+let data = null;         // the data's fields and time steps (hello), the ones shown
+let movie = "off";       // the movie recorder: off, recording, writing
 
 const tf = new TfEditor($("tf"), {
   preset: $("preset"), log: $("log-hist"), scale: $("opacity-scale"),
@@ -36,13 +38,15 @@ function send(msg) {
   sentAt.set(inputNo, performance.now());
   if (sentAt.size > 2000) sentAt.delete(sentAt.keys().next().value);
   ws.send(JSON.stringify(msg));
-  if (recording && msg.type === "view") record(msg);
+  if (recording && (msg.type === "view" || msg.type === "data")) record(msg);
 }
 
 function record(msg) {
   const f = {};
   if (msg.camera) { f.eye = msg.camera.eye; f.target = msg.camera.target; f.up = msg.camera.up; }
   if (msg.transfer) f.transfer = msg.transfer;
+  if (msg.field) f.field = msg.field;
+  if (msg.step !== undefined && data) f.mesh = data.step_paths[msg.step];
   recording.push(f);
 }
 
@@ -55,6 +59,8 @@ function seriesToml(frames) {
     s += "\n[[frame]]\n";
     if (f.eye) s += `eye = ${arr(f.eye)}\ntarget = ${arr(f.target)}\nup = ${arr(f.up)}\n`;
     if (f.transfer) s += `transfer = { unit_distance = ${num(f.transfer.unit_distance)}, points = [${f.transfer.points.map(arr).join(", ")}] }\n`;
+    if (f.field) s += `field = ${JSON.stringify(f.field)}\n`;
+    if (f.mesh) s += `mesh = ${JSON.stringify(f.mesh)}\n`;
   }
   return s;
 }
@@ -66,6 +72,11 @@ function setCamera(c, interacting) {
 
 function showError(text) {
   stats.errors.push(text);
+  if (movie === "writing" && text.startsWith("movie")) {
+    movie = "off";
+    $("movie").textContent = "Record movie";
+    $("movie").disabled = false;
+  }
   const e = $("error");
   e.textContent = text;
   e.hidden = false;
@@ -146,11 +157,34 @@ function nodeBars(nodes) {
   box.innerHTML = html;
 }
 
-function hello(h) {
-  $("scene-name").textContent = h.scene_name;
-  $("field").textContent = `${h.field} [${h.range[0].toPrecision(4)}, ${h.range[1].toPrecision(4)}]`;
+// The data shown: its field (the histogram and range under the transfer
+// function follow it) and time step; sent by hello and by each change.
+function showData(h) {
+  data = h;
+  $("field").textContent = `[${h.range[0].toPrecision(4)}, ${h.range[1].toPrecision(4)}]`;
   tf.hist = h.histogram;
   tf.draw();
+  const f = $("field-select");
+  f.innerHTML = "";
+  for (const n of h.fields) f.add(new Option(n, n, false, n === h.field));
+  f.disabled = h.fields.length < 2;
+  const multi = h.steps.length > 1;
+  $("steps").hidden = !multi;
+  const st = $("step");
+  st.max = String(h.steps.length - 1);
+  st.value = String(h.step);
+  $("step-name").textContent = `${h.step}: ${h.steps[h.step]}`;
+}
+
+function hello(h) {
+  $("scene-name").textContent = h.scene_name;
+  showData(h);
+  $("field-select").onchange = () => send({ type: "data", field: $("field-select").value });
+  $("step").oninput = () => {
+    const k = +$("step").value;
+    $("step-name").textContent = `${k}: ${data.steps[k]}`;
+    send({ type: "data", step: k });
+  };
   const r = $("renderer");
   r.innerHTML = "";
   if (h.renderer === "default") r.add(new Option("default", "default", true, true));
@@ -175,6 +209,8 @@ function connect() {
       if (m.type === "hello") hello(m);
       else if (m.type === "frame") nextMeta = m;
       else if (m.type === "error") showError(m.message);
+      else if (m.type === "data") showData(m);
+      else if (m.type === "movie") movieState(m);
     } else if (nextMeta) {
       onFrame(nextMeta, ev.data);
       nextMeta = null;
@@ -255,6 +291,30 @@ $("record").onclick = () => {
     b.textContent = "Record series";
     b.classList.remove("on");
   }
+};
+
+// The movie: the server keeps the full-resolution frames shown while
+// recording and writes the movie (ffmpeg) when stopped.
+function movieState(m) {
+  const b = $("movie");
+  movie = m.state;
+  if (m.state === "recording") {
+    b.textContent = "Stop movie";
+    b.classList.add("on");
+  } else if (m.state === "writing") {
+    b.textContent = `Writing movie (${m.frames} frames)...`;
+    b.classList.remove("on");
+    b.disabled = true;
+  } else if (m.state === "ready") {
+    b.textContent = "Record movie";
+    b.disabled = false;
+    movie = "off";
+    stats.movie = m;
+    download(`${m.url}?token=${token}`, "view.mp4");
+  }
+}
+$("movie").onclick = () => {
+  send({ type: "movie", action: movie === "recording" ? "stop" : "start" });
 };
 
 // Test hook (stable): sends a request as the page does.
