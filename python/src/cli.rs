@@ -2,7 +2,7 @@
 //! `pvrsim ARGS` (the same parser, commands, messages and exit codes as the
 //! binary's `main`). `transport="processes"` starts its workers this way
 //! (`python -m pvrsim worker ...`), so a pip install needs no separate
-//! executable: [`worker_program`] is the program each job passes to the
+//! executable: [`worker_argv`] is the program each job passes to the
 //! spawner.
 
 use clap::Parser;
@@ -40,16 +40,9 @@ pub fn cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
 /// this interpreter with `-m pvrsim` (`sys.executable`; `None` when Python
 /// cannot name its interpreter, and the job then says it cannot start
 /// workers).
-pub fn worker_program(
-    py: Python<'_>,
-) -> PyResult<Option<pvrsim::job::args::transport::WorkerProgram>> {
+pub fn worker_argv(py: Python<'_>) -> PyResult<Option<Vec<std::ffi::OsString>>> {
     let exe: Option<std::path::PathBuf> = py.import("sys")?.getattr("executable")?.extract()?;
-    Ok(exe.filter(|p| !p.as_os_str().is_empty()).and_then(|p| {
-        pvrsim::job::args::transport::WorkerProgram::new(vec![
-            p.into_os_string(),
-            "-m".into(),
-            "pvrsim".into(),
-        ])
-        .ok()
-    }))
+    Ok(exe
+        .filter(|p| !p.as_os_str().is_empty())
+        .map(|p| vec![p.into_os_string(), "-m".into(), "pvrsim".into()]))
 }

@@ -167,7 +167,11 @@ pub fn cluster<'py>(py: Python<'py>, options: &Bound<'py, PyList>) -> PyResult<B
     let opts = crate::values::options(py, options)?;
     let err = |e: JobError| job_error(py, e, &opts);
     let mut job = ClusterJob::from_options(&opts).map_err(err)?;
-    job.net.worker_program = crate::cli::worker_program(py)?;
+    if let Some(argv) = crate::cli::worker_argv(py)? {
+        job.net
+            .set_worker_argv(argv)
+            .map_err(|e| err(JobError::Failed(e)))?;
+    }
     let warnings = job.check().map_err(err)?;
     prepare(
         &opts,

@@ -28,7 +28,7 @@ impl NativeViewer {
         let err = |e: JobError| job_error(py, e, &opts);
         let mut args: ViewArgs = from_options("pvrsim view", &["scene"], &opts)
             .map_err(|e| err(JobError::Options(Box::new(e))))?;
-        args.worker_program = crate::cli::worker_program(py)?;
+        args.worker_argv = crate::cli::worker_argv(py)?;
         args.check().map_err(|e| err(JobError::Invalid(e)))?;
         let v = py
             .allow_threads(|| Viewer::start(&args))

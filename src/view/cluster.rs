@@ -73,7 +73,9 @@ impl Cluster {
         let mut job = ClusterJob::new(&r.scene);
         job.nodes = nodes;
         job.net.transport = Some(transport);
-        job.net.worker_program = args.worker_program.clone();
+        if let Some(argv) = &args.worker_argv {
+            job.net.set_worker_argv(argv.clone())?;
+        }
         job.ert.threshold = r.ert.threshold;
         job.canonical = r.canonical;
         job.width = r.width;

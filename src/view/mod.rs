@@ -100,10 +100,11 @@ pub struct ViewArgs {
     /// processes or tcp.
     #[arg(long, value_enum, requires = "nodes")]
     pub transport: Option<TransportKind>,
-    /// The program that starts worker processes (the Python module sets
-    /// its interpreter with `-m pvrsim`). Not a command-line option.
+    /// The program (and its leading arguments) that starts worker
+    /// processes (the Python module sets its interpreter with `-m
+    /// pvrsim`). Not a command-line option.
     #[arg(skip)]
-    pub worker_program: Option<crate::job::args::transport::WorkerProgram>,
+    pub worker_argv: Option<Vec<std::ffi::OsString>>,
 }
 
 impl ViewArgs {

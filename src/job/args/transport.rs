@@ -136,6 +136,14 @@ pub fn read_hostfile(path: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 impl TransportArgs {
+    /// Makes worker processes start as `argv` (the executable, then its
+    /// leading arguments) followed by `worker ...`: how a frontend that is
+    /// not a `pvrsim` binary (the Python module) names its program.
+    pub fn set_worker_argv(&mut self, argv: Vec<std::ffi::OsString>) -> anyhow::Result<()> {
+        self.worker_program = Some(WorkerProgram::new(argv)?);
+        Ok(())
+    }
+
     /// The program that starts worker processes: the one a frontend set
     /// ([`TransportArgs::worker_program`]), else this program.
     pub fn worker_program(&self) -> anyhow::Result<crate::cluster::remote::spawn::WorkerProgram> {
