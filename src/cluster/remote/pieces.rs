@@ -491,5 +491,25 @@ points = [[0.0, 0.0, 0.0, 1.0, 0.3], [1.0, 1.0, 0.0, 0.0, 0.3]]
         assert!(format!("{e:#}").contains("not ascending"), "{e:#}");
         let e = load(&src(vec![piece(9, 0)])).unwrap_err();
         assert!(format!("{e:#}").contains("piece 9 was asked for"), "{e:#}");
+        // Parts of a split piece: in range, one description per piece, and
+        // the two halves together are the whole piece.
+        let part = |part, of| WirePiece {
+            part,
+            of,
+            ..piece(0, 0)
+        };
+        let e = load(&src(vec![part(2, 2)])).unwrap_err();
+        assert!(format!("{e:#}").contains("part 2 of 2"), "{e:#}");
+        let e = load(&src(vec![part(0, 0)])).unwrap_err();
+        assert!(format!("{e:#}").contains("part 0 of 0"), "{e:#}");
+        let e = load(&src(vec![part(0, 2), part(1, 3)])).unwrap_err();
+        assert!(format!("{e:#}").contains("two ways"), "{e:#}");
+        let (a, _) = load(&src(vec![part(0, 2)])).unwrap();
+        let (b, _) = load(&src(vec![part(1, 2)])).unwrap();
+        let (both, _) = load(&src(vec![part(0, 2), part(1, 2)])).unwrap();
+        assert!(
+            a > 0 && b > 0 && a + b == n && both == n,
+            "{a} {b} {both} {n}"
+        );
     }
 }
