@@ -85,11 +85,7 @@ pub(crate) fn checks_on_this_thread() -> usize {
 
 /// Validates `args`; returns the warnings.
 pub fn check<T: Validate + ?Sized>(args: &T) -> anyhow::Result<Vec<String>> {
-    #[cfg(test)]
-    CHECKS.with(|c| c.set(c.get() + 1));
-    let mut c = Checks::new();
-    args.validate(&mut c)?;
-    Ok(c.warnings)
+    Ok(Valid::new(args)?.warnings)
 }
 
 /// Options that passed the validation layer, with its warnings and the

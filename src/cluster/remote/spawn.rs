@@ -44,11 +44,6 @@ impl WorkerProgram {
         Ok(WorkerProgram::exe(&exe))
     }
 
-    /// The executable and its leading arguments.
-    pub fn argv(&self) -> &[std::ffi::OsString] {
-        &self.argv
-    }
-
     /// A command that starts it (the worker's arguments still to add).
     fn command(&self) -> Command {
         let mut c = Command::new(&self.argv[0]);
